@@ -1,0 +1,263 @@
+"""HybridRegressor: the scikit-learn face of hybrid model training."""
+
+from __future__ import annotations
+
+import numbers
+from contextlib import contextmanager
+
+import numpy as np
+import torch
+from sklearn.base import BaseEstimator, RegressorMixin
+from sklearn.metrics import r2_score
+from sklearn.utils import check_random_state
+from sklearn.utils.validation import check_is_fitted, validate_data
+
+from .engine import TrainConfig, train
+from .methods import make_method
+from .residual import build_residual
+from .science import ScienceModel
+from .structures import HybridModule, make_structure
+
+__all__ = ["HybridRegressor"]
+
+_DTYPES = {"float32": torch.float32, "float64": torch.float64}
+
+
+@contextmanager
+def _torch_threads(n_threads):
+    """Run with ``n_threads`` intra-op threads, restoring the caller's setting."""
+    previous = torch.get_num_threads()
+    if n_threads is not None:
+        torch.set_num_threads(n_threads)
+    try:
+        yield
+    finally:
+        torch.set_num_threads(previous)
+
+
+def _check_positive(name, value, integer=False, allow_none=False):
+    if value is None and allow_none:
+        return
+    kind = numbers.Integral if integer else numbers.Real
+    if not isinstance(value, kind) or isinstance(value, bool) or not value > 0:
+        raise ValueError(f"{name} must be a positive {'integer' if integer else 'number'}, got {value!r}.")
+
+
+class HybridRegressor(RegressorMixin, BaseEstimator):
+    """Hybrid model ``science + neural network`` that estimates the science parameters.
+
+    Parameters
+    ----------
+    science : callable
+        The scientist's model, written with torch operations.  Arguments
+        without a default are its inputs (the state ``v`` for ``"ode"``, plus
+        the input ``u`` when ``n_inputs > 0``; the features ``x`` otherwise);
+        arguments with a numeric default are the parameters theta, e.g.
+        ``def pendulum_f(v, omega=0.5): ...``.  For ``"ode"`` it returns the
+        known part of ``dv/dt``.
+    structure : {"ode", "compose", "additive"} or callable, default="ode"
+        How science and network combine (see :mod:`sklearn_hybrid.structures`);
+        a callable ``structure(x, f, g) -> y`` gives any nested composition.
+    residual : str, dict or callable, default="mlp"
+        Specification of the network g_phi (see
+        :func:`sklearn_hybrid.residual.build_residual`); built inside ``fit``.
+    method : {"erm", "p-reg", "f-reg", "sam", "asam", "fsam"}, default="fsam"
+        Training method.  The SAM family perturbs the network parameters only.
+    rho : float, default=0.05
+        Perturbation radius of the SAM family.
+    lam : float, default=1e-3
+        Penalty weight of ``p-reg`` and ``f-reg``.
+    eta : float or None, default=None
+        ASAM offset (default 0.01) or Fisher-SAM damping (default 1.0).
+    perturb : {"residual", "all"}, default="residual"
+        Perturb the network only (the paper's method) or every parameter
+        (ordinary SAM, the paper's Table 2).
+    theta_init : dict, optional
+        Initial values overriding the science function's defaults.
+    theta_bounds : dict, optional
+        ``name -> (low, high)``, enforced by a smooth reparametrisation.
+    theta_fixed : list of str, optional
+        Parameters kept at their initial value.
+    dt : float, default=1.0
+        ``"ode"``: time between consecutive outputs (outputs at ``dt, 2 dt, ...``).
+    n_substeps : int, default=4
+        ``"ode"``: RK4 steps per output interval.
+    solver : str, default="rk4"
+        ``"ode"``: ``"rk4"`` (output-aligned) or a torchdiffeq method such as ``"dopri5"``.
+    observed : list of int, optional
+        ``"ode"``: indices of the state components that ``y`` observes.
+    n_inputs : int, default=0
+        ``"ode"``: number of measured input channels u(t) (see
+        :func:`sklearn_hybrid.structures.pack_inputs`).
+    input_interp : {"cubic", "linear", "zoh", "fft"}, default="cubic"
+        ``"ode"``: reconstruction of u(t) between samples.
+    lr : float, default=1e-3
+        Initial Adam learning rate, cosine-annealed to 1e-6 over ``max_iter``.
+    max_iter : int, default=2000
+        Number of optimisation steps.
+    batch_size : int or None, default=None
+        Mini-batch size; None trains on the full batch.
+    weight_decay : float, default=1e-5
+        Slight L2 decay of the network parameters (never of theta).
+    dtype : {"float32", "float64"}, default="float32"
+        Floating point type of the computation.
+    n_threads : int or None, default=1
+        torch threads during fit/predict (small models are fastest on one);
+        None keeps torch's setting.
+    random_state : int, RandomState or None, default=None
+        Seeds network initialisation and mini-batches (no global RNG is used).
+    verbose : bool, default=False
+        Show a progress bar with the loss and theta.
+
+    Attributes
+    ----------
+    theta_ : dict
+        Estimated parameters (floats, or arrays for vector parameters).
+    residual_ : torch.nn.Module
+        The trained network g_phi.
+    model_ : HybridModule
+        Science part, network and structure together.
+    history_ : dict
+        ``"loss"`` (per iteration) and ``"theta"`` (name -> values per iteration).
+    n_features_in_ : int
+        Number of features (second axis of ``X``) seen in ``fit``.
+    """
+
+    def __init__(self, science=None, *, structure="ode", residual="mlp", method="fsam",
+                 rho=0.05, lam=1e-3, eta=None, perturb="residual", theta_init=None,
+                 theta_bounds=None, theta_fixed=None, dt=1.0, n_substeps=4, solver="rk4",
+                 observed=None, n_inputs=0, input_interp="cubic", lr=1e-3, max_iter=2000,
+                 batch_size=None, weight_decay=1e-5, dtype="float32", n_threads=1,
+                 random_state=None, verbose=False):
+        self.science = science
+        self.structure = structure
+        self.residual = residual
+        self.method = method
+        self.rho = rho
+        self.lam = lam
+        self.eta = eta
+        self.perturb = perturb
+        self.theta_init = theta_init
+        self.theta_bounds = theta_bounds
+        self.theta_fixed = theta_fixed
+        self.dt = dt
+        self.n_substeps = n_substeps
+        self.solver = solver
+        self.observed = observed
+        self.n_inputs = n_inputs
+        self.input_interp = input_interp
+        self.lr = lr
+        self.max_iter = max_iter
+        self.batch_size = batch_size
+        self.weight_decay = weight_decay
+        self.dtype = dtype
+        self.n_threads = n_threads
+        self.random_state = random_state
+        self.verbose = verbose
+
+    def __sklearn_tags__(self):
+        tags = super().__sklearn_tags__()
+        tags.regressor_tags.poor_score = True  # few iterations in checks
+        tags.target_tags.multi_output = True
+        return tags
+
+    def _check_params(self):
+        if self.science is None:
+            raise ValueError("HybridRegressor needs a science function: HybridRegressor(science=f).")
+        _check_positive("lr", self.lr)
+        _check_positive("max_iter", self.max_iter, integer=True)
+        _check_positive("batch_size", self.batch_size, integer=True, allow_none=True)
+        _check_positive("n_threads", self.n_threads, integer=True, allow_none=True)
+        if not (isinstance(self.weight_decay, numbers.Real) and self.weight_decay >= 0):
+            raise ValueError(f"weight_decay must be a non-negative number, got {self.weight_decay!r}.")
+        if self.perturb not in ("residual", "all"):
+            raise ValueError(f"perturb must be 'residual' or 'all', got {self.perturb!r}.")
+        if self.dtype not in _DTYPES:
+            raise ValueError(f"dtype must be one of {list(_DTYPES)}, got {self.dtype!r}.")
+        _check_positive("n_inputs", self.n_inputs + 1, integer=True)  # allows 0
+        return make_method(self.method, rho=self.rho, lam=self.lam, eta=self.eta)
+
+    def _make_structure(self):
+        return make_structure(self.structure, dt=self.dt, n_substeps=self.n_substeps,
+                              solver=self.solver, observed=self.observed,
+                              n_inputs=self.n_inputs, input_interp=self.input_interp)
+
+    def fit(self, X, y):
+        """Fit theta and the network to data.
+
+        Parameters
+        ----------
+        X : array-like of shape (n_samples, ...)
+            Inputs of the structure (initial states for ``"ode"``).
+        y : array-like of shape (n_samples, ...)
+            Targets (observed states at the output times for ``"ode"``),
+            any per-sample shape; ``predict`` returns the same shape.
+
+        Returns
+        -------
+        self : HybridRegressor
+            The fitted estimator.  If training diverges, a
+            :class:`~sklearn_hybrid.engine.DivergenceError` is raised and an
+            earlier fit is left untouched.
+        """
+        method = self._check_params()
+        y_shape = np.shape(y)[1:]
+        if len(y_shape) > 1:
+            y = np.reshape(y, (len(y), -1))
+        X, y = validate_data(self, X, y, allow_nd=True, multi_output=True, y_numeric=True,
+                             dtype=np.float64)
+        dtype = _DTYPES[self.dtype]
+        seed = int(check_random_state(self.random_state).randint(np.iinfo(np.int32).max))
+        science = ScienceModel(self.science, self.theta_init, self.theta_bounds,
+                               self.theta_fixed, dtype=dtype)
+        structure = self._make_structure()
+        structure.setup(X, y_shape)
+        with _torch_threads(self.n_threads):
+            inputs = structure.tensors(X, dtype)
+            structure.probe(science, inputs)
+            with torch.random.fork_rng(devices=[]):  # seed init without touching global state
+                torch.manual_seed(seed)
+                in_shapes, out_shape = structure.residual_shapes()
+                residual = build_residual(self.residual, in_shapes, out_shape, dtype)
+                reduction = structure.make_reduction(dtype) if method.name == "f-reg" else None
+            model = HybridModule(science, residual, structure, reduction)
+            config = TrainConfig(lr=self.lr, max_iter=self.max_iter, batch_size=self.batch_size,
+                                 weight_decay=self.weight_decay, perturb=self.perturb,
+                                 verbose=self.verbose)
+            history = train(model, method, inputs, torch.as_tensor(y, dtype=dtype), config,
+                            torch.Generator().manual_seed(seed))
+        model.eval()
+        self.model_, self.residual_ = model, residual
+        self.theta_, self.history_ = science.as_dict(), history
+        self.y_shape_ = y_shape
+        return self
+
+    def _forward(self, X):
+        check_is_fitted(self)
+        X = validate_data(self, X, reset=False, allow_nd=True, dtype=np.float64)
+        dtype = _DTYPES[self.dtype]
+        with _torch_threads(self.n_threads), torch.no_grad():
+            inputs = self.model_.structure.tensors(X, dtype)
+            pred, extras = self.model_(*inputs)
+        return X, pred, extras
+
+    def predict(self, X):
+        """Predict targets with the fitted hybrid model.
+
+        Parameters
+        ----------
+        X : array-like of shape (n_samples, ...)
+            Inputs, shaped as in ``fit``.
+
+        Returns
+        -------
+        ndarray of shape (n_samples, *y.shape[1:])
+        """
+        X, pred, _ = self._forward(X)
+        return pred.cpu().numpy().astype(np.float64).reshape(len(X), *self.y_shape_)
+
+    def score(self, X, y, sample_weight=None):
+        """R^2 of the prediction over all output values (targets flattened per sample)."""
+        pred = self.predict(X)
+        n = len(pred)
+        return r2_score(np.reshape(y, (n, -1)), pred.reshape(n, -1), sample_weight=sample_weight)

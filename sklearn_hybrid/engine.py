@@ -1,0 +1,172 @@
+"""The training loop: Adam with cosine annealing, full or mini-batch, one method's rule.
+
+One iteration (Algorithm 1 of the paper, with Adam): gradients of the loss at
+(theta, phi); for the SAM family, phi (or every parameter with
+``perturb="all"``) is moved by the method's perturbation, the gradients of
+theta *and* phi are taken there, and phi is restored from a copy (exactly,
+not by subtraction); then one Adam step on all parameters.
+"""
+
+from __future__ import annotations
+
+from contextlib import contextmanager
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+from torch import nn
+
+__all__ = ["TrainConfig", "train", "DivergenceError", "data_loss"]
+
+
+class DivergenceError(FloatingPointError):
+    """The training loss became NaN or infinite."""
+
+
+@dataclass
+class TrainConfig:
+    """Optimisation settings (validated by the estimator)."""
+
+    lr: float = 1e-3
+    max_iter: int = 2000
+    batch_size: int | None = None
+    weight_decay: float = 1e-5
+    perturb: str = "residual"
+    min_lr: float = 1e-6
+    verbose: bool = False
+
+
+def data_loss(pred: torch.Tensor, y: torch.Tensor) -> torch.Tensor:
+    """Mean squared error over every output value (what all methods minimise)."""
+    return (pred.reshape(y.shape) - y).pow(2).mean()
+
+
+@contextmanager
+def _frozen_batchnorm_stats(module: nn.Module):
+    """Keep BN running statistics from being updated twice per SAM iteration."""
+    norms = [m for m in module.modules() if isinstance(m, nn.modules.batchnorm._BatchNorm)]
+    saved = [m.momentum for m in norms]
+    for m in norms:
+        m.momentum = 0.0
+    try:
+        yield
+    finally:
+        for m, momentum in zip(norms, saved):
+            m.momentum = momentum
+
+
+def _loss_and_grads(model, method, inputs, y, params):
+    pred, extras = model(*inputs)
+    loss = data_loss(pred, y) + method.penalty(model, pred, extras)
+    grads = torch.autograd.grad(loss, params, allow_unused=True)
+    return loss.detach(), [torch.zeros_like(p) if g is None else g for p, g in zip(params, grads)]
+
+
+class _Batches:
+    """Mini-batch indices from a private generator (full batch when size is None)."""
+
+    def __init__(self, n, batch_size, generator):
+        self.n, self.size, self.gen = n, batch_size, generator
+        self.order, self.pos = None, n
+
+    def next(self):
+        if self.size is None or self.size >= self.n:
+            return None
+        if self.pos + self.size > self.n:
+            self.order, self.pos = torch.randperm(self.n, generator=self.gen), 0
+        idx = self.order[self.pos:self.pos + self.size]
+        self.pos += self.size
+        return idx
+
+
+def train(model: nn.Module, method, inputs: tuple[torch.Tensor, ...], y: torch.Tensor,
+          config: TrainConfig, generator: torch.Generator) -> dict:
+    """Train ``model`` in place and return its history.
+
+    Parameters
+    ----------
+    model : HybridModule
+        Science part, residual network and structure.
+    method : Method
+        The training method (penalty and perturbation rule).
+    inputs : tuple of Tensor
+        Structure inputs, each with the samples on the first axis.
+    y : Tensor
+        Targets, samples on the first axis.
+    config : TrainConfig
+        Optimisation settings.
+    generator : torch.Generator
+        Source of randomness for mini-batches.
+
+    Returns
+    -------
+    dict
+        ``{"loss": ndarray (max_iter,), "theta": {name: ndarray (max_iter, ...)}}``;
+        the loss is the training objective at the unperturbed parameters.
+
+    Raises
+    ------
+    DivergenceError
+        If the loss or a parameter becomes NaN or infinite.
+    """
+    theta = [p for p in model.science.parameters() if p.requires_grad]
+    phi = list(model.residual.parameters())
+    extra = [] if model.reduction is None else list(model.reduction.parameters())
+    params = theta + phi + extra
+    perturbed = phi + theta if config.perturb == "all" else phi
+    n_perturbed = len(perturbed)
+    is_weight = ["weight" in name for name, _ in model.residual.named_parameters()]
+    is_weight += [False] * (n_perturbed - len(is_weight))
+    # positions of the perturbed tensors inside `params`
+    where = [next(i for i, q in enumerate(params) if q is p) for p in perturbed]
+
+    optimizer = torch.optim.Adam(
+        [{"params": theta, "weight_decay": 0.0},
+         {"params": phi + extra, "weight_decay": config.weight_decay}], lr=config.lr)
+    scheduler = torch.optim.lr_scheduler.CosineAnnealingLR(
+        optimizer, T_max=config.max_iter, eta_min=min(config.min_lr, config.lr))
+    batches = _Batches(len(y), config.batch_size, generator)
+    names = model.science.names
+    losses = np.empty(config.max_iter)
+    thetas = {n: np.empty((config.max_iter, *model.science.shapes[n])) for n in names}
+
+    from tqdm.auto import tqdm
+
+    bar = tqdm(range(config.max_iter), disable=not config.verbose, desc=method.name)
+    model.train()
+    for it in bar:
+        idx = batches.next()
+        xb = inputs if idx is None else tuple(t[idx] for t in inputs)
+        yb = y if idx is None else y[idx]
+        loss, grads = _loss_and_grads(model, method, xb, yb, params)
+        loss_value = float(loss)
+        if not np.isfinite(loss_value):
+            raise DivergenceError(
+                f"The training loss became {loss_value} at iteration {it}; lower lr or "
+                "rho, check the data scale, or bound theta with theta_bounds."
+            )
+        if method.perturbs:
+            with torch.no_grad():
+                saved = [p.detach().clone() for p in perturbed]
+                eps = method.perturbation(perturbed, [grads[i] for i in where], is_weight)
+                for p, e in zip(perturbed, eps):
+                    p.add_(e)
+            with _frozen_batchnorm_stats(model):
+                _, grads = _loss_and_grads(model, method, xb, yb, params)
+            with torch.no_grad():
+                for p, s in zip(perturbed, saved):
+                    p.copy_(s)
+        for p, g in zip(params, grads):
+            p.grad = g
+        optimizer.step()
+        scheduler.step()
+        losses[it] = loss_value
+        with torch.no_grad():
+            for n, v in model.science.values().items():
+                thetas[n][it] = v.cpu().numpy()
+        if config.verbose and (it % 25 == 0 or it == config.max_iter - 1):
+            bar.set_postfix(loss=f"{loss_value:.3g}", **{
+                n: np.array2string(thetas[n][it], precision=4) for n in names})
+    if not all(torch.isfinite(p).all() for p in params):
+        raise DivergenceError(f"A parameter became NaN or infinite at iteration {config.max_iter - 1}.")
+    return {"loss": losses, "theta": thetas}

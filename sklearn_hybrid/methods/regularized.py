@@ -1,0 +1,44 @@
+"""The paper's baselines: erm, parameter-norm (p-reg) and functional (f-reg) regularisation."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from ._base import Method
+
+__all__ = ["ERM", "ParameterRegularization", "FunctionalRegularization"]
+
+
+@dataclass
+class ERM(Method):
+    """Empirical risk minimisation (with the estimator's slight weight decay)."""
+
+    name = "erm"
+
+
+@dataclass
+class ParameterRegularization(Method):
+    """``lam * ||phi||^2`` over every network parameter."""
+
+    lam: float = 1e-3
+    name = "p-reg"
+
+    def penalty(self, model, pred, extras):
+        return self.lam * sum(p.pow(2).sum() for p in model.residual.parameters())
+
+
+@dataclass
+class FunctionalRegularization(Method):
+    """Functional norm of the network's contribution, as the structure defines it.
+
+    Additive structures (APHYNITY): ``lam * mean ||g_phi||^2`` at the states the
+    prediction visits.  Non-additive ones (Phys-VAE style): ``lam * mean
+    ||h(x) - A f_theta(x)||^2`` with a learnable linear map ``A`` (identity when
+    the science output and ``y`` share a shape).
+    """
+
+    lam: float = 1e-3
+    name = "f-reg"
+
+    def penalty(self, model, pred, extras):
+        return self.lam * model.structure.functional_penalty(model, pred, extras)

@@ -1,0 +1,92 @@
+"""Sharpness-aware methods (SAM, ASAM, Fisher SAM) that perturb the network only.
+
+The perturbation rules are pure functions of (parameters, gradients,
+hyperparameters).  With ``n_batch_dims=1`` every tensor carries a leading
+member axis and norms are taken per member, so K configurations trained as
+one stacked model get exactly the update each would get alone.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import torch
+
+from ._base import Method
+
+__all__ = ["SAM", "ASAM", "FisherSAM", "sam_perturbation", "asam_perturbation",
+           "fsam_perturbation"]
+
+_XI = 1e-12  # added to the norm, as in the reference implementations
+
+
+def _member_sum(tensors, n_batch_dims):
+    return sum(t.reshape(*t.shape[:n_batch_dims], -1).sum(-1) for t in tensors)
+
+
+def _per_member(scale, like, n_batch_dims):
+    scale = torch.as_tensor(scale, dtype=like.dtype)
+    return scale.reshape(scale.shape + (1,) * (like.dim() - scale.dim()))
+
+
+def sam_perturbation(grads, rho, *, n_batch_dims=0):
+    """SAM: ``eps = rho * g / ||g||``."""
+    scale = rho / (_member_sum([g * g for g in grads], n_batch_dims).sqrt() + _XI)
+    return [g * _per_member(scale, g, n_batch_dims) for g in grads]
+
+
+def asam_perturbation(params, grads, rho, eta, is_weight, *, n_batch_dims=0):
+    """Adaptive SAM (official form): ``eps = rho * T^2 g / ||T g||``.
+
+    ``T = |w| + eta`` on weight tensors and 1 on biases (Kwon et al. 2021).
+    """
+    scales = [p.abs() + eta if w else torch.ones_like(p) for p, w in zip(params, is_weight)]
+    norm = _member_sum([(t * g) ** 2 for t, g in zip(scales, grads)], n_batch_dims).sqrt()
+    scale = rho / (norm + _XI)
+    return [t * t * g * _per_member(scale, g, n_batch_dims) for t, g in zip(scales, grads)]
+
+
+def fsam_perturbation(grads, rho, eta, *, n_batch_dims=0):
+    """Fisher SAM: ``eps = rho * F^-1 g / sqrt(g^T F^-1 g)``, ``F = diag(1 + eta g^2)``."""
+    scaled = [g / (1.0 + eta * g * g) for g in grads]
+    denom = _member_sum([g * u for g, u in zip(grads, scaled)], n_batch_dims).sqrt()
+    scale = rho / (denom + _XI)
+    return [u * _per_member(scale, u, n_batch_dims) for u in scaled]
+
+
+@dataclass
+class SAM(Method):
+    """Sharpness-aware minimisation with radius ``rho``."""
+
+    rho: float = 0.05
+    name = "sam"
+    perturbs = True
+
+    def perturbation(self, params, grads, is_weight):
+        return sam_perturbation(grads, self.rho)
+
+
+@dataclass
+class ASAM(Method):
+    """Adaptive SAM with radius ``rho`` and offset ``eta`` (default 0.01)."""
+
+    rho: float = 0.05
+    eta: float = 0.01
+    name = "asam"
+    perturbs = True
+
+    def perturbation(self, params, grads, is_weight):
+        return asam_perturbation(params, grads, self.rho, self.eta, is_weight)
+
+
+@dataclass
+class FisherSAM(Method):
+    """Fisher SAM with radius ``rho`` (the paper's gamma) and damping ``eta`` (default 1)."""
+
+    rho: float = 0.05
+    eta: float = 1.0
+    name = "fsam"
+    perturbs = True
+
+    def perturbation(self, params, grads, is_weight):
+        return fsam_perturbation(grads, self.rho, self.eta)

@@ -1,0 +1,85 @@
+"""Errors of estimated physical parameters, and scorers for scikit-learn's model selection."""
+
+from __future__ import annotations
+
+from typing import Mapping
+
+import numpy as np
+
+__all__ = ["theta_error", "make_theta_scorer", "ThetaScorer"]
+
+_METRICS = ("rmse", "cosine")
+
+
+def _stack(theta: Mapping, names, what: str) -> np.ndarray:
+    missing = [n for n in names if n not in theta]
+    if missing:
+        raise KeyError(f"{what} has no value for {missing}; it has {sorted(theta)}.")
+    return np.concatenate([np.ravel(np.asarray(theta[n], dtype=float)) for n in names])
+
+
+def theta_error(theta: Mapping, theta_true: Mapping, metric: str = "rmse") -> float:
+    """Compare estimated parameters with reference values.
+
+    Parameters
+    ----------
+    theta : dict
+        Estimated values (e.g. a fitted estimator's ``theta_``).
+    theta_true : dict
+        Reference values; only these names are compared.
+    metric : {"rmse", "cosine"}
+        Root mean squared error over all compared entries (lower is better;
+        for one scalar it is the absolute error), or cosine similarity of the
+        stacked vectors (higher is better; for parameters known only up to
+        scale, as in the light-tunnel task).
+
+    Returns
+    -------
+    float
+    """
+    if metric not in _METRICS:
+        raise ValueError(f"Unknown metric {metric!r}; choose one of {_METRICS}.")
+    names = list(theta_true)
+    est, true = _stack(theta, names, "theta"), _stack(theta_true, names, "theta_true")
+    if metric == "rmse":
+        return float(np.sqrt(np.mean((est - true) ** 2)))
+    return float(est @ true / (np.linalg.norm(est) * np.linalg.norm(true) + 1e-300))
+
+
+class ThetaScorer:
+    """Scorer ``scorer(estimator, X, y)`` comparing ``estimator.theta_`` with references.
+
+    Greater is better: it returns minus the RMSE, or the cosine similarity.
+    Works on a fitted estimator or a pipeline whose last step has ``theta_``.
+    """
+
+    def __init__(self, theta_true: Mapping, metric: str = "rmse"):
+        if metric not in _METRICS:
+            raise ValueError(f"Unknown metric {metric!r}; choose one of {_METRICS}.")
+        self.theta_true, self.metric = dict(theta_true), metric
+
+    def __call__(self, estimator, X=None, y=None) -> float:
+        final = estimator[-1] if hasattr(estimator, "steps") else estimator
+        error = theta_error(final.theta_, self.theta_true, self.metric)
+        return -error if self.metric == "rmse" else error
+
+    def __repr__(self) -> str:
+        return f"make_theta_scorer({self.theta_true!r}, metric={self.metric!r})"
+
+
+def make_theta_scorer(theta_true: Mapping, metric: str = "rmse") -> ThetaScorer:
+    """Make a scorer for ``GridSearchCV``, ``cross_validate`` or ``validation_curve``.
+
+    Parameters
+    ----------
+    theta_true : dict
+        Reference parameter values, e.g. ``{"omega": 2 / 3}``.
+    metric : {"rmse", "cosine"}
+        See :func:`theta_error`.
+
+    Returns
+    -------
+    ThetaScorer
+        A picklable callable ``scorer(estimator, X, y) -> float`` (greater is better).
+    """
+    return ThetaScorer(theta_true, metric)

@@ -1,0 +1,152 @@
+"""The neural part g_phi, built from a specification inside ``fit``.
+
+The estimator never stores a module instance given by the user: it stores a
+*specification* (a name, a dict, or a factory) and builds a fresh module in
+every ``fit``, so ``clone`` and refits behave as scikit-learn users expect.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Callable, Sequence
+
+import torch
+from torch import nn
+
+__all__ = ["MLP", "ConvNet", "build_residual", "RESIDUALS"]
+
+_ACTIVATIONS = {"relu": nn.ReLU, "tanh": nn.Tanh, "elu": nn.ELU, "gelu": nn.GELU,
+                "silu": nn.SiLU, "leaky_relu": nn.LeakyReLU, "softplus": nn.Softplus}
+
+
+def _activation(name: str) -> nn.Module:
+    try:
+        return _ACTIVATIONS[name]()
+    except KeyError:
+        raise ValueError(
+            f"Unknown activation {name!r}; choose one of {sorted(_ACTIVATIONS)}."
+        ) from None
+
+
+class MLP(nn.Module):
+    """Feed-forward network over one or more inputs, flattened and concatenated.
+
+    Parameters
+    ----------
+    in_shapes : sequence of tuple
+        Per-sample shape of each input (``((2,),)`` for a pendulum state,
+        ``((200, 3), (200,))`` for features and a science output).
+    out_shape : tuple
+        Per-sample output shape.
+    hidden : sequence of int
+        Hidden layer widths.
+    activation : str
+        Activation between layers.
+    """
+
+    def __init__(self, in_shapes: Sequence[tuple], out_shape: tuple,
+                 hidden: Sequence[int] = (128, 128), activation: str = "relu"):
+        super().__init__()
+        self.out_shape = tuple(out_shape)
+        widths = [sum(math.prod(s) for s in in_shapes), *hidden, math.prod(out_shape)]
+        layers = []
+        for i, (n_in, n_out) in enumerate(zip(widths[:-1], widths[1:])):
+            layers.append(nn.Linear(n_in, n_out))
+            if i < len(widths) - 2:
+                layers.append(_activation(activation))
+        self.net = nn.Sequential(*layers)
+
+    def forward(self, *inputs: torch.Tensor) -> torch.Tensor:
+        batch = inputs[0].shape[0]
+        flat = torch.cat([x.reshape(batch, -1) for x in inputs], dim=-1)
+        return self.net(flat).reshape(batch, *self.out_shape)
+
+
+class ConvNet(nn.Module):
+    """Convolutional network for field states ``(channels, height, width)``.
+
+    Kernel 3, batch norm without running statistics (as in APHYNITY, so train
+    and evaluation behave alike and the SAM second pass cannot corrupt them).
+
+    Parameters
+    ----------
+    in_shapes : sequence of tuple
+        ``((C, H, W),)``; several inputs are stacked along channels.
+    out_shape : tuple
+        ``(C_out, H, W)``.
+    hidden : sequence of int
+        Hidden channel counts.
+    activation : str
+        Activation between layers.
+    padding_mode : str
+        ``"circular"`` for periodic domains, ``"replicate"`` for zero-flux.
+    """
+
+    def __init__(self, in_shapes: Sequence[tuple], out_shape: tuple,
+                 hidden: Sequence[int] = (16, 16), activation: str = "relu",
+                 padding_mode: str = "circular"):
+        super().__init__()
+        channels = [sum(s[0] for s in in_shapes), *hidden, out_shape[0]]
+        layers = []
+        for i, (c_in, c_out) in enumerate(zip(channels[:-1], channels[1:])):
+            layers.append(nn.Conv2d(c_in, c_out, 3, padding=1, padding_mode=padding_mode))
+            if i < len(channels) - 2:
+                layers += [nn.BatchNorm2d(c_out, track_running_stats=False),
+                           _activation(activation)]
+        self.net = nn.Sequential(*layers)
+
+    def forward(self, *inputs: torch.Tensor) -> torch.Tensor:
+        return self.net(torch.cat(inputs, dim=1))
+
+
+RESIDUALS: dict[str, type[nn.Module]] = {"mlp": MLP, "cnn": ConvNet}
+
+
+def build_residual(spec, in_shapes: Sequence[tuple] | None, out_shape: tuple | None,
+                   dtype: torch.dtype = torch.float32) -> nn.Module:
+    """Build the residual network from its specification.
+
+    Parameters
+    ----------
+    spec : str, dict or callable
+        ``"mlp"`` or ``"cnn"``; a dict such as ``{"kind": "mlp", "hidden":
+        (64, 64), "activation": "tanh"}``; or a factory.  Factories are called
+        as ``factory(in_shapes, out_shape)`` by the built-in structures and
+        with no arguments for a user-supplied composition (``in_shapes is
+        None``), and must return a ``torch.nn.Module``.
+    in_shapes, out_shape : tuple or None
+        Per-sample shapes the structure feeds in and expects back.
+    dtype : torch.dtype
+        Floating point type of the parameters.
+
+    Returns
+    -------
+    torch.nn.Module
+    """
+    if callable(spec) and not isinstance(spec, type):
+        module = spec() if in_shapes is None else spec(tuple(in_shapes), tuple(out_shape))
+        if not isinstance(module, nn.Module):
+            raise TypeError(
+                f"The residual factory returned {type(module).__name__}, expected a "
+                "torch.nn.Module."
+            )
+        return module.to(dtype)
+    if in_shapes is None:
+        raise ValueError(
+            "A user-supplied structure needs `residual` to be a factory returning a "
+            "torch.nn.Module (called with no arguments)."
+        )
+    options = {"kind": spec} if isinstance(spec, str) else dict(spec) if isinstance(spec, dict) else None
+    if options is None:
+        raise TypeError(
+            f"residual must be a name {sorted(RESIDUALS)}, a dict of options or a factory, "
+            f"got {type(spec).__name__}. Pass a factory rather than a module instance, "
+            "so that every fit starts from a fresh network."
+        )
+    kind = options.pop("kind", "mlp")
+    if kind not in RESIDUALS:
+        raise ValueError(f"Unknown residual kind {kind!r}; choose one of {sorted(RESIDUALS)}.")
+    try:
+        return RESIDUALS[kind](in_shapes, out_shape, **options).to(dtype)
+    except TypeError as exc:
+        raise ValueError(f"Invalid options for residual {kind!r}: {exc}") from None

@@ -1,0 +1,196 @@
+"""The science model: a plain user function whose numeric keyword defaults are theta.
+
+As in lmfit, the parameters are read from the function's signature: arguments
+without a default are the inputs the structure passes in (a state ``v``, an
+input ``u`` or features ``x``), arguments with a numeric default (a number or
+a sequence of numbers) are the unknown physical parameters.  Bounds are
+enforced by a smooth reparametrisation of an unconstrained raw value, so the
+optimiser never sees a clipped gradient.
+"""
+
+from __future__ import annotations
+
+import inspect
+import numbers
+from typing import Callable
+
+import numpy as np
+import torch
+from torch import nn
+
+__all__ = ["ScienceModel", "read_signature"]
+
+
+def _as_numeric(value) -> np.ndarray | None:
+    """Return ``value`` as a float array if it is a number or numeric sequence."""
+    if isinstance(value, bool):
+        return None
+    if isinstance(value, numbers.Real):
+        return np.asarray(float(value))
+    if isinstance(value, (list, tuple, np.ndarray)):
+        arr = np.asarray(value)
+        if arr.size and np.issubdtype(arr.dtype, np.number):
+            return arr.astype(float)
+    return None
+
+
+def read_signature(func: Callable) -> tuple[list[str], dict[str, np.ndarray]]:
+    """Split a science function's arguments into inputs and parameters.
+
+    Parameters
+    ----------
+    func : callable
+        The science function.
+
+    Returns
+    -------
+    inputs : list of str
+        Names of the arguments without a default, in order.
+    defaults : dict of str to ndarray
+        The arguments with a numeric default, mapped to that default.
+    """
+    if not callable(func):
+        raise TypeError(f"science must be a callable, got {type(func).__name__}.")
+    inputs, defaults = [], {}
+    for p in inspect.signature(func).parameters.values():
+        if p.kind in (p.VAR_POSITIONAL, p.VAR_KEYWORD):
+            continue
+        if p.default is p.empty:
+            inputs.append(p.name)
+            continue
+        value = _as_numeric(p.default)
+        if value is not None:
+            defaults[p.name] = value
+    return inputs, defaults
+
+
+class _Bounded(nn.Module):
+    """Map an unconstrained raw tensor to a value inside ``(low, high)``.
+
+    Two finite bounds use a scaled sigmoid, one bound a shifted softplus, no
+    bound the identity.  All maps are smooth and invertible on the open set.
+    """
+
+    def __init__(self, low: np.ndarray, high: np.ndarray):
+        super().__init__()
+        self.register_buffer("low", torch.as_tensor(low, dtype=torch.float64))
+        self.register_buffer("high", torch.as_tensor(high, dtype=torch.float64))
+        self.has_low = bool(np.all(np.isfinite(low)))
+        self.has_high = bool(np.all(np.isfinite(high)))
+
+    def forward(self, raw: torch.Tensor) -> torch.Tensor:
+        low, high = self.low.to(raw.dtype), self.high.to(raw.dtype)
+        if self.has_low and self.has_high:
+            return low + (high - low) * torch.sigmoid(raw)
+        if self.has_low:
+            return low + nn.functional.softplus(raw)
+        if self.has_high:
+            return high - nn.functional.softplus(raw)
+        return raw
+
+    def inverse(self, value: np.ndarray) -> np.ndarray:
+        low, high = self.low.numpy(), self.high.numpy()
+        if self.has_low and self.has_high:
+            p = (value - low) / (high - low)
+            return np.log(p) - np.log1p(-p)
+        if self.has_low:
+            return np.log(np.expm1(value - low))
+        if self.has_high:
+            return np.log(np.expm1(high - value))
+        return value
+
+
+class ScienceModel(nn.Module):
+    """The science function with its parameters as trainable torch tensors.
+
+    Parameters
+    ----------
+    func : callable
+        ``func(*inputs, **theta)`` written with torch operations.
+    theta_init : dict, optional
+        Initial values overriding the signature defaults.
+    theta_bounds : dict, optional
+        ``name -> (low, high)``; use ``None`` or ``inf`` for an open side.
+    theta_fixed : iterable of str, optional
+        Names kept at their initial value during training.
+    dtype : torch.dtype
+        Floating point type of the parameters.
+    """
+
+    def __init__(self, func, theta_init=None, theta_bounds=None, theta_fixed=None,
+                 dtype=torch.float32):
+        super().__init__()
+        self.func = func
+        self.inputs, defaults = read_signature(func)
+        if not defaults:
+            raise ValueError(
+                f"The science function {getattr(func, '__name__', func)!r} has no "
+                "keyword argument with a numeric default, so there is no parameter "
+                "theta to estimate. Declare them as e.g. `def f(v, omega=1.0): ...`."
+            )
+        theta_init, theta_bounds = dict(theta_init or {}), dict(theta_bounds or {})
+        theta_fixed = [theta_fixed] if isinstance(theta_fixed, str) else list(theta_fixed or [])
+        for what, names in (("theta_init", theta_init), ("theta_bounds", theta_bounds),
+                            ("theta_fixed", theta_fixed)):
+            unknown = sorted(set(names) - set(defaults))
+            if unknown:
+                raise ValueError(
+                    f"{what} names unknown parameter(s) {unknown}; the science function's "
+                    f"parameters are {sorted(defaults)}."
+                )
+        self.names = list(defaults)
+        self.shapes = {}
+        self.raw = nn.ParameterDict()
+        self.transforms = nn.ModuleDict()
+        for name, default in defaults.items():
+            value = np.asarray(theta_init.get(name, default), dtype=float)
+            if value.shape != default.shape and default.ndim > 0:
+                raise ValueError(
+                    f"theta_init[{name!r}] has shape {value.shape}, the default has shape "
+                    f"{default.shape}."
+                )
+            if not np.all(np.isfinite(value)):
+                raise ValueError(f"theta_init[{name!r}] = {value} is not finite.")
+            low, high = self._bounds(name, theta_bounds.get(name), value)
+            transform = _Bounded(low, high)
+            raw = torch.as_tensor(transform.inverse(value), dtype=dtype)
+            self.shapes[name] = value.shape
+            self.transforms[name] = transform
+            self.raw[name] = nn.Parameter(raw, requires_grad=name not in theta_fixed)
+
+    @staticmethod
+    def _bounds(name, bounds, value):
+        if bounds is None:
+            return np.full(value.shape, -np.inf), np.full(value.shape, np.inf)
+        try:
+            low, high = bounds
+        except (TypeError, ValueError):
+            raise ValueError(
+                f"theta_bounds[{name!r}] must be a pair (low, high), got {bounds!r}."
+            ) from None
+        low = np.broadcast_to(np.asarray(-np.inf if low is None else low, float), value.shape)
+        high = np.broadcast_to(np.asarray(np.inf if high is None else high, float), value.shape)
+        if np.any(low >= high):
+            raise ValueError(f"theta_bounds[{name!r}] = {bounds!r} has low >= high.")
+        if np.any(value <= low) or np.any(value >= high):
+            raise ValueError(
+                f"The initial value of {name!r} ({value}) lies outside its bounds "
+                f"{bounds!r}; it must be strictly inside."
+            )
+        return low.copy(), high.copy()
+
+    def values(self) -> dict[str, torch.Tensor]:
+        """Current parameter values (differentiable), keyed by name."""
+        return {name: self.transforms[name](self.raw[name]) for name in self.names}
+
+    def forward(self, *inputs: torch.Tensor) -> torch.Tensor:
+        return self.func(*inputs, **self.values())
+
+    def as_dict(self) -> dict[str, float | np.ndarray]:
+        """Parameter values as Python floats (scalars) or numpy arrays (vectors)."""
+        with torch.no_grad():
+            out = {}
+            for name, value in self.values().items():
+                value = value.detach().cpu().numpy().astype(float)
+                out[name] = float(value) if value.ndim == 0 else value
+            return out

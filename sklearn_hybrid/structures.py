@@ -1,0 +1,303 @@
+"""How the science model f_theta and the network g_phi combine: a name-to-structure registry.
+
+A structure learns the per-sample shapes from the training data (``setup``),
+turns arrays into tensors (``tensors``), checks the science function on a
+few samples (``probe``), names the shapes its network needs
+(``residual_shapes``), computes predictions (``forward``), and defines the
+functional regulariser of ``method="f-reg"`` (``functional_penalty``).
+
+============  =========================================================
+``"ode"``     hybrid neural ODE ``dv/dt = f_theta(v[, u]) + g_phi(v[, u])``
+``"compose"`` general composition ``y = g_phi(x, f_theta(x))``
+``"additive"`` static additive model ``y = f_theta(x) + g_phi(x)``
+callable      ``structure(x, f, g) -> y`` for anything more nested
+============  =========================================================
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Callable
+
+import numpy as np
+import torch
+from torch import nn
+
+from .integrate import INPUT_INTERPOLATIONS, integrate, upsample_inputs
+
+__all__ = ["HybridModule", "make_structure", "STRUCTURES", "pack_inputs"]
+
+
+class HybridModule(nn.Module):
+    """Science part, network and structure in one module (what training updates)."""
+
+    def __init__(self, science: nn.Module, residual: nn.Module, structure,
+                 reduction: nn.Module | None = None):
+        super().__init__()
+        self.science = science
+        self.residual = residual
+        self.reduction = reduction
+        self.structure = structure
+
+    def forward(self, *inputs: torch.Tensor):
+        return self.structure.forward(self, *inputs)
+
+
+def _call_science(science, args, expected_shape, what):
+    """Run the science function on a probe batch and check what it returns."""
+    try:
+        with torch.no_grad():
+            out = science(*args)
+    except Exception as exc:
+        shapes = ", ".join(str(tuple(a.shape)) for a in args)
+        raise ValueError(
+            f"The science function raised {type(exc).__name__}: {exc} (called with "
+            f"{what} of shape(s) {shapes}). It must accept torch tensors with a "
+            "leading batch dimension and use torch operations."
+        ) from exc
+    if not isinstance(out, torch.Tensor):
+        raise TypeError(f"The science function returned {type(out).__name__}, expected a torch.Tensor.")
+    if expected_shape is not None and tuple(out.shape) != tuple(expected_shape):
+        raise ValueError(
+            f"The science function returned shape {tuple(out.shape)} for {what} of shape "
+            f"{tuple(args[0].shape)}; the structure needs {tuple(expected_shape)}."
+        )
+    if out.ndim == 0 or out.shape[0] != args[0].shape[0]:
+        raise ValueError(
+            f"The science function returned shape {tuple(out.shape)}; its first axis must "
+            f"be the batch axis of length {args[0].shape[0]}."
+        )
+    return out
+
+
+def pack_inputs(x0: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """Build the ``X`` of a forced ODE from initial states and input sequences.
+
+    Parameters
+    ----------
+    x0 : ndarray of shape (n_samples, n_states)
+        Initial states.
+    u : ndarray of shape (n_samples, n_steps + 1, n_inputs)
+        Inputs on the output grid, from time 0 to the last output time.
+
+    Returns
+    -------
+    ndarray of shape (n_samples, n_states + (n_steps + 1) * n_inputs)
+    """
+    x0, u = np.asarray(x0, float), np.asarray(u, float)
+    if u.ndim == 2:
+        u = u[:, :, None]
+    if x0.ndim != 2 or u.ndim != 3 or len(x0) != len(u):
+        raise ValueError(f"pack_inputs needs x0 (n, d) and u (n, T, k); got {x0.shape} and {u.shape}.")
+    return np.concatenate([x0, u.reshape(len(u), -1)], axis=1)
+
+
+class OdeStructure:
+    """Hybrid neural ODE, optionally forced by inputs and partially observed.
+
+    ``X`` holds initial states (any per-sample shape, e.g. ``(2,)`` or a field
+    ``(2, 32, 32)``); for a forced system (``n_inputs > 0``) each row is the
+    initial state followed by the inputs on the output grid (see
+    :func:`pack_inputs`).  ``y`` holds the observed states at ``dt, ...,
+    n_steps * dt``, shaped ``(n, n_steps, n_observed)`` or flattened.
+    """
+
+    additive = True
+
+    def __init__(self, dt=1.0, n_substeps=4, solver="rk4", observed=None, n_inputs=0,
+                 input_interp="cubic", solver_options=None):
+        if not (isinstance(dt, (int, float)) and dt > 0):
+            raise ValueError(f"dt must be a positive number, got {dt!r}.")
+        if not (isinstance(n_substeps, (int, np.integer)) and n_substeps >= 1):
+            raise ValueError(f"n_substeps must be a positive integer, got {n_substeps!r}.")
+        if input_interp not in INPUT_INTERPOLATIONS:
+            raise ValueError(f"Unknown input_interp {input_interp!r}; choose one of {INPUT_INTERPOLATIONS}.")
+        self.dt, self.n_substeps, self.solver = float(dt), int(n_substeps), solver
+        self.observed = None if observed is None else [int(i) for i in np.atleast_1d(observed)]
+        self.n_inputs, self.input_interp = int(n_inputs), input_interp
+        self.solver_options = solver_options
+
+    def setup(self, X: np.ndarray, y_shape: tuple) -> None:
+        sample_size = math.prod(y_shape)
+        if self.n_inputs == 0:
+            self.state_shape = X.shape[1:]
+        else:
+            if X.ndim != 2:
+                raise ValueError("A forced ODE (n_inputs > 0) needs a 2-D X built with pack_inputs.")
+            n_obs = len(self.observed) if self.observed else (y_shape[-1] if len(y_shape) > 1 else None)
+            if n_obs is None:
+                raise ValueError("For a forced ODE give y as (n, n_steps, n_observed) or set `observed`.")
+            n_steps = sample_size // n_obs
+            self.state_shape = (X.shape[1] - (n_steps + 1) * self.n_inputs,)
+            if self.state_shape[0] < 1:
+                raise ValueError(
+                    f"X has {X.shape[1]} columns, too few for {n_steps + 1} input samples of "
+                    f"{self.n_inputs} input(s) plus an initial state."
+                )
+        if self.observed is not None:
+            n_state = math.prod(self.state_shape)
+            if len(self.state_shape) != 1 or not all(0 <= i < n_state for i in self.observed):
+                raise ValueError(
+                    f"observed={self.observed} must index a vector state of length {n_state}."
+                )
+            self.obs_shape = (len(self.observed),)
+        else:
+            self.obs_shape = tuple(self.state_shape)
+        obs_size = math.prod(self.obs_shape)
+        if sample_size % obs_size or sample_size == 0:
+            raise ValueError(
+                f"y has {sample_size} values per sample, not a whole number of observed states "
+                f"of shape {self.obs_shape} (X per-sample shape {X.shape[1:]})."
+            )
+        self.n_steps = sample_size // obs_size
+
+    def tensors(self, X: np.ndarray, dtype: torch.dtype) -> tuple[torch.Tensor, ...]:
+        n, d = len(X), math.prod(self.state_shape)
+        if self.n_inputs == 0:
+            return (torch.as_tensor(X, dtype=dtype),)
+        expected = d + (self.n_steps + 1) * self.n_inputs
+        if X.shape[1] != expected:
+            raise ValueError(f"X has {X.shape[1]} columns; this forced ODE needs {expected}.")
+        u = X[:, d:].reshape(n, self.n_steps + 1, self.n_inputs)
+        u_fine = upsample_inputs(u, 2 * self.n_substeps, self.input_interp)
+        return (torch.as_tensor(X[:, :d].reshape(n, *self.state_shape), dtype=dtype),
+                torch.as_tensor(u_fine, dtype=dtype))
+
+    def _args(self, v, u):
+        return (v,) if u is None else (v, u)
+
+    def probe(self, science, inputs) -> None:
+        v = inputs[0][:2]
+        u = inputs[1][:2, 0] if self.n_inputs else None
+        _call_science(science, self._args(v, u), v.shape, "states" + (" and inputs" if u is not None else ""))
+
+    def residual_shapes(self):
+        ins = (tuple(self.state_shape),) + (((self.n_inputs,),) if self.n_inputs else ())
+        return ins, tuple(self.state_shape)
+
+    def forward(self, model, x0, u_fine=None):
+        def rhs(v, u):
+            args = self._args(v, u)
+            return model.science(*args) + model.residual(*args)
+
+        states = integrate(rhs, x0, self.n_steps, self.dt, n_substeps=self.n_substeps,
+                           solver=self.solver, u_fine=u_fine, solver_options=self.solver_options)
+        pred = states if self.observed is None else states[..., self.observed]
+        return pred, {"states": torch.cat([x0[:, None], states], dim=1), "u_fine": u_fine}
+
+    def residual_values(self, model, extras):
+        """g_phi at the states the prediction visits (time 0 and every output time)."""
+        states = extras["states"]
+        flat = states.reshape(-1, *self.state_shape)
+        args = (flat,)
+        if extras["u_fine"] is not None:
+            u = extras["u_fine"][:, :: 2 * self.n_substeps]
+            args = (flat, u.reshape(-1, self.n_inputs))
+        return model.residual(*args).reshape(states.shape)
+
+    def functional_penalty(self, model, pred, extras):
+        g = self.residual_values(model, extras)
+        return g.pow(2).reshape(g.shape[0] * g.shape[1], -1).sum(-1).mean()
+
+    def make_reduction(self, dtype):
+        return None
+
+
+class ComposeStructure:
+    """General composition ``y = g_phi(x, f_theta(x))``; g sees x and z = f(x)."""
+
+    additive = False
+
+    def __init__(self, **_):
+        pass
+
+    def setup(self, X, y_shape):
+        self.x_shape, self.y_shape = X.shape[1:], tuple(y_shape)
+
+    def tensors(self, X, dtype):
+        return (torch.as_tensor(X, dtype=dtype),)
+
+    def probe(self, science, inputs):
+        self.z_shape = tuple(_call_science(science, (inputs[0][:2],), None, "X").shape[1:])
+
+    def residual_shapes(self):
+        return (tuple(self.x_shape), self.z_shape), self.y_shape
+
+    def forward(self, model, x):
+        z = model.science(x)
+        return model.residual(x, z).reshape(len(x), *self.y_shape), {"z": z}
+
+    def make_reduction(self, dtype):
+        """The learnable linear map A of f-reg (identity when z and y share a shape)."""
+        if self.z_shape == self.y_shape:
+            return None
+        return nn.Linear(math.prod(self.z_shape), math.prod(self.y_shape), bias=False).to(dtype)
+
+    def functional_penalty(self, model, pred, extras):
+        z = extras["z"].reshape(len(pred), -1)
+        reduced = z if model.reduction is None else model.reduction(z)
+        return (pred.reshape(len(pred), -1) - reduced).pow(2).sum(-1).mean()
+
+
+class AdditiveStructure(ComposeStructure):
+    """Static additive model ``y = f_theta(x) + g_phi(x)``."""
+
+    additive = True
+
+    def probe(self, science, inputs):
+        x = inputs[0][:2]
+        _call_science(science, (x,), (len(x), *self.y_shape), "X")
+
+    def residual_shapes(self):
+        return (tuple(self.x_shape),), self.y_shape
+
+    def forward(self, model, x):
+        g = model.residual(x).reshape(len(x), *self.y_shape)
+        return model.science(x) + g, {"g": g}
+
+    def make_reduction(self, dtype):
+        return None
+
+    def functional_penalty(self, model, pred, extras):
+        return extras["g"].pow(2).reshape(len(pred), -1).sum(-1).mean()
+
+
+class CallableStructure(ComposeStructure):
+    """A user composition ``func(x, f, g) -> y`` (f: science with theta bound, g: network)."""
+
+    additive = False
+
+    def __init__(self, func: Callable):
+        self.func = func
+
+    def probe(self, science, inputs):
+        pass
+
+    def residual_shapes(self):
+        return None, None
+
+    def forward(self, model, x):
+        return self.func(x, model.science, model.residual).reshape(len(x), *self.y_shape), {}
+
+    def functional_penalty(self, model, pred, extras):
+        raise ValueError(
+            "method='f-reg' needs a structure that defines a science-only reduction "
+            "('ode', 'compose' or 'additive'); a user-supplied composition has none."
+        )
+
+
+STRUCTURES = {"ode": OdeStructure, "compose": ComposeStructure, "additive": AdditiveStructure}
+
+
+def make_structure(spec, **options):
+    """Instantiate a structure from its name (with options) or wrap a callable."""
+    if callable(spec) and not isinstance(spec, type):
+        return CallableStructure(spec)
+    if spec not in STRUCTURES:
+        raise ValueError(
+            f"Unknown structure {spec!r}; choose one of {sorted(STRUCTURES)} or pass a "
+            "callable structure(x, f, g) -> y."
+        )
+    if spec == "ode":
+        return OdeStructure(**options)
+    return STRUCTURES[spec]()
