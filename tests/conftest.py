@@ -1,0 +1,28 @@
+"""Test setup: point the dataset loaders at the project's shared measured data when present."""
+
+import os
+from pathlib import Path
+
+import pytest
+
+# The measured files live beside the repository (never inside it): <repo>/../shared/data.
+SHARED_DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
+
+
+@pytest.fixture(scope="session", autouse=True)
+def _data_home_env():
+    """Set SKLEARN_HYBRID_DATA to the shared data folder unless the caller set it."""
+    if SHARED_DATA.is_dir() and not os.environ.get("SKLEARN_HYBRID_DATA"):
+        with pytest.MonkeyPatch.context() as mp:
+            mp.setenv("SKLEARN_HYBRID_DATA", str(SHARED_DATA))
+            yield
+    else:
+        yield
+
+
+@pytest.fixture(scope="session")
+def shared_data() -> Path:
+    """The shared measured-data folder; tests using it skip only where it does not exist."""
+    if not SHARED_DATA.is_dir():
+        pytest.skip(f"shared data folder {SHARED_DATA} not present")
+    return SHARED_DATA
