@@ -119,6 +119,10 @@ class HybridRegressor(RegressorMixin, BaseEstimator):
         Science part, network and structure together.
     history_ : dict
         ``"loss"`` (per iteration) and ``"theta"`` (name -> values per iteration).
+    n_iter_ : int
+        Number of optimisation steps taken.
+    y_shape_ : tuple
+        Per-sample shape of ``y`` in ``fit``, which ``predict`` returns.
     n_features_in_ : int
         Number of features (second axis of ``X``) seen in ``fit``.
     """
@@ -201,11 +205,12 @@ class HybridRegressor(RegressorMixin, BaseEstimator):
             earlier fit is left untouched.
         """
         method = self._check_params()
-        y_shape = np.shape(y)[1:]
-        if len(y_shape) > 1:
-            y = np.reshape(y, (len(y), -1))
+        y_shape = np.asarray(y).shape[1:]
+        if len(y_shape) > 1:  # scikit-learn validates 2-D targets; predict restores the shape
+            y = np.reshape(np.asarray(y), (len(y), -1))
         X, y = validate_data(self, X, y, allow_nd=True, multi_output=True, y_numeric=True,
                              dtype=np.float64)
+        X, y = np.require(X, requirements="W"), np.require(y, requirements="W")  # torch needs writable
         dtype = _DTYPES[self.dtype]
         seed = int(check_random_state(self.random_state).randint(np.iinfo(np.int32).max))
         science = ScienceModel(self.science, self.theta_init, self.theta_bounds,
@@ -230,11 +235,13 @@ class HybridRegressor(RegressorMixin, BaseEstimator):
         self.model_, self.residual_ = model, residual
         self.theta_, self.history_ = science.as_dict(), history
         self.y_shape_ = y_shape
+        self.n_iter_ = self.max_iter
         return self
 
     def _forward(self, X):
         check_is_fitted(self)
-        X = validate_data(self, X, reset=False, allow_nd=True, dtype=np.float64)
+        X = np.require(validate_data(self, X, reset=False, allow_nd=True, dtype=np.float64),
+                       requirements="W")
         dtype = _DTYPES[self.dtype]
         with _torch_threads(self.n_threads), torch.no_grad():
             inputs = self.model_.structure.tensors(X, dtype)

@@ -123,7 +123,13 @@ def build_residual(spec, in_shapes: Sequence[tuple] | None, out_shape: tuple | N
     -------
     torch.nn.Module
     """
-    if callable(spec) and not isinstance(spec, type):
+    if isinstance(spec, nn.Module):
+        raise TypeError(
+            f"residual is a {type(spec).__name__} instance. Pass a factory rather than a "
+            "module instance (e.g. `residual=lambda: net`, or a class), so that every fit "
+            "starts from a fresh network and the estimator stays clonable."
+        )
+    if callable(spec):
         module = spec() if in_shapes is None else spec(tuple(in_shapes), tuple(out_shape))
         if not isinstance(module, nn.Module):
             raise TypeError(

@@ -1,0 +1,228 @@
+"""HybridRegressor: the user-facing snippets, structures, determinism, model selection."""
+
+import pickle
+
+import numpy as np
+import pytest
+import torch
+from sklearn.base import clone
+from sklearn.model_selection import GridSearchCV, cross_validate, validation_curve
+
+from sklearn_hybrid import HybridRegressor, make_theta_scorer, pack_inputs, theta_error
+from sklearn_hybrid.datasets import make_pendulum
+from sklearn_hybrid.integrate import integrate
+
+FAST = dict(max_iter=30, residual={"hidden": (16, 16)}, random_state=0)
+
+
+def pendulum_f(v, omega=0.5):
+    return torch.stack([v[:, 1], -(2 * torch.pi * omega) ** 2 * torch.sin(v[:, 0])], dim=-1)
+
+
+@pytest.fixture(scope="module")
+def pendulum():
+    return make_pendulum(n_train=12, n_val=4, n_test=4, n_steps=5, random_state=0)
+
+
+def test_readme_snippet(pendulum):
+    X, y = pendulum.X_train, pendulum.y_train
+    est = HybridRegressor(science=pendulum_f, method="sam", dt=0.2, **FAST).fit(X, y)
+    assert set(est.theta_) == {"omega"} and isinstance(est.theta_["omega"], float)
+    assert est.predict(pendulum.X_test).shape == pendulum.y_test.shape
+    assert est.history_["loss"].shape == (30,) and est.history_["theta"]["omega"].shape == (30,)
+    assert est.history_["theta"]["omega"][-1] == pytest.approx(est.theta_["omega"])
+    assert est.n_features_in_ == 2
+
+
+def test_training_reduces_loss_and_moves_theta(pendulum):
+    est = HybridRegressor(science=pendulum_f, method="erm", dt=0.2, lr=1e-2,
+                          **{**FAST, "max_iter": 150}).fit(pendulum.X_train, pendulum.y_train)
+    loss = est.history_["loss"]
+    assert loss[-10:].mean() < 0.2 * loss[:10].mean()
+    # from 0.5 towards the true 2/3
+    assert abs(est.theta_["omega"] - 2 / 3) < abs(0.5 - 2 / 3)
+
+
+def test_gridsearch_theta_scorer(pendulum):
+    est = HybridRegressor(science=pendulum_f, dt=0.2, **{**FAST, "max_iter": 10})
+    scorer = make_theta_scorer({"omega": 2 / 3})
+    search = GridSearchCV(est, {"rho": [0.01, 0.05, 0.1]}, scoring=scorer, cv=2)
+    search.fit(pendulum.X_train, pendulum.y_train)
+    assert search.best_params_["rho"] in (0.01, 0.05, 0.1)
+    assert search.best_score_ == pytest.approx(-theta_error(
+        search.best_estimator_.theta_, {"omega": 2 / 3}), abs=1e-12) or search.refit
+    # scikit-learn's own scorers need 2-D y: flatten the (n, steps, states) targets
+    y_flat = pendulum.y_train.reshape(len(pendulum.y_train), -1)
+    scores = cross_validate(est, pendulum.X_train, y_flat, cv=2,
+                            scoring={"theta": scorer, "mse": "neg_mean_squared_error"})
+    assert np.all(np.isfinite(scores["test_mse"]))
+    assert np.all(scores["test_theta"] <= 0)
+    _, valid = validation_curve(est, pendulum.X_train, pendulum.y_train, param_name="rho",
+                                param_range=[0.01, 0.1], cv=2, scoring=scorer)
+    assert valid.shape == (2, 2)
+
+
+def test_gridsearch_parallel(pendulum):
+    est = HybridRegressor(science=pendulum_f, dt=0.2, **{**FAST, "max_iter": 5})
+    search = GridSearchCV(est, {"rho": [0.01, 0.1]}, cv=2, n_jobs=2,
+                          scoring=make_theta_scorer({"omega": 2 / 3})).fit(
+        pendulum.X_train, pendulum.y_train)
+    assert np.isfinite(search.best_score_)
+
+
+def test_determinism(pendulum):
+    X, y = pendulum.X_train, pendulum.y_train
+    a = HybridRegressor(science=pendulum_f, dt=0.2, **FAST).fit(X, y)
+    torch.manual_seed(123)  # the global RNG must not matter
+    b = HybridRegressor(science=pendulum_f, dt=0.2, **FAST).fit(X, y)
+    c = HybridRegressor(science=pendulum_f, dt=0.2, **{**FAST, "random_state": 1}).fit(X, y)
+    assert a.theta_ == b.theta_
+    np.testing.assert_array_equal(a.predict(X), b.predict(X))
+    assert a.theta_ != c.theta_
+    state = torch.random.get_rng_state()
+    HybridRegressor(science=pendulum_f, dt=0.2, **FAST).fit(X, y)
+    assert torch.equal(state, torch.random.get_rng_state())  # global RNG untouched
+
+
+def test_clone_pickle_and_inputs_not_mutated(pendulum):
+    X, y = pendulum.X_train.copy(), pendulum.y_train.copy()
+    init = {"omega": 0.55}
+    bounds = {"omega": (0.1, 2.0)}
+    est = HybridRegressor(science=pendulum_f, dt=0.2, theta_init=init, theta_bounds=bounds,
+                          **FAST)
+    fitted = clone(est).fit(X, y)
+    np.testing.assert_array_equal(X, pendulum.X_train)
+    np.testing.assert_array_equal(y, pendulum.y_train)
+    assert init == {"omega": 0.55} and bounds == {"omega": (0.1, 2.0)}
+    assert not hasattr(est, "theta_")
+    restored = pickle.loads(pickle.dumps(fitted))
+    np.testing.assert_allclose(restored.predict(X), fitted.predict(X))
+
+
+def test_bounds_fixed_and_vector_parameters():
+    rng = np.random.default_rng(0)
+    X = rng.normal(size=(40, 3))
+    y = X @ np.array([1.0, -2.0, 0.5]) + 3.0
+
+    def linear(x, w=[0.0, 0.0, 0.0], c=1.0):
+        return x @ w + c
+
+    est = HybridRegressor(science=linear, structure="additive", method="erm", lr=5e-2,
+                          theta_fixed=["c"], theta_bounds={"w": (-1.5, 1.5)},
+                          **{**FAST, "max_iter": 60}).fit(X, y)
+    assert est.theta_["c"] == 1.0
+    assert est.theta_["w"].shape == (3,)
+    assert np.all(np.abs(est.history_["theta"]["w"]) < 1.5)
+
+
+def test_compose_structure_with_freg_reduction():
+    rng = np.random.default_rng(0)
+    X = rng.uniform(0, 1, size=(30, 4))
+    y = np.tanh(2.0 * X[:, :2])  # y depends on z = a * x[:, :2]
+
+    def half(x, a=1.0):
+        return a * x[:, :2]
+
+    def wide(x, a=1.0):  # science output larger than y: f-reg learns a linear map A
+        return a * x
+
+    for science in (half, wide):
+        est = HybridRegressor(science=science, structure="compose", method="f-reg",
+                              **FAST).fit(X, y)
+        assert est.predict(X).shape == y.shape
+        assert (est.model_.reduction is None) == (science is half)
+
+
+def test_callable_structure_nested():
+    rng = np.random.default_rng(1)
+    X = rng.uniform(-1, 1, size=(30, 2))
+    y = np.sin(1.5 * X[:, :1]) * 2.0
+
+    def scaled_sin(x, k=1.0):
+        return torch.sin(k * x[:, :1])
+
+    class Nets(torch.nn.Module):
+        def __init__(self):
+            super().__init__()
+            self.inner = torch.nn.Linear(2, 1)
+            self.outer = torch.nn.Linear(2, 1)
+
+    def nested(x, f, g):
+        return g.outer(torch.cat([x[:, :1], f(x) * g.inner(x)], dim=-1))
+
+    est = HybridRegressor(science=scaled_sin, structure=nested, method="sam",
+                          **{**FAST, "residual": Nets}).fit(X, y)
+    assert est.predict(X).shape == (30, 1)
+
+
+def test_forced_partially_observed_ode():
+    """A damped oscillator driven by u(t), observing only the position."""
+    rng = np.random.default_rng(0)
+    n, m, dt = 8, 10, 0.1
+    t = np.arange(m + 1) * dt
+    u = np.sin(2 * np.pi * rng.uniform(0.5, 1.5, (n, 1)) * t)[:, :, None]
+    x0 = rng.normal(size=(n, 2))
+    X = pack_inputs(x0, u)
+
+    def oscillator(v, u, k=1.0):
+        return torch.stack([v[:, 1], -k * v[:, 0] + u[:, 0]], dim=-1)
+
+    y = rng.normal(size=(n, m, 1))
+    est = HybridRegressor(science=oscillator, dt=dt, n_inputs=1, observed=[0], **FAST).fit(X, y)
+    assert est.predict(X).shape == (n, m, 1)
+    for interp in ("linear", "zoh", "fft"):
+        HybridRegressor(science=oscillator, dt=dt, n_inputs=1, observed=[0], input_interp=interp,
+                        **{**FAST, "max_iter": 2}).fit(X, y)
+    with pytest.raises(ValueError, match="expecting 13 features"):
+        est.predict(X[:, :-1])
+
+
+def test_rk4_matches_dopri5_and_closed_form():
+    """Output-aligned RK4 against torchdiffeq's dopri5 and against exp(-t)."""
+    x0 = torch.tensor([[1.0, 0.5], [-0.3, 2.0]], dtype=torch.float64)
+
+    def rhs(v, u):
+        return torch.stack([v[:, 1], -(2 * torch.pi * 2 / 3) ** 2 * torch.sin(v[:, 0])], -1)
+
+    dopri = integrate(rhs, x0, 10, 0.2, solver="dopri5",
+                      solver_options={"rtol": 1e-11, "atol": 1e-11})
+    err8 = (integrate(rhs, x0, 10, 0.2, n_substeps=8) - dopri).abs().max()
+    err16 = (integrate(rhs, x0, 10, 0.2, n_substeps=16) - dopri).abs().max()
+    assert err8 < 5e-5
+    assert 12 < err8 / err16 < 20  # fourth order: halving the step divides the error by 16
+    decay = integrate(lambda v, u: -v, x0, 5, 0.5, n_substeps=4)
+    expected = x0[:, None] * torch.exp(-0.5 * torch.arange(1, 6, dtype=torch.float64))[None, :, None]
+    torch.testing.assert_close(decay, expected, atol=2e-5, rtol=0)
+
+
+def test_dopri5_solver_fits(pendulum):
+    est = HybridRegressor(science=pendulum_f, dt=0.2, solver="dopri5",
+                          **{**FAST, "max_iter": 3}).fit(pendulum.X_train, pendulum.y_train)
+    assert est.predict(pendulum.X_test).shape == pendulum.y_test.shape
+
+
+def test_reaction_diffusion_field_state():
+    rng = np.random.default_rng(0)
+    X = rng.uniform(size=(3, 2, 8, 8))
+    y = rng.uniform(size=(3, 2, 2, 8, 8))
+
+    def diffusion(s, a=1e-3, b=1e-3):
+        lap = (torch.roll(s, 1, -1) + torch.roll(s, -1, -1) + torch.roll(s, 1, -2)
+               + torch.roll(s, -1, -2) - 4 * s)
+        return torch.stack([a * lap[:, 0], b * lap[:, 1]], dim=1) * 64
+
+    est = HybridRegressor(science=diffusion, dt=0.1, method="fsam",
+                          **{**FAST, "max_iter": 3, "residual": "cnn"}).fit(X, y)
+    assert est.predict(X).shape == y.shape
+
+
+def test_verbose_progress_bar(pendulum, capsys):
+    HybridRegressor(science=pendulum_f, dt=0.2, verbose=True, **{**FAST, "max_iter": 3}).fit(
+        pendulum.X_train, pendulum.y_train)
+    assert "omega" in capsys.readouterr().err
+
+
+def test_minibatch(pendulum):
+    est = HybridRegressor(science=pendulum_f, dt=0.2, batch_size=5, **FAST)
+    est.fit(pendulum.X_train, pendulum.y_train)
+    assert np.isfinite(est.history_["loss"]).all()

@@ -1,0 +1,191 @@
+"""Update rules of the training methods against hand computations on a tiny model."""
+
+import copy
+
+import numpy as np
+import pytest
+import torch
+from torch import nn
+
+from sklearn_hybrid.engine import TrainConfig, train
+from sklearn_hybrid.methods import (METHODS, asam_perturbation, fsam_perturbation, make_method,
+                                    sam_perturbation)
+from sklearn_hybrid.science import ScienceModel
+from sklearn_hybrid.structures import HybridModule, make_structure
+
+
+def _grads():
+    g = [torch.tensor([[0.3, -1.2], [2.0, 0.1]]), torch.tensor([0.5, -0.4])]
+    p = [torch.tensor([[1.0, -2.0], [0.5, 0.0]]), torch.tensor([0.1, 0.2])]
+    return p, g
+
+
+def _flat(ts):
+    return torch.cat([t.reshape(-1) for t in ts])
+
+
+def test_sam_formula():
+    _, g = _grads()
+    eps = sam_perturbation(g, 0.1)
+    flat = _flat(g)
+    torch.testing.assert_close(_flat(eps), 0.1 * flat / flat.norm())
+    assert torch.isclose(_flat(eps).norm(), torch.tensor(0.1))
+
+
+def test_asam_formula_weights_scaled_biases_not():
+    p, g = _grads()
+    eps = asam_perturbation(p, g, 0.5, 0.01, [True, False])
+    t = [p[0].abs() + 0.01, torch.ones_like(p[1])]
+    norm = _flat([ti * gi for ti, gi in zip(t, g)]).norm()
+    expected = [ti * ti * gi * 0.5 / norm for ti, gi in zip(t, g)]
+    torch.testing.assert_close(_flat(eps), _flat(expected))
+
+
+def test_fsam_formula_and_fisher_ball():
+    _, g = _grads()
+    rho, eta = 0.2, 1.0
+    eps = fsam_perturbation(g, rho, eta)
+    flat = _flat(g)
+    fisher = 1 + eta * flat**2
+    expected = rho * (flat / fisher) / torch.sqrt((flat**2 / fisher).sum())
+    torch.testing.assert_close(_flat(eps), expected)
+    # the perturbation lies on the boundary of the Fisher ball: eps^T F eps = rho^2
+    assert torch.isclose((_flat(eps) ** 2 * fisher).sum(), torch.tensor(rho**2))
+
+
+@pytest.mark.parametrize("rule", ["sam", "asam", "fsam"])
+def test_batched_rules_equal_per_member(rule):
+    torch.manual_seed(0)
+    params = [torch.randn(3, 4, 2), torch.randn(3, 4)]
+    grads = [torch.randn(3, 4, 2), torch.randn(3, 4)]
+    rho = torch.tensor([0.01, 0.1, 1.0])
+
+    def apply(p, g, r, n):
+        if rule == "sam":
+            return sam_perturbation(g, r, n_batch_dims=n)
+        if rule == "asam":
+            return asam_perturbation(p, g, r, 0.01, [True, False], n_batch_dims=n)
+        return fsam_perturbation(g, r, 1.0, n_batch_dims=n)
+
+    batched = apply(params, grads, rho, 1)
+    for k in range(3):
+        single = apply([t[k] for t in params], [t[k] for t in grads], float(rho[k]), 0)
+        for b, s in zip(batched, single):
+            torch.testing.assert_close(b[k], s)
+
+
+def _science(x, a=0.7):
+    return a * x
+
+
+def _tiny_model(record):
+    """y = a*x + g(x), with a callable structure that records parameters at each call."""
+    science = ScienceModel(_science, dtype=torch.float64)
+    torch.manual_seed(1)
+    residual = nn.Sequential(nn.Linear(1, 3), nn.Tanh(), nn.Linear(3, 1)).double()
+
+    def structure(x, f, g):
+        record.append((f.values()["a"].detach().clone(),
+                       [p.detach().clone() for p in g.parameters()]))
+        return f(x) + g(x)
+
+    s = make_structure(structure)
+    s.setup(np.zeros((4, 1)), (1,))
+    return HybridModule(science, residual, s)
+
+
+def _data():
+    x = torch.linspace(-1, 1, 8, dtype=torch.float64)[:, None]
+    return x, 1.3 * x + torch.sin(3 * x)
+
+
+@pytest.mark.parametrize("name", ["sam", "asam", "fsam"])
+@pytest.mark.parametrize("perturb", ["residual", "all"])
+def test_one_sam_step_matches_hand_computation(name, perturb):
+    record = []
+    model = _tiny_model(record)
+    reference = copy.deepcopy(model)
+    x, y = _data()
+    method = make_method(name, rho=0.3)
+    config = TrainConfig(lr=1e-2, max_iter=1, weight_decay=0.0, perturb=perturb)
+    train(model, method, (x,), y, config, torch.Generator().manual_seed(0))
+
+    # by hand: gradient at the start, perturbation of phi (and theta for "all")
+    theta = [reference.science.raw["a"]]
+    phi = list(reference.residual.parameters())
+    perturbed = phi + theta if perturb == "all" else phi
+    loss = ((reference(x)[0] - y) ** 2).mean()
+    grads = torch.autograd.grad(loss, perturbed)
+    is_weight = ["weight" in n for n, _ in reference.residual.named_parameters()] + [False]
+    eps = method.perturbation(perturbed, list(grads), is_weight[: len(perturbed)])
+
+    start_a, start_phi = record[0]
+    pert_a, pert_phi = record[1]
+    for p0, p1, e in zip(start_phi, pert_phi, eps):
+        torch.testing.assert_close(p1, p0 + e)
+    if perturb == "residual":
+        assert torch.equal(pert_a, start_a)  # theta untouched by the perturbation
+    else:
+        assert not torch.equal(pert_a, start_a)
+
+    # gradient of theta and phi at the perturbed point, then one Adam step from the start
+    saved = [p.detach().clone() for p in perturbed]
+    with torch.no_grad():
+        for p, e in zip(perturbed, eps):
+            p.add_(e)
+    loss_pert = ((reference(x)[0] - y) ** 2).mean()
+    all_params = theta + phi
+    g_pert = torch.autograd.grad(loss_pert, all_params)
+    with torch.no_grad():
+        for p, s in zip(perturbed, saved):
+            p.copy_(s)
+    g_start = torch.autograd.grad(((reference(x)[0] - y) ** 2).mean(), all_params)
+    assert any(not torch.allclose(a, b) for a, b in zip(g_pert, g_start))  # the rule matters
+    opt = torch.optim.Adam(all_params, lr=1e-2)
+    for p, g in zip(all_params, g_pert):
+        p.grad = g
+    opt.step()
+    for got, want in zip(model.parameters(), reference.parameters()):
+        torch.testing.assert_close(got, want, rtol=0, atol=1e-12)
+
+
+def test_phi_restored_exactly_before_the_step():
+    """With a perturbation whose removal by subtraction would round, restore is exact."""
+    record = []
+    model = _tiny_model(record)
+    x, y = _data()
+
+    class HugeSAM(type(make_method("sam"))):
+        pass
+
+    method = HugeSAM(rho=1e6)  # eps large: p + eps - eps != p in floating point
+    train(model, method, (x,), y, TrainConfig(lr=1e-30, max_iter=2, weight_decay=0.0),
+          torch.Generator().manual_seed(0))
+    start_phi, third_phi = record[0][1], record[2][1]
+    # the third call starts iteration 2: parameters differ from the start only by a 1e-30 Adam step
+    for p0, p2 in zip(start_phi, third_phi):
+        torch.testing.assert_close(p2, p0, rtol=0, atol=1e-25)
+
+
+def test_registry_and_errors():
+    assert set(METHODS) == {"erm", "p-reg", "f-reg", "sam", "asam", "fsam"}
+    with pytest.raises(ValueError, match="Unknown method 'adam'.*'erm'"):
+        make_method("adam")
+    for bad in (0, -0.1, float("nan"), "big"):
+        with pytest.raises(ValueError, match="rho must be a positive number"):
+            make_method("sam", rho=bad)
+    with pytest.raises(ValueError, match="lam must be a positive"):
+        make_method("p-reg", lam=0)
+    assert make_method("fsam", eta=2.0).eta == 2.0
+    assert make_method("asam").eta == 0.01
+
+
+def test_penalties():
+    record = []
+    model = _tiny_model(record)
+    p_reg = make_method("p-reg", lam=0.5)
+    expected = 0.5 * sum(p.pow(2).sum() for p in model.residual.parameters())
+    torch.testing.assert_close(p_reg.penalty(model, None, {}), expected)
+    f_reg = make_method("f-reg", lam=0.5)
+    with pytest.raises(ValueError, match="f-reg.*user-supplied composition"):
+        f_reg.penalty(model, torch.zeros(2, 1), {})
