@@ -238,15 +238,17 @@ class HybridRegressor(RegressorMixin, BaseEstimator):
         self.n_iter_ = self.max_iter
         return self
 
-    def _forward(self, X):
+    def _forward(self, X, use_residual=True, trace=False):
         check_is_fitted(self)
         X = np.require(validate_data(self, X, reset=False, allow_nd=True, dtype=np.float64),
                        requirements="W")
-        dtype = _DTYPES[self.dtype]
+        model = self.model_
         with _torch_threads(self.n_threads), torch.no_grad():
-            inputs = self.model_.structure.tensors(X, dtype)
-            pred, extras = self.model_(*inputs)
-        return X, pred, extras
+            inputs = model.structure.tensors(X, _DTYPES[self.dtype])
+            pred, extras = model.structure.forward(model, *inputs, use_residual=use_residual)
+            if trace:
+                return model.structure.trace(model, inputs, pred, extras)
+        return pred.cpu().numpy().astype(np.float64).reshape(len(X), *self.y_shape_)
 
     def predict(self, X):
         """Predict targets with the fitted hybrid model.
@@ -260,8 +262,46 @@ class HybridRegressor(RegressorMixin, BaseEstimator):
         -------
         ndarray of shape (n_samples, *y.shape[1:])
         """
-        X, pred, _ = self._forward(X)
-        return pred.cpu().numpy().astype(np.float64).reshape(len(X), *self.y_shape_)
+        return self._forward(X)
+
+    def predict_science(self, X):
+        """Predict with the science part alone (fitted theta, network switched off).
+
+        For ``"ode"`` the science model is integrated without g_phi; for
+        ``"additive"`` it is f_theta(x); for ``"compose"`` it is f_theta(x)
+        (or A f_theta(x) after ``method="f-reg"``) where that has y's shape.
+
+        Parameters
+        ----------
+        X : array-like of shape (n_samples, ...)
+            Inputs, shaped as in ``fit``.
+
+        Returns
+        -------
+        ndarray of shape (n_samples, *y.shape[1:])
+        """
+        return self._forward(X, use_residual=False)
+
+    def residual_trace(self, X):
+        """What the network contributes, and where, along the predictions for ``X``.
+
+        Parameters
+        ----------
+        X : array-like of shape (n_samples, ...)
+            Inputs, shaped as in ``fit``.
+
+        Returns
+        -------
+        dict of ndarray
+            ``"points"``: where g_phi acts (for ``"ode"`` the predicted states at
+            time 0 and every output time, stacked; otherwise ``X``);
+            ``"inputs"``: the measured inputs at those points (forced ODEs) or
+            None; ``"residual"``: the network's contribution there (g_phi(v)
+            for ``"ode"`` and ``"additive"``, prediction minus science-only
+            prediction for ``"compose"``).
+        """
+        out = self._forward(X, trace=True)
+        return {k: None if v is None else v.cpu().numpy().astype(np.float64) for k, v in out.items()}
 
     def score(self, X, y, sample_weight=None):
         """R^2 of the prediction over all output values (targets flattened per sample)."""

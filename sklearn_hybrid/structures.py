@@ -175,9 +175,11 @@ class OdeStructure:
         ins = (tuple(self.state_shape),) + (((self.n_inputs,),) if self.n_inputs else ())
         return ins, tuple(self.state_shape)
 
-    def forward(self, model, x0, u_fine=None):
+    def forward(self, model, x0, u_fine=None, use_residual=True):
         def rhs(v, u):
             args = self._args(v, u)
+            if not use_residual:
+                return model.science(*args)
             return model.science(*args) + model.residual(*args)
 
         states = integrate(rhs, x0, self.n_steps, self.dt, n_substeps=self.n_substeps,
@@ -198,6 +200,13 @@ class OdeStructure:
     def functional_penalty(self, model, pred, extras):
         g = self.residual_values(model, extras)
         return g.pow(2).reshape(g.shape[0] * g.shape[1], -1).sum(-1).mean()
+
+    def trace(self, model, inputs, pred, extras):
+        states = extras["states"]
+        u = extras["u_fine"]
+        return {"points": states.reshape(-1, *self.state_shape),
+                "inputs": None if u is None else u[:, :: 2 * self.n_substeps].reshape(-1, self.n_inputs),
+                "residual": self.residual_values(model, extras).reshape(-1, *self.state_shape)}
 
     def make_reduction(self, dtype):
         return None
@@ -223,9 +232,24 @@ class ComposeStructure:
     def residual_shapes(self):
         return (tuple(self.x_shape), self.z_shape), self.y_shape
 
-    def forward(self, model, x):
+    def forward(self, model, x, use_residual=True):
         z = model.science(x)
-        return model.residual(x, z).reshape(len(x), *self.y_shape), {"z": z}
+        if use_residual:
+            return model.residual(x, z).reshape(len(x), *self.y_shape), {"z": z}
+        if model.reduction is not None:
+            return model.reduction(z.reshape(len(x), -1)).reshape(len(x), *self.y_shape), {"z": z}
+        if self.z_shape != self.y_shape:
+            raise ValueError(
+                f"The science output has shape {self.z_shape} and y has {self.y_shape}: without "
+                "the linear map A of method='f-reg' there is no science-only prediction of y."
+            )
+        return z, {"z": z}
+
+    def trace(self, model, inputs, pred, extras):
+        science_only, _ = self.forward(model, *inputs, use_residual=False)
+        n = len(pred)
+        return {"points": inputs[0], "inputs": None,
+                "residual": (pred - science_only).reshape(n, *self.y_shape)}
 
     def make_reduction(self, dtype):
         """The learnable linear map A of f-reg (identity when z and y share a shape)."""
@@ -251,9 +275,14 @@ class AdditiveStructure(ComposeStructure):
     def residual_shapes(self):
         return (tuple(self.x_shape),), self.y_shape
 
-    def forward(self, model, x):
+    def forward(self, model, x, use_residual=True):
+        if not use_residual:
+            return model.science(x), {}
         g = model.residual(x).reshape(len(x), *self.y_shape)
         return model.science(x) + g, {"g": g}
+
+    def trace(self, model, inputs, pred, extras):
+        return {"points": inputs[0], "inputs": None, "residual": extras["g"]}
 
     def make_reduction(self, dtype):
         return None
@@ -276,8 +305,13 @@ class CallableStructure(ComposeStructure):
     def residual_shapes(self):
         return None, None
 
-    def forward(self, model, x):
+    def forward(self, model, x, use_residual=True):
+        if not use_residual:
+            raise ValueError("A user-supplied composition has no science-only prediction.")
         return self.func(x, model.science, model.residual).reshape(len(x), *self.y_shape), {}
+
+    def trace(self, model, inputs, pred, extras):
+        raise ValueError("A user-supplied composition does not say where its network acts.")
 
     def functional_penalty(self, model, pred, extras):
         raise ValueError(

@@ -226,3 +226,18 @@ def test_minibatch(pendulum):
     est = HybridRegressor(science=pendulum_f, dt=0.2, batch_size=5, **FAST)
     est.fit(pendulum.X_train, pendulum.y_train)
     assert np.isfinite(est.history_["loss"]).all()
+
+
+def test_predict_science_and_residual_trace(pendulum):
+    est = HybridRegressor(science=pendulum_f, dt=0.2, **FAST).fit(pendulum.X_train, pendulum.y_train)
+    science_only = est.predict_science(pendulum.X_test)
+    assert science_only.shape == pendulum.y_test.shape
+    assert not np.allclose(science_only, est.predict(pendulum.X_test))
+    trace = est.residual_trace(pendulum.X_test)
+    n, m = pendulum.y_test.shape[:2]
+    assert trace["points"].shape == (n * (m + 1), 2) and trace["inputs"] is None
+    g = est.residual_(torch.as_tensor(trace["points"], dtype=torch.float32)).detach().numpy()
+    np.testing.assert_allclose(trace["residual"], g, rtol=1e-4, atol=1e-6)
+    # the traced states are the predicted trajectory
+    np.testing.assert_allclose(trace["points"].reshape(n, m + 1, 2)[:, 1:],
+                               est.predict(pendulum.X_test), rtol=1e-6)
