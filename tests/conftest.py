@@ -5,6 +5,10 @@ from pathlib import Path
 
 import pytest
 
+# scikit-learn's array-API check (numpy inputs with dispatch on) runs only when scipy's array-API
+# mode is on, which must be decided before scipy is imported.
+os.environ.setdefault("SCIPY_ARRAY_API", "1")
+
 # The measured files live beside the repository (never inside it): <repo>/../shared/data.
 SHARED_DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
 

@@ -241,3 +241,22 @@ def test_predict_science_and_residual_trace(pendulum):
     # the traced states are the predicted trajectory
     np.testing.assert_allclose(trace["points"].reshape(n, m + 1, 2)[:, 1:],
                                est.predict(pendulum.X_test), rtol=1e-6)
+
+
+def test_pipeline_and_theta_scorer_through_it():
+    from sklearn.pipeline import make_pipeline
+    from sklearn.preprocessing import FunctionTransformer
+
+    rng = np.random.default_rng(0)
+    X = rng.uniform(-1, 1, size=(30, 2))
+    y = 2.0 * np.exp(X[:, 0]) + 0.3 * X[:, 1] ** 2
+
+    def scaled(x, a=1.0):
+        return a * x[:, 0]
+
+    pipe = make_pipeline(FunctionTransformer(np.exp),
+                         HybridRegressor(science=scaled, structure="additive", **FAST))
+    search = GridSearchCV(pipe, {"hybridregressor__lr": [1e-3, 1e-2]}, cv=2,
+                          scoring=make_theta_scorer({"a": 2.0})).fit(X, y)
+    assert search.best_score_ <= 0
+    assert pipe.fit(X, y).predict(X).shape == (30,)
