@@ -10,15 +10,10 @@ from __future__ import annotations
 import time
 
 import numpy as np
-import torch
 
 from . import HybridRegressor, theta_error
 from .datasets import make_pendulum
-
-
-def pendulum_f(v, omega=0.5):
-    """Undamped pendulum: d/dt [angle, velocity] = [velocity, -(2 pi omega)^2 sin(angle)]."""
-    return torch.stack([v[:, 1], -(2 * torch.pi * omega) ** 2 * torch.sin(v[:, 0])], dim=-1)
+from .models import pendulum_f
 
 
 def main(max_iter: int = 1000, seed: int = 0) -> dict:
