@@ -29,7 +29,7 @@ from sklearn_hybrid.models import duffing_f
 
 torch.set_num_threads(1)
 FAST = os.environ.get("SKLEARN_HYBRID_FAST", "0") == "1"  # tiny run for tests and doc builds
-N_TRAIN, MAX_ITER = (10, 10) if FAST else (100, 1000)
+N_TRAIN, MAX_ITER = (10, 10) if FAST else (100, 1500)
 
 data = make_duffing(N_TRAIN, N_TRAIN, N_TRAIN, random_state=0)
 

@@ -1,7 +1,7 @@
 """
-====================================================
+======================================================
 Light tunnel: colour response of camera and polarisers
-====================================================
+======================================================
 
 The Causal Chambers light tunnel (Gamella, Peters and Buehlmann, 2025) shines
 red, green and blue LEDs through two linear polarisers onto a camera.  The

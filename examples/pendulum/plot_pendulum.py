@@ -31,7 +31,7 @@ from sklearn_hybrid.models import pendulum_f
 
 torch.set_num_threads(1)
 FAST = os.environ.get("SKLEARN_HYBRID_FAST", "0") == "1"  # tiny run for tests and doc builds
-N_TRAIN, MAX_ITER = (8, 10) if FAST else (25, 1000)
+N_TRAIN, MAX_ITER = (8, 10) if FAST else (25, 2000)
 
 data = make_pendulum(N_TRAIN, N_TRAIN, N_TRAIN, random_state=0)
 print(data.DESCR)

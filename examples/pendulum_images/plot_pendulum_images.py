@@ -16,9 +16,10 @@ draws one image per predicted angle.  All networks live in one module
 (:class:`~sklearn_hybrid.models.PendulumImagesNet`), built by the factory
 passed as ``residual``.
 
-The paper's decoder (hidden layers of 1152 units and 576 / 288 channels) and
-20,000 iterations are out of reach of a laptop CPU; this example uses a much
-smaller decoder and few iterations, so expect a rough fit.
+The paper's decoder (hidden layers of 1152 units and 576 / 288 channels), its
+48-pixel images and 20,000 iterations are out of reach of a laptop CPU; this
+example uses 32-pixel images, a much smaller decoder and 250 iterations (about
+ten minutes), so expect a rough fit.
 """
 
 # %%
@@ -43,7 +44,7 @@ if FAST:
     sizes = dict(latent_dim=2, encoder_channels=(4, 8), encoder_hidden=16, ode_hidden=(16, 16),
                  fc_hidden=(16,), conv_channels=(4,))
 else:
-    N_TRAIN, SIZE, M_X, MAX_ITER = 200, 48, 10, 400
+    N_TRAIN, SIZE, M_X, MAX_ITER = 200, 32, 10, 250
     sizes = dict(latent_dim=4, encoder_channels=(16, 32, 32), encoder_hidden=128,
                  fc_hidden=(256, 256), conv_channels=(16, 8))
 

@@ -39,7 +39,7 @@ from sklearn_hybrid.models import wind_tunnel_f, wind_tunnel_net
 
 torch.set_num_threads(1)
 FAST = os.environ.get("SKLEARN_HYBRID_FAST", "0") == "1"  # tiny run for tests and doc builds
-MAX_ITER = 10 if FAST else 1500
+MAX_ITER = 10 if FAST else 2000
 
 try:
     data = fetch_wind_tunnel(download_if_missing=False)
