@@ -134,6 +134,17 @@ def test_light_tunnel_colour_on_known_inputs():
     assert light_tunnel_f(white).shape == (1, 3, 100, 100)
 
 
+def test_fitted_light_tunnel_estimator_pickles():
+    import pickle
+
+    d = make_light_tunnel_simulated(n_samples=6, image_size=8, random_state=0)
+    est = HybridRegressor(science=make_light_tunnel_f(8), structure="compose",
+                          residual=partial(light_tunnel_unet, channels=(2, 4)), max_iter=1,
+                          random_state=0).fit(d.X, d.images)
+    again = pickle.loads(pickle.dumps(est))
+    np.testing.assert_allclose(again.predict(d.X), est.predict(d.X), rtol=1e-6)
+
+
 def test_make_light_tunnel_f_checks_the_image_size():
     assert make_light_tunnel_f(24)(torch.zeros(2, 5)).shape == (2, 3, 24, 24)
     with pytest.raises(ValueError, match="image_size"):

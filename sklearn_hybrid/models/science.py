@@ -204,6 +204,25 @@ def light_tunnel_colour(x: torch.Tensor, w, t_p, t_c, exposure: float = EXPOSURE
     return torch.clamp(colour, max=1.0)
 
 
+class _LightTunnelF:
+    """F3 in the hexagon for one image size; a class so that fitted estimators pickle."""
+
+    def __init__(self, image_size: int, exposure: float):
+        self.image_size, self.exposure = image_size, exposure
+        self.__name__ = "light_tunnel_f"
+        self.__doc__ = (f"Model F3 rendered into the hexagon of {image_size}-pixel images "
+                        "(see make_light_tunnel_f).")
+
+    def __call__(self, x: torch.Tensor, w=(1.0, 1.0, 1.0), t_p=(0.5, 0.5, 0.5),
+                 t_c=(0.1, 0.1, 0.1)) -> torch.Tensor:
+        colour = light_tunnel_colour(x, w, t_p, t_c, self.exposure)
+        mask = _hexagon(self.image_size).to(dtype=x.dtype, device=x.device)
+        return colour[:, :, None, None] * mask
+
+    def __repr__(self) -> str:
+        return f"make_light_tunnel_f(image_size={self.image_size}, exposure={self.exposure})"
+
+
 def make_light_tunnel_f(image_size: int = 100, exposure: float = EXPOSURE_F3) -> Callable:
     """Model F3 rendered into the light-source hexagon, for images of a given size.
 
@@ -225,17 +244,7 @@ def make_light_tunnel_f(image_size: int = 100, exposure: float = EXPOSURE_F3) ->
     """
     if isinstance(image_size, bool) or not isinstance(image_size, (int, np.integer)) or image_size < 8:
         raise ValueError(f"image_size must be an integer >= 8, got {image_size!r}.")
-    image_size = int(image_size)
-
-    def light_tunnel_f(x: torch.Tensor, w=(1.0, 1.0, 1.0), t_p=(0.5, 0.5, 0.5),
-                       t_c=(0.1, 0.1, 0.1)) -> torch.Tensor:
-        colour = light_tunnel_colour(x, w, t_p, t_c, exposure)
-        mask = _hexagon(image_size).to(dtype=x.dtype, device=x.device)
-        return colour[:, :, None, None] * mask
-
-    light_tunnel_f.__doc__ = (f"Model F3 rendered into the hexagon of {image_size}-pixel images "
-                              "(see make_light_tunnel_f).")
-    return light_tunnel_f
+    return _LightTunnelF(int(image_size), float(exposure))
 
 
 light_tunnel_f = make_light_tunnel_f(100)
