@@ -1,0 +1,215 @@
+"""Classical grey-box baselines: simulation-error minimisation with scipy's least_squares (TRF).
+
+What an engineer would do without a neural network, reproduced here rather than taken on trust
+(reference figures: shared/reference/sysid_baselines.md):
+
+* Silverbox, ``m y'' + d y' + k y (+ k3 y^3) (+ k2 y^2) = u - u0``, integrated by RK4 (4 steps per
+  sample unless stated) with the input rebuilt between samples by FFT (band-limited), cubic
+  spline, linear interpolation or zero-order hold; the 2-value initial state of the training
+  record is fitted with the parameters; each test record starts from the state fitted on its
+  first 50 samples and the RMSE (mV) is taken on the rest. Plus the discrete ARX(2,2) least squares.
+* Cascaded tanks, Torricelli model plain and with overflow (tank 1 capped at x1max, a fraction k5
+  of its overflow into tank 2, tank 2 capped at 10); validation state fitted on yVal[:5].
+
+The simulators are compiled with numba (full-length simulations of 65,000 samples, hundreds of
+times). Usage: python benchmarks/bench_greybox.py
+"""
+
+from __future__ import annotations
+
+import time
+
+import numba
+import numpy as np
+from scipy.optimize import least_squares
+
+from _common import write_results
+from sklearn_hybrid.datasets import fetch_cascaded_tanks, fetch_silverbox
+from sklearn_hybrid.integrate import upsample_inputs
+
+
+# ------------------------------------------------------------------------------ Silverbox
+@numba.njit(cache=True)
+def _silverbox_sim(p, x0, ufine, n_sub):
+    """p = (w2, c, b, k3, k2, u0) in sample time; ufine on a grid of half RK4 steps."""
+    w2, c, b, k3, k2, u0 = p[0], p[1], p[2], p[3], p[4], p[5]
+    n = (len(ufine) - 1) // (2 * n_sub)
+    h = 1.0 / n_sub
+    y, v = x0[0], x0[1]
+    out = np.empty(n + 1)
+    out[0] = y
+    s = 0
+    for i in range(n):
+        for _ in range(n_sub):
+            ua, um, ub = ufine[2 * s] - u0, ufine[2 * s + 1] - u0, ufine[2 * s + 2] - u0
+            a1 = b * ua - w2 * y - c * v - k3 * y**3 - k2 * y**2
+            y2, v2 = y + 0.5 * h * v, v + 0.5 * h * a1
+            a2 = b * um - w2 * y2 - c * v2 - k3 * y2**3 - k2 * y2**2
+            y3, v3 = y + 0.5 * h * v2, v + 0.5 * h * a2
+            a3 = b * um - w2 * y3 - c * v3 - k3 * y3**3 - k2 * y3**2
+            y4, v4 = y + h * v3, v + h * a3
+            a4 = b * ub - w2 * y4 - c * v4 - k3 * y4**3 - k2 * y4**2
+            y, v = y + h / 6 * (v + 2 * v2 + 2 * v3 + v4), v + h / 6 * (a1 + 2 * a2 + 2 * a3 + a4)
+            s += 1
+        out[i + 1] = y
+    return out
+
+
+SB_NAMES = ("w2", "c", "b", "k3", "k2", "u0")
+SB_START = np.array([0.5, 0.07, 0.5, 0.0, 0.0, 0.0])
+
+
+def _fit_silverbox(data, interp, free, n_sub=4):
+    """Fit the parameters in ``free`` and the training initial state; return parameters and RMSEs."""
+    y, u = data.y_train, data.u_train
+    ufine = upsample_inputs(u[None, :, None], 2 * n_sub, interp)[0, :, 0]
+    idx = [SB_NAMES.index(k) for k in free]
+    p = SB_START.copy()
+
+    def resid(z):
+        p[idx] = z[:-2]
+        return _silverbox_sim(p, z[-2:], ufine, n_sub) - y
+
+    z0 = np.concatenate([p[idx], [y[0], y[1] - y[0]]])
+    res = least_squares(resid, z0, method="trf", x_scale="jac")
+    p[idx] = res.x[:-2]
+    out = {"train": 1e3 * np.sqrt(np.mean(res.fun**2))}
+    n0 = data.n_init
+    for name in ("test_multisine", "test_arrow_full", "test_arrow_no_extrapolation"):
+        yt, ut = data[f"y_{name}"], data[f"u_{name}"]
+        uf = upsample_inputs(ut[None, :, None], 2 * n_sub, interp)[0, :, 0]
+        head = uf[: 2 * n_sub * (n0 - 1) + 1]
+        x0 = least_squares(lambda x: _silverbox_sim(p, x, head, n_sub) - yt[:n0], [yt[0], yt[1] - yt[0]]).x
+        out[name] = 1e3 * np.sqrt(np.mean((_silverbox_sim(p, x0, uf, n_sub)[n0:] - yt[n0:]) ** 2))
+    fs = data.fs
+    m = 1 / (p[2] * fs**2)  # b = Ts^2 / m
+    phys = {"m": m, "d": p[1] * m * fs, "k": p[0] * m * fs**2, "k3": p[3] * m * fs**2, "k2": p[4] * m * fs**2,
+            "u0_mV": 1e3 * p[5]}
+    return out, phys, res.nfev
+
+
+def _arx_silverbox(data, na=2, nb=2):
+    """ARX(na, nb) with a constant, least squares on one-step errors; simulated free-run."""
+    from scipy.signal import lfilter
+
+    def regressors(y, u):
+        k = max(na, nb)
+        cols = [-y[k - i - 1:len(y) - i - 1] for i in range(na)] + [u[k - i:len(u) - i] for i in range(nb)]
+        return np.column_stack(cols + [np.ones(len(y) - k)]), y[k:]
+
+    A, t = regressors(data.y_train, data.u_train)
+    theta = np.linalg.lstsq(A, t, rcond=None)[0]
+    a, bb, c0 = np.r_[1, theta[:na]], theta[na:na + nb], theta[-1]
+
+    def simulate(u):  # y_k + a1 y_{k-1} + a2 y_{k-2} = b0 u_k + b1 u_{k-1} + c
+        return lfilter(bb, a, u) + lfilter([c0], a, np.ones_like(u))
+
+    out = {"train": 1e3 * np.sqrt(np.mean((simulate(data.u_train) - data.y_train) ** 2))}
+    for name in ("test_multisine", "test_arrow_full", "test_arrow_no_extrapolation"):
+        yt, ut = data[f"y_{name}"], data[f"u_{name}"]
+        out[name] = 1e3 * np.sqrt(np.mean((simulate(ut)[50:] - yt[50:]) ** 2))
+    return out
+
+
+# ------------------------------------------------------------------------------ Cascaded tanks
+@numba.njit(cache=True)
+def _tanks_sim(p, x0, u, n_sub):
+    """p = (k1, k3, k4, k5, x1max, x2max, offset); overflow as a per-step cap (k5 < 0: none)."""
+    k1, k3, k4, k5, x1max, x2max, off = p[0], p[1], p[2], p[3], p[4], p[5], p[6]
+    h = 1.0 / n_sub
+    x1, x2 = x0[0], x0[1]
+    out = np.empty(len(u))
+    out[0] = x2 + off
+    for i in range(len(u) - 1):
+        for j in range(n_sub):
+            ua = u[i] + (u[i + 1] - u[i]) * j / n_sub
+            um = u[i] + (u[i + 1] - u[i]) * (j + 0.5) / n_sub
+            ub = u[i] + (u[i + 1] - u[i]) * (j + 1.0) / n_sub
+            a1 = np.sqrt(max(x1, 0.0))
+            f1, g1 = -k1 * a1 + k4 * ua, k1 * a1 - k3 * np.sqrt(max(x2, 0.0))
+            y1, y2 = x1 + 0.5 * h * f1, x2 + 0.5 * h * g1
+            a2 = np.sqrt(max(y1, 0.0))
+            f2, g2 = -k1 * a2 + k4 * um, k1 * a2 - k3 * np.sqrt(max(y2, 0.0))
+            y1, y2 = x1 + 0.5 * h * f2, x2 + 0.5 * h * g2
+            a3 = np.sqrt(max(y1, 0.0))
+            f3, g3 = -k1 * a3 + k4 * um, k1 * a3 - k3 * np.sqrt(max(y2, 0.0))
+            y1, y2 = x1 + h * f3, x2 + h * g3
+            a4 = np.sqrt(max(y1, 0.0))
+            f4, g4 = -k1 * a4 + k4 * ub, k1 * a4 - k3 * np.sqrt(max(y2, 0.0))
+            x1 = x1 + h / 6 * (f1 + 2 * f2 + 2 * f3 + f4)
+            x2 = x2 + h / 6 * (g1 + 2 * g2 + 2 * g3 + g4)
+            if k5 >= 0.0:
+                spill = max(x1 - x1max, 0.0)
+                x1 -= spill
+                x2 = min(x2 + k5 * spill, x2max)
+        out[i + 1] = x2 + off
+    return out
+
+
+TANK_MODELS = {
+    "plain Torricelli": ((0.05, 0.05, 0.05), (-1.0, 1e9, 1e9, 0.0), 3),
+    "+ overflow": ((0.05, 0.05, 0.05, 0.5, 9.5), (10.0, 0.0), 5),
+    "+ overflow + sensor offset + free tank-2 level": ((0.05, 0.05, 0.05, 0.5, 9.5, 10.0, 0.0), (), 7),
+}
+
+
+def _fit_tanks(data, start, fixed, n_free, n_sub=4):
+    def params(z):
+        return np.array(list(z[:n_free]) + list(fixed))
+
+    def resid(z):
+        return _tanks_sim(params(z), z[n_free:], data.u_est, n_sub) - data.y_est
+
+    z0 = np.array(list(start) + [data.y_est[0], data.y_est[0]])
+    low = [0.0] * 3 + [0.0, 5.0, 5.0, -2.0][:n_free - 3] + [0.0, 0.0]
+    high = [1.0] * 3 + [1.0, 20.0, 20.0, 2.0][:n_free - 3] + [20.0, 20.0]
+    res = least_squares(resid, z0, bounds=(low, high), method="trf", x_scale="jac")
+    p = params(res.x)
+    yv, uv = data.y_val, data.u_val
+    x0 = least_squares(lambda x: _tanks_sim(p, x, uv[:5], n_sub) - yv[:5], [yv[0], yv[0]],
+                       bounds=([0, 0], [20, 20])).x
+    val = np.sqrt(np.mean((_tanks_sim(p, x0, uv, n_sub)[5:] - yv[5:]) ** 2))
+    return {"estimation": float(np.sqrt(np.mean(res.fun**2))), "validation": float(val)}, p
+
+
+def main():
+    start = time.perf_counter()
+    sb = fetch_silverbox()
+    rows = [{"model": "ARX(2,2) least squares (discrete)", "input": "-", **_arx_silverbox(sb)}]
+    configs = [("linear", "fft", ("w2", "c", "b", "u0"), 4), ("linear + cubic", "fft", ("w2", "c", "b", "k3", "u0"), 4),
+               ("linear + cubic", "cubic", ("w2", "c", "b", "k3", "u0"), 4),
+               ("linear + cubic", "linear", ("w2", "c", "b", "k3", "u0"), 4),
+               ("linear + cubic", "zoh", ("w2", "c", "b", "k3", "u0"), 4),
+               ("linear + cubic", "cubic", ("w2", "c", "b", "k3", "u0"), 1),
+               ("linear + cubic + quadratic", "fft", ("w2", "c", "b", "k3", "k2", "u0"), 4)]
+    for model, interp, free, n_sub in configs:
+        t = time.perf_counter()
+        rmse, phys, nfev = _fit_silverbox(sb, interp, free, n_sub)
+        rows.append({"model": model, "input": interp + ("" if n_sub == 4 else f", {n_sub} RK4 step/sample"),
+                     **rmse, "params": phys, "nfev": nfev, "seconds": time.perf_counter() - t})
+        print(rows[-1])
+    tanks = fetch_cascaded_tanks()
+    tank_rows = []
+    for model, (init, fixed, n_free) in TANK_MODELS.items():
+        rmse, p = _fit_tanks(tanks, init, fixed, n_free)
+        tank_rows.append({"model": model, **rmse, "params": p.tolist()})
+        print(tank_rows[-1])
+    md = ["# Grey-box baselines (simulation-error minimisation, scipy least_squares TRF)", "",
+          "## Silverbox (RMSE in mV; test records start from the state fitted on their first 50 samples)", "",
+          "| model | input between samples | train | test multisine | arrow full | arrow no-extrap. | k3/k (V^-2) | u0 (mV) |",
+          "|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        p = r.get("params", {})
+        ratio = f"{p['k3'] / p['k']:.3f}" if p else "-"
+        md.append(f"| {r['model']} | {r['input']} | {r['train']:.3f} | {r['test_multisine']:.3f} | "
+                  f"{r['test_arrow_full']:.3f} | {r['test_arrow_no_extrapolation']:.3f} | {ratio} | "
+                  f"{p.get('u0_mV', float('nan')):.2f} |")
+    md += ["", "## Cascaded tanks (RMSE in the units of y; validation state fitted on yVal[:5])", "",
+           "| model | estimation | validation |", "|---|---|---|"]
+    md += [f"| {r['model']} | {r['estimation']:.3f} | {r['validation']:.3f} |" for r in tank_rows]
+    md += ["", f"Total time {time.perf_counter() - start:.0f} s (numba {numba.__version__})."]
+    print(write_results("greybox", {"silverbox": rows, "tanks": tank_rows}, "\n".join(md)).read_text())
+
+
+if __name__ == "__main__":
+    main()

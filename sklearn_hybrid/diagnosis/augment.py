@@ -1,0 +1,173 @@
+"""Turn terms found by the residual diagnosis into a new science function with new parameters.
+
+The new function calls the original one (with the original parameters) and adds, to the chosen
+output components, ``c * term`` with one new named parameter ``c`` per term. It has a proper
+signature (``inspect.signature`` shows every parameter with its initial value as default), so
+:class:`~sklearn_hybrid.HybridRegressor` reads and estimates the old and the new parameters alike.
+"""
+
+from __future__ import annotations
+
+import inspect
+import re
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any
+
+import numpy as np
+import torch
+
+from ..science import read_signature
+
+__all__ = ["augment_science", "term_to_torch", "parameter_name"]
+
+_FUNCS = {"sin": torch.sin, "cos": torch.cos, "sign": torch.sign}
+
+
+def term_to_torch(term: str, variables: Sequence[str],
+                  term_functions: Mapping[str, Callable] | None = None) -> Callable[[dict], torch.Tensor]:
+    """Translate a library term name into a torch function of the named variables.
+
+    Parameters
+    ----------
+    term : str
+        A :class:`~sklearn_hybrid.diagnosis.CandidateLibrary` name: ``"1"``, a monomial such as
+        ``"v^2*v_dot"``, ``"sin(v)"``, ``"cos(v)"``, ``"sign(v)"``, ``"|v|"``, ``"v|v|"``, or a
+        name in ``term_functions``.
+    variables : list of str
+        The variable names.
+    term_functions : dict of str to callable, optional
+        Torch versions of custom terms: ``name -> f(d)`` where ``d`` maps variable names to tensors.
+
+    Returns
+    -------
+    callable
+        ``f(d) -> Tensor`` of shape (batch,).
+    """
+    if term_functions and term in term_functions:
+        return term_functions[term]
+    known = set(variables)
+    if term == "1":
+        return lambda d: torch.ones_like(next(iter(d.values())))
+    match = re.fullmatch(r"(sin|cos|sign)\((.+)\)", term)
+    if match and match.group(2) in known:
+        func, var = _FUNCS[match.group(1)], match.group(2)
+        return lambda d: func(d[var])
+    match = re.fullmatch(r"\|(.+)\|", term)
+    if match and match.group(1) in known:
+        var = match.group(1)
+        return lambda d: torch.abs(d[var])
+    match = re.fullmatch(r"(.+)\|(.+)\|", term)
+    if match and match.group(1) == match.group(2) and match.group(1) in known:
+        var = match.group(1)
+        return lambda d: d[var] * torch.abs(d[var])
+    factors = []
+    for part in term.split("*"):
+        name, _, power = part.partition("^")
+        if name not in known or (power and not power.isdigit()):
+            raise ValueError(
+                f"Cannot translate the term {term!r} into torch: give its torch version in "
+                f"term_functions={{{term!r}: lambda d: ...}} (d maps {list(variables)} to tensors).")
+        factors.append((name, int(power) if power else 1))
+
+    def monomial(d):
+        out = d[factors[0][0]] ** factors[0][1]
+        for name, power in factors[1:]:
+            out = out * d[name] ** power
+        return out
+
+    return monomial
+
+
+def parameter_name(term: str, taken: Sequence[str], suffix: str = "") -> str:
+    """A valid, unused parameter name for the coefficient of ``term`` (``"v^3"`` -> ``"c_v3"``)."""
+    text = term.replace("^", "").replace("*", "_").replace("|", "abs")
+    text = re.sub(r"\W+", "_", text).strip("_") or "term"
+    base = f"c_{text}" + (f"_{suffix}" if suffix else "")
+    name, i = base, 2
+    while name in taken:
+        name, i = f"{base}_{i}", i + 1
+    return name
+
+
+def augment_science(science: Callable, terms: Sequence[Mapping[str, Any]], variable_names: Sequence[str], *,
+                    n_states: int | None = None, theta: Mapping[str, Any] | None = None,
+                    term_functions: Mapping[str, Callable] | None = None, name: str | None = None) -> Callable:
+    """Build ``science + sum_i c_i * term_i`` as a new science function with named parameters.
+
+    Parameters
+    ----------
+    science : callable
+        The original science function ``f(*inputs, **theta)``.
+    terms : list of dict
+        Each with ``"component"`` (index of the output component the term is added to), ``"term"``
+        (its library name) and ``"coef"`` (initial value of its new parameter), as in
+        :attr:`ResidualDiagnosis.new_terms_`; an optional ``"param"`` names the parameter.
+    variable_names : list of str
+        Names of the columns of the first input (the state or the features), then of the second
+        input (the measured inputs of a forced ODE), if any.
+    n_states : int, optional
+        Number of columns of the first input; default: all names when the function has one input.
+    theta : dict, optional
+        Initial values of the original parameters (e.g. a fitted ``theta_``); default their defaults.
+    term_functions : dict of str to callable, optional
+        Torch versions of custom terms (see :func:`term_to_torch`).
+    name : str, optional
+        ``__name__`` of the new function; default ``<original>_augmented``.
+
+    Returns
+    -------
+    callable
+        The augmented science function; ``.terms`` lists ``(component, term, parameter)`` and
+        ``.equation`` reads the added part.
+    """
+    inputs, defaults = read_signature(science)
+    if len(inputs) not in (1, 2):
+        raise ValueError(f"The science function has inputs {inputs}; augmentation handles one or two.")
+    variable_names = list(variable_names)
+    if n_states is None:
+        if len(inputs) == 2:
+            raise ValueError("With a forced science function f(v, u) give n_states (columns of v).")
+        n_states = len(variable_names)
+    theta = dict(theta or {})
+    unknown = sorted(set(theta) - set(defaults))
+    if unknown:
+        raise ValueError(f"theta names unknown parameter(s) {unknown}; the science function has {sorted(defaults)}.")
+    values = {k: theta.get(k, v) for k, v in defaults.items()}
+    values = {k: float(v) if np.ndim(v) == 0 else np.asarray(v, float).tolist() for k, v in values.items()}
+
+    added, taken = [], list(values) + list(inputs)
+    for t in terms:
+        component, term = int(t["component"]), str(t["term"])
+        param = t.get("param") or parameter_name(term, taken)
+        if param in taken or not param.isidentifier():
+            raise ValueError(f"Parameter name {param!r} is taken or not a valid identifier.")
+        taken.append(param)
+        values[param] = float(t["coef"])
+        added.append((component, term, param, term_to_torch(term, variable_names, term_functions)))
+
+    initial = dict(values)
+
+    def augmented(*args, **params):
+        params = {**initial, **params}
+        base = {k: params[k] for k in defaults}
+        out = science(*args, **base)
+        columns = [args[0].reshape(len(args[0]), -1)[:, i] for i in range(n_states)]
+        if len(args) > 1:
+            columns += [args[1].reshape(len(args[1]), -1)[:, i] for i in range(len(variable_names) - n_states)]
+        d = dict(zip(variable_names, columns))
+        flat = out.reshape(len(out), -1)
+        extra = [torch.zeros_like(flat[:, 0]) for _ in range(flat.shape[1])]
+        for component, _, param, func in added:
+            extra[component] = extra[component] + params[param] * func(d)
+        return (flat + torch.stack(extra, dim=-1)).reshape(out.shape)
+
+    params = [inspect.Parameter(n, inspect.Parameter.POSITIONAL_OR_KEYWORD) for n in inputs]
+    params += [inspect.Parameter(k, inspect.Parameter.POSITIONAL_OR_KEYWORD, default=v) for k, v in values.items()]
+    augmented.__signature__ = inspect.Signature(params)
+    augmented.__name__ = name or f"{getattr(science, '__name__', 'science')}_augmented"
+    augmented.__qualname__ = augmented.__name__
+    augmented.terms = [(c, term, p) for c, term, p, _ in added]
+    augmented.equation = " ".join(f"+ {p}*{term} [component {c}]" for c, term, p in augmented.terms)
+    augmented.__doc__ = (f"{getattr(science, '__name__', 'science')} {augmented.equation}\n\n"
+                         f"Original science function plus the terms found by the residual diagnosis.")
+    return augmented

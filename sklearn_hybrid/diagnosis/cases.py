@@ -1,0 +1,240 @@
+"""Ready-made closed-loop cases: measured benchmarks and synthetic tasks, each with its science model.
+
+Every ``*_case`` function returns a :class:`~sklearn.utils.Bunch` with an unfitted ``estimator``, the
+training data ``X``, ``y``, a ``test_scorer`` (free-run simulation of the test records, RMSE in the
+data's units) and the names, units and library for :func:`~sklearn_hybrid.diagnosis.close_the_loop`
+(see :func:`run_case`). Conditioning: time is counted in samples (or tenths of a second) and the
+states are scaled to order one, so that the parameters are of order one for Adam; training uses
+windows of the records, starting from states estimated from the data.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import torch
+from sklearn.utils import Bunch
+
+from .. import HybridRegressor, pack_inputs
+from ..datasets import (fetch_cascaded_tanks, fetch_silverbox, load_pendulum_freeswing, make_duffing,
+                        make_pendulum)
+from ..models import duffing_f, pendulum_f
+from .library import CandidateLibrary
+from .loop import MLPOn, close_the_loop, fit_initial_state, free_run, prediction_metrics
+from .residual import ResidualDiagnosis
+
+__all__ = ["CASES", "run_case", "silverbox_case", "tanks_case", "pendulum_freeswing_case", "synthetic_case",
+           "silverbox_f", "tanks_f", "swing_f", "SILVERBOX_SCALE"]
+
+SILVERBOX_SCALE = 0.1  # V per model unit: y and u of order one
+SWING_SCALE = 0.1  # rad per model unit (angle), and 0.1 s per time unit
+
+
+def silverbox_f(v, u, k=0.5, c=0.05, b=0.5, u0=0.0):
+    """Linear mass-spring-damper driven by the input voltage with an input offset.
+
+    ``y'' = b (u - u0) - k y - c y'`` with y, u in units of 0.1 V and time in samples.
+    """
+    return torch.stack([v[:, 1], b * (u[:, 0] - u0) - k * v[:, 0] - c * v[:, 1]], dim=-1)
+
+
+def tanks_f(v, u, k1=0.05, k3=0.05, k4=0.05):
+    """Two cascaded tanks with Torricelli outflow, no overflow (time in samples of 4 s).
+
+    ``x1' = -k1 sqrt(x1) + k4 u``, ``x2' = k1 sqrt(x1) - k3 sqrt(x2)``; ``y = x2``.
+    """
+    r1, r2 = torch.sqrt(torch.clamp(v[:, 0], min=1e-4)), torch.sqrt(torch.clamp(v[:, 1], min=1e-4))
+    return torch.stack([-k1 * r1 + k4 * u[:, 0], k1 * r1 - k3 * r2], dim=-1)
+
+
+def swing_f(v, f0=1.0):
+    """Frictionless pendulum, angle in units of 0.1 rad, time in units of 0.1 s, f0 in Hz."""
+    w2 = (2 * np.pi * f0 * 0.1) ** 2
+    return torch.stack([v[:, 1], -w2 * torch.sin(SWING_SCALE * v[:, 0]) / SWING_SCALE], dim=-1)
+
+
+def _derivative(y: np.ndarray, idx: np.ndarray) -> np.ndarray:
+    """Seven-point central difference of a sampled signal at indices ``idx`` (per sample)."""
+    w = np.array([-1, 9, -45, 0, 45, -9, 1]) / 60.0
+    return sum(wi * y[idx + k - 3] for k, wi in enumerate(w))
+
+
+def _windows(y, u, starts, length):
+    """Windows ``[s, s + length]`` of y (targets after the first) and u (including the first)."""
+    idx = starts[:, None] + np.arange(length + 1)[None]
+    return y[idx[:, 1:]], None if u is None else u[idx]
+
+
+# ------------------------------------------------------------------------------ Silverbox
+def silverbox_case(fast: bool = False, method: str = "erm", max_iter: int | None = None, window: int = 16,
+                   data_home: Any = None, random_state: int = 0) -> Bunch:
+    """Silverbox: linear science model, cubic stiffness undeclared; arrow and multisine free-run tests."""
+    data = fetch_silverbox(data_home)
+    s = SILVERBOX_SCALE
+    y, u = data.y_train / s, data.u_train / s
+    stride = 4 * window if fast else window
+    starts = np.arange(3, len(y) - window - 4, stride)
+    Y, U = _windows(y, u, starts, window)
+    X = pack_inputs(np.column_stack([y[starts], _derivative(y, starts)]), U[:, :, None])
+    est = HybridRegressor(science=silverbox_f, observed=[0], n_inputs=1, input_interp="cubic", dt=1.0,
+                          n_substeps=1, residual=MLPOn([1], hidden=(32, 32)), method=method, rho=0.05,
+                          lr=1e-2, max_iter=max_iter or (30 if fast else 300), batch_size=512,
+                          random_state=random_state)
+    n_test = 1500 if fast else None
+    records = {"multisine": data.splits["test_multisine"], "arrow": data.splits["test_arrow_full"]}
+    n0 = data.n_init
+
+    def scorer(fitted):
+        out = {}
+        for name, sl in records.items():
+            yt, ut = data.y[sl][:n_test] / s, data.u[sl][:n_test] / s
+            sims = {}
+            for use_residual in (True, False):
+                guess = np.array([yt[3], _derivative(yt, np.array([3]))[0]])
+                x0 = fit_initial_state(fitted, yt[3:n0], guess, u_head=ut[3:n0], observed=[0],
+                                       use_residual=use_residual)
+                sims[use_residual] = free_run(fitted, x0, u=ut[3:], use_residual=use_residual)[0, :, 0]
+            ref = yt[3:]
+            keep = slice(n0 - 3, None)
+            m = prediction_metrics(ref[keep], sims[True][keep], sims[False][keep])
+            out[f"{name}_rmse_mV"] = 1e3 * s * m["rmse"]
+            out[f"{name}_science_only_rmse_mV"] = 1e3 * s * m["rmse_science_only"]
+            if name == "arrow":
+                stop = data.splits["test_arrow_no_extrapolation"].stop - sl.start - 3
+                k = slice(n0 - 3, stop)
+                out["arrow_no_extrap_rmse_mV"] = 1e3 * s * float(np.sqrt(np.mean((sims[True][k] - ref[k]) ** 2)))
+            else:
+                out["network_share"] = m["network_share"]
+        k3 = fitted.theta_.get("c_y3")
+        if k3 is not None:  # back to physical units: k3 / k in V^-2 (reference 3.95)
+            out["k3_over_k_per_V2"] = -k3 / (fitted.theta_["k"] * s**2)
+        return out
+
+    return Bunch(name="silverbox", estimator=est, X=X, y=Y[:, :, None], test_scorer=scorer,
+                 state_names=["y", "y_dot"], input_names=["u"],
+                 units={"y": "100 mV", "y_dot": "100 mV/sample", "u": "100 mV"},
+                 library=CandidateLibrary(degree=3, include_bias=True), param_names={},
+                 description="Silverbox (measured): y'' = b(u - u0) - k y - c y'; cubic stiffness undeclared. "
+                             "y, u in 0.1 V, time in samples; RMSE in mV on free runs of the test records.")
+
+
+# ------------------------------------------------------------------------------ Cascaded tanks
+def tanks_case(fast: bool = False, method: str = "erm", max_iter: int | None = None, data_home: Any = None,
+               random_state: int = 0) -> Bunch:
+    """Cascaded tanks: Torricelli science model, overflow undeclared; validation free run."""
+    data = fetch_cascaded_tanks(data_home)
+    y, u = data.y_est, data.u_est
+    n = 256 if fast else len(y)
+    # Upper level unobserved: start it at the lower one (the network learns the rest).
+    X = pack_inputs(np.array([[y[0], y[0]]]), u[None, :n, None])
+    est = HybridRegressor(science=tanks_f, observed=[1], n_inputs=1, input_interp="linear", dt=1.0,
+                          n_substeps=1, residual=MLPOn([0, 1], hidden=(32, 32)), method=method, rho=0.05,
+                          lr=1e-2, max_iter=max_iter or (20 if fast else 300),
+                          theta_bounds={k: (0.0, 1.0) for k in ("k1", "k3", "k4")}, random_state=random_state)
+
+    def scorer(fitted):
+        out = {}
+        for name, (yt, ut) in {"estimation": (y, u), "validation": (data.y_val, data.u_val)}.items():
+            yt, ut = yt[:n], ut[:n]
+            sims = {}
+            for use_residual in (True, False):
+                x0 = fit_initial_state(fitted, yt[:5], np.array([yt[0], yt[0]]), u_head=ut[:5], observed=[1],
+                                       use_residual=use_residual)
+                sims[use_residual] = free_run(fitted, x0, u=ut, use_residual=use_residual)[0, :, 1]
+            m = prediction_metrics(yt[5:], sims[True][5:], sims[False][5:])
+            out[f"{name}_rmse"] = m["rmse"]
+            out[f"{name}_science_only_rmse"] = m["rmse_science_only"]
+            if name == "validation":
+                out["network_share"] = m["network_share"]
+        return out
+
+    terms = {"sqrt(x1)": lambda Z: np.sqrt(np.clip(Z["x1"], 0, None)),
+             "sqrt(x2)": lambda Z: np.sqrt(np.clip(Z["x2"], 0, None))}
+    return Bunch(name="tanks", estimator=est, X=X, y=y[None, 1:n, None], test_scorer=scorer,
+                 state_names=["x1", "x2"], input_names=["u"], units={"x1": "V", "x2": "V", "u": "V"},
+                 library=CandidateLibrary(degree=2, include_bias=True, custom_terms=terms),
+                 term_functions={"sqrt(x1)": lambda d: torch.sqrt(torch.clamp(d["x1"], min=1e-4)),
+                                 "sqrt(x2)": lambda d: torch.sqrt(torch.clamp(d["x2"], min=1e-4))},
+                 param_names={},
+                 description="Cascaded tanks (measured): Torricelli model, overflow undeclared; time in samples "
+                             "of 4 s; RMSE in the units of y (V) on free runs.")
+
+
+# ------------------------------------------------------------------------------ Pendulum free swing
+def pendulum_freeswing_case(fast: bool = False, method: str = "erm", max_iter: int | None = None,
+                            data_home: Any = None, random_state: int = 0) -> Bunch:
+    """Real pendulum free swing: frictionless science model, friction undeclared."""
+    from scipy.signal import savgol_filter
+
+    full = load_pendulum_freeswing(data_home)
+    # Velocity from a local cubic fit at full rate (1e-4 s) before decimating to 0.01 s.
+    vel = savgol_filter(full.angle_from_bottom, 201, 3, deriv=1, delta=full.dt)
+    angle, vel = full.angle_from_bottom[::100] / SWING_SCALE, vel[::100] / SWING_SCALE * 0.1
+    dt, window, n_train, n_test = 0.1, 50, 700, 700  # time unit 0.1 s: a sample is dt = 0.1 units
+    starts = np.arange(0, n_train - window, 50 if fast else 10)
+    Y, _ = _windows(angle, None, starts, window)
+    V, _ = _windows(vel, None, starts, window)
+    X = np.column_stack([angle[starts], vel[starts]])
+    est = HybridRegressor(science=swing_f, dt=dt, n_substeps=1, observed=[0],
+                          residual=MLPOn([1], hidden=(32, 32)), method=method, rho=0.05, lr=1e-2,
+                          max_iter=max_iter or (20 if fast else 400), random_state=random_state)
+
+    def scorer(fitted):
+        yt = angle[n_train:n_train + n_test]
+        sims = {r: free_run(fitted, [yt[0], vel[n_train]], n_steps=len(yt) - 1, use_residual=r)[0, :, 0]
+                for r in (True, False)}
+        m = prediction_metrics(yt, sims[True], sims[False])
+        return {"test_rmse_mrad": 1e3 * SWING_SCALE * m["rmse"],
+                "test_science_only_rmse_mrad": 1e3 * SWING_SCALE * m["rmse_science_only"],
+                "network_share": m["network_share"]}
+
+    del V
+    return Bunch(name="pendulum-freeswing", estimator=est, X=X, y=Y[:, :, None], test_scorer=scorer,
+                 state_names=["theta", "theta_dot"], input_names=None,
+                 units={"theta": "0.1 rad", "theta_dot": "rad/s"},
+                 library=CandidateLibrary(degree=3, include_bias=False, nonsmooth=["theta_dot"]),
+                 param_names={},
+                 description="Real pendulum free swing (measured): frictionless pendulum, friction undeclared; "
+                             "trained on the first 7 s, tested by a free run over the next 7 s (RMSE in mrad).")
+
+
+# ------------------------------------------------------------------------------ synthetic
+def synthetic_case(task: str = "pendulum", fast: bool = False, method: str = "erm", max_iter: int | None = None,
+                   random_state: int = 0) -> Bunch:
+    """The paper's pendulum (damping undeclared) or Duffing (cubic term undeclared) task."""
+    if task == "pendulum":
+        data = make_pendulum(50, 5, 25, dt=0.1, n_steps=10, random_state=random_state)
+        science, truth, lr = pendulum_f, {"omega": 2 / 3, "c_v_dot": -0.5}, 1e-2
+    elif task == "duffing":
+        data = make_duffing(50, 5, 25, n_steps=5, random_state=random_state)
+        science, truth, lr = duffing_f, {"alpha": 1.0, "c_v3": 1.0}, 2e-2
+    else:
+        raise ValueError(f"Unknown synthetic task {task!r}; choose 'pendulum' or 'duffing'.")
+    est = HybridRegressor(science=science, method=method, dt=float(data.dt), n_substeps=1, lr=lr,
+                          max_iter=max_iter or (20 if fast else 500), residual=MLPOn([1], hidden=(32, 32)),
+                          random_state=random_state)
+    return Bunch(name=task, estimator=est, X=data.X_train, y=data.y_train, X_test=data.X_test, y_test=data.y_test,
+                 state_names=["v", "v_dot"], input_names=None, units=None, theta_true=truth,
+                 library=CandidateLibrary(degree=3, include_bias=False), param_names={},
+                 description=f"Synthetic {task} ({data.DESCR.splitlines()[1].strip()}).")
+
+
+CASES = {"silverbox": silverbox_case, "tanks": tanks_case, "pendulum-freeswing": pendulum_freeswing_case,
+         "pendulum": lambda **kw: synthetic_case("pendulum", **kw),
+         "duffing": lambda **kw: synthetic_case("duffing", **kw)}
+
+
+def run_case(name: str, fast: bool = False, method: str = "erm", max_iter: int | None = None,
+             verbose: bool = False, **options) -> Bunch:
+    """Run :func:`close_the_loop` on a named case and return its result (plus ``case``)."""
+    if name not in CASES:
+        raise ValueError(f"Unknown case {name!r}; choose one of {sorted(CASES)}.")
+    case = CASES[name](fast=fast, method=method, max_iter=max_iter, **options)
+    diagnosis = ResidualDiagnosis(state_names=case.state_names, input_names=case.input_names, units=case.units,
+                                  library=case.library, random_state=0)
+    out = close_the_loop(case.estimator, case.X, case.y, case.get("X_test"), case.get("y_test"),
+                         diagnosis=diagnosis, param_names=case.param_names, term_functions=case.get("term_functions"),
+                         theta_true=case.get("theta_true"), test_scorer=case.get("test_scorer"), verbose=verbose)
+    out["case"] = case
+    return out

@@ -1,0 +1,178 @@
+"""Closing the loop: residual diagnosis, augmentation and refit recover undeclared terms."""
+
+import inspect
+
+import matplotlib
+
+matplotlib.use("Agg")
+
+import numpy as np
+import pytest
+import torch
+from scipy.integrate import solve_ivp
+
+from sklearn_hybrid import HybridRegressor
+from sklearn_hybrid.datasets import make_duffing, make_pendulum
+from sklearn_hybrid.diagnosis import (CandidateLibrary, MLPOn, ResidualDiagnosis, augment_science,
+                                      close_the_loop, fit_initial_state, free_run, term_to_torch)
+from sklearn_hybrid.models import duffing_f, pendulum_f
+
+NAMES = ["v", "v_dot"]
+
+
+def _fit(science, X, y, dt, max_iter, lr, n_substeps=1, seed=0, zero_init=True):
+    # The network acts on the velocity equation only: d v / dt = v_dot is exact physics.
+    return HybridRegressor(science=science, method="erm", dt=dt, n_substeps=n_substeps, lr=lr,
+                           max_iter=max_iter, residual=MLPOn([1], hidden=(32, 32), zero_init=zero_init),
+                           random_state=seed).fit(X, y)
+
+
+def _new_terms(diag):
+    return {(t["output"], t["term"]): t for t in diag.new_terms_}
+
+
+@pytest.fixture(scope="module")
+def pendulum():
+    """Damped pendulum data (gamma = 0.5), undamped science model, fitted hybrid."""
+    data = make_pendulum(50, 5, 25, dt=0.1, n_steps=10, random_state=0)
+    est = _fit(pendulum_f, data.X_train, data.y_train, dt=0.1, max_iter=400, lr=1e-2)
+    return data, est
+
+
+def test_pendulum_damping_recovered(pendulum):
+    data, est = pendulum
+    diag = ResidualDiagnosis(state_names=NAMES, units={"v": "rad", "v_dot": "rad/s"}, random_state=0)
+    diag.fit(est, data.X_train)
+    assert diag.components_ == [1]  # g[v] is identically zero: nothing to explain there
+    terms = _new_terms(diag)
+    assert list(terms) == [("g[v_dot]", "v_dot")]
+    damping = terms[("g[v_dot]", "v_dot")]
+    assert damping["coef"] == pytest.approx(-0.5, rel=0.1)
+    assert damping["inclusion"] >= 0.9 and damping["explained"] > 0.3
+    # What the network carries of the frequency is read as a parameter correction.
+    omega = est.theta_["omega"] + diag.theta_shift_.get("omega", 0.0)
+    assert omega == pytest.approx(2 / 3, rel=0.03)
+    assert "rad/s" in diag.equations()[0] and "v_dot" in diag.summary()
+    axes = diag.plot()
+    assert len(axes) == len(diag.terms_)
+
+
+def test_close_the_loop_pendulum(pendulum):
+    data, est = pendulum
+    out = close_the_loop(est, data.X_train, data.y_train, data.X_test, data.y_test, state_names=NAMES,
+                         param_names={"v_dot": "c_damping"}, refit_params={"max_iter": 300},
+                         theta_true={"omega": 2 / 3, "c_damping": -0.5})
+    assert out.before is est and out.after is not None
+    sig = inspect.signature(out.science).parameters
+    assert list(sig) == ["v", "omega", "c_damping"]
+    before, after = out.table
+    assert after["theta"]["c_damping"] == pytest.approx(-0.5, rel=0.1)
+    assert after["theta_error"]["omega"] < 0.03
+    # The science part now predicts on its own, and the network carries much less.
+    assert after["rmse_science_only"] < 0.5 * before["rmse_science_only"]
+    assert after["network_share"] < 0.5 * before["network_share"]
+    assert after["rmse"] < 0.05
+    assert "c_damping" in out.report and "| before |" in out.report
+
+
+def test_duffing_cubic_recovered():
+    data = make_duffing(100, 5, 25, n_steps=10, random_state=0)
+    est = _fit(duffing_f, data.X_train, data.y_train, dt=float(data.dt), max_iter=500, lr=2e-2, zero_init=False)
+    out = close_the_loop(est, data.X_train, data.y_train, data.X_test, data.y_test, state_names=NAMES,
+                         param_names={"v^3": "beta"}, refit_params={"max_iter": 400},
+                         theta_true={"alpha": 1.0, "beta": 1.0})
+    terms = _new_terms(out.diagnosis)
+    assert list(terms) == [("g[v_dot]", "v^3")]
+    # The network rounds the cubic off a little (0.89); the refit of the augmented model settles it.
+    assert terms[("g[v_dot]", "v^3")]["coef"] == pytest.approx(1.0, rel=0.2)
+    # The network took over much of the linear stiffness; the sensitivity term gives it back.
+    assert est.theta_["alpha"] < 0.6 and "alpha" in out.diagnosis.theta_shift_
+    after = out.table[1]
+    assert after["theta"]["beta"] == pytest.approx(1.0, rel=0.1)
+    assert after["theta"]["alpha"] == pytest.approx(1.0, rel=0.1)
+    assert after["network_share_rhs"] < 0.2 * out.table[0]["network_share_rhs"]
+
+
+def _drag_data(n, n_steps, dt, c, seed):
+    """Spring with quadratic (aerodynamic) drag: v'' = -v - c v'|v'|; noise 0.01."""
+    rng = np.random.default_rng(seed)
+    x0 = rng.uniform(-1.5, 1.5, size=(n, 2))
+    t = dt * np.arange(n_steps + 1)
+    ys = [solve_ivp(lambda _, z: [z[1], -z[0] - c * z[1] * abs(z[1])], (0, t[-1]), s, t_eval=t,
+                    rtol=1e-9, atol=1e-9).y.T[1:] for s in x0]
+    return x0 + 0.01 * rng.standard_normal(x0.shape), np.array(ys) + 0.01 * rng.standard_normal((n, n_steps, 2))
+
+
+def spring_f(v, k=0.8):
+    return torch.stack([v[:, 1], -k * v[:, 0]], dim=-1)
+
+
+def test_quadratic_drag_recovered():
+    """A non-polynomial effect: drag proportional to v'|v'| (nonsmooth library terms)."""
+    X, y = _drag_data(50, 10, 0.1, c=0.5, seed=0)
+    est = _fit(spring_f, X, y, dt=0.1, max_iter=400, lr=2e-2)
+    library = CandidateLibrary(degree=3, include_bias=False, nonsmooth=True)
+    diag = ResidualDiagnosis(state_names=NAMES, library=library, random_state=0).fit(est, X)
+    terms = _new_terms(diag)
+    assert list(terms) == [("g[v_dot]", "v_dot|v_dot|")]
+    assert terms[("g[v_dot]", "v_dot|v_dot|")]["coef"] == pytest.approx(-0.5, rel=0.1)
+
+
+# ---------------------------------------------------------------- building blocks, no training
+def test_augment_science_signature_and_values():
+    aug = augment_science(pendulum_f, [{"component": 1, "term": "v_dot", "coef": -0.4},
+                                       {"component": 1, "term": "v^3", "coef": 0.1, "param": "k3"}],
+                          NAMES, theta={"omega": 0.6})
+    params = inspect.signature(aug).parameters
+    assert {k: p.default for k, p in params.items() if k != "v"} == {"omega": 0.6, "c_v_dot": -0.4, "k3": 0.1}
+    v = torch.tensor([[0.3, -0.2], [1.0, 0.5]], dtype=torch.float64)
+    expected = pendulum_f(v, omega=0.6) + torch.stack([0 * v[:, 0], -0.4 * v[:, 1] + 0.1 * v[:, 0] ** 3], -1)
+    torch.testing.assert_close(aug(v), expected)
+    torch.testing.assert_close(aug(v, omega=0.6, c_v_dot=0.0, k3=0.0), pendulum_f(v, omega=0.6))
+    est = HybridRegressor(science=aug, max_iter=1, dt=0.1).fit(np.zeros((2, 2)), np.zeros((2, 1, 2)))
+    assert set(est.theta_) == {"omega", "c_v_dot", "k3"}
+
+
+def test_term_to_torch_forms_and_errors():
+    d = {"x": torch.tensor([-2.0, 0.5]), "y": torch.tensor([3.0, -1.0])}
+    cases = {"1": [1.0, 1.0], "x^2*y": [12.0, -0.25], "sin(x)": np.sin([-2.0, 0.5]), "sign(y)": [1.0, -1.0],
+             "|x|": [2.0, 0.5], "x|x|": [-4.0, 0.25]}
+    for term, expected in cases.items():
+        np.testing.assert_allclose(term_to_torch(term, ["x", "y"])(d).numpy(), expected, rtol=1e-6)
+    with pytest.raises(ValueError, match="term_functions"):
+        term_to_torch("tanh(x)", ["x", "y"])
+    assert term_to_torch("tanh(x)", ["x"], {"tanh(x)": lambda e: torch.tanh(e["x"])})(d).shape == (2,)
+    with pytest.raises(ValueError, match="n_states"):
+        augment_science(lambda v, u, k=1.0: v, [], ["x", "u"])
+
+
+def test_free_run_matches_predict_and_initial_state(pendulum):
+    data, est = pendulum
+    states = free_run(est, data.X_test[:3], n_steps=10)
+    np.testing.assert_allclose(states[:, 1:], est.predict(data.X_test[:3]), atol=1e-5)
+    x0 = fit_initial_state(est, states[0, :6], x0_guess=states[0, 0] + [0.05, -0.1])
+    np.testing.assert_allclose(x0, states[0, 0], atol=1e-3)
+
+
+def test_bad_input_is_reported(pendulum):
+    data, est = pendulum
+    with pytest.raises(ValueError, match="state_names"):
+        ResidualDiagnosis(state_names=["only_one"]).fit(est, data.X_train)
+    with pytest.raises(ValueError, match="components"):
+        ResidualDiagnosis(components=[5]).fit(est, data.X_train)
+    with pytest.raises(ValueError, match="min_residual"):
+        ResidualDiagnosis(min_residual=2).fit(est, data.X_train)
+    with pytest.raises(ValueError, match="MLPOn"):
+        MLPOn([3])(((2,),), (2,))
+
+
+def test_cli_loop_and_demo(capsys, monkeypatch):
+    from sklearn_hybrid import cli
+
+    assert cli.main(["loop", "pendulum", "--fast"]) == 0
+    assert "| before |" in capsys.readouterr().out
+    called = []
+    monkeypatch.setattr("sklearn_hybrid.demo.main", lambda: called.append(True))
+    assert cli.main(["demo"]) == 0 and called
+    with pytest.raises(SystemExit):
+        cli.main(["loop", "no-such-dataset"])
