@@ -80,7 +80,7 @@ def term_to_torch(term: str, variables: Sequence[str],
 
 def parameter_name(term: str, taken: Sequence[str], suffix: str = "") -> str:
     """A valid, unused parameter name for the coefficient of ``term`` (``"v^3"`` -> ``"c_v3"``)."""
-    text = term.replace("^", "").replace("*", "_").replace("|", "abs")
+    text = re.sub(r"\|(\w+)\|", r"_abs_\1_", term).replace("^", "").replace("*", "_")
     text = re.sub(r"\W+", "_", text).strip("_") or "term"
     base = f"c_{text}" + (f"_{suffix}" if suffix else "")
     name, i = base, 2

@@ -21,6 +21,7 @@ from sklearn.utils import Bunch
 from sklearn.utils.validation import check_is_fitted
 from torch import nn
 
+from ..engine import DivergenceError
 from ..integrate import integrate, upsample_inputs
 from ..residual import MLP
 from .augment import augment_science
@@ -292,9 +293,15 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         after = clone(before).set_params(science=science, theta_init=None, **dict(refit_params or {}))
         if verbose:
             print(f"refitting with {science.__name__}: {science.equation}")
-        after.fit(X, y)
-        rows.append({"stage": "after", "science": science.__name__, "added": science.equation,
-                     **_evaluate(after, X, X_test, y_test, test_scorer, theta_true)})
+        try:
+            after.fit(X, y)
+        except DivergenceError as exc:  # reported, not raised: the diagnosis itself stays useful
+            rows.append({"stage": "after", "science": science.__name__, "added": science.equation,
+                         "theta": {}, "failed": f"refit diverged: {exc}"})
+            after = None
+        else:
+            rows.append({"stage": "after", "science": science.__name__, "added": science.equation,
+                         **_evaluate(after, X, X_test, y_test, test_scorer, theta_true)})
     report = format_table(rows, diag)
     if verbose:
         print(report)
@@ -325,7 +332,7 @@ def _inside_bounds(theta: dict, bounds: Mapping | None) -> dict:
 
 def format_table(rows: list[dict], diagnosis: ResidualDiagnosis | None = None) -> str:
     """Markdown before/after table of :func:`close_the_loop` rows."""
-    metrics = [k for k in rows[0] if k not in ("stage", "science", "added", "theta", "theta_error")]
+    metrics = [k for k in rows[0] if k not in ("stage", "science", "added", "theta", "theta_error", "failed")]
     names = list(dict.fromkeys(k for r in rows for k in r["theta"]))
     head = ["stage", *metrics, *names]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
@@ -341,6 +348,8 @@ def format_table(rows: list[dict], diagnosis: ResidualDiagnosis | None = None) -
         lines += ["", "Diagnosis: " + ("; ".join(diagnosis.equations()) or "no component to explain")]
         if len(rows) > 1:
             lines.append(f"Added: {rows[1]['added']}")
+            if "failed" in rows[1]:
+                lines.append(f"The refit failed ({rows[1]['failed']}); the after row is empty.")
         else:
             lines.append("No missing term found: nothing added, no refit.")
     return "\n".join(lines)

@@ -1,0 +1,78 @@
+"""Close the loop on measured and synthetic data: fit -> diagnose -> augment -> refit -> before/after.
+
+Cases (``sklearn_hybrid.diagnosis.cases``): Silverbox (linear science model, cubic stiffness
+undeclared), Cascaded tanks (Torricelli, overflow undeclared), the real pendulum free swing
+(friction undeclared), and the synthetic pendulum (damping undeclared) and Duffing (cubic term
+undeclared) tasks. Measured cases are scored by free runs of their test records; the grey-box
+baselines of ``bench_greybox.py`` (results/greybox.json, run it first) are quoted beside them.
+
+Usage: python benchmarks/bench_closed_loop.py [--cases silverbox tanks ...] [--method erm] [--fast]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+
+import torch
+
+from _common import RESULTS, write_results
+from sklearn_hybrid.diagnosis.cases import CASES, run_case
+
+
+def _baselines() -> dict:
+    path = RESULTS / "greybox.json"
+    if not path.exists():
+        return {}
+    data = json.loads(path.read_text())
+    sb = {(r["model"], r["input"]): r for r in data["silverbox"]}
+    tanks = {r["model"]: r for r in data["tanks"]}
+    return {"silverbox": [(f"grey-box {m} ({i})", sb[(m, i)]) for m, i in
+                          [("linear", "fft"), ("linear + cubic", "fft"), ("linear + cubic", "cubic"),
+                           ("linear + cubic", "cubic, 1 RK4 step/sample")] if (m, i) in sb],
+            "tanks": [(f"grey-box {m}", tanks[m]) for m in tanks]}
+
+
+def _markdown(results: dict, baselines: dict, method: str) -> str:
+    md = [f"# Closing the loop (method={method!r}): residual -> missing term -> refit", ""]
+    for name, r in results.items():
+        md += [f"## {name}", "", r["description"], "", r["report"], "",
+               f"Fit + diagnosis + refit + evaluation: {r['seconds']:.0f} s.", ""]
+        if name == "silverbox" and baselines.get("silverbox"):
+            md += ["Grey-box baselines (bench_greybox.py, RMSE mV):", "",
+                   "| model | test multisine | arrow full | arrow no-extrap. |", "|---|---|---|---|"]
+            md += [f"| {label} | {b['test_multisine']:.3f} | {b['test_arrow_full']:.3f} | "
+                   f"{b['test_arrow_no_extrapolation']:.3f} |" for label, b in baselines["silverbox"]]
+            md.append("")
+        if name == "tanks" and baselines.get("tanks"):
+            md += ["Grey-box baselines (bench_greybox.py):", "", "| model | estimation | validation |", "|---|---|---|"]
+            md += [f"| {label} | {b['estimation']:.3f} | {b['validation']:.3f} |" for label, b in baselines["tanks"]]
+            md.append("")
+    return "\n".join(md)
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--cases", nargs="*", default=list(CASES), choices=list(CASES))
+    parser.add_argument("--method", default="erm")
+    parser.add_argument("--fast", action="store_true")
+    args = parser.parse_args()
+    torch.set_num_threads(1)
+    results = {}
+    for name in args.cases:
+        start = time.perf_counter()
+        out = run_case(name, fast=args.fast, method=args.method, verbose=False)
+        results[name] = {"description": out.case.description, "table": out.table,
+                         "equations": out.diagnosis.equations(), "summary": out.diagnosis.summary(),
+                         "report": out.report, "seconds": time.perf_counter() - start}
+        print(f"== {name} ({results[name]['seconds']:.0f} s)\n{out.report}\n", flush=True)
+    suffix = "_fast" if args.fast else ""
+    tag = "" if set(args.cases) == set(CASES) else "_" + "_".join(c.replace("-", "") for c in args.cases)
+    path = write_results(f"closed_loop{tag}{suffix}", {"method": args.method, "cases": results},
+                         _markdown(results, _baselines(), args.method))
+    print(path.read_text())
+
+
+if __name__ == "__main__":
+    main()
