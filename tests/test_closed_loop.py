@@ -118,6 +118,26 @@ def test_quadratic_drag_recovered():
     assert terms[("g[v_dot]", "v_dot|v_dot|")]["coef"] == pytest.approx(-0.5, rel=0.1)
 
 
+def test_static_additive_model():
+    """Static structure: y = a p + g(p, q); the network's part is 0.5 q^2 plus a correction of a."""
+    rng = np.random.default_rng(0)
+    X = rng.uniform(-1, 1, (400, 2))
+    y = 2.0 * X[:, :1] + 0.5 * X[:, 1:] ** 2 + 0.01 * rng.standard_normal((400, 1))
+    est = HybridRegressor(science=lambda x, a=1.0: a * x[:, :1], structure="additive", method="erm", lr=1e-2,
+                          max_iter=300, residual={"kind": "mlp", "hidden": (32, 32), "activation": "tanh"},
+                          random_state=0)
+    out = close_the_loop(est, X, y, X, y, state_names=["p", "q"], refit_params={"max_iter": 300},
+                         science_only=True)
+    assert [t["term"] for t in out.diagnosis.new_terms_] == ["q^2"]
+    before, after, alone = out.table
+    assert after["theta"]["c_q2"] == pytest.approx(0.5, rel=0.1)
+    assert after["theta"]["a"] == pytest.approx(2.0, rel=0.05)
+    assert after["rmse_science_only"] < 0.05 < before["rmse_science_only"]
+    # Without any network the augmented science model fits to the noise level (0.01).
+    assert alone["network_share"] == 0 and alone["rmse"] < 0.012
+    assert alone["theta"]["c_q2"] == pytest.approx(0.5, rel=0.05)
+
+
 # ---------------------------------------------------------------- building blocks, no training
 def test_augment_science_signature_and_values():
     aug = augment_science(pendulum_f, [{"component": 1, "term": "v_dot", "coef": -0.4},

@@ -27,7 +27,7 @@ from ..residual import MLP
 from .augment import augment_science
 from .residual import ResidualDiagnosis, science_sensitivities
 
-__all__ = ["close_the_loop", "free_run", "fit_initial_state", "MLPOn", "prediction_metrics"]
+__all__ = ["close_the_loop", "free_run", "fit_initial_state", "MLPOn", "ZeroResidual", "prediction_metrics"]
 
 
 class _Masked(nn.Module):
@@ -82,6 +82,28 @@ class MLPOn:
     def __repr__(self) -> str:
         return (f"MLPOn({self.components}, hidden={self.hidden}, activation={self.activation!r}, "
                 f"zero_init={self.zero_init})")
+
+
+class _Zero(nn.Module):
+    """No network: zeros of the output shape (one unused parameter keeps the optimiser content)."""
+
+    def __init__(self, out_shape):
+        super().__init__()
+        self.out_shape = tuple(out_shape)
+        self.unused = nn.Parameter(torch.zeros(1))
+
+    def forward(self, *inputs):
+        return torch.zeros(len(inputs[0]), *self.out_shape, dtype=inputs[0].dtype)
+
+
+class ZeroResidual:
+    """Residual factory of a network that contributes nothing: fits the science model alone."""
+
+    def __call__(self, in_shapes, out_shape) -> nn.Module:
+        return _Zero(out_shape)
+
+    def __repr__(self) -> str:
+        return "ZeroResidual()"
 
 
 def free_run(estimator: Any, x0: np.ndarray, u: np.ndarray | None = None, n_steps: int | None = None,
@@ -228,7 +250,7 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
                    param_names: Mapping[str, str] | None = None, term_functions: Mapping[str, Callable] | None = None,
                    apply_theta_shift: bool = True, refit_params: Mapping[str, Any] | None = None,
                    theta_true: Mapping[str, Any] | None = None, test_scorer: Callable | None = None,
-                   verbose: bool = False) -> Bunch:
+                   science_only: bool = False, verbose: bool = False) -> Bunch:
     """Fit (if needed), diagnose the residual, add the missing terms, refit, and compare.
 
     Parameters
@@ -257,6 +279,9 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
     test_scorer : callable, optional
         ``test_scorer(estimator) -> dict`` of named metrics, used instead of the default metrics
         (e.g. free-run simulations of long test records, see :func:`free_run`).
+    science_only : bool, default=False
+        Also refit the augmented science model alone (network removed, ``method="erm"``), from the
+        refit's theta: the model an engineer would keep, comparable with classical grey-box fits.
     verbose : bool, default=False
         Print progress and the report.
 
@@ -264,8 +289,9 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
     -------
     Bunch
         ``before``, ``after`` (fitted estimators; ``after`` is None when no term was found),
-        ``diagnosis``, ``science`` (the augmented function or None), ``table`` (list of two row
-        dicts), ``report`` (markdown text) and ``seconds``.
+        ``diagnosis``, ``science`` (the augmented function or None), ``science_only`` (the
+        network-free refit or None), ``table`` (list of row dicts: before, after, and with
+        ``science_only`` "science only"), ``report`` (markdown text) and ``seconds``.
     """
     start = time.perf_counter()
     try:
@@ -302,11 +328,20 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         else:
             rows.append({"stage": "after", "science": science.__name__, "added": science.equation,
                          **_evaluate(after, X, X_test, y_test, test_scorer, theta_true)})
+    alone = None
+    if science_only and after is not None:
+        alone = clone(after).set_params(residual=ZeroResidual(), method="erm",
+                                        theta_init=_inside_bounds(after.theta_, after.theta_bounds))
+        if verbose:
+            print("refitting the augmented science model alone ...")
+        alone.fit(X, y)
+        rows.append({"stage": "science only", "science": science.__name__, "added": science.equation,
+                     **_evaluate(alone, X, X_test, y_test, test_scorer, theta_true)})
     report = format_table(rows, diag)
     if verbose:
         print(report)
-    return Bunch(before=before, after=after, diagnosis=diag, science=science, table=rows, report=report,
-                 seconds=time.perf_counter() - start)
+    return Bunch(before=before, after=after, diagnosis=diag, science=science, science_only=alone, table=rows,
+                 report=report, seconds=time.perf_counter() - start)
 
 
 def clone_diagnosis(diagnosis, state_names, input_names, units) -> ResidualDiagnosis:
@@ -332,7 +367,8 @@ def _inside_bounds(theta: dict, bounds: Mapping | None) -> dict:
 
 def format_table(rows: list[dict], diagnosis: ResidualDiagnosis | None = None) -> str:
     """Markdown before/after table of :func:`close_the_loop` rows."""
-    metrics = [k for k in rows[0] if k not in ("stage", "science", "added", "theta", "theta_error", "failed")]
+    skip = ("stage", "science", "added", "theta", "theta_error", "failed")
+    metrics = list(dict.fromkeys(k for r in rows for k in r if k not in skip))
     names = list(dict.fromkeys(k for r in rows for k in r["theta"]))
     head = ["stage", *metrics, *names]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
