@@ -9,7 +9,7 @@ import numpy as np
 import torch
 from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.metrics import r2_score
-from sklearn.utils import check_random_state
+from sklearn.utils import Bunch, check_random_state
 from sklearn.utils.validation import check_is_fitted, validate_data
 
 from .engine import TrainConfig, train
@@ -204,6 +204,19 @@ class HybridRegressor(RegressorMixin, BaseEstimator):
             :class:`~sklearn_hybrid.engine.DivergenceError` is raised and an
             earlier fit is left untouched.
         """
+        setup = self._setup_fit(X, y)
+        with _torch_threads(self.n_threads):
+            history = train(setup.model, setup.method, setup.inputs, setup.y, setup.config,
+                            torch.Generator().manual_seed(setup.seed))
+        self._set_fitted(setup.model, history, setup.y_shape)
+        return self
+
+    def _setup_fit(self, X, y):
+        """Validate the data and build everything ``fit`` trains (shared with HybridRegressorCV).
+
+        Returns a Bunch: ``model`` (with the seeded network), ``method``,
+        ``inputs``, ``y`` (tensor), ``config``, ``seed`` and ``y_shape``.
+        """
         method = self._check_params()
         y_shape = np.asarray(y).shape[1:]
         if len(y_shape) > 1:  # scikit-learn validates 2-D targets; predict restores the shape
@@ -225,18 +238,20 @@ class HybridRegressor(RegressorMixin, BaseEstimator):
                 in_shapes, out_shape = structure.residual_shapes()
                 residual = build_residual(self.residual, in_shapes, out_shape, dtype)
                 reduction = structure.make_reduction(dtype) if method.name == "f-reg" else None
-            model = HybridModule(science, residual, structure, reduction)
-            config = TrainConfig(lr=self.lr, max_iter=self.max_iter, batch_size=self.batch_size,
-                                 weight_decay=self.weight_decay, perturb=self.perturb,
-                                 verbose=self.verbose)
-            history = train(model, method, inputs, torch.as_tensor(y, dtype=dtype), config,
-                            torch.Generator().manual_seed(seed))
+        model = HybridModule(science, residual, structure, reduction)
+        config = TrainConfig(lr=self.lr, max_iter=self.max_iter, batch_size=self.batch_size,
+                             weight_decay=self.weight_decay, perturb=self.perturb,
+                             verbose=self.verbose)
+        return Bunch(model=model, method=method, inputs=inputs, y=torch.as_tensor(y, dtype=dtype),
+                     config=config, seed=seed, y_shape=y_shape)
+
+    def _set_fitted(self, model, history, y_shape):
+        """Store a trained model as this estimator's fitted state."""
         model.eval()
-        self.model_, self.residual_ = model, residual
-        self.theta_, self.history_ = science.as_dict(), history
+        self.model_, self.residual_ = model, model.residual
+        self.theta_, self.history_ = model.science.as_dict(), history
         self.y_shape_ = y_shape
         self.n_iter_ = self.max_iter
-        return self
 
     def _forward(self, X, use_residual=True, trace=False):
         check_is_fitted(self)

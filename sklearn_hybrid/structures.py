@@ -23,6 +23,7 @@ import numpy as np
 import torch
 from torch import nn
 
+from . import _fast
 from .integrate import INPUT_INTERPOLATIONS, integrate, upsample_inputs
 
 __all__ = ["HybridModule", "make_structure", "STRUCTURES", "pack_inputs"]
@@ -182,8 +183,14 @@ class OdeStructure:
                 return model.science(*args)
             return model.science(*args) + model.residual(*args)
 
-        states = integrate(rhs, x0, self.n_steps, self.dt, n_substeps=self.n_substeps,
-                           solver=self.solver, u_fine=u_fine, solver_options=self.solver_options)
+        if use_residual and _fast.supports(model.residual, self.state_shape, self.solver):
+            # same RK4, gradients without per-stage autograd overhead (see _fast)
+            states = _fast.hybrid_states(model.science, model.residual, x0, u_fine,
+                                         self.n_steps, self.dt, self.n_substeps)
+        else:
+            states = integrate(rhs, x0, self.n_steps, self.dt, n_substeps=self.n_substeps,
+                               solver=self.solver, u_fine=u_fine,
+                               solver_options=self.solver_options)
         pred = states if self.observed is None else states[..., self.observed]
         return pred, {"states": torch.cat([x0[:, None], states], dim=1), "u_fine": u_fine}
 

@@ -1,0 +1,208 @@
+"""HybridRegressorCV: a sweep of rho / lam / seeds trained as one batched model."""
+
+from __future__ import annotations
+
+import itertools
+import numbers
+
+import numpy as np
+import torch
+from sklearn.base import BaseEstimator, RegressorMixin, clone
+from sklearn.metrics import check_scoring
+from sklearn.utils.validation import check_is_fitted, validate_data
+
+from ._batched import BATCHABLE_METHODS, train_batched
+from ._estimator import HybridRegressor, _torch_threads
+
+__all__ = ["HybridRegressorCV"]
+
+
+def _values(name, values, default, kind=numbers.Real, positive=True):
+    values = [default] if values is None else list(np.atleast_1d(values).tolist())
+    if not values:
+        raise ValueError(f"{name} must hold at least one value.")
+    for v in values:
+        if not isinstance(v, kind) or isinstance(v, bool) or (positive and not v > 0):
+            raise ValueError(f"{name} must hold {'positive ' if positive else ''}numbers, got {v!r}.")
+    return values
+
+
+class HybridRegressorCV(RegressorMixin, BaseEstimator):
+    """A sweep over rho, lam and seeds of one HybridRegressor, trained as one batched model.
+
+    As :class:`~sklearn.linear_model.RidgeCV` is to ``Ridge``: every
+    combination of the given ``rhos``, ``lams`` and ``seeds`` is a *member*; the
+    K members are trained at once as a single stacked model (each member's
+    update is exactly the one a separate ``HybridRegressor`` fit with that
+    configuration and seed makes, up to floating-point summation order), then
+    scored, and the best member is kept.  The spread of theta across seeds
+    at the chosen configuration is reported as an uncertainty.
+
+    Parameters
+    ----------
+    estimator : HybridRegressor
+        The template; members take all its parameters except those swept.
+    rhos : sequence of float, optional
+        SAM radii to sweep (default: the estimator's ``rho``).
+    lams : sequence of float, optional
+        Penalty weights to sweep for ``method="p-reg"`` (default: its ``lam``).
+    seeds : sequence of int, optional
+        ``random_state`` of the members (default: the estimator's
+        ``random_state``, or 0 when that is None).
+    scoring : str, callable or None, default=None
+        Scorer ``scorer(member, X_val, y_val)`` (greater is better), e.g.
+        :func:`~sklearn_hybrid.make_theta_scorer` when the true parameters
+        are known; None uses the members' ``score`` (R^2) on the validation
+        samples.
+    validation_fraction : float or None, default=0.2
+        Fraction of the samples held out for scoring (a fixed random subset,
+        seeded by the first seed); None trains on all samples and scores on
+        them.
+
+    Attributes
+    ----------
+    estimators_ : list of HybridRegressor
+        The fitted members, in the order of ``cv_results_["params"]``.
+    cv_results_ : dict of ndarray
+        ``params`` (list of dicts), ``rho``, ``lam``, ``seed``, ``score``,
+        ``diverged_at`` (-1 when training stayed finite), ``theta_<name>``.
+    best_index_ : int
+        Member with the highest score.
+    best_estimator_ : HybridRegressor
+        That member.
+    best_params_ : dict
+        Its swept parameters.
+    theta_ : dict
+        Its parameters theta.
+    theta_std_ : dict
+        Standard deviation of theta across the seeds of its configuration.
+    n_features_in_ : int
+        Number of features seen in ``fit``.
+    """
+
+    def __init__(self, estimator=None, *, rhos=None, lams=None, seeds=None, scoring=None,
+                 validation_fraction=0.2):
+        self.estimator = estimator
+        self.rhos = rhos
+        self.lams = lams
+        self.seeds = seeds
+        self.scoring = scoring
+        self.validation_fraction = validation_fraction
+
+    def __sklearn_tags__(self):
+        tags = super().__sklearn_tags__()
+        tags.regressor_tags.poor_score = True
+        tags.target_tags.multi_output = True
+        return tags
+
+    def _members(self):
+        est = self.estimator
+        if not isinstance(est, HybridRegressor):
+            raise TypeError(
+                f"estimator must be a HybridRegressor, got {type(est).__name__}; e.g. "
+                "HybridRegressorCV(HybridRegressor(science=f), rhos=[0.01, 0.1])."
+            )
+        if est.method not in BATCHABLE_METHODS:
+            raise ValueError(
+                f"HybridRegressorCV trains methods {list(BATCHABLE_METHODS)}; for "
+                f"{est.method!r} use GridSearchCV over HybridRegressor."
+            )
+        default_seed = 0 if est.random_state is None else est.random_state
+        if not isinstance(default_seed, numbers.Integral):
+            raise ValueError("With a RandomState as the estimator's random_state, give seeds=[...].")
+        rhos = _values("rhos", self.rhos, est.rho)
+        lams = _values("lams", self.lams, est.lam)
+        seeds = _values("seeds", self.seeds, default_seed, kind=numbers.Integral, positive=False)
+        return [{"rho": r, "lam": lam, "random_state": s}
+                for r, lam, s in itertools.product(rhos, lams, seeds)]
+
+    def _split(self, n, seed):
+        frac = self.validation_fraction
+        if frac is None:
+            return np.arange(n), np.arange(n)
+        if not (isinstance(frac, numbers.Real) and 0 < frac < 1):
+            raise ValueError(f"validation_fraction must be in (0, 1) or None, got {frac!r}.")
+        n_val = int(round(frac * n))
+        if n_val < 1 or n - n_val < 2:
+            raise ValueError(f"validation_fraction={frac} leaves no usable split of {n} samples.")
+        order = np.random.default_rng(seed).permutation(n)
+        return np.sort(order[n_val:]), np.sort(order[:n_val])
+
+    def fit(self, X, y):
+        """Train every member at once, score them and keep the best.
+
+        Parameters
+        ----------
+        X : array-like of shape (n_samples, ...)
+            Inputs, as for :meth:`HybridRegressor.fit`.
+        y : array-like of shape (n_samples, ...)
+            Targets, as for :meth:`HybridRegressor.fit`.
+
+        Returns
+        -------
+        self : HybridRegressorCV
+        """
+        params = self._members()
+        y_arr = np.asarray(y)
+        validate_data(self, X, np.reshape(y_arr, (len(y_arr), -1)), allow_nd=True,
+                      multi_output=True, y_numeric=True)
+        X_arr = np.asarray(X)
+        train_idx, val_idx = self._split(len(X_arr), params[0]["random_state"])
+        members = [clone(self.estimator).set_params(**p) for p in params]
+        setups = [m._setup_fit(X_arr[train_idx], y_arr[train_idx]) for m in members]
+        first = setups[0]
+        with _torch_threads(self.estimator.n_threads):
+            history = train_batched(
+                [s.model for s in setups], first.method, first.inputs, first.y, first.config,
+                [torch.Generator().manual_seed(s.seed) for s in setups],
+                rho=np.array([p["rho"] for p in params]), lam=np.array([p["lam"] for p in params]))
+        diverged = history["diverged_at"]
+        scores = np.full(len(members), -np.inf)
+        X_val, y_val = X_arr[val_idx], y_arr[val_idx]
+        for k, (member, setup) in enumerate(zip(members, setups)):
+            member_history = {"loss": history["loss"][:, k],
+                              "theta": {n: v[:, k] for n, v in history["theta"].items()}}
+            member._set_fitted(setup.model, member_history, setup.y_shape)
+            if diverged[k] < 0:
+                scores[k] = check_scoring(member, scoring=self.scoring)(member, X_val, y_val)
+        best = int(np.argmax(scores))
+        self.estimators_, self.best_index_ = members, best
+        self.best_estimator_ = members[best]
+        self.best_params_ = params[best]
+        self.theta_ = self.best_estimator_.theta_
+        self.cv_results_ = self._results(params, scores, diverged)
+        same = [k for k, p in enumerate(params)
+                if (p["rho"], p["lam"]) == (params[best]["rho"], params[best]["lam"]) and diverged[k] < 0]
+        self.theta_std_ = {}
+        for name, value in self.theta_.items():
+            spread = np.std([np.asarray(members[k].theta_[name]) for k in same], axis=0)
+            self.theta_std_[name] = float(spread) if np.ndim(value) == 0 else spread
+        return self
+
+    def _results(self, params, scores, diverged):
+        results = {"params": params, "score": scores, "diverged_at": diverged}
+        for key in ("rho", "lam"):
+            results[key] = np.array([p[key] for p in params], dtype=float)
+        results["seed"] = np.array([p["random_state"] for p in params])
+        for name in self.estimators_[0].theta_:
+            results[f"theta_{name}"] = np.array([np.asarray(m.theta_[name]) for m in self.estimators_])
+        return results
+
+    def predict(self, X):
+        """Predict with the best member.
+
+        Parameters
+        ----------
+        X : array-like of shape (n_samples, ...)
+
+        Returns
+        -------
+        ndarray of shape (n_samples, *y.shape[1:])
+        """
+        check_is_fitted(self)
+        return self.best_estimator_.predict(X)
+
+    def score(self, X, y, sample_weight=None):
+        """R^2 of the best member (targets flattened per sample)."""
+        check_is_fitted(self)
+        return self.best_estimator_.score(X, y, sample_weight=sample_weight)

@@ -1,0 +1,113 @@
+"""The fast RK4 path (sklearn_hybrid._fast): same states and gradients as plain autograd."""
+
+import numpy as np
+import pytest
+import torch
+
+from sklearn_hybrid import HybridRegressor
+from sklearn_hybrid import _fast
+from sklearn_hybrid.integrate import integrate
+from sklearn_hybrid.residual import MLP, ConvNet
+
+D = torch.float64
+
+
+def pendulum_f(v, omega=0.5):
+    return torch.stack([v[:, 1], -(2 * torch.pi * omega) ** 2 * torch.sin(v[:, 0])], dim=-1)
+
+
+def forced_f(v, u, k=1.0, c=0.1):
+    return torch.stack([v[:, 1], -k * v[:, 0] - c * v[:, 1] + u[:, 0]], dim=-1)
+
+
+def _reference(science, thetas, net, x0, u, n_steps, dt, n_sub):
+    def rhs(v, uu):
+        args = (v,) if uu is None else (v, uu)
+        return science(*args, **thetas) + net(*args)
+
+    return integrate(rhs, x0, n_steps, dt, n_substeps=n_sub, u_fine=u)
+
+
+@pytest.mark.parametrize("activation", ["relu", "tanh", "softplus"])
+@pytest.mark.parametrize("forced", [False, True])
+def test_states_and_gradients_match_autograd(activation, forced):
+    torch.manual_seed(0)
+    n_steps, n_sub, dt = 3, 2, 0.2
+    science = forced_f if forced else pendulum_f
+    ins = ((2,), (1,)) if forced else ((2,),)
+    net = MLP(ins, (2,), hidden=(8, 8), activation=activation).to(D)
+    theta = {"k": torch.tensor(1.3, dtype=D, requires_grad=True),
+             "c": torch.tensor(0.2, dtype=D, requires_grad=True)} if forced else \
+        {"omega": torch.tensor(0.6, dtype=D, requires_grad=True)}
+    x0 = torch.randn(5, 2, dtype=D, requires_grad=True)
+    u = torch.randn(5, 2 * n_sub * n_steps + 1, 1, dtype=D) if forced else None
+    w = torch.randn(5, n_steps, 2, dtype=D)
+    params = [*theta.values(), x0, *net.parameters()]
+
+    ref = _reference(science, theta, net, x0, u, n_steps, dt, n_sub)
+    grads_ref = torch.autograd.grad((ref * w).sum(), params)
+    weights, biases, acts = _fast.mlp_parts(net)
+    fast = _fast.ode_states(science, list(theta), [t[None] for t in theta.values()],
+                            [p[None] for p in weights], [p[None] for p in biases], acts, x0[None],
+                            None if u is None else u[None], n_steps, dt, n_sub)[0]
+    grads = torch.autograd.grad((fast * w).sum(), params)
+    torch.testing.assert_close(fast, ref, rtol=1e-12, atol=1e-12)
+    for g, g_ref in zip(grads, grads_ref):
+        torch.testing.assert_close(g, g_ref, rtol=1e-10, atol=1e-12)
+
+
+def test_stacked_members_get_their_own_gradients():
+    torch.manual_seed(1)
+    nets = [MLP(((2,),), (2,), hidden=(8,)).to(D) for _ in range(3)]
+    omega = torch.tensor([0.5, 0.6, 0.7], dtype=D, requires_grad=True)
+    parts = [_fast.mlp_parts(n) for n in nets]
+    weights = [torch.stack([p[0][i] for p in parts]).detach().requires_grad_() for i in range(2)]
+    biases = [torch.stack([p[1][i] for p in parts]).detach().requires_grad_() for i in range(2)]
+    x0, w = torch.randn(3, 4, 2, dtype=D), torch.randn(3, 4, 2, 2, dtype=D)
+    out = _fast.ode_states(pendulum_f, ["omega"], [omega], weights, biases, parts[0][2], x0, None,
+                           2, 0.1, 3)
+    grads = torch.autograd.grad((out * w).sum(), [omega, *weights, *biases])
+    for k, net in enumerate(nets):
+        om = omega[k].detach().requires_grad_()
+        ref = _reference(pendulum_f, {"omega": om}, net, x0[k], None, 2, 0.1, 3)
+        torch.testing.assert_close(out[k], ref, rtol=1e-12, atol=1e-12)
+        g_ref = torch.autograd.grad((ref * w[k]).sum(), [om, *net.parameters()])
+        mine = [grads[0][k], grads[1][k], grads[3][k], grads[2][k], grads[4][k]]
+        for g, r in zip(mine, g_ref):
+            torch.testing.assert_close(g, r, rtol=1e-10, atol=1e-12)
+
+
+def test_supports():
+    mlp = MLP(((2,),), (2,))
+    assert _fast.supports(mlp, (2,), "rk4")
+    assert not _fast.supports(mlp, (2,), "dopri5")
+    assert not _fast.supports(MLP(((20,),), (20,)), (20,), "rk4")  # large state: autograd
+    assert not _fast.supports(ConvNet(((2, 4, 4),), (2, 4, 4)), (2, 4, 4), "rk4")
+    with _fast.disabled():
+        assert not _fast.supports(mlp, (2,), "rk4")
+    assert _fast.supports(mlp, (2,), "rk4")
+
+
+@pytest.mark.parametrize("method", ["erm", "fsam", "f-reg"])
+def test_fit_same_with_and_without_fast_path(method):
+    rng = np.random.default_rng(0)
+    X = rng.uniform(-1, 1, (10, 2))
+    y = np.stack([X * np.cos(0.3 * t) for t in range(1, 4)], axis=1)
+    kw = dict(science=pendulum_f, method=method, dt=0.2, max_iter=15, lr=1e-2, dtype="float64",
+              residual={"hidden": (8, 8)}, theta_bounds={"omega": (0.1, 2.0)},
+              observed=[0], random_state=0)
+    fast = HybridRegressor(**kw).fit(X, y[..., :1])
+    with _fast.disabled():
+        slow = HybridRegressor(**kw).fit(X, y[..., :1])
+    assert fast.theta_["omega"] == pytest.approx(slow.theta_["omega"], rel=1e-9)
+    np.testing.assert_allclose(fast.history_["loss"], slow.history_["loss"], rtol=1e-9)
+    np.testing.assert_allclose(fast.predict(X), slow.predict(X), rtol=1e-9, atol=1e-12)
+
+
+def test_fixed_theta_gets_no_gradient_and_stays():
+    rng = np.random.default_rng(0)
+    X = rng.uniform(-1, 1, (6, 2))
+    y = np.stack([X] * 3, axis=1)
+    est = HybridRegressor(science=pendulum_f, method="erm", dt=0.1, max_iter=5,
+                          residual={"hidden": (8,)}, theta_fixed=["omega"], random_state=0).fit(X, y)
+    assert est.theta_["omega"] == pytest.approx(0.5)
