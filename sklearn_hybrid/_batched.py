@@ -22,7 +22,7 @@ import torch
 from torch import nn
 
 from . import _fast
-from .engine import DivergenceError, TrainConfig, _Batches
+from .engine import DivergenceError, TrainConfig, _Batches, make_optimizer
 from .methods import asam_perturbation, fsam_perturbation, sam_perturbation
 
 __all__ = ["train_batched", "BATCHABLE_METHODS"]
@@ -146,11 +146,7 @@ def train_batched(models: list, method, inputs: tuple, y: torch.Tensor, config: 
     rho_t = torch.as_tensor(rho, dtype=dtype)
     lam_t = torch.as_tensor(lam, dtype=dtype)
 
-    optimizer = torch.optim.Adam(
-        [{"params": theta, "weight_decay": 0.0},
-         {"params": phi, "weight_decay": config.weight_decay}], lr=config.lr)
-    scheduler = torch.optim.lr_scheduler.CosineAnnealingLR(
-        optimizer, T_max=config.max_iter, eta_min=min(config.min_lr, config.lr))
+    optimizer, scheduler = make_optimizer(theta, phi, config)
     batches = [_Batches(len(y), config.batch_size, g) for g in generators]
     science = stacked.base.science
     losses = np.empty((config.max_iter, K))

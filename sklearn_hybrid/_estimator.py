@@ -93,6 +93,10 @@ class HybridRegressor(RegressorMixin, BaseEstimator):
         ``"ode"``: reconstruction of u(t) between samples.
     lr : float, default=1e-3
         Initial Adam learning rate, cosine-annealed to 1e-6 over ``max_iter``.
+    lr_theta : float or None, default=None
+        Initial learning rate of theta if it should differ from ``lr`` (Adam
+        moves each parameter by about its learning rate per step, so a theta
+        far from its start or of a different scale may need its own).
     max_iter : int, default=2000
         Number of optimisation steps.
     batch_size : int or None, default=None
@@ -130,7 +134,8 @@ class HybridRegressor(RegressorMixin, BaseEstimator):
     def __init__(self, science=None, *, structure="ode", residual="mlp", method="fsam",
                  rho=0.05, lam=1e-3, eta=None, perturb="residual", theta_init=None,
                  theta_bounds=None, theta_fixed=None, dt=1.0, n_substeps=4, solver="rk4",
-                 observed=None, n_inputs=0, input_interp="cubic", lr=1e-3, max_iter=2000,
+                 observed=None, n_inputs=0, input_interp="cubic", lr=1e-3, lr_theta=None,
+                 max_iter=2000,
                  batch_size=None, weight_decay=1e-5, dtype="float32", n_threads=1,
                  random_state=None, verbose=False):
         self.science = science
@@ -151,6 +156,7 @@ class HybridRegressor(RegressorMixin, BaseEstimator):
         self.n_inputs = n_inputs
         self.input_interp = input_interp
         self.lr = lr
+        self.lr_theta = lr_theta
         self.max_iter = max_iter
         self.batch_size = batch_size
         self.weight_decay = weight_decay
@@ -169,6 +175,7 @@ class HybridRegressor(RegressorMixin, BaseEstimator):
         if self.science is None:
             raise ValueError("HybridRegressor needs a science function: HybridRegressor(science=f).")
         _check_positive("lr", self.lr)
+        _check_positive("lr_theta", self.lr_theta, allow_none=True)
         _check_positive("max_iter", self.max_iter, integer=True)
         _check_positive("batch_size", self.batch_size, integer=True, allow_none=True)
         _check_positive("n_threads", self.n_threads, integer=True, allow_none=True)
@@ -239,7 +246,8 @@ class HybridRegressor(RegressorMixin, BaseEstimator):
                 residual = build_residual(self.residual, in_shapes, out_shape, dtype)
                 reduction = structure.make_reduction(dtype) if method.name == "f-reg" else None
         model = HybridModule(science, residual, structure, reduction)
-        config = TrainConfig(lr=self.lr, max_iter=self.max_iter, batch_size=self.batch_size,
+        config = TrainConfig(lr=self.lr, lr_theta=self.lr_theta, max_iter=self.max_iter,
+                             batch_size=self.batch_size,
                              weight_decay=self.weight_decay, perturb=self.perturb,
                              verbose=self.verbose)
         return Bunch(model=model, method=method, inputs=inputs, y=torch.as_tensor(y, dtype=dtype),

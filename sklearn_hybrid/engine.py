@@ -16,7 +16,7 @@ import numpy as np
 import torch
 from torch import nn
 
-__all__ = ["TrainConfig", "train", "DivergenceError", "data_loss"]
+__all__ = ["TrainConfig", "train", "DivergenceError", "data_loss", "make_optimizer"]
 
 
 class DivergenceError(FloatingPointError):
@@ -28,12 +28,28 @@ class TrainConfig:
     """Optimisation settings (validated by the estimator)."""
 
     lr: float = 1e-3
+    lr_theta: float | None = None
     max_iter: int = 2000
     batch_size: int | None = None
     weight_decay: float = 1e-5
     perturb: str = "residual"
     min_lr: float = 1e-6
     verbose: bool = False
+
+
+def make_optimizer(theta: list, phi: list, config: TrainConfig):
+    """Adam with a cosine-annealed learning rate (one period over ``max_iter``).
+
+    theta gets no weight decay (decay would bias the physics) and its own
+    learning rate when ``config.lr_theta`` is set; the network gets the slight
+    ``weight_decay``.  Parameter tensors may carry a leading member axis.
+    """
+    optimizer = torch.optim.Adam(
+        [{"params": theta, "weight_decay": 0.0, "lr": config.lr_theta or config.lr},
+         {"params": phi, "weight_decay": config.weight_decay}], lr=config.lr)
+    scheduler = torch.optim.lr_scheduler.CosineAnnealingLR(
+        optimizer, T_max=config.max_iter, eta_min=min(config.min_lr, config.lr))
+    return optimizer, scheduler
 
 
 def data_loss(pred: torch.Tensor, y: torch.Tensor) -> torch.Tensor:
@@ -120,11 +136,7 @@ def train(model: nn.Module, method, inputs: tuple[torch.Tensor, ...], y: torch.T
     # positions of the perturbed tensors inside `params`
     where = [next(i for i, q in enumerate(params) if q is p) for p in perturbed]
 
-    optimizer = torch.optim.Adam(
-        [{"params": theta, "weight_decay": 0.0},
-         {"params": phi + extra, "weight_decay": config.weight_decay}], lr=config.lr)
-    scheduler = torch.optim.lr_scheduler.CosineAnnealingLR(
-        optimizer, T_max=config.max_iter, eta_min=min(config.min_lr, config.lr))
+    optimizer, scheduler = make_optimizer(theta, phi + extra, config)
     batches = _Batches(len(y), config.batch_size, generator)
     names = model.science.names
     losses = np.empty(config.max_iter)

@@ -260,3 +260,16 @@ def test_pipeline_and_theta_scorer_through_it():
                           scoring=make_theta_scorer({"a": 2.0})).fit(X, y)
     assert search.best_score_ <= 0
     assert pipe.fit(X, y).predict(X).shape == (30,)
+
+
+def test_lr_theta_gives_theta_its_own_step(pendulum):
+    """Adam moves a parameter by about its learning rate per step: lr_theta scales theta's."""
+    X, y = pendulum.X_train, pendulum.y_train
+    common = dict(science=pendulum_f, dt=0.2, method="erm", **{**FAST, "max_iter": 5})
+    slow = HybridRegressor(lr=1e-4, **common).fit(X, y)
+    fast = HybridRegressor(lr=1e-4, lr_theta=1e-2, **common).fit(X, y)
+    moved_slow = abs(slow.theta_["omega"] - 0.5)
+    moved_fast = abs(fast.theta_["omega"] - 0.5)
+    assert moved_slow < 6e-4 and moved_fast > 20 * moved_slow
+    with pytest.raises(ValueError, match="lr_theta must be a positive number"):
+        HybridRegressor(lr_theta=0.0, **common).fit(X, y)
