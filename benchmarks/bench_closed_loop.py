@@ -35,7 +35,13 @@ def _baselines() -> dict:
 
 
 def _markdown(results: dict, baselines: dict, method: str) -> str:
-    md = [f"# Closing the loop (method={method!r}): residual -> missing term -> refit", ""]
+    md = [f"# Closing the loop (method={method!r}): residual -> missing term -> refit", "",
+          "Rows: *before* = hybrid with the given science model; *after* = hybrid refitted with the terms "
+          "the diagnosis added; *science only* = the augmented science model refitted without a network. "
+          "`*_science_only_*` columns simulate the science part of each row alone; `network_share` = "
+          "RMS(hybrid - science-only prediction) / RMS(hybrid prediction) on the test record; "
+          "`network_share_rhs` = max over components of RMS(g) / RMS(f + g) on the training states. "
+          "Timings are wall-clock on a 2-core machine that other jobs shared during the run.", ""]
     for name, r in results.items():
         md += [f"## {name}", "", r["description"], "", r["report"], "",
                f"Fit + diagnosis + refit + evaluation: {r['seconds']:.0f} s.", ""]
