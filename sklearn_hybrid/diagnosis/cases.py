@@ -185,7 +185,6 @@ def pendulum_freeswing_case(fast: bool = False, method: str = "erm", max_iter: i
     dt, window, n_train, n_test = 0.1, 50, 300, 350  # time unit 0.1 s: a sample is dt = 0.1 units
     starts = np.arange(0, n_train - window, 50 if fast else 5)
     Y, _ = _windows(angle, None, starts, window)
-    V, _ = _windows(vel, None, starts, window)
     X = np.column_stack([angle[starts], vel[starts]])
     est = HybridRegressor(science=swing_f, dt=dt, n_substeps=1, observed=[0],
                           residual=MLPOn([1], hidden=(32, 32)), method=method, rho=0.05, lr=1e-2,
@@ -200,7 +199,6 @@ def pendulum_freeswing_case(fast: bool = False, method: str = "erm", max_iter: i
                 "test_science_only_rmse_mrad": 1e3 * SWING_SCALE * m["rmse_science_only"],
                 "network_share": m["network_share"]}
 
-    del V
     return Bunch(name="pendulum-freeswing", estimator=est, X=X, y=Y[:, :, None], test_scorer=scorer,
                  state_names=["theta", "theta_dot"], input_names=None,
                  units={"theta": "0.1 rad", "theta_dot": "rad/s"},
