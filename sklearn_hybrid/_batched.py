@@ -10,9 +10,12 @@ element by element.  A member therefore takes exactly the steps a separate
 floating-point summation order), while the K small problems share each
 operation, which amortises per-operation overhead and fills the matrix units.
 
-Two forward paths: hybrid ODEs with an MLP over a small state use the
-batched RK4 of :mod:`sklearn_hybrid._fast`; anything else runs the member
-model under :func:`torch.func.vmap` with :func:`torch.func.functional_call`.
+Three forward paths: hybrid ODEs with an MLP over a small state use the
+stacked RK4 of :mod:`sklearn_hybrid._fast`; other models run under
+:func:`torch.func.vmap` with :func:`torch.func.functional_call`, except
+convolutional ones, which ``vmap`` would turn into slow grouped
+convolutions: those run member by member (already arithmetic-bound, they
+gain nothing from stacking).
 """
 
 from __future__ import annotations
@@ -63,6 +66,7 @@ class _StackedModel:
                 "use track_running_stats=False or fit the configurations separately."
             )
         self.n_inputs = len(inputs)
+        self.convolutional = any(isinstance(m, nn.modules.conv._ConvNd) for m in self.base.modules())
 
     def group(self, prefix):
         return [self.params[n] for n in self.names if n.startswith(prefix) and self.params[n].requires_grad]
@@ -88,6 +92,10 @@ class _StackedModel:
             pred, _ = torch.func.functional_call(self.base, (params, self.buffers), member_inputs)
             return pred
 
+        if self.convolutional:  # vmap turns convolutions into slow grouped ones: one by one
+            K = len(inputs[0])
+            return torch.stack([member({n: p[k] for n, p in self.params.items()},
+                                       *(t[k] for t in inputs)) for k in range(K)])
         with _fast.disabled():  # the custom autograd function does not run under vmap
             return torch.func.vmap(member)(self.params, *inputs)
 
@@ -123,11 +131,8 @@ def train_batched(models: list, method, inputs: tuple, y: torch.Tensor, config: 
     dict
         ``"loss"``: (max_iter, K); ``"theta"``: name -> (max_iter, K, ...);
         ``"diverged_at"``: (K,) first iteration with a non-finite loss, or -1.
-
-    Raises
-    ------
-    DivergenceError
-        If every member diverges.
+        A diverged member's values go on as NaN without touching the others;
+        training stops early when every member has diverged.
     """
     if method.name not in BATCHABLE_METHODS:
         raise ValueError(
@@ -172,11 +177,9 @@ def train_batched(models: list, method, inputs: tuple, y: torch.Tensor, config: 
         loss, grads = loss_and_grads(xb, yb)
         bad = ~torch.isfinite(loss).numpy() & (diverged < 0)
         diverged[bad] = it
-        if (diverged >= 0).all():
-            raise DivergenceError(
-                f"The training loss of every member became non-finite (last at iteration {it}); "
-                "lower lr or rho, check the data scale, or bound theta with theta_bounds."
-            )
+        if (diverged >= 0).all():  # nothing left to train
+            losses[it:], thetas = np.nan, {n: np.full_like(v, np.nan) for n, v in thetas.items()}
+            break
         if method.perturbs:
             with torch.no_grad():
                 saved = [p.detach().clone() for p in perturbed]

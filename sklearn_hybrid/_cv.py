@@ -7,12 +7,14 @@ import numbers
 
 import numpy as np
 import torch
+from joblib import Parallel, delayed
 from sklearn.base import BaseEstimator, RegressorMixin, clone
 from sklearn.metrics import check_scoring
 from sklearn.utils.validation import check_is_fitted, validate_data
 
 from ._batched import BATCHABLE_METHODS, train_batched
 from ._estimator import HybridRegressor, _torch_threads
+from .engine import DivergenceError
 
 __all__ = ["HybridRegressorCV"]
 
@@ -58,6 +60,12 @@ class HybridRegressorCV(RegressorMixin, BaseEstimator):
         Fraction of the samples held out for scoring (a fixed random subset,
         seeded by the first seed); None trains on all samples and scores on
         them.
+    n_jobs : int or None, default=None
+        Train the members in this many groups at once, each in its own thread
+        with one torch thread (None: one group, with the estimator's
+        ``n_threads``).  Groups share nothing, so on a busy machine this uses
+        a second core without the per-operation synchronisation of
+        multi-threaded operations.
 
     Attributes
     ----------
@@ -81,13 +89,14 @@ class HybridRegressorCV(RegressorMixin, BaseEstimator):
     """
 
     def __init__(self, estimator=None, *, rhos=None, lams=None, seeds=None, scoring=None,
-                 validation_fraction=0.2):
+                 validation_fraction=0.2, n_jobs=None):
         self.estimator = estimator
         self.rhos = rhos
         self.lams = lams
         self.seeds = seeds
         self.scoring = scoring
         self.validation_fraction = validation_fraction
+        self.n_jobs = n_jobs
 
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()
@@ -150,13 +159,14 @@ class HybridRegressorCV(RegressorMixin, BaseEstimator):
         train_idx, val_idx = self._split(len(X_arr), params[0]["random_state"])
         members = [clone(self.estimator).set_params(**p) for p in params]
         setups = [m._setup_fit(X_arr[train_idx], y_arr[train_idx]) for m in members]
-        first = setups[0]
-        with _torch_threads(self.estimator.n_threads):
-            history = train_batched(
-                [s.model for s in setups], first.method, first.inputs, first.y, first.config,
-                [torch.Generator().manual_seed(s.seed) for s in setups],
-                rho=np.array([p["rho"] for p in params]), lam=np.array([p["lam"] for p in params]))
+        history = self._train(setups, params)
         diverged = history["diverged_at"]
+        if (diverged >= 0).all():
+            raise DivergenceError(
+                f"The training loss of every member became non-finite (first at iteration "
+                f"{diverged.min()}); lower lr or rho, check the data scale, or bound theta "
+                "with theta_bounds."
+            )
         scores = np.full(len(members), -np.inf)
         X_val, y_val = X_arr[val_idx], y_arr[val_idx]
         for k, (member, setup) in enumerate(zip(members, setups)):
@@ -178,6 +188,29 @@ class HybridRegressorCV(RegressorMixin, BaseEstimator):
             spread = np.std([np.asarray(members[k].theta_[name]) for k in same], axis=0)
             self.theta_std_[name] = float(spread) if np.ndim(value) == 0 else spread
         return self
+
+    def _train(self, setups, params):
+        """Train the members, in ``n_jobs`` groups at once (threads of one torch thread each)."""
+        first = setups[0]
+        rho, lam = np.array([p["rho"] for p in params]), np.array([p["lam"] for p in params])
+        n_jobs = 1 if self.n_jobs is None else self.n_jobs
+        if not (isinstance(n_jobs, numbers.Integral) and n_jobs >= 1):
+            raise ValueError(f"n_jobs must be a positive integer or None, got {n_jobs!r}.")
+        groups = [g for g in np.array_split(np.arange(len(setups)), n_jobs) if len(g)]
+
+        def run(group):
+            return train_batched(
+                [setups[k].model for k in group], first.method, first.inputs, first.y,
+                first.config, [torch.Generator().manual_seed(setups[k].seed) for k in group],
+                rho=rho[group], lam=lam[group])
+
+        threads = self.estimator.n_threads if len(groups) == 1 else 1
+        with _torch_threads(threads):
+            parts = Parallel(n_jobs=len(groups), backend="threading")(delayed(run)(g) for g in groups)
+        return {"loss": np.concatenate([p["loss"] for p in parts], axis=1),
+                "theta": {n: np.concatenate([p["theta"][n] for p in parts], axis=1)
+                          for n in parts[0]["theta"]},
+                "diverged_at": np.concatenate([p["diverged_at"] for p in parts])}
 
     def _results(self, params, scores, diverged):
         results = {"params": params, "score": scores, "diverged_at": diverged}

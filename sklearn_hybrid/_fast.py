@@ -35,6 +35,7 @@ from typing import Callable
 import torch
 from torch import nn
 
+from . import _fast_members
 from .residual import MLP
 
 __all__ = ["supports", "mlp_parts", "ode_states", "disabled"]
@@ -43,7 +44,6 @@ __all__ = ["supports", "mlp_parts", "ode_states", "disabled"]
 MAX_STATE = 8
 
 _ENABLED = True
-_relu_backward = torch.ops.aten.threshold_backward.grad_input
 
 
 @contextmanager
@@ -162,31 +162,24 @@ def _stage_input_index(n_steps, n_substeps):
     return torch.tensor(idx)
 
 
-def _sweep(grad_out, jac, slopes, relu, weights, cots, h, n_substeps):
-    """Backpropagate through the RK4 steps, filling ``cots``; returns d loss / d x0.
+def _sweep(grad_out, jac, slopes, weights, cots, h, n_substeps):
+    """Backpropagate one member through the RK4 steps, filling ``cots``; returns d loss / d x0.
 
-    ``jac`` is stage-major ``(S, [K,] B, d, d)``; ``slopes[l]`` holds layer l's
-    activation derivatives, or its outputs where ``relu[l]``; the other tensors are
-    member-major ``(K, S, ...)`` or, for a single member, have the member axis
-    stripped (2-D products cost less than batched ones).  ``cots[l]`` receives
-    the cotangent of layer l's output at every stage (the last layer's is the
-    cotangent of the whole rhs).  This loop's cost is dispatch, not
+    ``jac`` is (S, B, d, d); ``slopes[l]`` holds hidden layer l's activation
+    derivatives; ``cots[l]`` (S, B, w_l)
+    receives the cotangent of layer l's output at every stage (the last
+    layer's is that of the whole rhs).  The loop's cost is dispatch, not
     arithmetic, so it uses only primitive operations and no Python scalars.
     """
-    batched = grad_out.dim() == 4
-    axis = 1 if batched else 0
-    mm, fma = (torch.bmm, torch.baddbmm) if batched else (torch.mm, torch.addmm)
     d = jac.shape[-1]
-    jac = jac.unbind(0)
-    slopes = [t.unbind(axis) for t in slopes]
-    cots = [t.unbind(axis) for t in cots]
-    w_state = weights[0][..., :d]
+    jac, slopes, cots = jac.unbind(0), [t.unbind(0) for t in slopes], [t.unbind(0) for t in cots]
+    w_state = weights[0][:, :d]
     n_hidden = len(weights) - 1
     # d x' / d k_i of x' = x + h/6 (k1 + 2 k2 + 2 k3 + k4), as tensors: a Python
     # scalar costs a tensor construction in every operation
     coef = [torch.tensor(c, dtype=grad_out.dtype) for c in (h / 6, h / 3, h / 3, h / 6)]
     back = [None, 0.5 * h, 0.5 * h, h]  # stage i's input is x + back[i] * k_{i-1}
-    outputs = grad_out.unbind(-2)
+    outputs = grad_out.unbind(1)
     adj = torch.zeros_like(outputs[0])
     s = len(jac)
     for n in reversed(range(len(outputs))):
@@ -198,21 +191,48 @@ def _sweep(grad_out, jac, slopes, relu, weights, cots, h, n_substeps):
                 g = (jac[s + i] * cs[i].unsqueeze(-2)).sum(-1)  # tiny per-sample products
                 delta = cs[i]
                 for layer in reversed(range(n_hidden)):
-                    if relu[layer]:  # zero where the unit was off, in one operation
-                        delta = _relu_backward(mm(delta, weights[layer + 1]), slopes[layer][s + i],
-                                               0.0, grad_input=cots[layer][s + i])
-                    else:
-                        delta = mm(delta, weights[layer + 1], out=cots[layer][s + i])
-                        delta.mul_(slopes[layer][s + i])
-                g = fma(g, delta, w_state)  # d loss / d (stage input)
+                    delta = torch.mm(delta, weights[layer + 1], out=cots[layer][s + i])
+                    delta.mul_(slopes[layer][s + i])
+                g = torch.addmm(g, delta, w_state)  # d loss / d (stage input)
                 adj = adj + g
                 if i:
                     cs[i - 1].add_(g, alpha=back[i])
     return adj
 
 
+def _science_jacobian(cfg, v_all, u_all, thetas, need_theta):
+    """Per-sample Jacobian ``jac[k, n, j, i] = d f_i / d v_j`` of the science part (it acts
+    row by row), and its output with a graph back to theta for the theta gradient."""
+    K, N, d = v_all.shape
+    with torch.enable_grad():
+        v = v_all.detach().requires_grad_()
+        leaves = [t.detach().requires_grad_(need_theta) for t in thetas]
+        f = cfg.science(v, u_all, leaves)
+        jac = v.new_empty(K, N, d, d)
+        for i in range(d):
+            (jac[..., i],) = torch.autograd.grad(f[..., i].sum(), v, retain_graph=True)
+    return jac, f, leaves
+
+
+def _activations(hidden, cfg):
+    """Per hidden layer, the activations and (None for ReLU, decided by its output) slopes."""
+    acts, slopes = [], []
+    for z, act, relu in zip(hidden, cfg.acts, cfg.relu):
+        if relu:
+            acts.append(z)
+            slopes.append(None)
+            continue
+        with torch.enable_grad():
+            z = z.detach().requires_grad_()
+            a = act(z)
+            (slope,) = torch.autograd.grad(a, z, torch.ones_like(a))
+        acts.append(a.detach())
+        slopes.append(slope)
+    return acts, slopes
+
+
 class _OdeMLP(torch.autograd.Function):
-    """States at the output times; gradients by the batched-Jacobian schedule above."""
+    """States at the output times; gradients by the schedule in the module docstring."""
 
     @staticmethod
     def forward(ctx, cfg, x0, u_fine, *tensors):
@@ -223,25 +243,22 @@ class _OdeMLP(torch.autograd.Function):
         if u_fine is not None:  # inputs' share of the first layer, for every grid point
             w_u = weights[0][:, None, :, d:].transpose(-1, -2)  # (K, 1, n_inputs, w1)
             p_in = torch.matmul(u_fine, w_u) + biases[0][:, None, None]
-        args = (x0, u_fine, p_in, thetas, weights, biases)
-        with torch.inference_mode():  # lighter per-operation bookkeeping than no_grad
-            if K == 1:
-                out, states, pre = _member_forward(
-                    cfg, *(None if a is None else a[0] for a in args[:3]), [t[0] for t in thetas],
-                    [w[0] for w in weights], [b[0] for b in biases])
-            else:
-                forward = lambda *a: _member_forward(cfg, *a)  # noqa: E731
-                in_dims = tuple(None if a is None else 0 for a in args)
-                out, states, pre = torch.func.vmap(forward, in_dims=in_dims)(*args)
-        # stacking outside inference mode gives ordinary tensors, which backward may keep
-        axis = 0 if K == 1 else 1
-        out = torch.stack(out, axis + 1)
-        states, pre = torch.stack(states, axis), [torch.stack(z, axis) for z in pre]
         if K == 1:
-            out, states, pre = out[None], states[None], [z[None] for z in pre]
-        ctx.cfg = cfg
-        ctx.save_for_backward(x0, u_fine, states, *pre, *tensors)
-        ctx.n_pre = len(pre)
+            with torch.inference_mode():  # lighter per-operation bookkeeping than no_grad
+                out, states, hidden = _member_forward(
+                    cfg, x0[0], None if u_fine is None else u_fine[0],
+                    None if p_in is None else p_in[0], [t[0] for t in thetas],
+                    [w[0] for w in weights], [b[0] for b in biases])
+            # stacked outside inference mode: ordinary tensors, which backward may keep
+            out = torch.stack(out, 1)[None]
+            states, hidden = torch.stack(states)[:, None], [torch.stack(z)[:, None] for z in hidden]
+        else:
+            with torch.no_grad():
+                out, states, hidden = _fast_members.forward(cfg, x0, u_fine, p_in, thetas,
+                                                            weights, biases)
+        ctx.cfg, ctx.released = cfg, False
+        ctx.save_for_backward(x0, u_fine, states, *hidden, *tensors)
+        ctx.n_hidden = len(hidden)
         return out
 
     @staticmethod
@@ -249,72 +266,66 @@ class _OdeMLP(torch.autograd.Function):
     def backward(ctx, grad_out):
         cfg = ctx.cfg
         x0, u_fine, states, *rest = ctx.saved_tensors
-        pre, tensors = rest[: ctx.n_pre], rest[ctx.n_pre:]
+        hidden, tensors = rest[: ctx.n_hidden], rest[ctx.n_hidden:]
         thetas = tensors[: cfg.n_theta]
-        weights, biases = tensors[cfg.n_theta::2], tensors[cfg.n_theta + 1::2]
-        K, S, B, d = states.shape
+        weights = tensors[cfg.n_theta::2]
+        K, B, d = x0.shape
+        S = 4 * cfg.n_steps * cfg.n_substeps
         N = S * B
-        v_all = states.reshape(K, N, d)
-        u_all = None
+        # states are (S, 1, B, d) for one member, (n_steps, K, C, B, d) for several
+        v_all = states.transpose(0, 1).reshape(K, N, d)
+        u_all = None  # inputs at every stage, member-major
         if u_fine is not None:
             u_all = u_fine[:, :, _stage_input_index(cfg.n_steps, cfg.n_substeps)]
             u_all = u_all.transpose(1, 2).reshape(K, N, -1)
-
-        # per hidden layer, the activations and (except for ReLU, whose backward
-        # needs only its output) their derivatives, at every stage at once
-        acts, slopes = [], []
-        for z, act, relu in zip(pre, cfg.acts, cfg.relu):
-            if relu:
-                acts.append(z)
-                slopes.append(None)
-                continue
-            with torch.enable_grad():
-                z = z.detach().requires_grad_()
-                a = act(z)
-                (slope,) = torch.autograd.grad(a, z, torch.ones_like(a))
-            acts.append(a.detach())
-            slopes.append(slope)
-
-        # the science part's per-sample Jacobian at every stage (it acts row by row)
         need_theta = any(ctx.needs_input_grad[3:3 + cfg.n_theta])
-        with torch.enable_grad():
-            v = v_all.detach().requires_grad_()
-            leaves = [t.detach().requires_grad_(need_theta) for t in thetas]
-            f = cfg.science(v, u_all, leaves)
-            jac = v.new_empty(K, N, d, d)  # jac[k, n, j, i] = d f_i / d v_j
-            for i in range(d):
-                (jac[..., i],) = torch.autograd.grad(f[..., i].sum(), v, retain_graph=True)
-        jac = jac.view(K, S, B, d, d)
+        jac, f, leaves = _science_jacobian(cfg, v_all, u_all, thetas, need_theta)
+        acts, slopes = _activations(hidden, cfg)
+        h = cfg.dt / cfg.n_substeps
 
-        # reverse sweep through the RK4 steps
-        deltas = [grad_out.new_empty(K, S, B, z.shape[-1]) for z in pre]
-        deltas.append(grad_out.new_empty(K, S, B, d))
-        member = slice(None) if K > 1 else 0  # a single fit runs on 2-D tensors
-        with torch.inference_mode():
-            stage_major = jac[0] if K == 1 else jac.transpose(0, 1).contiguous()
-            adj = _sweep(grad_out[member], stage_major,
-                         [a[member] if t is None else t[member] for a, t in zip(acts, slopes)],
-                         cfg.relu,
-                         [w[member] for w in weights], [t[member] for t in deltas],
-                         cfg.dt / cfg.n_substeps, cfg.n_substeps)
-        adj = adj.clone() if K > 1 else adj[None].clone()
-        deltas = [t.view(K, N, -1) for t in deltas]
+        if K == 1:  # 2-D tensors; weight gradients as one product over all stages
+            deltas = [grad_out.new_empty(S, B, w.shape[1]) for w in weights]
+            with torch.inference_mode():
+                # ReLU's derivative from its output (a mask as floats: multiplying is cheapest)
+                slopes = [torch.sign(a[:, 0]) if t is None else t[:, 0] for a, t in zip(acts, slopes)]
+                adj = _sweep(grad_out[0], jac.view(S, B, d, d), slopes, [w[0] for w in weights],
+                             deltas, h, cfg.n_substeps)
+            adj = adj[None].clone()
+            deltas = [t.view(1, N, -1) for t in deltas]
+            layer_inputs = [v_all if u_all is None else torch.cat([v_all, u_all], -1)]
+            layer_inputs += [a.view(1, N, -1) for a in acts]
+            net_grads = []
+            for delta, inputs in zip(deltas, layer_inputs):
+                if inputs.shape[-1] < delta.shape[-1]:  # skinny products: fast one way round
+                    grad_w = torch.bmm(inputs.transpose(1, 2), delta).transpose(1, 2).contiguous()
+                else:
+                    grad_w = torch.bmm(delta.transpose(1, 2), inputs)
+                net_grads += [grad_w, delta.sum(1)]
+            cots = deltas[-1]
+        else:
+            if ctx.released:
+                raise RuntimeError("The stacked RK4 cannot be backpropagated twice.")
+            C = 4 * cfg.n_substeps
 
-        # parameter gradients: one batched product per layer over every stage
+            def interval_major(t):  # member-major (K, N, ...) -> (n_steps, K, C, B, ...)
+                return t.reshape(K, cfg.n_steps, C, B, *t.shape[2:]).transpose(0, 1)
+
+            with torch.no_grad():
+                u_stage = None if u_all is None else interval_major(u_all)
+                adj, cots, grad_w, grad_b = _fast_members.backward(
+                    cfg, grad_out, states, acts, slopes, interval_major(jac).contiguous(),
+                    weights, u_stage)
+            _fast_members.release(states, *hidden)
+            ctx.released = True
+            net_grads = [g for pair in zip(grad_w, grad_b) for g in pair]
+            cots = cots.transpose(0, 1).reshape(K, N, d)
+
         grads = [None] * cfg.n_theta
         if need_theta:
             with torch.enable_grad():
-                grads = list(torch.autograd.grad(f, leaves, deltas[-1], allow_unused=True))
-        layer_inputs = [v_all if u_all is None else torch.cat([v_all, u_all], -1)] + acts
-        for delta, inputs in zip(deltas, layer_inputs):
-            inputs = inputs.reshape(K, N, -1)
-            if inputs.shape[-1] < delta.shape[-1]:  # skinny products are fast one way round only
-                grad_w = torch.bmm(inputs.transpose(1, 2), delta).transpose(1, 2).contiguous()
-            else:
-                grad_w = torch.bmm(delta.transpose(1, 2), inputs)
-            grads += [grad_w, delta.sum(1)]
+                grads = list(torch.autograd.grad(f, leaves, cots, allow_unused=True))
         grad_x0 = adj if ctx.needs_input_grad[1] else None
-        return (None, grad_x0, None, *grads)
+        return (None, grad_x0, None, *grads, *net_grads)
 
 
 def ode_states(func: Callable, names: list, thetas: list, weights: list, biases: list,

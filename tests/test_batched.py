@@ -5,7 +5,7 @@ import pytest
 import torch
 from sklearn.base import clone
 
-from sklearn_hybrid import HybridRegressor, HybridRegressorCV, make_theta_scorer
+from sklearn_hybrid import DivergenceError, HybridRegressor, HybridRegressorCV, make_theta_scorer
 from sklearn_hybrid import _fast
 
 
@@ -138,3 +138,25 @@ def test_one_diverging_member_does_not_spoil_the_others(pendulum):
     assert cv.best_index_ == 0 and np.isfinite(cv.theta_["omega"])
     alone = clone(base).set_params(random_state=0).fit(X, y)
     assert cv.theta_["omega"] == pytest.approx(alone.theta_["omega"], rel=1e-5)
+
+
+def test_groups_in_threads_match_one_group(pendulum):
+    X, y = pendulum
+    base = HybridRegressor(science=pendulum_f, method="fsam", dt=0.2, max_iter=5,
+                           residual={"hidden": (8,)}, dtype="float64")
+    kw = dict(rhos=[0.05, 0.1, 0.2], seeds=[0, 1], validation_fraction=None)
+    one = HybridRegressorCV(base, **kw).fit(X, y)
+    two = HybridRegressorCV(base, n_jobs=2, **kw).fit(X, y)
+    np.testing.assert_allclose(two.cv_results_["theta_omega"], one.cv_results_["theta_omega"],
+                               rtol=1e-10)
+    np.testing.assert_allclose(two.cv_results_["score"], one.cv_results_["score"], rtol=1e-10)
+    with pytest.raises(ValueError, match="n_jobs"):
+        HybridRegressorCV(base, n_jobs=0, **kw).fit(X, y)
+
+
+def test_every_member_diverging_raises(pendulum):
+    X, y = pendulum
+    base = HybridRegressor(science=pendulum_f, method="erm", dt=0.2, max_iter=3,
+                           residual={"hidden": (8,)})
+    with pytest.raises(DivergenceError, match="every member"):
+        HybridRegressorCV(base, seeds=[0, 1]).fit(X, np.full_like(y, 1e30))

@@ -56,23 +56,36 @@ def test_states_and_gradients_match_autograd(activation, forced):
         torch.testing.assert_close(g, g_ref, rtol=1e-10, atol=1e-12)
 
 
-def test_stacked_members_get_their_own_gradients():
+def spring_f(v, k=1.0):
+    return -k * v  # theta does not broadcast per row: the stacked path must use vmap
+
+
+@pytest.mark.parametrize("science, forced, activation", [
+    (pendulum_f, False, "relu"), (spring_f, False, "tanh"), (forced_f, True, "relu")])
+def test_stacked_members_get_their_own_gradients(science, forced, activation):
     torch.manual_seed(1)
-    nets = [MLP(((2,),), (2,), hidden=(8,)).to(D) for _ in range(3)]
-    omega = torch.tensor([0.5, 0.6, 0.7], dtype=D, requires_grad=True)
+    K, n_steps, n_sub, dt = 3, 2, 3, 0.1
+    ins = ((2,), (1,)) if forced else ((2,),)
+    nets = [MLP(ins, (2,), hidden=(8, 8), activation=activation).to(D) for _ in range(K)]
+    names = {pendulum_f: ["omega"], spring_f: ["k"], forced_f: ["k", "c"]}[science]
+    thetas = [torch.linspace(0.5, 0.7, K, dtype=D).requires_grad_() for _ in names]
     parts = [_fast.mlp_parts(n) for n in nets]
-    weights = [torch.stack([p[0][i] for p in parts]).detach().requires_grad_() for i in range(2)]
-    biases = [torch.stack([p[1][i] for p in parts]).detach().requires_grad_() for i in range(2)]
-    x0, w = torch.randn(3, 4, 2, dtype=D), torch.randn(3, 4, 2, 2, dtype=D)
-    out = _fast.ode_states(pendulum_f, ["omega"], [omega], weights, biases, parts[0][2], x0, None,
-                           2, 0.1, 3)
-    grads = torch.autograd.grad((out * w).sum(), [omega, *weights, *biases])
+    weights = [torch.stack([p[0][i] for p in parts]).detach().requires_grad_() for i in range(3)]
+    biases = [torch.stack([p[1][i] for p in parts]).detach().requires_grad_() for i in range(3)]
+    x0, w = torch.randn(K, 4, 2, dtype=D), torch.randn(K, 4, n_steps, 2, dtype=D)
+    u = torch.randn(K, 4, 2 * n_sub * n_steps + 1, 1, dtype=D) if forced else None
+    out = _fast.ode_states(science, names, thetas, weights, biases, parts[0][2], x0, u,
+                           n_steps, dt, n_sub)
+    grads = torch.autograd.grad((out * w).sum(), [*thetas, *weights, *biases])
+    n = len(names)
     for k, net in enumerate(nets):
-        om = omega[k].detach().requires_grad_()
-        ref = _reference(pendulum_f, {"omega": om}, net, x0[k], None, 2, 0.1, 3)
+        theta = {name: t[k].detach().requires_grad_() for name, t in zip(names, thetas)}
+        ref = _reference(science, theta, net, x0[k], None if u is None else u[k], n_steps, dt, n_sub)
         torch.testing.assert_close(out[k], ref, rtol=1e-12, atol=1e-12)
-        g_ref = torch.autograd.grad((ref * w[k]).sum(), [om, *net.parameters()])
-        mine = [grads[0][k], grads[1][k], grads[3][k], grads[2][k], grads[4][k]]
+        g_ref = torch.autograd.grad((ref * w[k]).sum(), [*theta.values(), *net.parameters()])
+        mine = [g[k] for g in grads[:n]]
+        for i in range(3):
+            mine += [grads[n + i][k], grads[n + 3 + i][k]]
         for g, r in zip(mine, g_ref):
             torch.testing.assert_close(g, r, rtol=1e-10, atol=1e-12)
 

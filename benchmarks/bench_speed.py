@@ -1,0 +1,381 @@
+"""Training speed: a plain PyTorch reference loop vs HybridRegressor, batched sweeps, peak use.
+
+Measured in one run (issue 4), on the pendulum configuration (25 samples, MLP
+2-128-128-2, 10 outputs at dt 0.2, RK4 at step 0.05 = 4 sub-steps per output
+interval, for every contender):
+
+1. ms per iteration of the reference loop (``torchdiffeq.odeint`` rk4 with the
+   same step, Adam, Fisher SAM written out by hand) and of ``HybridRegressor``
+   for erm and fsam, and their ratios;
+2. a 25-configuration fsam sweep (5 rho x 5 seeds): 25 reference fits, 25
+   ``HybridRegressor`` fits, ``GridSearchCV(n_jobs=2)`` and the batched
+   ``HybridRegressorCV`` (1 and 2 threads), per iteration of all 25;
+3. reaction-diffusion at the paper's size (32 x 32, 100 samples, CNN 16 x 2,
+   5 outputs at dt 0.1, one RK4 step per output), per iteration;
+4. achieved GFLOP/s (network FLOPs: forward plus twice that for the backward
+   pass) beside the measured matrix-multiply peak;
+5. the projected wall time of the paper's protocol (20,000 iterations, 25
+   members) for the pendulum, Duffing and reaction-diffusion tasks.
+
+Timing: one-thread contenders are timed in process CPU time (on a shared
+machine this ignores time spent waiting for a core), multi-threaded ones
+(``n_jobs=2``, 2 threads) in wall time; every contender runs in interleaved
+rounds and the table quotes the best round (the median is in the JSON).
+A fit's per-iteration time is the difference between fits of two lengths,
+so set-up cost cancels.
+
+Usage: python benchmarks/bench_speed.py [--rounds 3]  (about 8 minutes)
+Writes results/speed.md and results/speed.json.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import time
+
+import numpy as np
+import torch
+import torchdiffeq
+from sklearn.model_selection import GridSearchCV
+from torch import nn
+
+from _common import write_results
+from sklearn_hybrid import HybridRegressor, HybridRegressorCV, make_theta_scorer
+from sklearn_hybrid import datasets as ds
+from sklearn_hybrid import models
+
+RHOS, SEEDS = [0.01, 0.02, 0.05, 0.1, 0.2], [0, 1, 2, 3, 4]
+PROTOCOL_ITERS, MEMBERS = 20_000, 25
+
+
+def rounds(contenders: dict, n_rounds: int) -> dict:
+    """Interleaved rounds; each contender returns seconds per iteration; best and median."""
+    times = {k: [] for k in contenders}
+    for _ in range(n_rounds):
+        for name, fn in contenders.items():
+            times[name].append(fn())
+    return {k: {"best_ms": 1e3 * min(v), "median_ms": 1e3 * float(np.median(v))}
+            for k, v in times.items()}
+
+
+def per_iteration(make_fit, lo: int, hi: int, wall: bool = False):
+    """Seconds per iteration of ``make_fit(max_iter)()``, set-up cancelled."""
+    clock = time.perf_counter if wall else time.process_time
+    warm = []
+
+    def run():
+        if not warm:  # first calls pay for lazy imports, caches and buffers: not counted
+            make_fit(lo)()
+            warm.append(True)
+        spent = []
+        for n in (lo, hi):
+            t = clock()
+            make_fit(n)()
+            spent.append(clock() - t)
+        return (spent[1] - spent[0]) / (hi - lo)
+
+    return run
+
+
+# ----------------------------------------------------------------- reference loop
+class _RefODE(nn.Module):
+    """``dv/dt = f_theta(v) + g_phi(v)`` as a user writes it for torchdiffeq."""
+
+    def __init__(self, science, net):
+        super().__init__()
+        self.science, self.net = science, net
+        self.omega = nn.Parameter(torch.tensor(0.5))
+
+    def forward(self, t, v):
+        return self.science(v, self.omega) + self.net(v)
+
+
+def reference_loop(X, y, dt, step, method, n_iter, eta=1.0, rho=0.05):
+    """Seconds per iteration of the plain loop (erm, or Fisher SAM perturbing the net)."""
+    torch.manual_seed(0)
+    net = nn.Sequential(nn.Linear(2, 128), nn.ReLU(), nn.Linear(128, 128), nn.ReLU(),
+                        nn.Linear(128, 2))
+    func = _RefODE(models.pendulum_f, net)
+    opt = torch.optim.Adam(func.parameters(), lr=1e-3)
+    x0, yt = torch.as_tensor(X, dtype=torch.float32), torch.as_tensor(y, dtype=torch.float32)
+    t = torch.arange(y.shape[1] + 1, dtype=torch.float32) * dt
+
+    def loss_fn():
+        pred = torchdiffeq.odeint(func, x0, t, method="rk4", options={"step_size": step})
+        return (pred[1:].transpose(0, 1) - yt).pow(2).mean()
+
+    def iteration():
+        opt.zero_grad()
+        loss_fn().backward()
+        if method == "fsam":
+            with torch.no_grad():
+                grads = [p.grad for p in net.parameters()]
+                scaled = [g / (1 + eta * g * g) for g in grads]
+                norm = torch.sqrt(sum((g * s).sum() for g, s in zip(grads, scaled)))
+                eps = [rho * s / (norm + 1e-12) for s in scaled]
+                for p, e in zip(net.parameters(), eps):
+                    p.add_(e)
+            opt.zero_grad()
+            loss_fn().backward()
+            with torch.no_grad():
+                for p, e in zip(net.parameters(), eps):
+                    p.sub_(e)
+        opt.step()
+
+    def run():
+        iteration()
+        t0 = time.process_time()
+        for _ in range(n_iter):
+            iteration()
+        return (time.process_time() - t0) / n_iter
+
+    return run
+
+
+# --------------------------------------------------------------------- FLOP counts
+def mlp_flops(widths, n_stages, batch):
+    """Network FLOPs of one gradient evaluation: forward plus a backward of twice that."""
+    return 3 * 2 * batch * n_stages * sum(a * b for a, b in zip(widths[:-1], widths[1:]))
+
+
+def cnn_flops(channels, grid, n_stages, batch):
+    return 3 * 2 * batch * n_stages * grid * grid * 9 * sum(
+        a * b for a, b in zip(channels[:-1], channels[1:]))
+
+
+def matmul_peak(threads: int, n: int = 2048, reps: int = 12) -> float:
+    """GFLOP/s of a large float32 matrix product (best of ``reps``)."""
+    previous = torch.get_num_threads()
+    torch.set_num_threads(threads)
+    a, b = torch.randn(n, n), torch.randn(n, n)
+    a @ b
+    best = min(_timed(lambda: a @ b) for _ in range(reps))
+    torch.set_num_threads(previous)
+    return 2 * n ** 3 / best / 1e9
+
+
+def _timed(fn):
+    t = time.perf_counter()
+    fn()
+    return time.perf_counter() - t
+
+
+# ------------------------------------------------------------------------ sections
+def pendulum_section(n_rounds):
+    d = ds.make_pendulum(25, 1, 1, random_state=0)
+    X, y = d.X_train, d.y_train
+    out = {}
+    for sub in (4, 10):  # the issue's configurations: step 0.05 (main) and 0.02
+        kw = dict(science=models.pendulum_f, dt=0.2, n_substeps=sub, random_state=0)
+        contenders = {
+            "reference erm": reference_loop(X, y, 0.2, 0.2 / sub, "erm", 10),
+            "HybridRegressor erm": per_iteration(lambda n: lambda: HybridRegressor(
+                method="erm", max_iter=n, **kw).fit(X, y), 4, 14)}
+        if sub == 4:
+            contenders["reference fsam"] = reference_loop(X, y, 0.2, 0.2 / sub, "fsam", 6)
+            contenders["HybridRegressor fsam"] = per_iteration(lambda n: lambda: HybridRegressor(
+                method="fsam", max_iter=n, **kw).fit(X, y), 3, 11)
+        res = rounds(contenders, n_rounds)
+        flops = mlp_flops([2, 128, 128, 2], 10 * sub * 4, 25)
+        for name, r in res.items():
+            evals = 2 if "fsam" in name else 1
+            r["gflops"] = evals * flops / (r["best_ms"] / 1e3) / 1e9
+        out[f"step {0.2 / sub:g}"] = res
+    return out
+
+
+def sweep_section(n_rounds, per_iter):
+    d = ds.make_pendulum(25, 1, 1, random_state=0)
+    X, y = d.X_train, d.y_train
+    def batched(threads=1, n_jobs=None):
+        def make(n):
+            est = HybridRegressor(science=models.pendulum_f, method="fsam", dt=0.2, n_substeps=4,
+                                  max_iter=n, n_threads=threads)
+            return lambda: HybridRegressorCV(est, rhos=RHOS, seeds=SEEDS, validation_fraction=None,
+                                             n_jobs=n_jobs).fit(X, y)
+        return per_iteration(make, 2, 6, wall=threads > 1 or n_jobs is not None)
+
+    def grid(n):
+        est = HybridRegressor(science=models.pendulum_f, method="fsam", dt=0.2, n_substeps=4,
+                              max_iter=n)
+        everything = [(np.arange(len(X)), np.arange(len(X)))]
+        return lambda: GridSearchCV(est, {"rho": RHOS, "random_state": SEEDS}, cv=everything,
+                                    scoring=make_theta_scorer({"omega": 2 / 3}), refit=False,
+                                    n_jobs=2).fit(X, y)
+
+    grid(2)()  # start the worker processes once
+    res = rounds({"HybridRegressorCV, 1 thread": batched(),
+                  "HybridRegressorCV(n_jobs=2), 2 cores": batched(n_jobs=2),
+                  "HybridRegressorCV, 2 intra-op threads": batched(threads=2),
+                  "GridSearchCV(n_jobs=2), 2 cores": per_iteration(grid, 2, 6, wall=True)}, n_rounds)
+    res["25 reference fits (1 core)"] = {k: 25 * per_iter["reference fsam"][k] for k in ("best_ms", "median_ms")}
+    res["25 HybridRegressor fits (1 core)"] = {k: 25 * per_iter["HybridRegressor fsam"][k]
+                                               for k in ("best_ms", "median_ms")}
+    flops = 25 * 2 * mlp_flops([2, 128, 128, 2], 160, 25)
+    for r in res.values():
+        r["gflops"] = flops / (r["best_ms"] / 1e3) / 1e9
+    return res
+
+
+def duffing_section(n_rounds):
+    d = ds.make_duffing(100, 1, 1, random_state=0)
+    kw = dict(science=models.duffing_f, method="fsam", dt=d.dt, n_substeps=4)
+    res = rounds({
+        "HybridRegressor fsam": per_iteration(lambda n: lambda: HybridRegressor(
+            max_iter=n, random_state=0, **kw).fit(d.X_train, d.y_train), 2, 6),
+        "HybridRegressorCV, 1 thread": per_iteration(lambda n: lambda: HybridRegressorCV(
+            HybridRegressor(max_iter=n, **kw), rhos=RHOS, seeds=SEEDS,
+            validation_fraction=None).fit(d.X_train, d.y_train), 1, 3)}, max(1, n_rounds - 1))
+    return res
+
+
+def reaction_diffusion_section(n_rounds):
+    d = ds.make_reaction_diffusion(100, 1, 1, random_state=0)
+    X, y = d.X_train, d.y_train
+    kw = dict(science=models.diffusion_f, residual="cnn", dt=d.dt, n_substeps=1)
+
+    def reference(n_iter=2):
+        torch.manual_seed(0)
+        est = HybridRegressor(max_iter=1, method="erm", random_state=0, **kw).fit(X[:2], y[:2])
+        cnn = est.residual_.train()
+        a = nn.Parameter(torch.tensor(0.01))
+        b = nn.Parameter(torch.tensor(0.01))
+        opt = torch.optim.Adam([a, b, *cnn.parameters()], lr=1e-3)
+        x0, yt = torch.as_tensor(X, dtype=torch.float32), torch.as_tensor(y, dtype=torch.float32)
+        t = torch.arange(y.shape[1] + 1, dtype=torch.float32) * d.dt
+        func = lambda _, v: models.diffusion_f(v, a, b) + cnn(v)  # noqa: E731
+
+        def run():
+            t0 = time.process_time()
+            for _ in range(n_iter):
+                opt.zero_grad()
+                pred = torchdiffeq.odeint(func, x0, t, method="rk4")[1:].transpose(0, 1)
+                (pred - yt).pow(2).mean().backward()
+                opt.step()
+            return (time.process_time() - t0) / n_iter
+
+        return run
+
+    res = rounds({
+        "reference erm": reference(),
+        "HybridRegressor erm": per_iteration(lambda n: lambda: HybridRegressor(
+            method="erm", max_iter=n, random_state=0, **kw).fit(X, y), 1, 3),
+        "HybridRegressor fsam": per_iteration(lambda n: lambda: HybridRegressor(
+            method="fsam", max_iter=n, random_state=0, **kw).fit(X, y), 1, 2),
+        "HybridRegressorCV fsam, 2 members (per member)": per_iteration(
+            lambda n: lambda: HybridRegressorCV(HybridRegressor(method="fsam", max_iter=n, **kw),
+                                                seeds=[0, 1], validation_fraction=None).fit(X, y),
+            1, 2)}, max(1, n_rounds - 2))
+    res["HybridRegressorCV fsam, 2 members (per member)"] = {
+        k: v / 2 for k, v in res["HybridRegressorCV fsam, 2 members (per member)"].items()}
+    flops = cnn_flops([2, 16, 16, 2], 32, 4 * y.shape[1], len(X))
+    for name, r in res.items():
+        r["gflops"] = (2 if "fsam" in name else 1) * flops / (r["best_ms"] / 1e3) / 1e9
+    return res
+
+
+def profile_section(top=14) -> str:
+    """Where one fsam iteration spends its time: single fit and 25 stacked members."""
+    from torch.profiler import profile
+
+    d = ds.make_pendulum(25, 1, 1, random_state=0)
+    kw = dict(science=models.pendulum_f, method="fsam", dt=0.2, n_substeps=4)
+    fits = {"single fit (K = 1)": lambda n: HybridRegressor(max_iter=n, **kw).fit(d.X_train, d.y_train),
+            "HybridRegressorCV, 25 members": lambda n: HybridRegressorCV(
+                HybridRegressor(max_iter=n, **kw), rhos=RHOS, seeds=SEEDS,
+                validation_fraction=None).fit(d.X_train, d.y_train)}
+    lines = ["# Where an fsam iteration's time goes (pendulum, torch.profiler, 1 thread)", "",
+             "Self CPU time per iteration (fit of 3 iterations minus fit of 1, profiler overhead "
+             "included), top operations.", ""]
+    for name, fit in fits.items():
+        fit(1)
+        spent = []
+        for n in (1, 3):
+            with profile() as prof:
+                fit(n)
+            spent.append({e.key: (e.self_cpu_time_total, e.count) for e in prof.key_averages()})
+        rows = sorted(((t - spent[0].get(k, (0, 0))[0]) / 2e3, (c - spent[0].get(k, (0, 0))[1]) // 2, k)
+                      for k, (t, c) in spent[1].items())[::-1]
+        total = sum(r[0] for r in rows)
+        lines += [f"## {name}: {total:.0f} ms per iteration", "", "| operation | ms | calls |",
+                  "|---|---|---|"] + [f"| {k} | {t:.1f} | {c} |" for t, c, k in rows[:top]] + [""]
+    return "\n".join(lines)
+
+
+def _hours(ms):
+    return ms * PROTOCOL_ITERS / 1e3 / 3600
+
+
+def markdown(r) -> str:
+    lines = ["# Training speed (benchmarks/bench_speed.py)", "",
+             f"Matrix-multiply peak (2048^2 float32): {r['peak_gflops']['1']:.0f} GFLOP/s on 1 "
+             f"thread, {r['peak_gflops']['2']:.0f} on 2. Load average before/after: "
+             f"{r['load'][0]:.2f} / {r['load'][1]:.2f} (a shared machine: quote ratios).", ""]
+    for step, res in r["pendulum"].items():
+        lines += [f"## Pendulum, single fit, RK4 {step} (batch 25, MLP 2-128-128-2)", "",
+                  "| contender | ms/iteration (best) | median | GFLOP/s | % of 1-thread peak |",
+                  "|---|---|---|---|---|"]
+        for name, x in res.items():
+            lines.append(f"| {name} | {x['best_ms']:.1f} | {x['median_ms']:.1f} | "
+                         f"{x['gflops']:.1f} | {100 * x['gflops'] / r['peak_gflops']['1']:.0f} |")
+        lines.append("")
+        for m in ("erm", "fsam"):
+            if f"reference {m}" in res:
+                lines.append(f"- reference / HybridRegressor, {m}: "
+                             f"**{res[f'reference {m}']['best_ms'] / res[f'HybridRegressor {m}']['best_ms']:.2f}x**")
+        if "HybridRegressor fsam" in res:
+            lines.append(f"- fsam / erm (HybridRegressor): "
+                         f"**{res['HybridRegressor fsam']['best_ms'] / res['HybridRegressor erm']['best_ms']:.2f}**")
+        lines.append("")
+    sw = r["sweep"]
+    ref = sw["25 reference fits (1 core)"]["best_ms"]
+    grid = sw["GridSearchCV(n_jobs=2), 2 cores"]["best_ms"]
+    lines += ["## 25-configuration fsam sweep (5 rho x 5 seeds), pendulum", "",
+              "| contender | ms per iteration of all 25 | GFLOP/s | x faster than 25 reference fits "
+              "| x faster than GridSearchCV(n_jobs=2) | 20,000 iterations (h) |", "|---|---|---|---|---|---|"]
+    for name, x in sw.items():
+        lines.append(f"| {name} | {x['best_ms']:.0f} | {x['gflops']:.1f} | {ref / x['best_ms']:.1f} | "
+                     f"{grid / x['best_ms']:.2f} | {_hours(x['best_ms']):.1f} |")
+    rd = r["reaction_diffusion"]
+    lines += ["", "## Reaction-diffusion at paper size (32 x 32, 100 samples, CNN 16 x 2, 5 outputs, "
+              "RK4 step 0.1)", "", "| contender | s/iteration (best) | GFLOP/s |", "|---|---|---|"]
+    for name, x in rd.items():
+        lines.append(f"| {name} | {x['best_ms'] / 1e3:.2f} | {x['gflops']:.1f} |")
+    lines.append(f"- reference / HybridRegressor, erm: "
+                 f"**{rd['reference erm']['best_ms'] / rd['HybridRegressor erm']['best_ms']:.2f}x**")
+    lines += ["", "## Projected wall time of the paper's protocol (20,000 iterations x 25 members, fsam)",
+              "", "| task | how | hours |", "|---|---|---|"]
+    for task, how, ms in r["projection"]:
+        lines.append(f"| {task} | {how} | {_hours(ms):.1f} |")
+    return "\n".join(lines)
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--rounds", type=int, default=3)
+    args = parser.parse_args()
+    torch.set_num_threads(1)
+    load0 = os.getloadavg()[0]
+    r = {"peak_gflops": {"1": matmul_peak(1), "2": matmul_peak(2)}}
+    r["pendulum"] = pendulum_section(args.rounds)
+    r["sweep"] = sweep_section(args.rounds, r["pendulum"]["step 0.05"])
+    r["duffing"] = duffing_section(args.rounds)
+    r["reaction_diffusion"] = reaction_diffusion_section(args.rounds)
+    pend, duff, rd = r["pendulum"]["step 0.05"], r["duffing"], r["reaction_diffusion"]
+    r["projection"] = [
+        ("pendulum", "25 reference fits, 1 core", 25 * pend["reference fsam"]["best_ms"]),
+        ("pendulum", "HybridRegressorCV(n_jobs=2), 2 cores",
+         r["sweep"]["HybridRegressorCV(n_jobs=2), 2 cores"]["best_ms"]),
+        ("duffing", "25 HybridRegressor fits, 1 core", 25 * duff["HybridRegressor fsam"]["best_ms"]),
+        ("duffing", "HybridRegressorCV, 1 thread", duff["HybridRegressorCV, 1 thread"]["best_ms"]),
+        ("reaction-diffusion", "25 HybridRegressor fits, 1 core", 25 * rd["HybridRegressor fsam"]["best_ms"]),
+    ]
+    r["load"] = [load0, os.getloadavg()[0]]
+    path = write_results("speed", r, markdown(r))
+    print(path.read_text())
+    (path.parent / "speed_profile.md").write_text(profile_section() + "\n")
+
+
+if __name__ == "__main__":
+    main()
