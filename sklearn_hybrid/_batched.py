@@ -25,7 +25,7 @@ import torch
 from torch import nn
 
 from . import _fast
-from .engine import DivergenceError, TrainConfig, _Batches, make_optimizer
+from .engine import TrainConfig, _Batches, make_optimizer
 from .methods import asam_perturbation, fsam_perturbation, sam_perturbation
 
 __all__ = ["train_batched", "BATCHABLE_METHODS"]

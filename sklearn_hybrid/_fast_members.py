@@ -26,7 +26,6 @@ import torch
 
 __all__ = ["forward", "backward", "release"]
 
-_relu_backward = torch.ops.aten.threshold_backward.default
 _relu_backward_out = torch.ops.aten.threshold_backward.grad_input
 _ROWWISE = weakref.WeakKeyDictionary()  # science function -> {shape key: broadcasts per row}
 _POOL: dict = {}  # (shape, dtype) -> free buffers
