@@ -28,6 +28,7 @@ samples of a batch independently (row-wise), as physical models do.
 
 from __future__ import annotations
 
+import weakref
 from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Callable
@@ -36,6 +37,7 @@ import torch
 from torch import nn
 
 from . import _fast_members
+from .integrate import integrate
 from .residual import MLP
 
 __all__ = ["supports", "mlp_parts", "ode_states", "disabled"]
@@ -363,12 +365,45 @@ def ode_states(func: Callable, names: list, thetas: list, weights: list, biases:
     return _OdeMLP.apply(cfg, x0, u_fine, *tensors)
 
 
+_ROW_BY_ROW = weakref.WeakKeyDictionary()  # science function -> acts on rows independently
+
+
+def _row_by_row(func, x0, u_fine, theta) -> bool:
+    """Whether the science function treats samples independently (checked once, on two rows)."""
+    try:
+        return _ROW_BY_ROW[func]
+    except (KeyError, TypeError):
+        pass
+    if len(x0) < 2:
+        return True
+    with torch.no_grad():
+        args = (x0[:2],) if u_fine is None else (x0[:2], u_fine[:2, 0])
+        both = func(*args, **theta)
+        alone = torch.cat([func(*(a[i:i + 1] for a in args), **theta) for i in range(2)])
+    result = bool(both.shape == alone.shape and torch.allclose(both, alone, rtol=1e-5, atol=1e-7))
+    try:
+        _ROW_BY_ROW[func] = result
+    except TypeError:  # not weak-referenceable: check every time
+        pass
+    return result
+
+
 def hybrid_states(science: nn.Module, residual: nn.Module, x0: torch.Tensor,
                   u_fine: torch.Tensor | None, n_steps: int, dt: float,
                   n_substeps: int) -> torch.Tensor:
-    """:func:`ode_states` for one fitted model (a ScienceModel and an MLP); (B, n_steps, d)."""
-    weights, biases, acts = mlp_parts(residual)
+    """:func:`ode_states` for one fitted model (a ScienceModel and an MLP); (B, n_steps, d).
+
+    A science function that mixes samples (against the row-by-row contract
+    the Jacobians rely on) is integrated with plain autograd instead.
+    """
     values = science.values()
+    if not _row_by_row(science.func, x0, u_fine, values):
+        def rhs(v, u):
+            args = (v,) if u is None else (v, u)
+            return science(*args) + residual(*args)
+
+        return integrate(rhs, x0, n_steps, dt, n_substeps=n_substeps, u_fine=u_fine)
+    weights, biases, acts = mlp_parts(residual)
     thetas = [values[n][None] for n in science.names]
     return ode_states(science.func, science.names, thetas, [w[None] for w in weights],
                       [b[None] for b in biases], acts, x0[None],

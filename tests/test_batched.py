@@ -160,3 +160,16 @@ def test_every_member_diverging_raises(pendulum):
                            residual={"hidden": (8,)})
     with pytest.raises(DivergenceError, match="every member"):
         HybridRegressorCV(base, seeds=[0, 1]).fit(X, np.full_like(y, 1e30))
+
+
+def test_science_mixing_samples_uses_the_generic_path():
+    def centred_f(v, k=1.0):
+        return -k * (v - v.mean(0))
+
+    rng = np.random.default_rng(0)
+    X = rng.uniform(-1, 1, (8, 2))
+    y = np.stack([X * 0.9, X * 0.8], axis=1)
+    base = HybridRegressor(science=centred_f, method="sam", dt=0.1, max_iter=4, dtype="float64",
+                           residual={"hidden": (8,)})
+    cv = HybridRegressorCV(base, seeds=[0, 1], validation_fraction=None).fit(X, y)
+    _assert_members_equal_separate_fits(cv, base, X, y, 1e-10)

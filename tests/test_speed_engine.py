@@ -124,3 +124,18 @@ def test_fixed_theta_gets_no_gradient_and_stays():
     est = HybridRegressor(science=pendulum_f, method="erm", dt=0.1, max_iter=5,
                           residual={"hidden": (8,)}, theta_fixed=["omega"], random_state=0).fit(X, y)
     assert est.theta_["omega"] == pytest.approx(0.5)
+
+
+def test_science_mixing_samples_falls_back_to_autograd():
+    def centred_f(v, k=1.0):  # subtracts the batch mean: samples are not independent
+        return -k * (v - v.mean(0))
+
+    rng = np.random.default_rng(0)
+    X = rng.uniform(-1, 1, (8, 2))
+    y = np.stack([X * 0.9, X * 0.8], axis=1)
+    kw = dict(science=centred_f, method="erm", dt=0.1, max_iter=4, dtype="float64",
+              residual={"hidden": (8,)}, random_state=0)
+    fast = HybridRegressor(**kw).fit(X, y)
+    with _fast.disabled():
+        slow = HybridRegressor(**kw).fit(X, y)
+    assert fast.theta_["k"] == pytest.approx(slow.theta_["k"], rel=1e-12)
