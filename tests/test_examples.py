@@ -16,9 +16,24 @@ TASKS = ["pendulum", "duffing", "reaction_diffusion", "pendulum_images", "wind_t
 
 def test_gallery_has_one_example_per_task():
     found = sorted(p.parent.name for p in EXAMPLES.glob("*/plot_*.py"))
-    assert found == sorted(TASKS)
+    assert found == sorted(TASKS + ["closed_loop"])
     assert (EXAMPLES / "README.txt").is_file()
-    assert all((EXAMPLES / t / "README.txt").is_file() for t in TASKS)
+    assert all((EXAMPLES / t / "README.txt").is_file() for t in found)
+
+
+def test_closed_loop_example_runs_in_fast_mode(monkeypatch, tmp_path, capsys, shared_data):
+    """The Silverbox loop example on the measured data (found through the shared data home)."""
+    monkeypatch.setenv("SKLEARN_HYBRID_FAST", "1")
+    monkeypatch.chdir(tmp_path)
+    try:
+        runpy.run_path(str(EXAMPLES / "closed_loop" / "plot_silverbox_loop.py"), run_name="__main__")
+        n_figures = len(plt.get_fignums())
+    finally:
+        plt.close("all")
+    out = capsys.readouterr().out
+    # fast mode checks the pipeline (fit, diagnosis, table); finding the cubic needs a full run
+    assert "| before |" in out and "Diagnosis: g[y_dot]" in out
+    assert n_figures >= 1
 
 
 @pytest.mark.parametrize("task", TASKS)
