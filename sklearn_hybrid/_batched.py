@@ -25,7 +25,7 @@ import torch
 from torch import nn
 
 from . import _fast
-from .engine import TrainConfig, _Batches, make_optimizer
+from .engine import TrainConfig, _Batches, gradients_at_perturbed, make_optimizer
 from .methods import asam_perturbation, fsam_perturbation, sam_perturbation
 
 __all__ = ["train_batched", "BATCHABLE_METHODS"]
@@ -185,14 +185,8 @@ def train_batched(models: list, method, inputs: tuple, y: torch.Tensor, config: 
             break
         if method.perturbs:
             with torch.no_grad():
-                saved = [p.detach().clone() for p in perturbed]
                 eps = _perturbation(method, perturbed, [grads[i] for i in where], is_weight, rho_t)
-                for p, e in zip(perturbed, eps):
-                    p.add_(e)
-            _, grads = loss_and_grads(xb, yb)
-            with torch.no_grad():
-                for p, s in zip(perturbed, saved):
-                    p.copy_(s)
+            _, grads = gradients_at_perturbed(perturbed, eps, lambda: loss_and_grads(xb, yb))
         for p, g in zip(params, grads):
             p.grad = g
         optimizer.step()

@@ -52,6 +52,24 @@ def make_optimizer(theta: list, phi: list, config: TrainConfig):
     return optimizer, scheduler
 
 
+def gradients_at_perturbed(perturbed: list, eps: list, loss_and_grads):
+    """Gradients at ``perturbed + eps``; the parameters are then restored exactly from a copy.
+
+    Restoring by copy rather than by subtracting ``eps`` keeps the parameters
+    bit-identical (``p + e - e`` can round), also if the second pass raises.
+    """
+    with torch.no_grad():
+        saved = [p.detach().clone() for p in perturbed]
+        for p, e in zip(perturbed, eps):
+            p.add_(e)
+    try:
+        return loss_and_grads()
+    finally:
+        with torch.no_grad():
+            for p, s in zip(perturbed, saved):
+                p.copy_(s)
+
+
 def data_loss(pred: torch.Tensor, y: torch.Tensor) -> torch.Tensor:
     """Mean squared error over every output value (what all methods minimise)."""
     return (pred.reshape(y.shape) - y).pow(2).mean()
@@ -159,15 +177,10 @@ def train(model: nn.Module, method, inputs: tuple[torch.Tensor, ...], y: torch.T
             )
         if method.perturbs:
             with torch.no_grad():
-                saved = [p.detach().clone() for p in perturbed]
                 eps = method.perturbation(perturbed, [grads[i] for i in where], is_weight)
-                for p, e in zip(perturbed, eps):
-                    p.add_(e)
             with _frozen_batchnorm_stats(model):
-                _, grads = _loss_and_grads(model, method, xb, yb, params)
-            with torch.no_grad():
-                for p, s in zip(perturbed, saved):
-                    p.copy_(s)
+                _, grads = gradients_at_perturbed(
+                    perturbed, eps, lambda: _loss_and_grads(model, method, xb, yb, params))
         for p, g in zip(params, grads):
             p.grad = g
         optimizer.step()
