@@ -14,19 +14,15 @@ import argparse
 import time
 
 import numpy as np
-import torch
 from joblib import Parallel, delayed
 
 from _common import write_results
 from sklearn_hybrid import HybridRegressor, theta_error
 from sklearn_hybrid.datasets import make_pendulum
+from sklearn_hybrid.models import pendulum_f
 
 CONFIGS = [("erm", {}), ("sam", {"rho": 0.05}), ("sam", {"rho": 0.2}),
            ("fsam", {"rho": 0.05, "eta": 1.0})]
-
-
-def pendulum_f(v, omega=0.5):
-    return torch.stack([v[:, 1], -(2 * torch.pi * omega) ** 2 * torch.sin(v[:, 0])], dim=-1)
 
 
 def run(method, params, seed, iters):

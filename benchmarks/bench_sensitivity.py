@@ -15,17 +15,12 @@ import matplotlib
 matplotlib.use("Agg")
 
 import matplotlib.pyplot as plt
-import numpy as np
-import torch
 
 from _common import RESULTS, write_results
 from sklearn_hybrid import HybridRegressor
 from sklearn_hybrid.datasets import make_pendulum
 from sklearn_hybrid.model_selection import plot_sensitivity, sensitivity_curve
-
-
-def pendulum_f(v, omega=0.5):
-    return torch.stack([v[:, 1], -(2 * torch.pi * omega) ** 2 * torch.sin(v[:, 0])], dim=-1)
+from sklearn_hybrid.models import pendulum_f
 
 
 def main():
@@ -46,7 +41,7 @@ def main():
     results = {name: sensitivity_curve(est, p, values, *data, theta_true=d.theta_true,
                                        seeds=seeds, n_jobs=args.jobs)
                for name, (est, p, values) in sweeps.items()}
-    lines = [f"# Pendulum task: sensitivity to lambda (f-reg) and rho (fsam)", "",
+    lines = ["# Pendulum task: sensitivity to lambda (f-reg) and rho (fsam)", "",
              f"Command: `python benchmarks/bench_sensitivity.py --iters {args.iters} "
              f"--seeds {args.seeds} --jobs {args.jobs}` (lr 3e-3, 2 RK4 sub-steps per output)", "",
              "| method | parameter | value | theta error (mean) | test y RMSE (mean) |",

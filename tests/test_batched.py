@@ -7,10 +7,7 @@ from sklearn.base import clone
 
 from sklearn_hybrid import DivergenceError, HybridRegressor, HybridRegressorCV, make_theta_scorer
 from sklearn_hybrid import _fast
-
-
-def pendulum_f(v, omega=0.5):
-    return torch.stack([v[:, 1], -(2 * torch.pi * omega) ** 2 * torch.sin(v[:, 0])], dim=-1)
+from sklearn_hybrid.models import pendulum_f
 
 
 def linear_f(x, a=1.0):

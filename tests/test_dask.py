@@ -4,14 +4,10 @@ import cloudpickle
 import distributed
 import joblib
 import numpy as np
-import torch
 from sklearn.model_selection import GridSearchCV
 
 from sklearn_hybrid import HybridRegressor, make_theta_scorer
-
-
-def pendulum_f(v, omega=0.5):
-    return torch.stack([v[:, 1], -(2 * torch.pi * omega) ** 2 * torch.sin(v[:, 0])], dim=-1)
+from sklearn_hybrid.models import pendulum_f
 
 
 def test_gridsearch_on_dask_matches_local():

@@ -6,15 +6,11 @@ matplotlib.use("Agg")
 
 import numpy as np
 import pytest
-import torch
 
 from sklearn_hybrid import HybridRegressor, theta_error
 from sklearn_hybrid.datasets import make_pendulum
 from sklearn_hybrid.model_selection import plot_sensitivity, sensitivity_curve
-
-
-def pendulum_f(v, omega=0.5):
-    return torch.stack([v[:, 1], -(2 * torch.pi * omega) ** 2 * torch.sin(v[:, 0])], dim=-1)
+from sklearn_hybrid.models import pendulum_f
 
 
 def test_sensitivity_curve_matches_separate_fits():

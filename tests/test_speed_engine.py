@@ -8,12 +8,9 @@ from sklearn_hybrid import HybridRegressor
 from sklearn_hybrid import _fast
 from sklearn_hybrid.integrate import integrate
 from sklearn_hybrid.residual import MLP, ConvNet
+from sklearn_hybrid.models import pendulum_f
 
 D = torch.float64
-
-
-def pendulum_f(v, omega=0.5):
-    return torch.stack([v[:, 1], -(2 * torch.pi * omega) ** 2 * torch.sin(v[:, 0])], dim=-1)
 
 
 def forced_f(v, u, k=1.0, c=0.1):

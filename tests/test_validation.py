@@ -5,12 +5,9 @@ import pytest
 import torch
 
 from sklearn_hybrid import DivergenceError, HybridRegressor
+from sklearn_hybrid.models import pendulum_f
 
 FAST = dict(max_iter=5, residual={"hidden": (8,)}, random_state=0, dt=0.2)
-
-
-def pendulum_f(v, omega=0.5):
-    return torch.stack([v[:, 1], -(2 * torch.pi * omega) ** 2 * torch.sin(v[:, 0])], dim=-1)
 
 
 @pytest.fixture

@@ -25,7 +25,7 @@ from ..engine import DivergenceError
 from ..integrate import integrate, upsample_inputs
 from ..residual import MLP
 from .augment import augment_science
-from .residual import ResidualDiagnosis, science_sensitivities
+from .residual import ResidualDiagnosis, science_sensitivities, _rms
 
 __all__ = ["close_the_loop", "free_run", "fit_initial_state", "MLPOn", "ZeroResidual", "prediction_metrics"]
 
@@ -201,18 +201,17 @@ def _put(x: np.ndarray, idx: list[int], values: np.ndarray) -> np.ndarray:
     return out
 
 
-def _rms(a) -> float:
-    return float(np.sqrt(np.mean(np.square(a))))
-
-
 def prediction_metrics(y: np.ndarray, y_hybrid: np.ndarray, y_science: np.ndarray) -> dict[str, float]:
     """Test RMSE of the hybrid and of the science part alone, and the network's share of the prediction.
 
     The share is ``RMS(y_hybrid - y_science) / RMS(y_hybrid)``: how much of the prediction would
     change if the network were switched off.
     """
-    return {"rmse": _rms(y_hybrid - y), "rmse_science_only": _rms(y_science - y),
-            "network_share": _rms(y_hybrid - y_science) / max(_rms(y_hybrid), 1e-300)}
+    def rms(a):
+        return float(_rms(a, axis=None))
+
+    return {"rmse": rms(y_hybrid - y), "rmse_science_only": rms(y_science - y),
+            "network_share": rms(y_hybrid - y_science) / max(rms(y_hybrid), 1e-300)}
 
 
 def _rhs_share(estimator: Any, X: Any) -> float:
