@@ -185,7 +185,9 @@ class HybridRegressor(RegressorMixin, BaseEstimator):
             raise ValueError(f"perturb must be 'residual' or 'all', got {self.perturb!r}.")
         if self.dtype not in _DTYPES:
             raise ValueError(f"dtype must be one of {list(_DTYPES)}, got {self.dtype!r}.")
-        _check_positive("n_inputs", self.n_inputs + 1, integer=True)  # allows 0
+        if not isinstance(self.n_inputs, numbers.Integral) or isinstance(self.n_inputs, bool) \
+                or self.n_inputs < 0:
+            raise ValueError(f"n_inputs must be a non-negative integer, got {self.n_inputs!r}.")
         return make_method(self.method, rho=self.rho, lam=self.lam, eta=self.eta)
 
     def _make_structure(self):

@@ -106,6 +106,8 @@ def test_theta_init_outside_bounds(data, init):
     ({"perturb": "theta"}, "perturb must be 'residual' or 'all'"),
     ({"dtype": "float16"}, "dtype must be one of"),
     ({"dt": 0.0}, "dt must be a positive number"),
+    ({"n_inputs": -1}, "n_inputs must be a non-negative integer, got -1"),
+    ({"n_inputs": "u"}, "n_inputs must be a non-negative integer, got 'u'"),
     ({"theta_bounds": {"omega": (1.0, 0.5)}}, "low >= high"),
     ({"science": None}, "needs a science function"),
 ])
