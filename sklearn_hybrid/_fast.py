@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import weakref
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Callable
 
 import torch
@@ -87,11 +87,11 @@ class _Config:
     dt: float
     n_substeps: int
     n_theta: int
+    #: per hidden layer: ReLU, whose output alone determines its derivative
+    relu: list = field(init=False)
 
-    @property
-    def relu(self):
-        """Per hidden layer: ReLU, whose output alone determines its derivative."""
-        return [type(a) is nn.ReLU for a in self.acts]
+    def __post_init__(self):
+        self.relu = [type(a) is nn.ReLU for a in self.acts]
 
     def science(self, v, u, thetas):
         """``func`` on member-stacked states ``v`` (K, N, d) with per-member theta."""
@@ -117,10 +117,12 @@ def _member_forward(cfg, x, u, p_in, thetas, weights, biases):
     stage, as lists (stacked by the caller, outside inference mode).
     """
     theta = dict(zip(cfg.names, thetas))
-    w_t = [w.t() for w in weights]
+    w_t = [_fast_members.long_axis_contiguous(w.t()) for w in weights]
     w1v_t = w_t[0][: x.shape[-1]]  # first-layer rows that see the state
     n_hidden = len(weights) - 1
     relu = cfg.relu
+    # the function, not the module: a module call costs as much as the ReLU itself
+    act_fns = [torch.relu if r else a for r, a in zip(relu, cfg.acts)]
     states, pre = [], [[] for _ in range(n_hidden)]
     # views per input grid point, taken once rather than per stage
     u_at = None if u is None else u.unbind(1)
@@ -135,7 +137,7 @@ def _member_forward(cfg, x, u, p_in, thetas, weights, biases):
             z = torch.addmm(p_at[j], v, w1v_t)
             f = cfg.func(v, u_at[j], **theta)
         for layer in range(n_hidden):
-            a = cfg.acts[layer](z)
+            a = act_fns[layer](z)
             pre[layer].append(a if relu[layer] else z)  # what backward needs
             z = torch.addmm(biases[layer + 1], a, w_t[layer + 1])
         return f + z
@@ -173,9 +175,9 @@ def _sweep(grad_out, jac, slopes, weights, cots, h, n_substeps):
     layer's is that of the whole rhs).  The loop's cost is dispatch, not
     arithmetic, so it uses only primitive operations and no Python scalars.
     """
-    d = jac.shape[-1]
+    B, d = jac.shape[1], jac.shape[-1]
     jac, slopes, cots = jac.unbind(0), [t.unbind(0) for t in slopes], [t.unbind(0) for t in cots]
-    w_state = weights[0][:, :d]
+    w_state = _fast_members.long_axis_contiguous(weights[0][:, :d])
     n_hidden = len(weights) - 1
     # d x' / d k_i of x' = x + h/6 (k1 + 2 k2 + 2 k3 + k4), as tensors: a Python
     # scalar costs a tensor construction in every operation
@@ -190,7 +192,7 @@ def _sweep(grad_out, jac, slopes, weights, cots, h, n_substeps):
             s -= 4
             cs = [torch.mul(adj, coef[i], out=cots[-1][s + i]) for i in range(4)]
             for i in (3, 2, 1, 0):
-                g = (jac[s + i] * cs[i].unsqueeze(-2)).sum(-1)  # tiny per-sample products
+                g = torch.bmm(jac[s + i], cs[i].view(B, d, 1)).view(B, d)  # tiny per-sample products
                 delta = cs[i]
                 for layer in reversed(range(n_hidden)):
                     delta = torch.mm(delta, weights[layer + 1], out=cots[layer][s + i])
@@ -274,8 +276,8 @@ class _OdeMLP(torch.autograd.Function):
         K, B, d = x0.shape
         S = 4 * cfg.n_steps * cfg.n_substeps
         N = S * B
-        # states are (S, 1, B, d) for one member, (n_steps, K, C, B, d) for several
-        v_all = states.transpose(0, 1).reshape(K, N, d)
+        # states are stage-major: (S, 1, B, d) for one member, (n_steps, C, K, B, d) for several
+        v_all = states.reshape(S, K, B, d).transpose(0, 1).reshape(K, N, d)
         u_all = None  # inputs at every stage, member-major
         if u_fine is not None:
             u_all = u_fine[:, :, _stage_input_index(cfg.n_steps, cfg.n_substeps)]
@@ -297,12 +299,10 @@ class _OdeMLP(torch.autograd.Function):
             layer_inputs = [v_all if u_all is None else torch.cat([v_all, u_all], -1)]
             layer_inputs += [a.view(1, N, -1) for a in acts]
             net_grads = []
-            for delta, inputs in zip(deltas, layer_inputs):
-                if inputs.shape[-1] < delta.shape[-1]:  # skinny products: fast one way round
-                    grad_w = torch.bmm(inputs.transpose(1, 2), delta).transpose(1, 2).contiguous()
-                else:
-                    grad_w = torch.bmm(delta.transpose(1, 2), inputs)
-                net_grads += [grad_w, delta.sum(1)]
+            for delta, inputs, w in zip(deltas, layer_inputs, weights):
+                grad_w = _fast_members.weight_grad_buffer(w)
+                _fast_members.accumulate_weight_grad(grad_w, delta, inputs)
+                net_grads += [grad_w.contiguous(), delta.sum(1)]
             cots = deltas[-1]
         else:
             if ctx.released:
@@ -314,13 +314,13 @@ class _OdeMLP(torch.autograd.Function):
 
             with torch.no_grad():
                 u_stage = None if u_all is None else interval_major(u_all)
+                stage_jac = jac.view(K, S, B, d, d).transpose(0, 1).contiguous().view(cfg.n_steps, C, K, B, d, d)
                 adj, cots, grad_w, grad_b = _fast_members.backward(
-                    cfg, grad_out, states, acts, slopes, interval_major(jac).contiguous(),
-                    weights, u_stage)
+                    cfg, grad_out, states, acts, slopes, stage_jac, weights, u_stage)
             _fast_members.release(states, *hidden)
             ctx.released = True
             net_grads = [g for pair in zip(grad_w, grad_b) for g in pair]
-            cots = cots.transpose(0, 1).reshape(K, N, d)
+            cots = cots.view(S, K, B, d).transpose(0, 1).reshape(K, N, d)
 
         grads = [None] * cfg.n_theta
         if need_theta:

@@ -3,13 +3,18 @@
 With K members every operation carries K small problems, so the cost moves
 from dispatch to arithmetic and memory traffic.  Hence:
 
-* explicit batched products (``baddbmm``), not ``vmap``, in the stage loop;
-* stage buffers laid out ``(n_steps, K, C, B, ...)`` with ``C`` the stages of
-  one output interval: each stage writes its slice in place, and for every
-  output interval each member's rows are contiguous, so the weight
-  gradients are accumulated once per interval by products with an inner
-  dimension of ``C * B`` (not once per stage, which would stream every
-  member's weight gradient through memory at every stage);
+* explicit batched products (``baddbmm``), not ``vmap``, in the stage loop,
+  with every skinny matrix stored with its long axis contiguous
+  (:func:`long_axis_contiguous`: MKL multiplies them up to 3x faster so);
+* two layouts, each where it saves copies: per-stage tensors (states,
+  science Jacobians, rhs cotangents) *stage-major* ``(n_steps, C, K, B,
+  ...)``, so each stage's ``K * B`` rows are one contiguous block the
+  science function and the tiny Jacobian products take without a copy; the
+  hidden layers *member-major* per output interval ``(n_steps, K, C, B,
+  w)``, so the weight gradients are accumulated once per interval by
+  products with an inner dimension of ``C * B`` (not once per stage, which
+  would stream every member's weight gradient through memory at every
+  stage);
 * buffers reused from call to call (large fresh allocations cost a page
   fault per 4 KiB on first touch);
 * the science function called once per stage on the ``K * B`` states with
@@ -24,12 +29,40 @@ import weakref
 
 import torch
 
-__all__ = ["forward", "backward", "release"]
+__all__ = ["forward", "backward", "release", "long_axis_contiguous", "accumulate_weight_grad"]
 
 _relu_backward_out = torch.ops.aten.threshold_backward.grad_input
 _ROWWISE = weakref.WeakKeyDictionary()  # science function -> {shape key: broadcasts per row}
 _POOL: dict = {}  # (shape, dtype) -> free buffers
 _POOL_DEPTH = 4
+
+
+def long_axis_contiguous(m: torch.Tensor) -> torch.Tensor:
+    """The same matrices (last two axes), stored with the longer axis contiguous.
+
+    MKL multiplies a skinny matrix such as a (128, 2) weight block two to
+    three times faster when its long axis has stride 1.
+    """
+    if m.shape[-1] >= m.shape[-2]:
+        return m if m.stride(-1) == 1 else m.contiguous()
+    return m if m.stride(-2) == 1 else m.transpose(-1, -2).contiguous().transpose(-1, -2)
+
+
+def weight_grad_buffer(weight: torch.Tensor) -> torch.Tensor:
+    """Zeros shaped like ``weight`` (K, out, in), laid out for :func:`accumulate_weight_grad`."""
+    return long_axis_contiguous(torch.zeros_like(weight, memory_format=torch.contiguous_format))
+
+
+def accumulate_weight_grad(acc: torch.Tensor, delta: torch.Tensor, inputs: torch.Tensor) -> None:
+    """``acc += delta^T inputs`` for delta (K, R, out) and inputs (K, R, in), in place.
+
+    The product is taken with the output's long axis last (``inputs^T delta``
+    into the transposed view when ``in < out``): 7x faster for a (128, 2) block.
+    """
+    if acc.shape[-2] > acc.shape[-1]:
+        acc.transpose(-1, -2).baddbmm_(inputs.transpose(-1, -2), delta)
+    else:
+        acc.baddbmm_(delta.transpose(-1, -2), inputs)
 
 
 def _take(shape, dtype):
@@ -89,16 +122,17 @@ def _science_caller(cfg, thetas, x0, u_fine):
 def forward(cfg, x0, u_fine, p_in, thetas, weights, biases):
     """RK4 of K members; returns outputs (K, B, n_steps, d), states and hidden buffers.
 
-    ``states`` is (n_steps, K, C, B, d) with ``C = 4 n_substeps``; ``hidden[l]``
-    is (n_steps, K, C, B, w_l) and holds layer l's activations where
-    ``cfg.relu[l]``, its pre-activations otherwise.
+    ``states`` is stage-major (n_steps, C, K, B, d) with ``C = 4 n_substeps``;
+    ``hidden[l]`` is member-major (n_steps, K, C, B, w_l) and holds layer l's
+    activations where ``cfg.relu[l]``, its pre-activations otherwise.
     """
     K, B, d = x0.shape
     n_hidden, C = len(weights) - 1, 4 * cfg.n_substeps
-    states = _take((cfg.n_steps, K, C, B, d), x0.dtype)
+    relu, acts = cfg.relu, cfg.acts
+    states = _take((cfg.n_steps, C, K, B, d), x0.dtype)
     hidden = [_take((cfg.n_steps, K, C, B, w.shape[1]), x0.dtype) for w in weights[:-1]]
     science = _science_caller(cfg, thetas, x0, u_fine)
-    w_t = [w.transpose(1, 2) for w in weights]
+    w_t = [long_axis_contiguous(w.transpose(1, 2)) for w in weights]
     w_state = w_t[0][:, :d]
     bias = [b[:, None] for b in biases]
     p_at = None if p_in is None else p_in.unbind(2)
@@ -106,17 +140,17 @@ def forward(cfg, x0, u_fine, p_in, thetas, weights, biases):
     h = cfg.dt / cfg.n_substeps
     x, outputs = x0, []
     for n in range(cfg.n_steps):
-        st, hid = states[n].unbind(1), [t[n].unbind(1) for t in hidden]
+        st, hid = states[n], [t[n].unbind(1) for t in hidden]
 
         def rhs(c, j):
             v = st[c]
             z = torch.baddbmm(bias[0] if p_at is None else p_at[j], v, w_state)
             for layer in range(n_hidden):
-                if cfg.relu[layer]:
+                if relu[layer]:
                     a = torch.clamp_min(z, 0, out=hid[layer][c])
                 else:
                     hid[layer][c].copy_(z)
-                    a = cfg.acts[layer](z)
+                    a = acts[layer](z)
                 z = torch.baddbmm(bias[layer + 1], a, w_t[layer + 1])
             return science(v, None if u_at is None else u_at[j]) + z
 
@@ -139,29 +173,31 @@ def forward(cfg, x0, u_fine, p_in, thetas, weights, biases):
 def backward(cfg, grad_out, states, acts, slopes, jac, weights, u_stage):
     """Reverse sweep of K members; the network's gradients once per output interval.
 
-    ``acts[l]``/``slopes[l]`` are hidden layer l's activations and derivatives
-    (``slopes[l]`` None for ReLU, whose activations decide), laid out like
-    ``states``; ``jac`` is the science Jacobian (n_steps, K, C, B, d, d);
-    ``u_stage`` the inputs per stage (n_steps, K, C, B, n_u) or None.
-    Returns d loss / d x0, the cotangents of the rhs (n_steps, K, C, B, d) and
-    the weight and bias gradients per layer.
+    ``states`` and ``jac`` (the science Jacobian, (n_steps, C, K, B, d, d))
+    are stage-major; ``acts[l]``/``slopes[l]`` are hidden layer l's
+    activations and derivatives (``slopes[l]`` None for ReLU, whose
+    activations decide), member-major like the hidden buffers of
+    :func:`forward`; ``u_stage`` the inputs per stage (n_steps, K, C, B, n_u)
+    or None.  Returns d loss / d x0, the stage-major cotangents of the rhs
+    (n_steps, C, K, B, d) and the weight and bias gradients per layer.
     """
-    n_steps, K, C, B, d = states.shape
+    n_steps, C, K, B, d = states.shape
     n_layers, h = len(weights), cfg.dt / cfg.n_substeps
-    grad_w = [torch.zeros_like(w) for w in weights]
+    grad_w = [weight_grad_buffer(w) for w in weights]
     grad_b = [grad_out.new_zeros(K, w.shape[1]) for w in weights]
-    cots = grad_out.new_empty(n_steps, K, C, B, d)
+    cots = grad_out.new_empty(n_steps, C, K, B, d)
     # cotangents of the hidden layers' outputs over one output interval
     chunk = [_take((K, C, B, w.shape[1]), grad_out.dtype) for w in weights[:-1]]
     chunk_at = [t.unbind(1) for t in chunk]
-    w_state = weights[0][:, :, :d]
+    w_state = long_axis_contiguous(weights[0][:, :, :d])
+    w_next = [long_axis_contiguous(w) for w in weights[1:]]
     coef = [torch.tensor(c, dtype=grad_out.dtype) for c in (h / 6, h / 3, h / 3, h / 6)]
     back = [None, 0.5 * h, 0.5 * h, h]
     outputs = grad_out.unbind(2)
     adj = torch.zeros_like(outputs[0])
     for n in reversed(range(n_steps)):
         adj = adj + outputs[n]
-        ja, ct = jac[n].unbind(1), cots[n].unbind(1)
+        ja, ct = jac[n].view(C, K * B, d, d), cots[n]
         act_at = [t[n].unbind(1) for t in acts]
         slope_at = [None if t is None else t[n].unbind(1) for t in slopes]
         for sub in reversed(range(cfg.n_substeps)):
@@ -169,25 +205,27 @@ def backward(cfg, grad_out, states, acts, slopes, jac, weights, u_stage):
             cs = [torch.mul(adj, coef[i], out=ct[s + i]) for i in range(4)]
             for i in (3, 2, 1, 0):
                 delta = cs[i]
-                g = (ja[s + i] * delta.unsqueeze(-2)).sum(-1)  # tiny per-sample products
+                # the science part's vector-Jacobian product: K * B tiny products
+                g = torch.bmm(ja[s + i], delta.view(K * B, d, 1)).view(K, B, d)
                 for layer in reversed(range(n_layers - 1)):
-                    delta = torch.bmm(delta, weights[layer + 1])
+                    delta = torch.bmm(delta, w_next[layer])
                     if slope_at[layer] is None:
                         delta = _relu_backward_out(delta, act_at[layer][s + i], 0.0,
                                                    grad_input=chunk_at[layer][s + i])
                     else:
-                        delta = chunk_at[layer][s + i].copy_(delta.mul_(slope_at[layer][s + i]))
+                        delta = torch.mul(delta, slope_at[layer][s + i], out=chunk_at[layer][s + i])
                 g = torch.baddbmm(g, delta, w_state)
                 adj = adj + g
                 if i:
                     cs[i - 1].add_(g, alpha=back[i])
         # this interval's share of the weight gradients: inner dimension C * B
-        deltas = [t.view(K, C * B, -1) for t in chunk] + [cots[n].view(K, C * B, d)]
-        inputs = [states[n].view(K, C * B, d)] + [t[n].view(K, C * B, -1) for t in acts]
+        deltas = [t.view(K, C * B, -1) for t in chunk] + [ct.transpose(0, 1).reshape(K, C * B, d)]
+        inputs = [states[n].transpose(0, 1).reshape(K, C * B, d)]
+        inputs += [t[n].view(K, C * B, -1) for t in acts]
         if u_stage is not None:
             inputs[0] = torch.cat([inputs[0], u_stage[n].reshape(K, C * B, -1)], -1)
         for layer, (delta, inp) in enumerate(zip(deltas, inputs)):
-            grad_w[layer].baddbmm_(delta.transpose(1, 2), inp)
+            accumulate_weight_grad(grad_w[layer], delta, inp)
             grad_b[layer].add_(delta.sum(1))
     release(*chunk)
-    return adj, cots, grad_w, grad_b
+    return adj, cots, [g.contiguous() for g in grad_w], grad_b
