@@ -171,7 +171,7 @@ def forward(cfg, x0, u_fine, p_in, thetas, weights, biases):
 
 
 def backward(cfg, grad_out, states, acts, slopes, jac, weights, u_stage):
-    """Reverse sweep of K members; the network's gradients once per output interval.
+    """Reverse sweep of K members, accumulating the network's gradients on the way.
 
     ``states`` and ``jac`` (the science Jacobian, (n_steps, C, K, B, d, d))
     are stage-major; ``acts[l]``/``slopes[l]`` are hidden layer l's
@@ -180,15 +180,25 @@ def backward(cfg, grad_out, states, acts, slopes, jac, weights, u_stage):
     :func:`forward`; ``u_stage`` the inputs per stage (n_steps, K, C, B, n_u)
     or None.  Returns d loss / d x0, the stage-major cotangents of the rhs
     (n_steps, C, K, B, d) and the weight and bias gradients per layer.
+
+    The first and last layers' weight gradients (skinny products, a small
+    state on one side) are accumulated stage by stage, while their operands
+    are still in cache; the wide layers' once per output interval, with an
+    inner dimension of ``C * B``.
     """
     n_steps, C, K, B, d = states.shape
     n_layers, h = len(weights), cfg.dt / cfg.n_substeps
     grad_w = [weight_grad_buffer(w) for w in weights]
     grad_b = [grad_out.new_zeros(K, w.shape[1]) for w in weights]
+    grad_w_state, grad_w_inputs = grad_w[0][..., :d], grad_w[0][..., d:]
     cots = grad_out.new_empty(n_steps, C, K, B, d)
-    # cotangents of the hidden layers' outputs over one output interval
-    chunk = [_take((K, C, B, w.shape[1]), grad_out.dtype) for w in weights[:-1]]
-    chunk_at = [t.unbind(1) for t in chunk]
+    wide = range(1, n_layers - 1)
+    # cotangents of the hidden layers' outputs: over one output interval for the
+    # wide layers, one stage at a time for the first
+    chunk = {layer: _take((K, C, B, weights[layer].shape[1]), grad_out.dtype) for layer in wide}
+    chunk_at = {layer: t.unbind(1) for layer, t in chunk.items()}
+    if n_layers > 1:
+        chunk_at[0] = [grad_out.new_empty(K, B, weights[0].shape[1])] * C
     w_state = long_axis_contiguous(weights[0][:, :, :d])
     w_next = [long_axis_contiguous(w) for w in weights[1:]]
     coef = [torch.tensor(c, dtype=grad_out.dtype) for c in (h / 6, h / 3, h / 3, h / 6)]
@@ -197,35 +207,41 @@ def backward(cfg, grad_out, states, acts, slopes, jac, weights, u_stage):
     adj = torch.zeros_like(outputs[0])
     for n in reversed(range(n_steps)):
         adj = adj + outputs[n]
-        ja, ct = jac[n].view(C, K * B, d, d), cots[n]
+        ja, ct, v_at = jac[n].view(C, K * B, d, d), cots[n], states[n]
+        u_at = None if u_stage is None else u_stage[n].unbind(1)
         act_at = [t[n].unbind(1) for t in acts]
         slope_at = [None if t is None else t[n].unbind(1) for t in slopes]
         for sub in reversed(range(cfg.n_substeps)):
             s = 4 * sub
             cs = [torch.mul(adj, coef[i], out=ct[s + i]) for i in range(4)]
             for i in (3, 2, 1, 0):
+                c = s + i
                 delta = cs[i]
                 # the science part's vector-Jacobian product: K * B tiny products
-                g = torch.bmm(ja[s + i], delta.view(K * B, d, 1)).view(K, B, d)
+                g = torch.bmm(ja[c], delta.view(K * B, d, 1)).view(K, B, d)
+                if n_layers > 1:
+                    accumulate_weight_grad(grad_w[-1], delta, act_at[-1][c])
                 for layer in reversed(range(n_layers - 1)):
                     delta = torch.bmm(delta, w_next[layer])
                     if slope_at[layer] is None:
-                        delta = _relu_backward_out(delta, act_at[layer][s + i], 0.0,
-                                                   grad_input=chunk_at[layer][s + i])
+                        delta = _relu_backward_out(delta, act_at[layer][c], 0.0,
+                                                   grad_input=chunk_at[layer][c])
                     else:
-                        delta = torch.mul(delta, slope_at[layer][s + i], out=chunk_at[layer][s + i])
+                        delta = torch.mul(delta, slope_at[layer][c], out=chunk_at[layer][c])
+                accumulate_weight_grad(grad_w_state, delta, v_at[c])
+                if u_at is not None:
+                    accumulate_weight_grad(grad_w_inputs, delta, u_at[c])
+                grad_b[0].add_(delta.sum(1))
                 g = torch.baddbmm(g, delta, w_state)
                 adj = adj + g
                 if i:
                     cs[i - 1].add_(g, alpha=back[i])
-        # this interval's share of the weight gradients: inner dimension C * B
-        deltas = [t.view(K, C * B, -1) for t in chunk] + [ct.transpose(0, 1).reshape(K, C * B, d)]
-        inputs = [states[n].transpose(0, 1).reshape(K, C * B, d)]
-        inputs += [t[n].view(K, C * B, -1) for t in acts]
-        if u_stage is not None:
-            inputs[0] = torch.cat([inputs[0], u_stage[n].reshape(K, C * B, -1)], -1)
-        for layer, (delta, inp) in enumerate(zip(deltas, inputs)):
-            accumulate_weight_grad(grad_w[layer], delta, inp)
+        if n_layers > 1:
+            grad_b[-1].add_(ct.sum((0, 2)))
+        # the wide layers' share of this interval: inner dimension C * B
+        for layer in wide:
+            delta = chunk[layer].view(K, C * B, -1)
+            accumulate_weight_grad(grad_w[layer], delta, acts[layer - 1][n].view(K, C * B, -1))
             grad_b[layer].add_(delta.sum(1))
-    release(*chunk)
+    release(*chunk.values())
     return adj, cots, [g.contiguous() for g in grad_w], grad_b
