@@ -29,6 +29,19 @@ def _values(name, values, default, kind=numbers.Real, positive=True):
     return values
 
 
+def _train_group(models, method, inputs, y, config, seeds, rho, lam, n_threads):
+    """Train one group of members as one stacked model; returns its history and the models.
+
+    Run in a worker process when ``n_jobs > 1`` (processes, not threads: the
+    stage loop dispatches thousands of small operations, and threads would
+    queue for the interpreter lock between them).
+    """
+    with _torch_threads(n_threads):
+        history = train_batched(models, method, inputs, y, config,
+                                [torch.Generator().manual_seed(s) for s in seeds], rho=rho, lam=lam)
+    return history, models
+
+
 class HybridRegressorCV(RegressorMixin, BaseEstimator):
     """A sweep over rho, lam and seeds of one HybridRegressor, trained as one batched model.
 
@@ -61,11 +74,12 @@ class HybridRegressorCV(RegressorMixin, BaseEstimator):
         seeded by the first seed); None trains on all samples and scores on
         them.
     n_jobs : int or None, default=None
-        Train the members in this many groups at once, each in its own thread
-        with one torch thread (None: one group, with the estimator's
-        ``n_threads``).  Groups share nothing, so on a busy machine this uses
-        a second core without the per-operation synchronisation of
-        multi-threaded operations.
+        Train the members in this many groups at once, each in its own worker
+        process with one torch thread (None: one group in this process, with
+        the estimator's ``n_threads``).  Groups share nothing, so each uses a
+        core without the per-operation synchronisation of multi-threaded
+        operations; the science function must then be picklable (a
+        module-level function, or anything cloudpickle handles).
 
     Attributes
     ----------
@@ -190,27 +204,27 @@ class HybridRegressorCV(RegressorMixin, BaseEstimator):
         return self
 
     def _train(self, setups, params):
-        """Train the members, in ``n_jobs`` groups at once (threads of one torch thread each)."""
+        """Train the members, in ``n_jobs`` groups at once (worker processes of one torch thread each)."""
         first = setups[0]
         rho, lam = np.array([p["rho"] for p in params]), np.array([p["lam"] for p in params])
         n_jobs = 1 if self.n_jobs is None else self.n_jobs
         if not (isinstance(n_jobs, numbers.Integral) and n_jobs >= 1):
             raise ValueError(f"n_jobs must be a positive integer or None, got {n_jobs!r}.")
         groups = [g for g in np.array_split(np.arange(len(setups)), n_jobs) if len(g)]
-
-        def run(group):
-            return train_batched(
-                [setups[k].model for k in group], first.method, first.inputs, first.y,
-                first.config, [torch.Generator().manual_seed(setups[k].seed) for k in group],
-                rho=rho[group], lam=lam[group])
-
         threads = self.estimator.n_threads if len(groups) == 1 else 1
-        with _torch_threads(threads):
-            parts = Parallel(n_jobs=len(groups), backend="threading")(delayed(run)(g) for g in groups)
-        return {"loss": np.concatenate([p["loss"] for p in parts], axis=1),
-                "theta": {n: np.concatenate([p["theta"][n] for p in parts], axis=1)
-                          for n in parts[0]["theta"]},
-                "diverged_at": np.concatenate([p["diverged_at"] for p in parts])}
+        parts = Parallel(n_jobs=len(groups))(
+            delayed(_train_group)([setups[k].model for k in group], first.method, first.inputs,
+                                  first.y, first.config, [setups[k].seed for k in group],
+                                  rho[group], lam[group], threads)
+            for group in groups)
+        for group, (_, models) in zip(groups, parts):
+            for k, model in zip(group, models):  # trained copies when they come from a worker
+                setups[k].model = model
+        histories = [history for history, _ in parts]
+        return {"loss": np.concatenate([h["loss"] for h in histories], axis=1),
+                "theta": {n: np.concatenate([h["theta"][n] for h in histories], axis=1)
+                          for n in histories[0]["theta"]},
+                "diverged_at": np.concatenate([h["diverged_at"] for h in histories])}
 
     def _results(self, params, scores, diverged):
         results = {"params": params, "score": scores, "diverged_at": diverged}

@@ -137,7 +137,7 @@ def test_one_diverging_member_does_not_spoil_the_others(pendulum):
     assert cv.theta_["omega"] == pytest.approx(alone.theta_["omega"], rel=1e-5)
 
 
-def test_groups_in_threads_match_one_group(pendulum):
+def test_groups_in_worker_processes_match_one_group(pendulum):
     X, y = pendulum
     base = HybridRegressor(science=pendulum_f, method="fsam", dt=0.2, max_iter=5,
                            residual={"hidden": (8,)}, dtype="float64")
