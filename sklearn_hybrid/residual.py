@@ -8,7 +8,7 @@ every ``fit``, so ``clone`` and refits behave as scikit-learn users expect.
 from __future__ import annotations
 
 import math
-from typing import Callable, Sequence
+from typing import Sequence
 
 import torch
 from torch import nn
