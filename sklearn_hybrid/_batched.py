@@ -147,7 +147,6 @@ def train_batched(models: list, method, inputs: tuple, y: torch.Tensor, config: 
     theta, phi = stacked.group("science."), stacked.group("residual.")
     params = theta + phi
     perturbed = phi + theta if config.perturb == "all" else phi
-    where = [next(i for i, q in enumerate(params) if q is p) for p in perturbed]
     residual_names = [n for n in stacked.names if n.startswith("residual.")]
     is_weight = ["weight" in n for n in residual_names] + [False] * (len(perturbed) - len(phi))
     dtype = y.dtype
@@ -162,13 +161,13 @@ def train_batched(models: list, method, inputs: tuple, y: torch.Tensor, config: 
     diverged = np.full(K, -1)
     full = tuple(t.expand(K, *t.shape) for t in inputs), y.expand(K, *y.shape)
 
-    def loss_and_grads(xb, yb):
+    def loss_and_grads(xb, yb, wrt):
         pred = stacked.predictions(xb)
         loss = _member_loss(pred, yb)
         if method.name == "p-reg":
             loss = loss + lam_t * sum(p.pow(2).reshape(K, -1).sum(1) for p in phi)
-        grads = torch.autograd.grad(loss.sum(), params, allow_unused=True)
-        return loss.detach(), [torch.zeros_like(p) if g is None else g for p, g in zip(params, grads)]
+        grads = torch.autograd.grad(loss.sum(), wrt, allow_unused=True)
+        return loss.detach(), [torch.zeros_like(p) if g is None else g for p, g in zip(wrt, grads)]
 
     for it in range(config.max_iter):
         idx = [b.next() for b in batches]
@@ -177,7 +176,8 @@ def train_batched(models: list, method, inputs: tuple, y: torch.Tensor, config: 
         else:
             idx = torch.stack(idx)
             xb, yb = tuple(t[idx] for t in inputs), y[idx]
-        loss, grads = loss_and_grads(xb, yb)
+        # the SAM family needs only the perturbed tensors' gradients at the first point
+        loss, grads = loss_and_grads(xb, yb, perturbed if method.perturbs else params)
         bad = ~torch.isfinite(loss).numpy() & (diverged < 0)
         diverged[bad] = it
         if (diverged >= 0).all():  # nothing left to train
@@ -185,8 +185,8 @@ def train_batched(models: list, method, inputs: tuple, y: torch.Tensor, config: 
             break
         if method.perturbs:
             with torch.no_grad():
-                eps = _perturbation(method, perturbed, [grads[i] for i in where], is_weight, rho_t)
-            _, grads = gradients_at_perturbed(perturbed, eps, lambda: loss_and_grads(xb, yb))
+                eps = _perturbation(method, perturbed, grads, is_weight, rho_t)
+            _, grads = gradients_at_perturbed(perturbed, eps, lambda: loss_and_grads(xb, yb, params))
         for p, g in zip(params, grads):
             p.grad = g
         optimizer.step()

@@ -151,8 +151,6 @@ def train(model: nn.Module, method, inputs: tuple[torch.Tensor, ...], y: torch.T
     n_perturbed = len(perturbed)
     is_weight = ["weight" in name for name, _ in model.residual.named_parameters()]
     is_weight += [False] * (n_perturbed - len(is_weight))
-    # positions of the perturbed tensors inside `params`
-    where = [next(i for i, q in enumerate(params) if q is p) for p in perturbed]
 
     optimizer, scheduler = make_optimizer(theta, phi + extra, config)
     batches = _Batches(len(y), config.batch_size, generator)
@@ -168,7 +166,8 @@ def train(model: nn.Module, method, inputs: tuple[torch.Tensor, ...], y: torch.T
         idx = batches.next()
         xb = inputs if idx is None else tuple(t[idx] for t in inputs)
         yb = y if idx is None else y[idx]
-        loss, grads = _loss_and_grads(model, method, xb, yb, params)
+        # the SAM family needs only the perturbed tensors' gradients at the first point
+        loss, grads = _loss_and_grads(model, method, xb, yb, perturbed if method.perturbs else params)
         loss_value = float(loss)
         if not np.isfinite(loss_value):
             raise DivergenceError(
@@ -177,7 +176,7 @@ def train(model: nn.Module, method, inputs: tuple[torch.Tensor, ...], y: torch.T
             )
         if method.perturbs:
             with torch.no_grad():
-                eps = method.perturbation(perturbed, [grads[i] for i in where], is_weight)
+                eps = method.perturbation(perturbed, grads, is_weight)
             with _frozen_batchnorm_stats(model):
                 _, grads = gradients_at_perturbed(
                     perturbed, eps, lambda: _loss_and_grads(model, method, xb, yb, params))
