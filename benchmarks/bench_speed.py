@@ -357,7 +357,7 @@ def bound_section(peak: dict) -> dict:
             "target_ms": 1e3 * flops / (0.7 * peak["1"] * 1e9), "traffic_ms": 1e3 * t_traffic}
 
 
-def profile_section(top=14) -> str:
+def profile_section(top=18) -> str:
     """Where one fsam iteration spends its time: single fit and 25 stacked members."""
     from torch.profiler import profile
 
@@ -369,19 +369,21 @@ def profile_section(top=14) -> str:
                 validation_fraction=None).fit(d.X_train, d.y_train)}
     lines = ["# Where an fsam iteration's time goes (pendulum, torch.profiler, 1 thread)", "",
              "Self CPU time per iteration (fit of 3 iterations minus fit of 1, profiler overhead "
-             "included), top operations.", ""]
+             "included: a few microseconds per operation), top operations by input shapes.", ""]
     for name, fit in fits.items():
         fit(1)
         spent = []
         for n in (1, 3):
-            with profile() as prof:
+            with profile(record_shapes=True) as prof:
                 fit(n)
-            spent.append({e.key: (e.self_cpu_time_total, e.count) for e in prof.key_averages()})
+            spent.append({(e.key, str(e.input_shapes)): (e.self_cpu_time_total, e.count)
+                          for e in prof.key_averages(group_by_input_shape=True)})
         rows = sorted(((t - spent[0].get(k, (0, 0))[0]) / 2e3, (c - spent[0].get(k, (0, 0))[1]) // 2, k)
                       for k, (t, c) in spent[1].items())[::-1]
         total = sum(r[0] for r in rows)
-        lines += [f"## {name}: {total:.0f} ms per iteration", "", "| operation | ms | calls |",
-                  "|---|---|---|"] + [f"| {k} | {t:.1f} | {c} |" for t, c, k in rows[:top]] + [""]
+        lines += [f"## {name}: {total:.0f} ms per iteration", "",
+                  "| operation | input shapes | ms | calls |", "|---|---|---|---|"]
+        lines += [f"| {op} | {shapes} | {t:.1f} | {c} |" for t, c, (op, shapes) in rows[:top]] + [""]
     return "\n".join(lines)
 
 

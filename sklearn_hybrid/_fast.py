@@ -42,6 +42,8 @@ from .residual import MLP
 
 __all__ = ["supports", "mlp_parts", "ode_states", "disabled"]
 
+_relu_backward_out = torch.ops.aten.threshold_backward.grad_input
+
 #: Largest state size served (the Jacobians cost ``MAX_STATE`` forward passes).
 MAX_STATE = 8
 
@@ -112,24 +114,29 @@ def _member_forward(cfg, x, u, p_in, thetas, weights, biases):
     """RK4 of one member: x (B, d); u (B, F, n_u) or None; p_in (B, F, w1) or None.
 
     ``p_in`` is the inputs' contribution to the first layer (bias included),
-    computed for the whole input grid at once.  Returns the outputs
-    per output time, the states per stage and the pre-activations per layer and
-    stage, as lists (stacked by the caller, outside inference mode).
+    computed for the whole input grid at once.  Returns the outputs per
+    output time (a list, stacked by the caller outside inference mode), the
+    states per stage (S, B, d) and, per hidden layer, its activations (ReLU)
+    or pre-activations per stage (S, B, w), in buffers of the pool.
     """
+    B, d = x.shape
+    S = 4 * cfg.n_steps * cfg.n_substeps
     theta = dict(zip(cfg.names, thetas))
     w_t = [_fast_members.long_axis_contiguous(w.t()) for w in weights]
-    w1v_t = w_t[0][: x.shape[-1]]  # first-layer rows that see the state
+    w1v_t = w_t[0][:d]  # first-layer rows that see the state
     n_hidden = len(weights) - 1
     relu = cfg.relu
     # the function, not the module: a module call costs as much as the ReLU itself
     act_fns = [torch.relu if r else a for r, a in zip(relu, cfg.acts)]
-    states, pre = [], [[] for _ in range(n_hidden)]
+    states = _fast_members.take((S, B, d), x.dtype)
+    hidden = [_fast_members.take((S, B, w.shape[0]), x.dtype) for w in weights[:-1]]
+    st, hid = states.unbind(0), [t.unbind(0) for t in hidden]
     # views per input grid point, taken once rather than per stage
     u_at = None if u is None else u.unbind(1)
     p_at = None if p_in is None else p_in.unbind(1)
 
-    def rhs(v, j):
-        states.append(v)
+    def rhs(c, j):
+        v = st[c]
         if u is None:
             z = torch.addmm(biases[0], v, w_t[0])
             f = cfg.func(v, **theta)
@@ -137,25 +144,33 @@ def _member_forward(cfg, x, u, p_in, thetas, weights, biases):
             z = torch.addmm(p_at[j], v, w1v_t)
             f = cfg.func(v, u_at[j], **theta)
         for layer in range(n_hidden):
-            a = act_fns[layer](z)
-            pre[layer].append(a if relu[layer] else z)  # what backward needs
+            if relu[layer]:
+                a = torch.clamp_min(z, 0, out=hid[layer][c])
+            else:
+                hid[layer][c].copy_(z)  # backward needs the pre-activations
+                a = act_fns[layer](z)
             z = torch.addmm(biases[layer + 1], a, w_t[layer + 1])
         return f + z
 
     # the classic RK4 of integrate._rk4, with fused multiply-adds
     h = cfg.dt / cfg.n_substeps
-    outputs, s = [], 0
-    for _ in range(cfg.n_steps):
-        for _ in range(cfg.n_substeps):
-            k1 = rhs(x, 2 * s)
-            k2 = rhs(torch.add(x, k1, alpha=0.5 * h), 2 * s + 1)
-            k3 = rhs(torch.add(x, k2, alpha=0.5 * h), 2 * s + 1)
-            k4 = rhs(torch.add(x, k3, alpha=h), 2 * s + 2)
+    outputs, c = [], 0
+    for n in range(cfg.n_steps):
+        for sub in range(cfg.n_substeps):
+            j = 2 * (n * cfg.n_substeps + sub)
+            st[c].copy_(x)
+            k1 = rhs(c, j)
+            torch.add(x, k1, alpha=0.5 * h, out=st[c + 1])
+            k2 = rhs(c + 1, j + 1)
+            torch.add(x, k2, alpha=0.5 * h, out=st[c + 2])
+            k3 = rhs(c + 2, j + 1)
+            torch.add(x, k3, alpha=h, out=st[c + 3])
+            k4 = rhs(c + 3, j + 2)
             k = torch.add(k1, k2.add_(k3), alpha=2.0).add_(k4)
             x = torch.add(x, k, alpha=h / 6.0)
-            s += 1
+            c += 4
         outputs.append(x)
-    return outputs, states, pre
+    return outputs, states, hidden
 
 
 def _stage_input_index(n_steps, n_substeps):
@@ -166,17 +181,20 @@ def _stage_input_index(n_steps, n_substeps):
     return torch.tensor(idx)
 
 
-def _sweep(grad_out, jac, slopes, weights, cots, h, n_substeps):
+def _sweep(grad_out, jac, acts, slopes, weights, cots, h, n_substeps):
     """Backpropagate one member through the RK4 steps, filling ``cots``; returns d loss / d x0.
 
-    ``jac`` is (S, B, d, d); ``slopes[l]`` holds hidden layer l's activation
-    derivatives; ``cots[l]`` (S, B, w_l)
+    ``jac`` is (S, B, d, d); ``acts[l]``/``slopes[l]`` hold hidden layer l's
+    activations and derivatives (``slopes[l]`` None for ReLU, whose
+    activations decide); ``cots[l]`` (S, B, w_l)
     receives the cotangent of layer l's output at every stage (the last
     layer's is that of the whole rhs).  The loop's cost is dispatch, not
     arithmetic, so it uses only primitive operations and no Python scalars.
     """
     B, d = jac.shape[1], jac.shape[-1]
-    jac, slopes, cots = jac.unbind(0), [t.unbind(0) for t in slopes], [t.unbind(0) for t in cots]
+    jac, cots = jac.unbind(0), [t.unbind(0) for t in cots]
+    acts = [t.unbind(0) for t in acts]
+    slopes = [None if t is None else t.unbind(0) for t in slopes]
     w_state = _fast_members.long_axis_contiguous(weights[0][:, :d])
     n_hidden = len(weights) - 1
     # d x' / d k_i of x' = x + h/6 (k1 + 2 k2 + 2 k3 + k4), as tensors: a Python
@@ -196,7 +214,10 @@ def _sweep(grad_out, jac, slopes, weights, cots, h, n_substeps):
                 delta = cs[i]
                 for layer in reversed(range(n_hidden)):
                     delta = torch.mm(delta, weights[layer + 1], out=cots[layer][s + i])
-                    delta.mul_(slopes[layer][s + i])
+                    if slopes[layer] is None:
+                        _relu_backward_out(delta, acts[layer][s + i], 0.0, grad_input=delta)
+                    else:
+                        delta.mul_(slopes[layer][s + i])
                 g = torch.addmm(g, delta, w_state)  # d loss / d (stage input)
                 adj = adj + g
                 if i:
@@ -253,9 +274,8 @@ class _OdeMLP(torch.autograd.Function):
                     cfg, x0[0], None if u_fine is None else u_fine[0],
                     None if p_in is None else p_in[0], [t[0] for t in thetas],
                     [w[0] for w in weights], [b[0] for b in biases])
-            # stacked outside inference mode: ordinary tensors, which backward may keep
+            # stacked outside inference mode: an ordinary tensor, which autograd may keep
             out = torch.stack(out, 1)[None]
-            states, hidden = torch.stack(states)[:, None], [torch.stack(z)[:, None] for z in hidden]
         else:
             with torch.no_grad():
                 out, states, hidden = _fast_members.forward(cfg, x0, u_fine, p_in, thetas,
@@ -276,7 +296,9 @@ class _OdeMLP(torch.autograd.Function):
         K, B, d = x0.shape
         S = 4 * cfg.n_steps * cfg.n_substeps
         N = S * B
-        # states are stage-major: (S, 1, B, d) for one member, (n_steps, C, K, B, d) for several
+        if ctx.released:
+            raise RuntimeError("The fast RK4 cannot be backpropagated twice.")
+        # states are stage-major: (S, B, d) for one member, (n_steps, C, K, B, d) for several
         v_all = states.reshape(S, K, B, d).transpose(0, 1).reshape(K, N, d)
         u_all = None  # inputs at every stage, member-major
         if u_fine is not None:
@@ -288,25 +310,23 @@ class _OdeMLP(torch.autograd.Function):
         h = cfg.dt / cfg.n_substeps
 
         if K == 1:  # 2-D tensors; weight gradients as one product over all stages
-            deltas = [grad_out.new_empty(S, B, w.shape[1]) for w in weights]
+            deltas = [_fast_members.take((S, B, w.shape[1]), grad_out.dtype) for w in weights[:-1]]
+            deltas.append(grad_out.new_empty(S, B, d))
             with torch.inference_mode():
-                # ReLU's derivative from its output (a mask as floats: multiplying is cheapest)
-                slopes = [torch.sign(a[:, 0]) if t is None else t[:, 0] for a, t in zip(acts, slopes)]
-                adj = _sweep(grad_out[0], jac.view(S, B, d, d), slopes, [w[0] for w in weights],
-                             deltas, h, cfg.n_substeps)
+                adj = _sweep(grad_out[0], jac.view(S, B, d, d), acts, slopes,
+                             [w[0] for w in weights], deltas, h, cfg.n_substeps)
             adj = adj[None].clone()
-            deltas = [t.view(1, N, -1) for t in deltas]
             layer_inputs = [v_all if u_all is None else torch.cat([v_all, u_all], -1)]
             layer_inputs += [a.view(1, N, -1) for a in acts]
             net_grads = []
             for delta, inputs, w in zip(deltas, layer_inputs, weights):
+                delta = delta.view(1, N, -1)
                 grad_w = _fast_members.weight_grad_buffer(w)
                 _fast_members.accumulate_weight_grad(grad_w, delta, inputs)
                 net_grads += [grad_w.contiguous(), delta.sum(1)]
-            cots = deltas[-1]
+            cots = deltas[-1].view(1, N, d)
+            _fast_members.release(*deltas[:-1])
         else:
-            if ctx.released:
-                raise RuntimeError("The stacked RK4 cannot be backpropagated twice.")
             C = 4 * cfg.n_substeps
 
             def interval_major(t):  # member-major (K, N, ...) -> (n_steps, K, C, B, ...)
@@ -314,13 +334,14 @@ class _OdeMLP(torch.autograd.Function):
 
             with torch.no_grad():
                 u_stage = None if u_all is None else interval_major(u_all)
-                stage_jac = jac.view(K, S, B, d, d).transpose(0, 1).contiguous().view(cfg.n_steps, C, K, B, d, d)
+                stage_jac = jac.view(K, S, B, d, d).transpose(0, 1).contiguous().view(
+                    cfg.n_steps, C, K, B, d, d)
                 adj, cots, grad_w, grad_b = _fast_members.backward(
                     cfg, grad_out, states, acts, slopes, stage_jac, weights, u_stage)
-            _fast_members.release(states, *hidden)
-            ctx.released = True
             net_grads = [g for pair in zip(grad_w, grad_b) for g in pair]
             cots = cots.view(S, K, B, d).transpose(0, 1).reshape(K, N, d)
+        _fast_members.release(states, *hidden)
+        ctx.released = True
 
         grads = [None] * cfg.n_theta
         if need_theta:

@@ -15,8 +15,7 @@ from dispatch to arithmetic and memory traffic.  Hence:
   products with an inner dimension of ``C * B`` (not once per stage, which
   would stream every member's weight gradient through memory at every
   stage);
-* buffers reused from call to call (large fresh allocations cost a page
-  fault per 4 KiB on first touch);
+* buffers reused from call to call (:func:`take`);
 * the science function called once per stage on the ``K * B`` states with
   theta repeated per row when it broadcasts that way (checked on probe
   values with distinct theta per member), through :func:`torch.func.vmap`
@@ -29,7 +28,8 @@ import weakref
 
 import torch
 
-__all__ = ["forward", "backward", "release", "long_axis_contiguous", "accumulate_weight_grad"]
+__all__ = ["forward", "backward", "take", "release", "long_axis_contiguous",
+           "accumulate_weight_grad"]
 
 _relu_backward_out = torch.ops.aten.threshold_backward.grad_input
 _ROWWISE = weakref.WeakKeyDictionary()  # science function -> {shape key: broadcasts per row}
@@ -65,9 +65,18 @@ def accumulate_weight_grad(acc: torch.Tensor, delta: torch.Tensor, inputs: torch
         acc.baddbmm_(delta.transpose(-1, -2), inputs)
 
 
-def _take(shape, dtype):
+def take(shape, dtype):
+    """An uninitialised buffer, reused from :func:`release` when one of that shape is free.
+
+    Fresh large allocations cost a page fault per 4 KiB on first touch
+    (about 1.5 us each on the machines measured, several ms per gradient
+    evaluation for the stored stages).
+    """
     free = _POOL.get((tuple(shape), dtype))
-    return free.pop() if free else torch.empty(shape, dtype=dtype)
+    if free:
+        return free.pop()
+    with torch.inference_mode(False):  # an ordinary tensor, which autograd may save
+        return torch.empty(shape, dtype=dtype)
 
 
 def release(*buffers):
@@ -129,8 +138,8 @@ def forward(cfg, x0, u_fine, p_in, thetas, weights, biases):
     K, B, d = x0.shape
     n_hidden, C = len(weights) - 1, 4 * cfg.n_substeps
     relu, acts = cfg.relu, cfg.acts
-    states = _take((cfg.n_steps, C, K, B, d), x0.dtype)
-    hidden = [_take((cfg.n_steps, K, C, B, w.shape[1]), x0.dtype) for w in weights[:-1]]
+    states = take((cfg.n_steps, C, K, B, d), x0.dtype)
+    hidden = [take((cfg.n_steps, K, C, B, w.shape[1]), x0.dtype) for w in weights[:-1]]
     science = _science_caller(cfg, thetas, x0, u_fine)
     w_t = [long_axis_contiguous(w.transpose(1, 2)) for w in weights]
     w_state = w_t[0][:, :d]
@@ -195,7 +204,7 @@ def backward(cfg, grad_out, states, acts, slopes, jac, weights, u_stage):
     wide = range(1, n_layers - 1)
     # cotangents of the hidden layers' outputs: over one output interval for the
     # wide layers, one stage at a time for the first
-    chunk = {layer: _take((K, C, B, weights[layer].shape[1]), grad_out.dtype) for layer in wide}
+    chunk = {layer: take((K, C, B, weights[layer].shape[1]), grad_out.dtype) for layer in wide}
     chunk_at = {layer: t.unbind(1) for layer, t in chunk.items()}
     if n_layers > 1:
         chunk_at[0] = [grad_out.new_empty(K, B, weights[0].shape[1])] * C
