@@ -14,6 +14,7 @@ from sklearn.utils.validation import check_is_fitted, validate_data
 
 from ._batched import BATCHABLE_METHODS, train_batched
 from ._estimator import HybridRegressor, _torch_threads
+from ._fast_members import reusing_buffers
 from .engine import DivergenceError
 
 __all__ = ["HybridRegressorCV"]
@@ -36,7 +37,7 @@ def _train_group(models, method, inputs, y, config, seeds, rho, lam, n_threads):
     stage loop dispatches thousands of small operations, and threads would
     queue for the interpreter lock between them).
     """
-    with _torch_threads(n_threads):
+    with _torch_threads(n_threads), reusing_buffers():
         history = train_batched(models, method, inputs, y, config,
                                 [torch.Generator().manual_seed(s) for s in seeds], rho=rho, lam=lam)
     return history, models

@@ -12,6 +12,7 @@ from sklearn.metrics import r2_score
 from sklearn.utils import Bunch, check_random_state
 from sklearn.utils.validation import check_is_fitted, validate_data
 
+from ._fast_members import reusing_buffers
 from .engine import TrainConfig, train
 from .methods import make_method
 from .residual import build_residual
@@ -214,7 +215,7 @@ class HybridRegressor(RegressorMixin, BaseEstimator):
             earlier fit is left untouched.
         """
         setup = self._setup_fit(X, y)
-        with _torch_threads(self.n_threads):
+        with _torch_threads(self.n_threads), reusing_buffers():
             history = train(setup.model, setup.method, setup.inputs, setup.y, setup.config,
                             torch.Generator().manual_seed(setup.seed))
         self._set_fitted(setup.model, history, setup.y_shape)

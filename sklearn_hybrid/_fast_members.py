@@ -25,10 +25,11 @@ from dispatch to arithmetic and memory traffic.  Hence:
 from __future__ import annotations
 
 import weakref
+from contextlib import contextmanager
 
 import torch
 
-__all__ = ["forward", "backward", "take", "release", "long_axis_contiguous",
+__all__ = ["forward", "backward", "take", "release", "reusing_buffers", "long_axis_contiguous",
            "accumulate_weight_grad"]
 
 _relu_backward_out = torch.ops.aten.threshold_backward.grad_input
@@ -77,6 +78,15 @@ def take(shape, dtype):
         return free.pop()
     with torch.inference_mode(False):  # an ordinary tensor, which autograd may save
         return torch.empty(shape, dtype=dtype)
+
+
+@contextmanager
+def reusing_buffers():
+    """Keep released buffers for reuse inside this block (a fit); free them all at its end."""
+    try:
+        yield
+    finally:
+        _POOL.clear()
 
 
 def release(*buffers):
