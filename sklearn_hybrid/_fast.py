@@ -152,23 +152,12 @@ def _member_forward(cfg, x, u, p_in, thetas, weights, biases):
             z = torch.addmm(biases[layer + 1], a, w_t[layer + 1])
         return f + z
 
-    # the classic RK4 of integrate._rk4, with fused multiply-adds
     h = cfg.dt / cfg.n_substeps
-    outputs, c = [], 0
+    outputs = []
     for n in range(cfg.n_steps):
         for sub in range(cfg.n_substeps):
-            j = 2 * (n * cfg.n_substeps + sub)
-            st[c].copy_(x)
-            k1 = rhs(c, j)
-            torch.add(x, k1, alpha=0.5 * h, out=st[c + 1])
-            k2 = rhs(c + 1, j + 1)
-            torch.add(x, k2, alpha=0.5 * h, out=st[c + 2])
-            k3 = rhs(c + 2, j + 1)
-            torch.add(x, k3, alpha=h, out=st[c + 3])
-            k4 = rhs(c + 3, j + 2)
-            k = torch.add(k1, k2.add_(k3), alpha=2.0).add_(k4)
-            x = torch.add(x, k, alpha=h / 6.0)
-            c += 4
+            step = n * cfg.n_substeps + sub
+            x = _fast_members.rk4_step(rhs, x, st, 4 * step, 2 * step, h)
         outputs.append(x)
     return outputs, states, hidden
 

@@ -29,7 +29,7 @@ from contextlib import contextmanager
 
 import torch
 
-__all__ = ["forward", "backward", "take", "release", "reusing_buffers", "long_axis_contiguous",
+__all__ = ["forward", "backward", "rk4_step", "take", "release", "reusing_buffers", "long_axis_contiguous",
            "accumulate_weight_grad"]
 
 _relu_backward_out = torch.ops.aten.threshold_backward.grad_input
@@ -138,6 +138,25 @@ def _science_caller(cfg, thetas, x0, u_fine):
     return lambda v, u: cfg.science(v, u, thetas)
 
 
+def rk4_step(rhs, x, st, c, j, h):
+    """One classic RK4 step from ``x`` (the arithmetic of ``integrate._rk4``, fused multiply-adds).
+
+    The four stage inputs are written into ``st[c:c + 4]``; ``rhs(c, j)``
+    evaluates the right-hand side at stage input ``st[c]`` and the input grid
+    point ``j`` (steps are half a sub-step apart on that grid).
+    """
+    st[c].copy_(x)
+    k1 = rhs(c, j)
+    torch.add(x, k1, alpha=0.5 * h, out=st[c + 1])
+    k2 = rhs(c + 1, j + 1)
+    torch.add(x, k2, alpha=0.5 * h, out=st[c + 2])
+    k3 = rhs(c + 2, j + 1)
+    torch.add(x, k3, alpha=h, out=st[c + 3])
+    k4 = rhs(c + 3, j + 2)
+    k = torch.add(k1, k2.add_(k3), alpha=2.0).add_(k4)
+    return torch.add(x, k, alpha=h / 6.0)
+
+
 def forward(cfg, x0, u_fine, p_in, thetas, weights, biases):
     """RK4 of K members; returns outputs (K, B, n_steps, d), states and hidden buffers.
 
@@ -174,17 +193,7 @@ def forward(cfg, x0, u_fine, p_in, thetas, weights, biases):
             return science(v, None if u_at is None else u_at[j]) + z
 
         for sub in range(cfg.n_substeps):
-            c, j = 4 * sub, 2 * (n * cfg.n_substeps + sub)
-            st[c].copy_(x)
-            k1 = rhs(c, j)
-            torch.add(x, k1, alpha=0.5 * h, out=st[c + 1])
-            k2 = rhs(c + 1, j + 1)
-            torch.add(x, k2, alpha=0.5 * h, out=st[c + 2])
-            k3 = rhs(c + 2, j + 1)
-            torch.add(x, k3, alpha=h, out=st[c + 3])
-            k4 = rhs(c + 3, j + 2)
-            k = torch.add(k1, k2.add_(k3), alpha=2.0).add_(k4)
-            x = torch.add(x, k, alpha=h / 6.0)
+            x = rk4_step(rhs, x, st, 4 * sub, 2 * (n * cfg.n_substeps + sub), h)
         outputs.append(x)
     return torch.stack(outputs, 2), states, hidden
 
