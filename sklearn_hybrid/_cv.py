@@ -14,7 +14,7 @@ from sklearn.utils.validation import check_is_fitted, validate_data
 
 from ._batched import BATCHABLE_METHODS, train_batched
 from ._estimator import HybridRegressor, _torch_threads
-from ._fast_members import reusing_buffers
+from ._kernels import reusing_buffers
 from .engine import DivergenceError
 
 __all__ = ["HybridRegressorCV"]

@@ -12,7 +12,7 @@ from sklearn.metrics import r2_score
 from sklearn.utils import Bunch, check_random_state
 from sklearn.utils.validation import check_is_fitted, validate_data
 
-from ._fast_members import reusing_buffers
+from ._kernels import reusing_buffers
 from .engine import TrainConfig, train
 from .methods import make_method
 from .residual import build_residual

@@ -2,18 +2,19 @@
 
 Backpropagating through ``n_steps * n_substeps * 4`` small network
 evaluations with autograd costs far more in per-operation overhead than in
-arithmetic (about 10x on one CPU core for the pendulum).  This module
-computes exactly the same gradient with a different schedule:
+arithmetic (about 3x on one CPU core for the pendulum).  This module
+computes exactly the same gradient with a different schedule (the loops are
+in :mod:`sklearn_hybrid._kernels`):
 
 1. forward: the classic RK4 loop (the same arithmetic as
    :func:`sklearn_hybrid.integrate.integrate`), storing each stage's state and
-   the network's pre-activations, without an autograd graph;
-2. backward: the per-sample Jacobian ``d rhs / d v`` of every stage is
-   computed *at once* for all stages with a few large matrix products
-   (cheap when the state has only a few components), so the sequential
-   reverse sweep through the RK4 steps is a handful of tiny operations per
-   stage; the gradients of theta and of the network weights are then one
-   batched backward pass over all stages together.
+   the network's activations in reused buffers, without an autograd graph;
+2. backward: the science function's per-sample Jacobians ``d f / d v`` of
+   every stage come from one vectorised call over all stages (cheap when the
+   state has only a few components), so the sequential reverse sweep through
+   the RK4 steps is a handful of small products per stage; the network's
+   weight gradients are accumulated in large products over many stages, and
+   theta's gradient is one vector-Jacobian product over all stages.
 
 Every tensor carries a leading *member* axis ``K``: ``K = 1`` is a single
 fit, ``K > 1`` trains K independent configurations as one stacked model (see
@@ -36,13 +37,11 @@ from typing import Callable
 import torch
 from torch import nn
 
-from . import _fast_members
+from . import _kernels
 from .integrate import integrate
 from .residual import MLP
 
 __all__ = ["supports", "mlp_parts", "ode_states", "disabled"]
-
-_relu_backward_out = torch.ops.aten.threshold_backward.grad_input
 
 #: Largest state size served (the Jacobians cost ``MAX_STATE`` forward passes).
 MAX_STATE = 8
@@ -110,108 +109,12 @@ class _Config:
         return torch.func.vmap(one, in_dims=(0, in_u) + (0,) * len(thetas))(v, u, *thetas)
 
 
-def _member_forward(cfg, x, u, p_in, thetas, weights, biases):
-    """RK4 of one member: x (B, d); u (B, F, n_u) or None; p_in (B, F, w1) or None.
-
-    ``p_in`` is the inputs' contribution to the first layer (bias included),
-    computed for the whole input grid at once.  Returns the outputs per
-    output time (a list, stacked by the caller outside inference mode), the
-    states per stage (S, B, d) and, per hidden layer, its activations (ReLU)
-    or pre-activations per stage (S, B, w), in buffers of the pool.
-    """
-    B, d = x.shape
-    S = 4 * cfg.n_steps * cfg.n_substeps
-    theta = dict(zip(cfg.names, thetas))
-    w_t = [_fast_members.long_axis_contiguous(w.t()) for w in weights]
-    w1v_t = w_t[0][:d]  # first-layer rows that see the state
-    n_hidden = len(weights) - 1
-    relu = cfg.relu
-    # the function, not the module: a module call costs as much as the ReLU itself
-    act_fns = [torch.relu if r else a for r, a in zip(relu, cfg.acts)]
-    states = _fast_members.take((S, B, d), x.dtype)
-    hidden = [_fast_members.take((S, B, w.shape[0]), x.dtype) for w in weights[:-1]]
-    st, hid = states.unbind(0), [t.unbind(0) for t in hidden]
-    # views per input grid point, taken once rather than per stage
-    u_at = None if u is None else u.unbind(1)
-    p_at = None if p_in is None else p_in.unbind(1)
-
-    def rhs(c, j):
-        v = st[c]
-        if u is None:
-            z = torch.addmm(biases[0], v, w_t[0])
-            f = cfg.func(v, **theta)
-        else:
-            z = torch.addmm(p_at[j], v, w1v_t)
-            f = cfg.func(v, u_at[j], **theta)
-        for layer in range(n_hidden):
-            if relu[layer]:
-                a = torch.clamp_min(z, 0, out=hid[layer][c])
-            else:
-                hid[layer][c].copy_(z)  # backward needs the pre-activations
-                a = act_fns[layer](z)
-            z = torch.addmm(biases[layer + 1], a, w_t[layer + 1])
-        return f + z
-
-    h = cfg.dt / cfg.n_substeps
-    outputs = []
-    for n in range(cfg.n_steps):
-        for sub in range(cfg.n_substeps):
-            step = n * cfg.n_substeps + sub
-            x = _fast_members.rk4_step(rhs, x, st, 4 * step, 2 * step, h)
-        outputs.append(x)
-    return outputs, states, hidden
-
-
 def _stage_input_index(n_steps, n_substeps):
     """Index on the half-step input grid of each RK4 stage, in order."""
     idx = []
     for s in range(n_steps * n_substeps):
         idx += [2 * s, 2 * s + 1, 2 * s + 1, 2 * s + 2]
     return torch.tensor(idx)
-
-
-def _sweep(grad_out, jac, acts, slopes, weights, cots, h, n_substeps):
-    """Backpropagate one member through the RK4 steps, filling ``cots``; returns d loss / d x0.
-
-    ``jac`` is (S, B, d, d); ``acts[l]``/``slopes[l]`` hold hidden layer l's
-    activations and derivatives (``slopes[l]`` None for ReLU, whose
-    activations decide); ``cots[l]`` (S, B, w_l)
-    receives the cotangent of layer l's output at every stage (the last
-    layer's is that of the whole rhs).  The loop's cost is dispatch, not
-    arithmetic, so it uses only primitive operations and no Python scalars.
-    """
-    B, d = jac.shape[1], jac.shape[-1]
-    jac, cots = jac.unbind(0), [t.unbind(0) for t in cots]
-    acts = [t.unbind(0) for t in acts]
-    slopes = [None if t is None else t.unbind(0) for t in slopes]
-    w_state = _fast_members.long_axis_contiguous(weights[0][:, :d])
-    n_hidden = len(weights) - 1
-    # d x' / d k_i of x' = x + h/6 (k1 + 2 k2 + 2 k3 + k4), as tensors: a Python
-    # scalar costs a tensor construction in every operation
-    coef = [torch.tensor(c, dtype=grad_out.dtype) for c in (h / 6, h / 3, h / 3, h / 6)]
-    back = [None, 0.5 * h, 0.5 * h, h]  # stage i's input is x + back[i] * k_{i-1}
-    outputs = grad_out.unbind(1)
-    adj = torch.zeros_like(outputs[0])
-    s = len(jac)
-    for n in reversed(range(len(outputs))):
-        adj = adj + outputs[n]
-        for _ in range(n_substeps):
-            s -= 4
-            cs = [torch.mul(adj, coef[i], out=cots[-1][s + i]) for i in range(4)]
-            for i in (3, 2, 1, 0):
-                g = torch.bmm(jac[s + i], cs[i].view(B, d, 1)).view(B, d)  # tiny per-sample products
-                delta = cs[i]
-                for layer in reversed(range(n_hidden)):
-                    delta = torch.mm(delta, weights[layer + 1], out=cots[layer][s + i])
-                    if slopes[layer] is None:
-                        _relu_backward_out(delta, acts[layer][s + i], 0.0, grad_input=delta)
-                    else:
-                        delta.mul_(slopes[layer][s + i])
-                g = torch.addmm(g, delta, w_state)  # d loss / d (stage input)
-                adj = adj + g
-                if i:
-                    cs[i - 1].add_(g, alpha=back[i])
-    return adj
 
 
 def _science_jacobian(cfg, v_all, u_all, thetas, need_theta):
@@ -259,7 +162,7 @@ class _OdeMLP(torch.autograd.Function):
             p_in = torch.matmul(u_fine, w_u) + biases[0][:, None, None]
         if K == 1:
             with torch.inference_mode():  # lighter per-operation bookkeeping than no_grad
-                out, states, hidden = _member_forward(
+                out, states, hidden = _kernels.forward_one(
                     cfg, x0[0], None if u_fine is None else u_fine[0],
                     None if p_in is None else p_in[0], [t[0] for t in thetas],
                     [w[0] for w in weights], [b[0] for b in biases])
@@ -267,7 +170,7 @@ class _OdeMLP(torch.autograd.Function):
             out = torch.stack(out, 1)[None]
         else:
             with torch.no_grad():
-                out, states, hidden = _fast_members.forward(cfg, x0, u_fine, p_in, thetas,
+                out, states, hidden = _kernels.forward_stacked(cfg, x0, u_fine, p_in, thetas,
                                                             weights, biases)
         ctx.cfg, ctx.released = cfg, False
         ctx.save_for_backward(x0, u_fine, states, *hidden, *tensors)
@@ -299,10 +202,10 @@ class _OdeMLP(torch.autograd.Function):
         h = cfg.dt / cfg.n_substeps
 
         if K == 1:  # 2-D tensors; weight gradients as one product over all stages
-            deltas = [_fast_members.take((S, B, w.shape[1]), grad_out.dtype) for w in weights[:-1]]
+            deltas = [_kernels.take((S, B, w.shape[1]), grad_out.dtype) for w in weights[:-1]]
             deltas.append(grad_out.new_empty(S, B, d))
             with torch.inference_mode():
-                adj = _sweep(grad_out[0], jac.view(S, B, d, d), acts, slopes,
+                adj = _kernels.backward_one(grad_out[0], jac.view(S, B, d, d), acts, slopes,
                              [w[0] for w in weights], deltas, h, cfg.n_substeps)
             adj = adj[None].clone()
             layer_inputs = [v_all if u_all is None else torch.cat([v_all, u_all], -1)]
@@ -310,11 +213,11 @@ class _OdeMLP(torch.autograd.Function):
             net_grads = []
             for delta, inputs, w in zip(deltas, layer_inputs, weights):
                 delta = delta.view(1, N, -1)
-                grad_w = _fast_members.weight_grad_buffer(w)
-                _fast_members.accumulate_weight_grad(grad_w, delta, inputs)
+                grad_w = _kernels.weight_grad_buffer(w)
+                _kernels.accumulate_weight_grad(grad_w, delta, inputs)
                 net_grads += [grad_w.contiguous(), delta.sum(1)]
             cots = deltas[-1].view(1, N, d)
-            _fast_members.release(*deltas[:-1])
+            _kernels.release(*deltas[:-1])
         else:
             C = 4 * cfg.n_substeps
 
@@ -325,11 +228,11 @@ class _OdeMLP(torch.autograd.Function):
                 u_stage = None if u_all is None else interval_major(u_all)
                 stage_jac = jac.view(K, S, B, d, d).transpose(0, 1).contiguous().view(
                     cfg.n_steps, C, K, B, d, d)
-                adj, cots, grad_w, grad_b = _fast_members.backward(
+                adj, cots, grad_w, grad_b = _kernels.backward_stacked(
                     cfg, grad_out, states, acts, slopes, stage_jac, weights, u_stage)
             net_grads = [g for pair in zip(grad_w, grad_b) for g in pair]
             cots = cots.view(S, K, B, d).transpose(0, 1).reshape(K, N, d)
-        _fast_members.release(states, *hidden)
+        _kernels.release(states, *hidden)
         ctx.released = True
 
         grads = [None] * cfg.n_theta

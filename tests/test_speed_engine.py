@@ -161,26 +161,26 @@ def test_default_solver_step_keeps_integration_error_far_below_the_noise(make, a
 
 
 def test_stage_buffers_are_reused_within_a_fit_and_freed_after_it():
-    from sklearn_hybrid import _fast_members
+    from sklearn_hybrid import _kernels
 
     rng = np.random.default_rng(0)
     X = rng.uniform(-1, 1, (6, 2))
     y = np.stack([X] * 3, axis=1)
     taken = []
-    original = _fast_members.take
+    original = _kernels.take
 
     def spy(shape, dtype):
         buffer = original(shape, dtype)
         taken.append(buffer)  # kept alive, so that distinct buffers have distinct ids
         return buffer
 
-    _fast_members.take = spy
+    _kernels.take = spy
     try:
         HybridRegressor(science=pendulum_f, method="erm", dt=0.1, max_iter=4,
                         residual={"hidden": (8,)}, random_state=0).fit(X, y)
     finally:
-        _fast_members.take = original
+        _kernels.take = original
     # states and one hidden layer forward, one delta buffer backward, per iteration:
     # after the first iteration every take is served from the pool
     assert len(taken) == 4 * 3 and len({id(b) for b in taken}) == 3
-    assert not _fast_members._POOL  # nothing held once the fit is over
+    assert not _kernels._POOL  # nothing held once the fit is over

@@ -1,21 +1,22 @@
-"""The K > 1 kernels of :mod:`sklearn_hybrid._fast`: K stacked members in one pass.
+"""The RK4 loops of :mod:`sklearn_hybrid._fast`: one member, or K stacked members in one pass.
 
-With K members every operation carries K small problems, so the cost moves
-from dispatch to arithmetic and memory traffic.  Hence:
+One member (:func:`forward_one`, :func:`backward_one`) runs on 2-D tensors,
+where every operation's cost is dispatch.  With K members
+(:func:`forward_stacked`, :func:`backward_stacked`) every operation carries
+K small problems, so the cost moves to arithmetic and memory traffic.  Hence:
 
 * explicit batched products (``baddbmm``), not ``vmap``, in the stage loop,
   with every skinny matrix stored with its long axis contiguous
-  (:func:`long_axis_contiguous`: MKL multiplies them up to 3x faster so);
+  (:func:`long_axis_contiguous`: MKL multiplies them several times faster so);
 * two layouts, each where it saves copies: per-stage tensors (states,
   science Jacobians, rhs cotangents) *stage-major* ``(n_steps, C, K, B,
   ...)``, so each stage's ``K * B`` rows are one contiguous block the
   science function and the tiny Jacobian products take without a copy; the
   hidden layers *member-major* per output interval ``(n_steps, K, C, B,
-  w)``, so the weight gradients are accumulated once per interval by
-  products with an inner dimension of ``C * B`` (not once per stage, which
-  would stream every member's weight gradient through memory at every
-  stage);
-* buffers reused from call to call (:func:`take`);
+  w)``, so the wide layers' weight gradients are accumulated once per
+  interval by products with an inner dimension of ``C * B``;
+* the stored stages in buffers reused within a fit (:func:`take`,
+  :func:`reusing_buffers`);
 * the science function called once per stage on the ``K * B`` states with
   theta repeated per row when it broadcasts that way (checked on probe
   values with distinct theta per member), through :func:`torch.func.vmap`
@@ -29,8 +30,8 @@ from contextlib import contextmanager
 
 import torch
 
-__all__ = ["forward", "backward", "rk4_step", "take", "release", "reusing_buffers", "long_axis_contiguous",
-           "accumulate_weight_grad"]
+__all__ = ["forward_one", "backward_one", "forward_stacked", "backward_stacked", "rk4_step", "take",
+           "release", "reusing_buffers", "long_axis_contiguous", "accumulate_weight_grad"]
 
 _relu_backward_out = torch.ops.aten.threshold_backward.grad_input
 _ROWWISE = weakref.WeakKeyDictionary()  # science function -> {shape key: broadcasts per row}
@@ -90,7 +91,7 @@ def reusing_buffers():
 
 
 def release(*buffers):
-    """Return buffers of :func:`forward` for reuse (once backward no longer needs them)."""
+    """Return buffers of :func:`forward_stacked` for reuse (once backward no longer needs them)."""
     for t in buffers:
         free = _POOL.setdefault((tuple(t.shape), t.dtype), [])
         if len(free) < _POOL_DEPTH:
@@ -157,7 +158,103 @@ def rk4_step(rhs, x, st, c, j, h):
     return torch.add(x, k, alpha=h / 6.0)
 
 
-def forward(cfg, x0, u_fine, p_in, thetas, weights, biases):
+def forward_one(cfg, x, u, p_in, thetas, weights, biases):
+    """RK4 of one member: x (B, d); u (B, F, n_u) or None; p_in (B, F, w1) or None.
+
+    ``p_in`` is the inputs' contribution to the first layer (bias included),
+    computed for the whole input grid at once.  Returns the outputs per
+    output time (a list, stacked by the caller outside inference mode), the
+    states per stage (S, B, d) and, per hidden layer, its activations (ReLU)
+    or pre-activations per stage (S, B, w), in buffers of the pool.
+    """
+    B, d = x.shape
+    S = 4 * cfg.n_steps * cfg.n_substeps
+    theta = dict(zip(cfg.names, thetas))
+    w_t = [long_axis_contiguous(w.t()) for w in weights]
+    w1v_t = w_t[0][:d]  # first-layer rows that see the state
+    n_hidden = len(weights) - 1
+    relu = cfg.relu
+    # the function, not the module: a module call costs as much as the ReLU itself
+    act_fns = [torch.relu if r else a for r, a in zip(relu, cfg.acts)]
+    states = take((S, B, d), x.dtype)
+    hidden = [take((S, B, w.shape[0]), x.dtype) for w in weights[:-1]]
+    st, hid = states.unbind(0), [t.unbind(0) for t in hidden]
+    # views per input grid point, taken once rather than per stage
+    u_at = None if u is None else u.unbind(1)
+    p_at = None if p_in is None else p_in.unbind(1)
+
+    def rhs(c, j):
+        v = st[c]
+        if u is None:
+            z = torch.addmm(biases[0], v, w_t[0])
+            f = cfg.func(v, **theta)
+        else:
+            z = torch.addmm(p_at[j], v, w1v_t)
+            f = cfg.func(v, u_at[j], **theta)
+        for layer in range(n_hidden):
+            if relu[layer]:
+                a = torch.clamp_min(z, 0, out=hid[layer][c])
+            else:
+                hid[layer][c].copy_(z)  # backward needs the pre-activations
+                a = act_fns[layer](z)
+            z = torch.addmm(biases[layer + 1], a, w_t[layer + 1])
+        return f + z
+
+    h = cfg.dt / cfg.n_substeps
+    outputs = []
+    for n in range(cfg.n_steps):
+        for sub in range(cfg.n_substeps):
+            step = n * cfg.n_substeps + sub
+            x = rk4_step(rhs, x, st, 4 * step, 2 * step, h)
+        outputs.append(x)
+    return outputs, states, hidden
+
+
+def backward_one(grad_out, jac, acts, slopes, weights, cots, h, n_substeps):
+    """Backpropagate one member through the RK4 steps, filling ``cots``; returns d loss / d x0.
+
+    ``jac`` is (S, B, d, d); ``acts[l]``/``slopes[l]`` hold hidden layer l's
+    activations and derivatives (``slopes[l]`` None for ReLU, whose
+    activations decide); ``cots[l]`` (S, B, w_l)
+    receives the cotangent of layer l's output at every stage (the last
+    layer's is that of the whole rhs).  The loop's cost is dispatch, not
+    arithmetic, so it uses only primitive operations and no Python scalars.
+    """
+    B, d = jac.shape[1], jac.shape[-1]
+    jac, cots = jac.unbind(0), [t.unbind(0) for t in cots]
+    acts = [t.unbind(0) for t in acts]
+    slopes = [None if t is None else t.unbind(0) for t in slopes]
+    w_state = long_axis_contiguous(weights[0][:, :d])
+    n_hidden = len(weights) - 1
+    # d x' / d k_i of x' = x + h/6 (k1 + 2 k2 + 2 k3 + k4), as tensors: a Python
+    # scalar costs a tensor construction in every operation
+    coef = [torch.tensor(c, dtype=grad_out.dtype) for c in (h / 6, h / 3, h / 3, h / 6)]
+    back = [None, 0.5 * h, 0.5 * h, h]  # stage i's input is x + back[i] * k_{i-1}
+    outputs = grad_out.unbind(1)
+    adj = torch.zeros_like(outputs[0])
+    s = len(jac)
+    for n in reversed(range(len(outputs))):
+        adj = adj + outputs[n]
+        for _ in range(n_substeps):
+            s -= 4
+            cs = [torch.mul(adj, coef[i], out=cots[-1][s + i]) for i in range(4)]
+            for i in (3, 2, 1, 0):
+                g = torch.bmm(jac[s + i], cs[i].view(B, d, 1)).view(B, d)  # tiny per-sample products
+                delta = cs[i]
+                for layer in reversed(range(n_hidden)):
+                    delta = torch.mm(delta, weights[layer + 1], out=cots[layer][s + i])
+                    if slopes[layer] is None:
+                        _relu_backward_out(delta, acts[layer][s + i], 0.0, grad_input=delta)
+                    else:
+                        delta.mul_(slopes[layer][s + i])
+                g = torch.addmm(g, delta, w_state)  # d loss / d (stage input)
+                adj = adj + g
+                if i:
+                    cs[i - 1].add_(g, alpha=back[i])
+    return adj
+
+
+def forward_stacked(cfg, x0, u_fine, p_in, thetas, weights, biases):
     """RK4 of K members; returns outputs (K, B, n_steps, d), states and hidden buffers.
 
     ``states`` is stage-major (n_steps, C, K, B, d) with ``C = 4 n_substeps``;
@@ -198,14 +295,14 @@ def forward(cfg, x0, u_fine, p_in, thetas, weights, biases):
     return torch.stack(outputs, 2), states, hidden
 
 
-def backward(cfg, grad_out, states, acts, slopes, jac, weights, u_stage):
+def backward_stacked(cfg, grad_out, states, acts, slopes, jac, weights, u_stage):
     """Reverse sweep of K members, accumulating the network's gradients on the way.
 
     ``states`` and ``jac`` (the science Jacobian, (n_steps, C, K, B, d, d))
     are stage-major; ``acts[l]``/``slopes[l]`` are hidden layer l's
     activations and derivatives (``slopes[l]`` None for ReLU, whose
     activations decide), member-major like the hidden buffers of
-    :func:`forward`; ``u_stage`` the inputs per stage (n_steps, K, C, B, n_u)
+    :func:`forward_stacked`; ``u_stage`` the inputs per stage (n_steps, K, C, B, n_u)
     or None.  Returns d loss / d x0, the stage-major cotangents of the rhs
     (n_steps, C, K, B, d) and the weight and bias gradients per layer.
 
