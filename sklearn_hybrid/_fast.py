@@ -171,7 +171,7 @@ class _OdeMLP(torch.autograd.Function):
         else:
             with torch.no_grad():
                 out, states, hidden = _kernels.forward_stacked(cfg, x0, u_fine, p_in, thetas,
-                                                            weights, biases)
+                                                               weights, biases)
         ctx.cfg, ctx.released = cfg, False
         ctx.save_for_backward(x0, u_fine, states, *hidden, *tensors)
         ctx.n_hidden = len(hidden)
@@ -206,7 +206,7 @@ class _OdeMLP(torch.autograd.Function):
             deltas.append(grad_out.new_empty(S, B, d))
             with torch.inference_mode():
                 adj = _kernels.backward_one(grad_out[0], jac.view(S, B, d, d), acts, slopes,
-                             [w[0] for w in weights], deltas, h, cfg.n_substeps)
+                                            [w[0] for w in weights], deltas, h, cfg.n_substeps)
             adj = adj[None].clone()
             layer_inputs = [v_all if u_all is None else torch.cat([v_all, u_all], -1)]
             layer_inputs += [a.view(1, N, -1) for a in acts]
