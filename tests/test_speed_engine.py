@@ -7,7 +7,7 @@ import pytest
 import torch
 
 from sklearn_hybrid import HybridRegressor
-from sklearn_hybrid import _fast
+from sklearn_hybrid import _fast, _kernels
 from sklearn_hybrid.datasets import make_duffing, make_pendulum
 from sklearn_hybrid.integrate import integrate
 from sklearn_hybrid.residual import MLP, ConvNet
@@ -160,9 +160,7 @@ def test_default_solver_step_keeps_integration_error_far_below_the_noise(make, a
     assert error < 0.1 * default_noise
 
 
-def test_stage_buffers_are_reused_within_a_fit_and_freed_after_it():
-    from sklearn_hybrid import _kernels
-
+def test_stage_buffers_are_reused_within_a_fit_and_freed_after_it(monkeypatch):
     rng = np.random.default_rng(0)
     X = rng.uniform(-1, 1, (6, 2))
     y = np.stack([X] * 3, axis=1)
@@ -174,12 +172,9 @@ def test_stage_buffers_are_reused_within_a_fit_and_freed_after_it():
         taken.append(buffer)  # kept alive, so that distinct buffers have distinct ids
         return buffer
 
-    _kernels.take = spy
-    try:
-        HybridRegressor(science=pendulum_f, method="erm", dt=0.1, max_iter=4,
-                        residual={"hidden": (8,)}, random_state=0).fit(X, y)
-    finally:
-        _kernels.take = original
+    monkeypatch.setattr(_kernels, "take", spy)
+    HybridRegressor(science=pendulum_f, method="erm", dt=0.1, max_iter=4,
+                    residual={"hidden": (8,)}, random_state=0).fit(X, y)
     # states and one hidden layer forward, one delta buffer backward, per iteration:
     # after the first iteration every take is served from the pool
     assert len(taken) == 4 * 3 and len({id(b) for b in taken}) == 3
