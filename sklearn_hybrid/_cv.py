@@ -3,17 +3,18 @@
 from __future__ import annotations
 
 import itertools
+import math
 import numbers
 
 import numpy as np
 import torch
-from joblib import Parallel, delayed
+from joblib import Parallel, delayed, effective_n_jobs
 from sklearn.base import BaseEstimator, RegressorMixin, clone
 from sklearn.metrics import check_scoring
-from sklearn.utils.validation import check_is_fitted, validate_data
+from sklearn.utils.validation import check_is_fitted
 
 from ._batched import BATCHABLE_METHODS, train_batched
-from ._estimator import HybridRegressor, _torch_threads
+from ._estimator import HybridRegressor, _torch_threads, set_feature_info, validate_into_copy
 from ._kernels import reusing_buffers
 from .engine import DivergenceError
 
@@ -21,12 +22,14 @@ __all__ = ["HybridRegressorCV"]
 
 
 def _values(name, values, default, kind=numbers.Real, positive=True):
-    values = [default] if values is None else list(np.atleast_1d(values).tolist())
+    # the values themselves, not np.atleast_1d(...).tolist(), which would report 1.5 as 1.0
+    values = [default] if values is None else list(values) if np.ndim(values) else [values]
     if not values:
         raise ValueError(f"{name} must hold at least one value.")
     for v in values:
         if not isinstance(v, kind) or isinstance(v, bool) or (positive and not v > 0):
-            raise ValueError(f"{name} must hold {'positive ' if positive else ''}numbers, got {v!r}.")
+            what = "integers" if kind is numbers.Integral else "numbers"
+            raise ValueError(f"{name} must hold {'positive ' if positive else ''}{what}, got {v!r}.")
     return values
 
 
@@ -80,7 +83,8 @@ class HybridRegressorCV(RegressorMixin, BaseEstimator):
         the estimator's ``n_threads``).  Groups share nothing, so each uses a
         core without the per-operation synchronisation of multi-threaded
         operations; the science function must then be picklable (a
-        module-level function, or anything cloudpickle handles).
+        module-level function, or anything cloudpickle handles).  Negative
+        values follow joblib: -1 gives one group per core.
 
     Attributes
     ----------
@@ -140,6 +144,14 @@ class HybridRegressorCV(RegressorMixin, BaseEstimator):
         return [{"rho": r, "lam": lam, "random_state": s}
                 for r, lam, s in itertools.product(rhos, lams, seeds)]
 
+    def _n_groups(self):
+        n_jobs = 1 if self.n_jobs is None else self.n_jobs
+        if not (isinstance(n_jobs, numbers.Integral) and not isinstance(n_jobs, bool)
+                and n_jobs != 0):
+            raise ValueError(
+                f"n_jobs must be a non-zero integer or None (-1: one group per core), got {n_jobs!r}.")
+        return effective_n_jobs(n_jobs)  # joblib's convention for negative values
+
     def _split(self, n, seed):
         frac = self.validation_fraction
         if frac is None:
@@ -167,9 +179,12 @@ class HybridRegressorCV(RegressorMixin, BaseEstimator):
         self : HybridRegressorCV
         """
         params = self._members()
+        self._n_groups()
         y_arr = np.asarray(y)
-        validate_data(self, X, np.reshape(y_arr, (len(y_arr), -1)), allow_nd=True,
-                      multi_output=True, y_numeric=True)
+        # self changes only after training: a failed refit leaves the earlier fit whole
+        _, features = validate_into_copy(
+            self, X, np.reshape(y_arr, (len(y_arr), math.prod(y_arr.shape[1:]))),
+            allow_nd=True, multi_output=True, y_numeric=True)
         X_arr = np.asarray(X)
         train_idx, val_idx = self._split(len(X_arr), params[0]["random_state"])
         members = [clone(self.estimator).set_params(**p) for p in params]
@@ -187,11 +202,12 @@ class HybridRegressorCV(RegressorMixin, BaseEstimator):
         for k, (member, setup) in enumerate(zip(members, setups)):
             member_history = {"loss": history["loss"][:, k],
                               "theta": {n: v[:, k] for n, v in history["theta"].items()}}
-            member._set_fitted(setup.model, member_history, setup.y_shape)
+            member._set_fitted(setup, member_history)
             if diverged[k] < 0:
                 scores[k] = check_scoring(member, scoring=self.scoring)(member, X_val, y_val)
         best = int(np.argmax(scores))
         self.estimators_, self.best_index_ = members, best
+        set_feature_info(self, features)
         self.best_estimator_ = members[best]
         self.best_params_ = params[best]
         self.theta_ = self.best_estimator_.theta_
@@ -208,9 +224,7 @@ class HybridRegressorCV(RegressorMixin, BaseEstimator):
         """Train the members, in ``n_jobs`` groups at once (worker processes of one torch thread each)."""
         first = setups[0]
         rho, lam = np.array([p["rho"] for p in params]), np.array([p["lam"] for p in params])
-        n_jobs = 1 if self.n_jobs is None else self.n_jobs
-        if not (isinstance(n_jobs, numbers.Integral) and n_jobs >= 1):
-            raise ValueError(f"n_jobs must be a positive integer or None, got {n_jobs!r}.")
+        n_jobs = self._n_groups()
         groups = [g for g in np.array_split(np.arange(len(setups)), n_jobs) if len(g)]
         threads = self.estimator.n_threads if len(groups) == 1 else 1
         parts = Parallel(n_jobs=len(groups))(

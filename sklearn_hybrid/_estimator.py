@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import copy
+import math
 import numbers
 from contextlib import contextmanager
 
@@ -13,7 +15,8 @@ from sklearn.utils import Bunch, check_random_state
 from sklearn.utils.validation import check_is_fitted, validate_data
 
 from ._kernels import reusing_buffers
-from .engine import TrainConfig, train
+from .engine import TrainConfig, explain_nonfinite, train
+from ._memory import check_fit_memory, explained_memory_errors
 from .methods import make_method
 from .residual import build_residual
 from .science import ScienceModel
@@ -22,6 +25,7 @@ from .structures import HybridModule, make_structure
 __all__ = ["HybridRegressor"]
 
 _DTYPES = {"float32": torch.float32, "float64": torch.float64}
+_PREDICT_CHUNK = 512  # samples per forward pass in predict
 
 
 @contextmanager
@@ -34,6 +38,27 @@ def _torch_threads(n_threads):
         yield
     finally:
         torch.set_num_threads(previous)
+
+
+def validate_into_copy(estimator, *args, **kwargs):
+    """``validate_data`` on a shallow copy of ``estimator``; returns its output and the feature info.
+
+    ``validate_data`` records ``n_features_in_`` / ``feature_names_in_`` on the
+    estimator it is given; doing that on a copy keeps an earlier fit whole
+    until the new one succeeds (then :func:`set_feature_info` stores them).
+    """
+    checked = copy.copy(estimator)
+    out = validate_data(checked, *args, **kwargs)
+    return out, {k: getattr(checked, k) for k in ("n_features_in_", "feature_names_in_")
+                 if hasattr(checked, k)}
+
+
+def set_feature_info(estimator, features: dict) -> None:
+    """Store what :func:`validate_into_copy` recorded, dropping stale feature names."""
+    if "feature_names_in_" not in features and hasattr(estimator, "feature_names_in_"):
+        del estimator.feature_names_in_
+    for name, value in features.items():
+        setattr(estimator, name, value)
 
 
 def _check_positive(name, value, integer=False, allow_none=False):
@@ -110,7 +135,10 @@ class HybridRegressor(RegressorMixin, BaseEstimator):
         torch threads during fit/predict (small models are fastest on one);
         None keeps torch's setting.
     random_state : int, RandomState or None, default=None
-        Seeds network initialisation and mini-batches (no global RNG is used).
+        Seeds network initialisation and mini-batches.  An int gives the same
+        fit every time; None draws the seed from numpy's global random state
+        (scikit-learn's convention), so repeated fits differ.  torch's global
+        generator is never used or advanced.
     verbose : bool, default=False
         Show a progress bar with the loss and theta.
 
@@ -130,6 +158,10 @@ class HybridRegressor(RegressorMixin, BaseEstimator):
         Per-sample shape of ``y`` in ``fit``, which ``predict`` returns.
     n_features_in_ : int
         Number of features (second axis of ``X``) seen in ``fit``.
+    feature_names_in_ : ndarray of str
+        Column names of ``X`` in ``fit``, when it was a DataFrame with string names.
+    x_shape_ : tuple
+        Per-sample shape of ``X`` in ``fit``, which ``predict`` requires.
     """
 
     def __init__(self, science=None, *, structure="ode", residual="mlp", method="fsam",
@@ -215,10 +247,10 @@ class HybridRegressor(RegressorMixin, BaseEstimator):
             earlier fit is left untouched.
         """
         setup = self._setup_fit(X, y)
-        with _torch_threads(self.n_threads), reusing_buffers():
+        with _torch_threads(self.n_threads), reusing_buffers(), explained_memory_errors(setup):
             history = train(setup.model, setup.method, setup.inputs, setup.y, setup.config,
                             torch.Generator().manual_seed(setup.seed))
-        self._set_fitted(setup.model, history, setup.y_shape)
+        self._set_fitted(setup, history)
         return self
 
     def _setup_fit(self, X, y):
@@ -228,12 +260,13 @@ class HybridRegressor(RegressorMixin, BaseEstimator):
         ``inputs``, ``y`` (tensor), ``config``, ``seed`` and ``y_shape``.
         """
         method = self._check_params()
-        y_shape = np.asarray(y).shape[1:]
+        y = None if y is None else np.asarray(y)  # None: validate_data says y is required
+        y_shape = () if y is None else y.shape[1:]
         if len(y_shape) > 1:  # scikit-learn validates 2-D targets; predict restores the shape
-            y = np.reshape(np.asarray(y), (len(y), -1))
-        X, y = validate_data(self, X, y, allow_nd=True, multi_output=True, y_numeric=True,
-                             dtype=np.float64)
-        X, y = np.require(X, requirements="W"), np.require(y, requirements="W")  # torch needs writable
+            y = np.reshape(y, (len(y), math.prod(y_shape)))
+        # self changes only in _set_fitted: a failed refit leaves the earlier fit whole
+        (X, y), features = validate_into_copy(self, X, y, allow_nd=True, multi_output=True,
+                                              y_numeric=True, dtype=np.float64)
         dtype = _DTYPES[self.dtype]
         seed = int(check_random_state(self.random_state).randint(np.iinfo(np.int32).max))
         science = ScienceModel(self.science, self.theta_init, self.theta_bounds,
@@ -241,7 +274,7 @@ class HybridRegressor(RegressorMixin, BaseEstimator):
         structure = self._make_structure()
         structure.setup(X, y_shape)
         with _torch_threads(self.n_threads):
-            inputs = structure.tensors(X, dtype)
+            inputs = structure.tensors(X, dtype)  # copies: the science never sees the caller's X
             structure.probe(science, inputs)
             with torch.random.fork_rng(devices=[]):  # seed init without touching global state
                 torch.manual_seed(seed)
@@ -253,27 +286,52 @@ class HybridRegressor(RegressorMixin, BaseEstimator):
                              batch_size=self.batch_size,
                              weight_decay=self.weight_decay, perturb=self.perturb,
                              verbose=self.verbose)
-        return Bunch(model=model, method=method, inputs=inputs, y=torch.as_tensor(y, dtype=dtype),
-                     config=config, seed=seed, y_shape=y_shape)
+        setup = Bunch(model=model, method=method, inputs=inputs, y=torch.tensor(y, dtype=dtype),
+                      config=config, seed=seed, y_shape=y_shape, x_shape=X.shape[1:],
+                      features=features)
+        with _torch_threads(self.n_threads):
+            check_fit_memory(setup)
+        return setup
 
-    def _set_fitted(self, model, history, y_shape):
+    def _set_fitted(self, setup, history):
         """Store a trained model as this estimator's fitted state."""
+        model = setup.model
         model.eval()
         self.model_, self.residual_ = model, model.residual
         self.theta_, self.history_ = model.science.as_dict(), history
-        self.y_shape_ = y_shape
+        self.y_shape_, self.x_shape_ = setup.y_shape, setup.x_shape
         self.n_iter_ = self.max_iter
+        set_feature_info(self, setup.features)
 
     def _forward(self, X, use_residual=True, trace=False):
         check_is_fitted(self)
-        X = np.require(validate_data(self, X, reset=False, allow_nd=True, dtype=np.float64),
-                       requirements="W")
+        X = validate_data(self, X, reset=False, allow_nd=True, dtype=np.float64)
+        if X.shape[1:] != self.x_shape_:
+            raise ValueError(
+                f"X has per-sample shape {X.shape[1:]}; this model was fitted on {self.x_shape_}."
+            )
         model = self.model_
+        dtype = next(model.science.parameters()).dtype  # the fitted one, whatever set_params says
+        parts = []
         with _torch_threads(self.n_threads), torch.no_grad():
-            inputs = model.structure.tensors(X, _DTYPES[self.dtype])
-            pred, extras = model.structure.forward(model, *inputs, use_residual=use_residual)
-            if trace:
-                return model.structure.trace(model, inputs, pred, extras)
+            # in chunks: memory then grows with the chunk, not with len(X)
+            for start in range(0, max(len(X), 1), _PREDICT_CHUNK):
+                inputs = model.structure.tensors(X[start:start + _PREDICT_CHUNK], dtype)
+                pred, extras = model.structure.forward(model, *inputs, use_residual=use_residual)
+                if not torch.isfinite(pred).all():
+                    bad = (~torch.isfinite(pred.reshape(len(pred), -1)).all(dim=1)).nonzero()
+                    raise ValueError(
+                        f"The prediction is not finite for sample(s) "
+                        f"{(bad[:5, 0] + start).tolist()} of X. "
+                        + (explain_nonfinite(model, inputs) or
+                           "The science function stays finite there: the network or the "
+                           "integration blew up (X far outside the training data?).")
+                    )
+                parts.append(model.structure.trace(model, inputs, pred, extras) if trace else pred)
+        if trace:
+            return {k: None if parts[0][k] is None else torch.cat([p[k] for p in parts])
+                    for k in parts[0]}
+        pred = torch.cat(parts)
         return pred.cpu().numpy().astype(np.float64).reshape(len(X), *self.y_shape_)
 
     def predict(self, X):

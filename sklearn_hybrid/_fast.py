@@ -29,6 +29,7 @@ samples of a batch independently (row-wise), as physical models do.
 
 from __future__ import annotations
 
+import threading
 import weakref
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -46,18 +47,19 @@ __all__ = ["supports", "mlp_parts", "ode_states", "disabled"]
 #: Largest state size served (the Jacobians cost ``MAX_STATE`` forward passes).
 MAX_STATE = 8
 
-_ENABLED = True
+# per thread: fits run side by side in threads (joblib's threading and Dask backends), and
+# one thread's disabled() must neither reach nor, on exit, undo another's
+_STATE = threading.local()
 
 
 @contextmanager
 def disabled():
-    """Use the generic autograd integrator inside this block (for tests and benchmarks)."""
-    global _ENABLED
-    previous, _ENABLED = _ENABLED, False
+    """Use the generic autograd integrator inside this block, in this thread."""
+    previous, _STATE.enabled = getattr(_STATE, "enabled", True), False
     try:
         yield
     finally:
-        _ENABLED = previous
+        _STATE.enabled = previous
 
 
 def mlp_parts(module: nn.Module):
@@ -75,7 +77,7 @@ def mlp_parts(module: nn.Module):
 
 def supports(residual: nn.Module, state_shape: tuple, solver: str) -> bool:
     """Whether the fast path serves this network, state and solver."""
-    return (_ENABLED and solver == "rk4" and len(state_shape) == 1
+    return (getattr(_STATE, "enabled", True) and solver == "rk4" and len(state_shape) == 1
             and state_shape[0] <= MAX_STATE and mlp_parts(residual) is not None)
 
 

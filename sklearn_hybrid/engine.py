@@ -9,6 +9,7 @@ not by subtraction); then one Adam step on all parameters.
 
 from __future__ import annotations
 
+import sys
 from contextlib import contextmanager
 from dataclasses import dataclass
 
@@ -16,7 +17,8 @@ import numpy as np
 import torch
 from torch import nn
 
-__all__ = ["TrainConfig", "train", "DivergenceError", "data_loss", "make_optimizer"]
+__all__ = ["TrainConfig", "train", "DivergenceError", "data_loss", "make_optimizer",
+           "explain_nonfinite"]
 
 
 class DivergenceError(FloatingPointError):
@@ -87,6 +89,52 @@ def _frozen_batchnorm_stats(module: nn.Module):
     finally:
         for m, momentum in zip(norms, saved):
             m.momentum = momentum
+
+
+class _ScienceNotFinite(Exception):
+    def __init__(self, args, out):
+        self.args, self.out = args, out
+
+
+def explain_nonfinite(model: nn.Module, inputs: tuple[torch.Tensor, ...]) -> str | None:
+    """Say whether the science function is where non-finite values start, and for which input.
+
+    Runs the model once more on ``inputs`` (without gradients, on the plain
+    autograd path, so the science is called through its module) and stops at
+    the first science call that turns finite inputs into NaN or infinity.
+
+    Returns
+    -------
+    str or None
+        A message naming the science function, the offending input row and
+        theta; None if the science stays finite there (the network or the
+        optimiser produced the non-finite values).
+    """
+    from . import _fast  # the fast path calls the science function directly; bypass it
+
+    def check(module, args, out):
+        if all(torch.isfinite(a).all() for a in args) and not torch.isfinite(out).all():
+            raise _ScienceNotFinite(args, out)
+
+    hook = model.science.register_forward_hook(check)
+    try:
+        with torch.no_grad(), _fast.disabled():
+            model(*inputs)
+    except _ScienceNotFinite as found:
+        bad = ~torch.isfinite(found.out).reshape(len(found.out), -1).all(dim=1)
+        row = int(bad.nonzero()[0])
+        func = model.science.func
+        name = getattr(func, "__name__", type(func).__name__)
+        values = ", ".join(f"{n}={a[row].tolist()}" for n, a in zip(model.science.inputs, found.args))
+        return (f"The science function {name!r} returned {found.out[row].tolist()} for {values} "
+                f"({int(bad.sum())} of {len(bad)} rows of that call non-finite; theta "
+                f"{model.science.as_dict()}). Make it finite over the range the data and the "
+                "model visit (guard its domain, or bound theta with theta_bounds).")
+    except Exception:  # the diagnosis must never hide the divergence it explains
+        return None
+    finally:
+        hook.remove()
+    return None
 
 
 def _loss_and_grads(model, method, inputs, y, params):
@@ -160,7 +208,9 @@ def train(model: nn.Module, method, inputs: tuple[torch.Tensor, ...], y: torch.T
 
     from tqdm.auto import tqdm
 
-    bar = tqdm(range(config.max_iter), disable=not config.verbose, desc=method.name)
+    stream = sys.stderr or sys.stdout  # both are None under pythonw and some services
+    bar = tqdm(range(config.max_iter), disable=not config.verbose or stream is None,
+               desc=method.name, file=stream)
     model.train()
     for it in bar:
         idx = batches.next()
@@ -170,9 +220,10 @@ def train(model: nn.Module, method, inputs: tuple[torch.Tensor, ...], y: torch.T
         loss, grads = _loss_and_grads(model, method, xb, yb, perturbed if method.perturbs else params)
         loss_value = float(loss)
         if not np.isfinite(loss_value):
+            cause = explain_nonfinite(model, xb)
             raise DivergenceError(
-                f"The training loss became {loss_value} at iteration {it}; lower lr or "
-                "rho, check the data scale, or bound theta with theta_bounds."
+                f"The training loss became {loss_value} at iteration {it}. " + (cause or (
+                    "Lower lr or rho, check the data scale, or bound theta with theta_bounds."))
             )
         if method.perturbs:
             with torch.no_grad():

@@ -5,8 +5,10 @@ from __future__ import annotations
 from typing import Mapping
 
 import numpy as np
+from sklearn.base import BaseEstimator, RegressorMixin
+from sklearn.metrics import get_scorer
 
-__all__ = ["theta_error", "make_theta_scorer", "ThetaScorer"]
+__all__ = ["theta_error", "make_theta_scorer", "ThetaScorer", "make_flat_scorer", "FlatScorer"]
 
 _METRICS = ("rmse", "cosine")
 
@@ -83,3 +85,61 @@ def make_theta_scorer(theta_true: Mapping, metric: str = "rmse") -> ThetaScorer:
         A picklable callable ``scorer(estimator, X, y) -> float`` (greater is better).
     """
     return ThetaScorer(theta_true, metric)
+
+
+class _FlatPredictions(RegressorMixin, BaseEstimator):
+    """A fitted estimator whose predictions come back flattened per sample."""
+
+    def __init__(self, estimator=None):
+        self.estimator = estimator
+
+    def __sklearn_is_fitted__(self) -> bool:
+        return True
+
+    def predict(self, X):
+        pred = np.asarray(self.estimator.predict(X))
+        return pred.reshape(len(pred), -1)
+
+
+class FlatScorer:
+    """A scikit-learn scorer applied to targets and predictions flattened per sample.
+
+    scikit-learn's metrics accept 1-D or 2-D targets; hybrid ODE targets are
+    ``(n_samples, n_steps, n_observed)``.  Greater is better, as for the
+    wrapped scorer.
+    """
+
+    def __init__(self, scoring):
+        self.scoring = scoring
+        self._scorer = get_scorer(scoring)
+
+    def __call__(self, estimator, X, y) -> float:
+        y = np.asarray(y)
+        return self._scorer(_FlatPredictions(estimator), X, y.reshape(len(y), -1))
+
+    def __repr__(self) -> str:
+        return f"make_flat_scorer({self.scoring!r})"
+
+
+def make_flat_scorer(scoring) -> FlatScorer:
+    """Use a scikit-learn scorer on trajectory targets (flattened per sample).
+
+    Parameters
+    ----------
+    scoring : str or callable
+        A scorer name such as ``"neg_mean_squared_error"`` or a scorer object
+        (see :func:`sklearn.metrics.get_scorer`).
+
+    Returns
+    -------
+    FlatScorer
+        A picklable callable ``scorer(estimator, X, y) -> float`` for
+        ``GridSearchCV``, ``cross_validate`` or ``validation_curve``.
+
+    Examples
+    --------
+    >>> from sklearn_hybrid.metrics import make_flat_scorer
+    >>> make_flat_scorer("neg_mean_squared_error")
+    make_flat_scorer('neg_mean_squared_error')
+    """
+    return FlatScorer(scoring)

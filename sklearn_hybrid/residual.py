@@ -7,6 +7,7 @@ every ``fit``, so ``clone`` and refits behave as scikit-learn users expect.
 
 from __future__ import annotations
 
+import inspect
 import math
 from typing import Sequence
 
@@ -102,6 +103,16 @@ class ConvNet(nn.Module):
 RESIDUALS: dict[str, type[nn.Module]] = {"mlp": MLP, "cnn": ConvNet}
 
 
+def _takes_arguments(factory) -> bool:
+    """Whether a factory has required positional arguments (the shapes) or takes none."""
+    try:
+        params = inspect.signature(factory).parameters.values()
+    except (TypeError, ValueError):  # no signature to read: the documented two-argument call
+        return True
+    return any(p.kind in (p.POSITIONAL_ONLY, p.POSITIONAL_OR_KEYWORD, p.VAR_POSITIONAL)
+               and p.default is p.empty for p in params)
+
+
 def build_residual(spec, in_shapes: Sequence[tuple] | None, out_shape: tuple | None,
                    dtype: torch.dtype = torch.float32) -> nn.Module:
     """Build the residual network from its specification.
@@ -110,10 +121,11 @@ def build_residual(spec, in_shapes: Sequence[tuple] | None, out_shape: tuple | N
     ----------
     spec : str, dict or callable
         ``"mlp"`` or ``"cnn"``; a dict such as ``{"kind": "mlp", "hidden":
-        (64, 64), "activation": "tanh"}``; or a factory.  Factories are called
-        as ``factory(in_shapes, out_shape)`` by the built-in structures and
-        with no arguments for a user-supplied composition (``in_shapes is
-        None``), and must return a ``torch.nn.Module``.
+        (64, 64), "activation": "tanh"}``; or a factory returning a new
+        ``torch.nn.Module`` at each call.  A factory with required positional
+        arguments is called as ``factory(in_shapes, out_shape)`` by the
+        built-in structures; one without (``lambda: MyNet()``) with none, as
+        always for a user-supplied composition (``in_shapes is None``).
     in_shapes, out_shape : tuple or None
         Per-sample shapes the structure feeds in and expects back.
     dtype : torch.dtype
@@ -124,18 +136,29 @@ def build_residual(spec, in_shapes: Sequence[tuple] | None, out_shape: tuple | N
     torch.nn.Module
     """
     if isinstance(spec, nn.Module):
+        name = type(spec).__name__
         raise TypeError(
-            f"residual is a {type(spec).__name__} instance. Pass a factory rather than a "
-            "module instance (e.g. `residual=lambda: net`, or a class), so that every fit "
-            "starts from a fresh network and the estimator stays clonable."
+            f"residual is a {name} instance. Pass a factory rather than a module instance, "
+            f"e.g. `residual=lambda: {name}(...)` (a new network each call) or "
+            "`residual=lambda in_shapes, out_shape: ...`, so that every fit starts from a "
+            "fresh network and the estimator stays clonable."
         )
     if callable(spec):
-        module = spec() if in_shapes is None else spec(tuple(in_shapes), tuple(out_shape))
+        wants_shapes = in_shapes is not None and _takes_arguments(spec)
+        module = spec(tuple(in_shapes), tuple(out_shape)) if wants_shapes else spec()
         if not isinstance(module, nn.Module):
             raise TypeError(
                 f"The residual factory returned {type(module).__name__}, expected a "
                 "torch.nn.Module."
             )
+        if getattr(module, "_sklearn_hybrid_built", False):
+            # `lambda: net` hands every fit (and every clone in a search) the same network
+            raise ValueError(
+                f"The residual factory returned a {type(module).__name__} it had returned "
+                "before; it must build a new network at each call (e.g. `lambda: "
+                f"{type(module).__name__}(...)`, not `lambda: net`)."
+            )
+        module._sklearn_hybrid_built = True
         return module.to(dtype)
     if in_shapes is None:
         raise ValueError(

@@ -10,6 +10,7 @@ optimiser never sees a clipped gradient.
 
 from __future__ import annotations
 
+import functools
 import inspect
 import numbers
 from typing import Callable
@@ -51,13 +52,21 @@ def read_signature(func: Callable) -> tuple[list[str], dict[str, np.ndarray]]:
     """
     if not callable(func):
         raise TypeError(f"science must be a callable, got {type(func).__name__}.")
+    # functools.partial(f, k=1.0) is how users fix a constant: its keywords are not theta
+    bound = set(func.keywords) if isinstance(func, functools.partial) else set()
     inputs, defaults = [], {}
     for p in inspect.signature(func).parameters.values():
-        if p.kind in (p.VAR_POSITIONAL, p.VAR_KEYWORD):
+        if p.kind in (p.VAR_POSITIONAL, p.VAR_KEYWORD) or p.name in bound:
             continue
         if p.default is p.empty:
             inputs.append(p.name)
             continue
+        if isinstance(p.default, torch.Tensor):
+            raise TypeError(
+                f"The science function's argument {p.name!r} has a torch.Tensor default. Write "
+                "it as a number or a list of numbers to estimate it, or bind it as a constant "
+                f"with functools.partial(f, {p.name}=...) or a closure."
+            )
         value = _as_numeric(p.default)
         if value is not None:
             defaults[p.name] = value
@@ -168,8 +177,19 @@ class ScienceModel(nn.Module):
             raise ValueError(
                 f"theta_bounds[{name!r}] must be a pair (low, high), got {bounds!r}."
             ) from None
-        low = np.broadcast_to(np.asarray(-np.inf if low is None else low, float), value.shape)
-        high = np.broadcast_to(np.asarray(np.inf if high is None else high, float), value.shape)
+        try:
+            low = np.broadcast_to(np.asarray(-np.inf if low is None else low, float), value.shape)
+            high = np.broadcast_to(np.asarray(np.inf if high is None else high, float), value.shape)
+        except (TypeError, ValueError):
+            raise ValueError(
+                f"theta_bounds[{name!r}] = {bounds!r} must hold numbers (or None for an open "
+                f"side) matching the parameter's shape {value.shape}."
+            ) from None
+        if np.isnan(low).any() or np.isnan(high).any():
+            raise ValueError(
+                f"theta_bounds[{name!r}] = {bounds!r} contains NaN; use None or inf for an "
+                "open side."
+            )
         if np.any(low >= high):
             raise ValueError(f"theta_bounds[{name!r}] = {bounds!r} has low >= high.")
         if np.any(value <= low) or np.any(value >= high):

@@ -17,6 +17,7 @@ callable      ``structure(x, f, g) -> y`` for anything more nested
 from __future__ import annotations
 
 import math
+import numbers
 from typing import Callable
 
 import numpy as np
@@ -44,29 +45,89 @@ class HybridModule(nn.Module):
         return self.structure.forward(self, *inputs)
 
 
-def _call_science(science, args, expected_shape, what):
-    """Run the science function on a probe batch and check what it returns."""
+def probe_batch(inputs, avoid) -> tuple:
+    """The first samples of ``inputs``, as many as no per-sample axis has.
+
+    A probe batch whose size equals a state dimension cannot tell a transposed
+    output ``(d, n)`` from ``(n, d)``; rows are repeated if there are too few.
+    """
+    k = next(k for k in range(3, 100) if k not in avoid)
+    rows = torch.arange(k) % len(inputs[0])
+    return tuple(t[rows] for t in inputs)
+
+
+def _science_name(science) -> str:
+    func = getattr(science, "func", science)
+    return getattr(func, "__name__", type(func).__name__)
+
+
+def _call_science(science, args, expected_shape, what, differentiable=False):
+    """Run the science function on a probe batch and check what it returns.
+
+    Besides the output's type and shape, the probe checks that the function
+    leaves its inputs alone, returns finite values, and passes a gradient to
+    every free parameter (numpy calls, ``.item()`` or ``.detach()`` inside it
+    cut the graph, and theta would silently stay at its start).  With
+    ``differentiable`` the inputs require a gradient, as ODE states do in
+    training, so that numpy calls on them fail here rather than later.
+    """
+    name = _science_name(science)
+    before = [a.clone() for a in args]
+    if differentiable:  # non-leaf copies: in-place writes reach the mutation check below
+        args = tuple(a.clone().requires_grad_() * 1 for a in args)
     try:
-        with torch.no_grad():
+        with torch.enable_grad():
             out = science(*args)
     except Exception as exc:
         shapes = ", ".join(str(tuple(a.shape)) for a in args)
+        hint = ("It calls numpy on a tensor (e.g. np.sin): use the torch function (torch.sin); "
+                "detaching would cut the gradient of theta. " if "numpy()" in str(exc) else "")
         raise ValueError(
-            f"The science function raised {type(exc).__name__}: {exc} (called with "
-            f"{what} of shape(s) {shapes}). It must accept torch tensors with a "
+            f"The science function {name!r} raised {type(exc).__name__}: {exc} (called with "
+            f"{what} of shape(s) {shapes}). {hint}It must accept torch tensors with a "
             "leading batch dimension and use torch operations."
         ) from exc
     if not isinstance(out, torch.Tensor):
-        raise TypeError(f"The science function returned {type(out).__name__}, expected a torch.Tensor.")
-    if expected_shape is not None and tuple(out.shape) != tuple(expected_shape):
+        raise TypeError(
+            f"The science function {name!r} returned {type(out).__name__}, expected a torch.Tensor.")
+    if any(not torch.equal(a.detach(), b) for a, b in zip(args, before)):
         raise ValueError(
-            f"The science function returned shape {tuple(out.shape)} for {what} of shape "
-            f"{tuple(args[0].shape)}; the structure needs {tuple(expected_shape)}."
+            f"The science function {name!r} modifies its input in place (e.g. `v[:, 0] *= k` or "
+            "`v.mul_(k)`); it would rewrite the data at every call. Use out-of-place "
+            "operations (`v = v * k`, `torch.stack`)."
         )
-    if out.ndim == 0 or out.shape[0] != args[0].shape[0]:
+    batch = args[0].shape[0]
+    if expected_shape is not None and tuple(out.shape) != tuple(expected_shape):
+        hint = (" It looks transposed: stack the components along the last axis (dim=-1)."
+                if tuple(out.shape) == tuple(expected_shape)[::-1] else "")
         raise ValueError(
-            f"The science function returned shape {tuple(out.shape)}; its first axis must "
-            f"be the batch axis of length {args[0].shape[0]}."
+            f"The science function {name!r} returned shape {tuple(out.shape)} for {what} of "
+            f"shape {tuple(args[0].shape)}; the structure needs {tuple(expected_shape)}.{hint}"
+        )
+    if out.ndim == 0 or out.shape[0] != batch:
+        raise ValueError(
+            f"The science function {name!r} returned shape {tuple(out.shape)}; its first axis "
+            f"must be the batch axis of length {batch}."
+        )
+    bad = ~torch.isfinite(out.detach()).reshape(batch, -1).all(dim=1)
+    if bad.any():
+        i = int(bad.nonzero()[0])
+        raise ValueError(
+            f"The science function {name!r} returned non-finite values for {what} "
+            f"{[a[i].tolist() for a in before]} (theta {science.as_dict()}). Make it finite "
+            "on the data's range (bound theta with theta_bounds or guard its domain)."
+        )
+    free = [(n, p) for n, p in science.raw.items() if p.requires_grad]
+    grads = (torch.autograd.grad(out.sum(), [p for _, p in free], allow_unused=True)
+             if free and out.requires_grad else [None] * len(free))
+    cut = [n for (n, _), g in zip(free, grads) if g is None]
+    if cut:
+        raise ValueError(
+            f"The science function {name!r} passes no gradient to parameter(s) {cut}: its "
+            "output does not depend on them through torch operations (numpy calls, .item(), "
+            "float(), .detach() or torch.as_tensor of a computed value cut the graph), so "
+            "they would stay at their initial value. Write it with torch operations, or keep "
+            "them constant with theta_fixed."
         )
     return out
 
@@ -93,6 +154,20 @@ def pack_inputs(x0: np.ndarray, u: np.ndarray) -> np.ndarray:
     return np.concatenate([x0, u.reshape(len(u), -1)], axis=1)
 
 
+def _check_observed(observed) -> list[int]:
+    """``observed`` as a non-empty list of distinct non-negative integers."""
+    values = list(np.atleast_1d(np.asarray(observed, dtype=object)))
+    if not values or not all(isinstance(i, numbers.Integral) and not isinstance(i, bool)
+                             and i >= 0 for i in values):
+        raise ValueError(
+            f"observed must list the observed state components as non-negative integers "
+            f"(e.g. observed=[0]), got {observed!r}."
+        )
+    if len(set(values)) != len(values):
+        raise ValueError(f"observed={observed!r} lists a component twice.")
+    return [int(i) for i in values]
+
+
 class OdeStructure:
     """Hybrid neural ODE, optionally forced by inputs and partially observed.
 
@@ -107,36 +182,41 @@ class OdeStructure:
 
     def __init__(self, dt=1.0, n_substeps=4, solver="rk4", observed=None, n_inputs=0,
                  input_interp="cubic", solver_options=None):
-        if not (isinstance(dt, (int, float)) and dt > 0):
+        if not (isinstance(dt, numbers.Real) and not isinstance(dt, bool) and dt > 0):
             raise ValueError(f"dt must be a positive number, got {dt!r}.")
-        if not (isinstance(n_substeps, (int, np.integer)) and n_substeps >= 1):
+        if not (isinstance(n_substeps, numbers.Integral) and not isinstance(n_substeps, bool)
+                and n_substeps >= 1):
             raise ValueError(f"n_substeps must be a positive integer, got {n_substeps!r}.")
         if input_interp not in INPUT_INTERPOLATIONS:
             raise ValueError(f"Unknown input_interp {input_interp!r}; choose one of {INPUT_INTERPOLATIONS}.")
         self.dt, self.n_substeps, self.solver = float(dt), int(n_substeps), solver
-        self.observed = None if observed is None else [int(i) for i in np.atleast_1d(observed)]
+        self.observed = None if observed is None else _check_observed(observed)
         self.n_inputs, self.input_interp = int(n_inputs), input_interp
         self.solver_options = solver_options
 
     def setup(self, X: np.ndarray, y_shape: tuple) -> None:
-        sample_size = math.prod(y_shape)
+        """Learn the state shape and ``n_steps``; ``y`` is (n, n_steps, *observed shape)."""
+        y_shape = tuple(y_shape)
+        if not y_shape:
+            raise ValueError(
+                "For structure='ode' y must have shape (n_samples, n_steps, n_observed); got a "
+                "1-D y (one value per sample)."
+            )
+        self.n_steps = y_shape[0]
         if self.n_inputs == 0:
-            self.state_shape = X.shape[1:]
+            self.state_shape = tuple(X.shape[1:])
         else:
             if X.ndim != 2:
                 raise ValueError("A forced ODE (n_inputs > 0) needs a 2-D X built with pack_inputs.")
-            n_obs = len(self.observed) if self.observed else (y_shape[-1] if len(y_shape) > 1 else None)
-            if n_obs is None:
-                raise ValueError("For a forced ODE give y as (n, n_steps, n_observed) or set `observed`.")
-            n_steps = sample_size // n_obs
-            self.state_shape = (X.shape[1] - (n_steps + 1) * self.n_inputs,)
+            self.state_shape = (X.shape[1] - (self.n_steps + 1) * self.n_inputs,)
             if self.state_shape[0] < 1:
                 raise ValueError(
-                    f"X has {X.shape[1]} columns, too few for {n_steps + 1} input samples of "
-                    f"{self.n_inputs} input(s) plus an initial state."
+                    f"X has {X.shape[1]} columns, too few for {self.n_steps + 1} input samples "
+                    f"of {self.n_inputs} input(s) plus an initial state (y of shape "
+                    f"(n, {', '.join(map(str, y_shape))}) has {self.n_steps} steps)."
                 )
+        n_state = math.prod(self.state_shape)
         if self.observed is not None:
-            n_state = math.prod(self.state_shape)
             if len(self.state_shape) != 1 or not all(0 <= i < n_state for i in self.observed):
                 raise ValueError(
                     f"observed={self.observed} must index a vector state of length {n_state}."
@@ -144,33 +224,53 @@ class OdeStructure:
             self.obs_shape = (len(self.observed),)
         else:
             self.obs_shape = tuple(self.state_shape)
-        obs_size = math.prod(self.obs_shape)
-        if sample_size % obs_size or sample_size == 0:
-            raise ValueError(
-                f"y has {sample_size} values per sample, not a whole number of observed states "
-                f"of shape {self.obs_shape} (X per-sample shape {X.shape[1:]})."
-            )
-        self.n_steps = sample_size // obs_size
+        per_step = y_shape[1:]
+        if per_step != self.obs_shape and not (per_step == () and self.obs_shape == (1,)):
+            raise ValueError(self._layout_message(y_shape, n_state))
+
+    def _layout_message(self, y_shape, n_state):
+        """Say which layout ``y`` needs, what it has, and the likely fix."""
+        obs = self.obs_shape
+        seen = (f"observed={self.observed}" if self.observed is not None
+                else "all state components observed")
+        msg = (f"For structure='ode' y must have shape (n_samples, n_steps, "
+               f"{', '.join(map(str, obs))}) (state shape {self.state_shape} from X, {seen}); "
+               f"got y of per-sample shape {y_shape}.")
+        if len(y_shape) == 1:
+            msg += (f" If y was flattened, give it back its steps: y.reshape(len(y), -1, "
+                    f"{', '.join(map(str, obs))}).")
+        elif tuple(y_shape[:len(obs)]) == obs and len(y_shape) == len(obs) + 1:
+            msg += " It looks transposed (time on the last axis): use np.moveaxis(y, -1, 1)."
+        elif self.observed is not None and y_shape[1:] == tuple(self.state_shape):
+            msg += (f" y holds every state component, but observed={self.observed} says it "
+                    f"holds {len(self.observed)}: pass y[..., {self.observed}] or leave "
+                    "observed=None.")
+        elif self.observed is None and len(y_shape) == 2 and y_shape[1] < n_state:
+            msg += (f" y holds {y_shape[1]} of the {n_state} state components: say which with "
+                    "observed=[...].")
+        return msg
 
     def tensors(self, X: np.ndarray, dtype: torch.dtype) -> tuple[torch.Tensor, ...]:
         n, d = len(X), math.prod(self.state_shape)
         if self.n_inputs == 0:
-            return (torch.as_tensor(X, dtype=dtype),)
+            return (torch.tensor(X, dtype=dtype),)  # a copy: the science never sees the caller's memory
         expected = d + (self.n_steps + 1) * self.n_inputs
         if X.shape[1] != expected:
             raise ValueError(f"X has {X.shape[1]} columns; this forced ODE needs {expected}.")
         u = X[:, d:].reshape(n, self.n_steps + 1, self.n_inputs)
         u_fine = upsample_inputs(u, 2 * self.n_substeps, self.input_interp)
-        return (torch.as_tensor(X[:, :d].reshape(n, *self.state_shape), dtype=dtype),
+        return (torch.tensor(X[:, :d].reshape(n, *self.state_shape), dtype=dtype),
                 torch.as_tensor(u_fine, dtype=dtype))
 
     def _args(self, v, u):
         return (v,) if u is None else (v, u)
 
     def probe(self, science, inputs) -> None:
-        v = inputs[0][:2]
-        u = inputs[1][:2, 0] if self.n_inputs else None
-        _call_science(science, self._args(v, u), v.shape, "states" + (" and inputs" if u is not None else ""))
+        batch = probe_batch(inputs, self.state_shape)
+        v = batch[0]
+        u = batch[1][:, 0] if self.n_inputs else None
+        _call_science(science, self._args(v, u), v.shape,
+                      "states" + (" and inputs" if u is not None else ""), differentiable=True)
 
     def residual_shapes(self):
         ins = (tuple(self.state_shape),) + (((self.n_inputs,),) if self.n_inputs else ())
@@ -231,10 +331,11 @@ class ComposeStructure:
         self.x_shape, self.y_shape = X.shape[1:], tuple(y_shape)
 
     def tensors(self, X, dtype):
-        return (torch.as_tensor(X, dtype=dtype),)
+        return (torch.tensor(X, dtype=dtype),)  # a copy: the science never sees the caller's memory
 
     def probe(self, science, inputs):
-        self.z_shape = tuple(_call_science(science, (inputs[0][:2],), None, "X").shape[1:])
+        x = probe_batch(inputs, (*self.x_shape, *self.y_shape))[0]
+        self.z_shape = tuple(_call_science(science, (x,), None, "X").shape[1:])
 
     def residual_shapes(self):
         return (tuple(self.x_shape), self.z_shape), self.y_shape
@@ -276,7 +377,7 @@ class AdditiveStructure(ComposeStructure):
     additive = True
 
     def probe(self, science, inputs):
-        x = inputs[0][:2]
+        x = probe_batch(inputs, (*self.x_shape, *self.y_shape))[0]
         _call_science(science, (x,), (len(x), *self.y_shape), "X")
 
     def residual_shapes(self):

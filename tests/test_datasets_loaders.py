@@ -100,7 +100,7 @@ def test_fetch_file_bad_download_leaves_nothing(tmp_path, source_file):
     remote = RemoteFile("sub/data.csv", source_file.as_uri(), "f" * 64)
     with pytest.raises(ChecksumError, match="Nothing was written"):
         fetch_file(remote, tmp_path / "home")
-    assert list((tmp_path / "home" / "sub").iterdir()) == []
+    assert not (tmp_path / "home").exists()  # the folders it made for the file are gone too
     other = tmp_path / "other.csv"
     other.write_text("not it\n")
     remote = RemoteFile("sub/data.csv", other.as_uri(), _sha(source_file),
@@ -115,7 +115,11 @@ def test_fetch_file_offline_error_and_mirror(tmp_path, source_file):
         fetch_file(remote, tmp_path / "home")
     assert str(tmp_path / "home" / "sub" / "data.csv") in str(err.value)
     assert dead in str(err.value)
-    assert list((tmp_path / "home" / "sub").iterdir()) == []
+    assert not (tmp_path / "home").exists()  # an offline attempt leaves no empty folder
+    (tmp_path / "home").mkdir()
+    with pytest.raises(FileNotFoundError):
+        fetch_file(remote, tmp_path / "home")
+    assert list((tmp_path / "home").iterdir()) == []  # a folder that was there stays
     remote = RemoteFile("sub/data.csv", dead, _sha(source_file), mirrors=(source_file.as_uri(),))
     assert fetch_file(remote, tmp_path / "home").is_file()
 

@@ -8,7 +8,8 @@ import torch
 from sklearn.base import clone
 from sklearn.model_selection import GridSearchCV, cross_validate, validation_curve
 
-from sklearn_hybrid import HybridRegressor, make_theta_scorer, pack_inputs, theta_error
+from sklearn_hybrid import (HybridRegressor, make_flat_scorer, make_theta_scorer, pack_inputs,
+                            theta_error)
 from sklearn_hybrid.datasets import make_pendulum
 from sklearn_hybrid.integrate import integrate
 
@@ -51,11 +52,16 @@ def test_gridsearch_theta_scorer(pendulum):
     assert search.best_params_["rho"] in (0.01, 0.05, 0.1)
     assert search.best_score_ == pytest.approx(-theta_error(
         search.best_estimator_.theta_, {"omega": 2 / 3}), abs=1e-12) or search.refit
-    # scikit-learn's own scorers need 2-D y: flatten the (n, steps, states) targets
-    y_flat = pendulum.y_train.reshape(len(pendulum.y_train), -1)
-    scores = cross_validate(est, pendulum.X_train, y_flat, cv=2,
-                            scoring={"theta": scorer, "mse": "neg_mean_squared_error"})
+    # scikit-learn's own scorers need 2-D y: make_flat_scorer flattens the (n, steps, states)
+    # targets and predictions per sample
+    mse = make_flat_scorer("neg_mean_squared_error")
+    scores = cross_validate(est, pendulum.X_train, pendulum.y_train, cv=2,
+                            scoring={"theta": scorer, "mse": mse})
     assert np.all(np.isfinite(scores["test_mse"]))
+    fitted = clone(est).fit(pendulum.X_train, pendulum.y_train)
+    flat_pred = fitted.predict(pendulum.X_test).reshape(len(pendulum.X_test), -1)
+    assert mse(fitted, pendulum.X_test, pendulum.y_test) == pytest.approx(-np.mean(
+        (flat_pred - pendulum.y_test.reshape(len(pendulum.y_test), -1)) ** 2))
     assert np.all(scores["test_theta"] <= 0)
     _, valid = validation_curve(est, pendulum.X_train, pendulum.y_train, param_name="rho",
                                 param_range=[0.01, 0.1], cv=2, scoring=scorer)

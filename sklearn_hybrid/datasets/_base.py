@@ -88,9 +88,17 @@ def get_data_home(data_home: str | os.PathLike | None = None) -> Path:
     data_home : pathlib.Path
         The data home folder.
     """
+    source = "data_home"
     if data_home is None:
+        source = DATA_HOME_ENV if os.environ.get(DATA_HOME_ENV) else "the default data home"
         data_home = os.environ.get(DATA_HOME_ENV) or Path("~") / "sklearn_hybrid_data"
-    return Path(data_home).expanduser()
+    path = Path(data_home).expanduser()
+    if path.exists() and not path.is_dir():
+        raise NotADirectoryError(
+            f"{source} points at {path}, which is a file; it must be a folder (the one that "
+            "holds e.g. 'silverbox/SNLS80mV.csv')."
+        )
+    return path
 
 
 def read_csv_columns(
@@ -203,7 +211,21 @@ def fetch_file(
             _missing_message(path, remote, f"{remote.filename} is not in the data home and "
                                            "download_if_missing=False.")
         )
+    created = [p for p in (path.parent, *path.parent.parents) if not p.exists()]
     path.parent.mkdir(parents=True, exist_ok=True)
+    try:
+        return _download_checked(remote, path)
+    except BaseException:
+        for folder in created:  # innermost first: leave no empty folders behind
+            try:
+                folder.rmdir()
+            except OSError:
+                break
+        raise
+
+
+def _download_checked(remote: RemoteFile, path: Path) -> Path:
+    """Try the addresses of ``remote`` in order; move the first verified download to ``path``."""
     errors, mismatches = [], []
     for url in (remote.url, *remote.mirrors):
         # A temporary file in the same folder, renamed only once verified: no partial files.
