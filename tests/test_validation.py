@@ -138,3 +138,117 @@ def test_predict_before_fit_and_wrong_features(data):
     est = fit(data)
     with pytest.raises(ValueError, match="expecting 2 features"):
         est.predict(np.zeros((3, 3)))
+
+
+# --- unusual inputs that must work, and the memory of a fit ---------------------------------
+
+def test_numpy_scalar_dt_and_negative_n_jobs(data):
+    import sklearn_hybrid
+
+    assert fit(data, dt=np.float32(0.2)).theta_ == fit(data).theta_
+    cv = sklearn_hybrid.HybridRegressorCV(
+        HybridRegressor(science=pendulum_f, method="erm", **FAST), seeds=[0, 1], n_jobs=-1,
+        validation_fraction=0.5)
+    assert len(cv.fit(*data).estimators_) == 2
+
+
+def test_verbose_without_stderr(data, monkeypatch):
+    monkeypatch.setattr("sys.stderr", None)
+    assert fit(data, verbose=True).n_iter_ == FAST["max_iter"]
+
+
+def test_dtype_changed_after_fit_predicts_with_the_fitted_model(data):
+    est = fit(data)
+    pred = est.predict(data[0])
+    est.set_params(dtype="float64")
+    np.testing.assert_array_equal(est.predict(data[0]), pred)
+
+
+def test_predict_in_chunks_equals_one_pass(data, monkeypatch):
+    from sklearn_hybrid import _estimator
+
+    est = fit(data)
+    X = np.random.default_rng(1).uniform(-1, 1, (7, 2))
+    whole = est.predict(X)
+    trace = est.residual_trace(X)
+    monkeypatch.setattr(_estimator, "_PREDICT_CHUNK", 3)
+    np.testing.assert_allclose(est.predict(X), whole, rtol=1e-6, atol=1e-7)
+    for key in ("points", "residual"):
+        np.testing.assert_allclose(est.residual_trace(X)[key], trace[key], rtol=1e-6, atol=1e-7)
+
+
+def test_nan_prediction_names_the_science(data):
+    def bounded(v, omega=0.5):  # finite for |angle| < 2 only
+        return torch.stack([v[:, 1], -omega * torch.sqrt(4 - v[:, 0] ** 2)], dim=-1)
+
+    est = fit(data, science=bounded)
+    with pytest.raises(ValueError, match=r"not finite for sample\(s\) \[1\].*'bounded' returned"):
+        est.predict(np.array([[0.1, 0.0], [3.0, 0.0]]))
+
+
+def test_memory_of_a_fit_grows_with_batch_and_steps():
+    from sklearn_hybrid._memory import fit_memory_bytes
+
+    X = np.random.default_rng(0).uniform(-1, 1, (4, 2))
+    sizes = {}
+    for n_steps in (5, 10):
+        y = np.zeros((4, n_steps, 2))
+        setup = HybridRegressor(science=pendulum_f, **FAST)._setup_fit(X, y)
+        sizes[n_steps] = [fit_memory_bytes(setup.model, setup.inputs, n) for n in (100, 200)]
+    assert sizes[5][1] == pytest.approx(2 * sizes[5][0], rel=1e-6)
+    assert sizes[10][0] == pytest.approx(2 * sizes[5][0], rel=0.1)
+
+
+def test_fit_too_large_for_memory_says_what_to_change(data, monkeypatch):
+    from sklearn_hybrid import _memory
+
+    est = fit(data)
+    theta = dict(est.theta_)
+    monkeypatch.setattr(_memory, "available_memory_bytes", lambda: 20_000)
+    with pytest.raises(MemoryError, match=r"would need about .* GB .*batch_size=\d+"):
+        est.fit(*data)
+    assert est.theta_ == theta
+
+
+def test_allocator_failure_is_explained(data, monkeypatch):
+    from sklearn_hybrid import _estimator
+
+    def out_of_memory(*args):
+        raise RuntimeError("[enforce fail at alloc_cpu.cpp:121] DefaultCPUAllocator: can't "
+                           "allocate memory: you tried to allocate 38654705664 bytes.")
+
+    monkeypatch.setattr(_estimator, "train", out_of_memory)
+    with pytest.raises(MemoryError, match=r"ran out of memory .*batch_size=\d+"):
+        fit(data)
+
+
+def test_random_state_none_uses_numpy_global_state_only(data):
+    torch_state = torch.random.get_rng_state()
+    np.random.seed(3)
+    first = fit(data, random_state=None).theta_
+    np.random.seed(3)
+    assert fit(data, random_state=None).theta_ == first
+    assert torch.equal(torch.random.get_rng_state(), torch_state)
+
+
+def test_fast_path_switch_is_per_thread():
+    import threading
+
+    from sklearn_hybrid import _fast
+    from sklearn_hybrid.residual import MLP
+
+    mlp, seen = MLP(((2,),), (2,)), {}
+    inside, release = threading.Event(), threading.Event()
+
+    def other():
+        with _fast.disabled():
+            inside.set()
+            release.wait(5)
+
+    thread = threading.Thread(target=other)
+    thread.start()
+    inside.wait(5)
+    seen["while other thread disabled it"] = _fast.supports(mlp, (2,), "rk4")
+    release.set()
+    thread.join()
+    assert seen["while other thread disabled it"] and _fast.supports(mlp, (2,), "rk4")

@@ -1,0 +1,258 @@
+"""A table of bad inputs: each raises a named error, and nothing the user had changes.
+
+Every row is (what is wrong, how it is called, expected exception, a phrase the message
+must contain). For every row the test also checks that the arrays and parameter objects
+the user passed are unchanged and that an estimator fitted earlier still has the same
+theta, feature count and predictions.
+"""
+
+import copy
+import functools
+from dataclasses import dataclass
+from types import SimpleNamespace
+from typing import Callable
+
+import numpy as np
+import pytest
+import torch
+
+from sklearn_hybrid import DivergenceError, HybridRegressor, HybridRegressorCV
+from sklearn_hybrid.datasets import get_data_home
+from sklearn_hybrid.models import pendulum_f
+
+FAST = dict(max_iter=3, residual={"hidden": (8,)}, random_state=0, dt=0.2)
+
+
+def _data():
+    rng = np.random.default_rng(0)
+    return rng.uniform(-1, 1, (6, 2)), rng.uniform(-1, 1, (6, 5, 2))
+
+
+@pytest.fixture(scope="module")
+def earlier():
+    """A fit the failing calls must leave alone."""
+    X, y = _data()
+    est = HybridRegressor(science=pendulum_f, **FAST).fit(X, y)
+    return SimpleNamespace(est=est, X=X, theta=dict(est.theta_), pred=est.predict(X),
+                           n_features=est.n_features_in_)
+
+
+# --- science functions with something wrong -------------------------------------------------
+
+def in_place(v, omega=0.5):  # degrees to radians, in place
+    v[:, 0] *= torch.pi / 180
+    return pendulum_f(v, omega)
+
+
+def through_numpy(v, omega=0.5):  # theta's gradient is cut
+    out = pendulum_f(v, omega).detach().numpy()
+    return torch.as_tensor(out * float(omega))
+
+
+def numpy_on_tensor(v, omega=0.5):
+    return torch.stack([v[:, 1], -omega * np.sin(v[:, 0])], dim=-1)
+
+
+def nan_at_start(v, omega=0.5):
+    return torch.stack([v[:, 1], -omega * torch.log(v[:, 0])], dim=-1)
+
+
+def grows(v, omega=0.5):  # finite at the initial states, infinite along the trajectory
+    return torch.exp(torch.exp(3 * v)) * omega
+
+
+def transposed(v, omega=0.5):
+    return torch.stack([v[:, 1], -omega * torch.sin(v[:, 0])], dim=0)
+
+
+def tensor_default(v, omega=0.5, k=torch.tensor(1.0)):
+    return pendulum_f(v, omega) * k
+
+
+def raises(v, omega=0.5):
+    raise RuntimeError("division by the unknown")
+
+
+def returns_numpy(v, omega=0.5):
+    return np.zeros((len(v), 2))
+
+
+# --- the table -----------------------------------------------------------------------------
+
+@dataclass
+class Call:
+    """What a row does: set ``params`` on the earlier estimator, then ``run(est, X, y)``."""
+
+    params: dict
+    run: Callable
+
+
+def fit(**params):
+    return fit_on(lambda X, y: (X, y), **params)
+
+
+def fit_on(transform, **params):
+    """Fit with ``params`` on transformed data."""
+    return Call({**FAST, "science": pendulum_f, **params},
+                lambda est, X, y: est.fit(*transform(X, y)))
+
+
+def predict_on(transform):
+    return Call({}, lambda est, X, y: est.predict(transform(X)))
+
+
+def cv(**params):
+    def run(est, X, y):
+        HybridRegressorCV(est, **params).fit(X, y)
+    return Call({"method": "erm"}, run)
+
+
+def with_nan(where):
+    def transform(X, y):
+        X, y = X.copy(), y.copy()
+        (X if where == "X" else y)[0, 0] = np.nan
+        return X, y
+    return transform
+
+
+CASES = [
+    # item 1: the layout of y for "ode"
+    ("y with 3 components for 2 states", fit_on(lambda X, y: (X, np.concatenate([y, y[..., :1]], -1))),
+     ValueError, "y must have shape (n_samples, n_steps, 2)"),
+    ("y with 1 component, observed not set", fit_on(lambda X, y: (X, y[..., :1])),
+     ValueError, "say which with observed=[...]"),
+    ("y transposed", fit_on(lambda X, y: (X, np.swapaxes(y, 1, 2))),
+     ValueError, "looks transposed"),
+    ("observed=[0] with every component in y", fit(observed=[0]),
+     ValueError, "y holds every state component, but observed=[0]"),
+    ("y flattened", fit_on(lambda X, y: (X, y.reshape(len(y), -1))),
+     ValueError, "y.reshape(len(y), -1, 2)"),
+    ("y with one value per sample", fit_on(lambda X, y: (X, y[:, 0, 0])),
+     ValueError, "got a 1-D y"),
+    # item 2: a refit that fails must not damage the earlier fit
+    ("refit on X with another feature count", fit_on(lambda X, y: (np.c_[X, X[:, :1]], y)),
+     ValueError, "state shape (3,) from X"),
+    ("refit on X with NaN", fit_on(with_nan("X")), ValueError, "Input X contains NaN"),
+    ("refit on y with NaN", fit_on(with_nan("y")), ValueError, "Input y contains NaN"),
+    ("refit on no samples", fit_on(lambda X, y: (X[:0], y[:0])), ValueError, "0 sample(s)"),
+    ("refit with unequal sample counts", fit_on(lambda X, y: (X, y[:-1])),
+     ValueError, "inconsistent numbers of samples"),
+    # items 3-6: what the science function does
+    ("science writes into its input, float64", fit(science=in_place, dtype="float64"),
+     ValueError, "modifies its input in place"),
+    ("science writes into its input, float32", fit(science=in_place),
+     ValueError, "modifies its input in place"),
+    ("science cuts theta's gradient", fit(science=through_numpy),
+     ValueError, "passes no gradient to parameter(s) ['omega']"),
+    ("science cuts theta's gradient, additive", fit_on(lambda X, y: (X, X), science=through_numpy,
+                                                      structure="additive"),
+     ValueError, "passes no gradient to parameter(s) ['omega']"),
+    ("science calls numpy on a tensor", fit(science=numpy_on_tensor),
+     ValueError, "use the torch function (torch.sin)"),
+    ("science NaN at the initial states", fit(science=nan_at_start),
+     ValueError, "'nan_at_start' returned non-finite values for states"),
+    ("science infinite along the trajectory", fit(science=grows),
+     DivergenceError, "science function 'grows' returned"),
+    ("science output transposed", fit(science=transposed),
+     ValueError, "It looks transposed: stack the components along the last axis"),
+    ("science raises", fit(science=raises),
+     ValueError, "'raises' raised RuntimeError: division by the unknown"),
+    ("science returns numpy", fit(science=returns_numpy), TypeError, "expected a torch.Tensor"),
+    # item 8: the signature reader
+    ("tensor default", fit(science=tensor_default), TypeError, "'k' has a torch.Tensor default"),
+    ("NaN bound", fit(theta_bounds={"omega": (np.nan, 2.0)}), ValueError, "contains NaN"),
+    ("bound that is not a number", fit(theta_bounds={"omega": ("low", 2.0)}),
+     ValueError, "must hold numbers"),
+    ("unknown parameter name", fit(theta_init={"omgea": 1.0}),
+     ValueError, "theta_init names unknown parameter(s) ['omgea']"),
+    ("initial value outside bounds", fit(theta_init={"omega": 3.0}, theta_bounds={"omega": (0, 2)}),
+     ValueError, "outside its bounds"),
+    # item 9: raw or misleading messages
+    ("observed=[]", fit(observed=[]), ValueError, "observed must list the observed state"),
+    ("observed=[0, 0]", fit(observed=[0, 0]), ValueError, "lists a component twice"),
+    ("observed=[5]", fit(observed=[5]), ValueError, "must index a vector state of length 2"),
+    ("observed=[True]", fit(observed=[True]), ValueError, "non-negative integers"),
+    ("residual module instance", fit(residual=torch.nn.Linear(2, 2)),
+     TypeError, "residual=lambda: Linear(...)"),
+    ("dt=True", fit(dt=True), ValueError, "dt must be a positive number"),
+    ("n_substeps=True", fit(n_substeps=True), ValueError, "n_substeps must be a positive integer"),
+    ("max_iter=0", fit(max_iter=0), ValueError, "max_iter must be a positive integer"),
+    ("unknown method", fit(method="sgd"), ValueError, "Unknown method 'sgd'"),
+    ("HybridRegressorCV seeds=[0, 1.5]", cv(seeds=[0, 1.5]),
+     ValueError, "seeds must hold integers, got 1.5"),
+    ("HybridRegressorCV n_jobs=0", cv(n_jobs=0), ValueError, "n_jobs must be a non-zero integer"),
+    ("HybridRegressorCV n_jobs=1.5", cv(n_jobs=1.5), ValueError, "got 1.5"),
+    ("predict on another per-sample shape", predict_on(lambda X: X[:, :, None]),
+     ValueError, "X has per-sample shape (2, 1); this model was fitted on (2,)"),
+    ("predict on another feature count", predict_on(lambda X: X[:, :1]),
+     ValueError, "expecting 2 features"),
+    ("predict on NaN", predict_on(lambda X: np.where(X > 0, np.nan, X)),
+     ValueError, "Input X contains NaN"),
+]
+
+
+def _same(a, b):
+    """Equal values (arrays, containers, numbers), or the very same object."""
+    if isinstance(a, np.ndarray):
+        return isinstance(b, np.ndarray) and np.array_equal(a, b, equal_nan=True)
+    if isinstance(a, dict):
+        return isinstance(b, dict) and a.keys() == b.keys() and all(_same(a[k], b[k]) for k in a)
+    if isinstance(a, (list, tuple)):
+        return type(a) is type(b) and len(a) == len(b) and all(map(_same, a, b))
+    if isinstance(a, (int, float, str, type(None))):
+        return a == b or (a != a and b != b)
+    return True  # functions, modules: objects we do not copy
+
+
+@pytest.mark.parametrize("what, call, error, phrase", CASES, ids=[c[0] for c in CASES])
+def test_bad_input_is_named_and_changes_nothing(earlier, what, call, error, phrase):
+    est = copy.deepcopy(earlier.est).set_params(**call.params)
+    X, y = _data()
+    X_before, y_before = X.copy(), y.copy()
+    params_before = copy.deepcopy(call.params)
+    with pytest.raises(error) as info:
+        call.run(est, X, y)
+    assert phrase in str(info.value), f"{what}: {info.value}"
+    # the user's arrays, and the parameter objects they passed, are unchanged
+    np.testing.assert_array_equal(X, X_before)
+    np.testing.assert_array_equal(y, y_before)
+    assert _same(params_before, call.params)
+    # the earlier fit is whole
+    assert est.theta_ == earlier.theta
+    assert est.n_features_in_ == earlier.n_features
+    np.testing.assert_array_equal(est.predict(earlier.X), earlier.pred)
+
+
+def test_table_size():
+    """The closing note quotes this count; keep it in step with CASES."""
+    assert len(CASES) == 41
+
+
+def test_data_home_that_is_a_file(tmp_path, monkeypatch):
+    file = tmp_path / "data.csv"
+    file.write_text("x\n")
+    with pytest.raises(NotADirectoryError, match="data_home points at .*which is a file"):
+        get_data_home(file)
+    monkeypatch.setenv("SKLEARN_HYBRID_DATA", str(file))
+    with pytest.raises(NotADirectoryError, match="SKLEARN_HYBRID_DATA points at"):
+        get_data_home()
+    assert file.read_text() == "x\n"
+
+
+def test_residual_factory_returning_one_network_twice():
+    X, y = _data()
+    net = torch.nn.Sequential(torch.nn.Linear(2, 2))
+    est = HybridRegressor(science=pendulum_f, **{**FAST, "residual": lambda: net}).fit(X, y)
+    theta = dict(est.theta_)
+    with pytest.raises(ValueError, match="it had returned before; it must build a new network"):
+        est.fit(X, y)
+    assert est.theta_ == theta
+
+
+def test_partial_binds_a_constant():
+    def scaled(v, omega=0.5, k=1.0):
+        return pendulum_f(v, omega) * k
+
+    X, y = _data()
+    est = HybridRegressor(science=functools.partial(scaled, k=2.0), **FAST).fit(X, y)
+    assert set(est.theta_) == {"omega"}
