@@ -82,7 +82,7 @@ def check_fit_memory(setup) -> None:
     if needed > 0.8 * available:
         raise MemoryError(
             f"This fit would need about {needed / _GB:.1f} GB "
-            f"({n_batch} samples of {tuple(setup.y.shape[1:])} values per batch), more than "
+            f"({n_batch} samples of shape {tuple(setup.y_shape)} per batch), more than "
             f"the {available / _GB:.1f} GB this machine has available. "
             + _advice(setup, needed / n_batch, 0.5 * available)
         )

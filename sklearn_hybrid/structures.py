@@ -283,8 +283,10 @@ class OdeStructure:
                 return model.science(*args)
             return model.science(*args) + model.residual(*args)
 
-        if use_residual and _fast.supports(model.residual, self.state_shape, self.solver):
-            # same RK4, gradients without per-stage autograd overhead (see _fast)
+        if (use_residual and torch.is_grad_enabled()
+                and _fast.supports(model.residual, self.state_shape, self.solver)):
+            # same RK4, gradients without per-stage autograd overhead (see _fast); without
+            # gradients (predict) the plain loop is faster, as nothing is kept for a backward
             states = _fast.hybrid_states(model.science, model.residual, x0, u_fine,
                                          self.n_steps, self.dt, self.n_substeps)
         else:

@@ -46,7 +46,7 @@ def in_place(v, omega=0.5):  # degrees to radians, in place
 
 def through_numpy(v, omega=0.5):  # theta's gradient is cut
     out = pendulum_f(v, omega).detach().numpy()
-    return torch.as_tensor(out * float(omega))
+    return torch.as_tensor(out * omega.detach().numpy())
 
 
 def numpy_on_tensor(v, omega=0.5):

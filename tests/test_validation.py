@@ -252,3 +252,15 @@ def test_fast_path_switch_is_per_thread():
     release.set()
     thread.join()
     assert seen["while other thread disabled it"] and _fast.supports(mlp, (2,), "rk4")
+
+
+def test_failed_refit_of_a_sweep_keeps_the_earlier_sweep(data):
+    from sklearn_hybrid import HybridRegressorCV
+
+    cv = HybridRegressorCV(HybridRegressor(science=pendulum_f, method="erm", **FAST),
+                           seeds=[0, 1], validation_fraction=0.5).fit(*data)
+    theta, pred = dict(cv.theta_), cv.predict(data[0])
+    with pytest.raises(ValueError, match=r"state shape \(3,\) from X"):
+        cv.fit(np.c_[data[0], data[0][:, :1]], data[1])
+    assert cv.n_features_in_ == 2 and cv.theta_ == theta
+    np.testing.assert_array_equal(cv.predict(data[0]), pred)
