@@ -18,12 +18,13 @@ __all__ = ["fit_memory_bytes", "available_memory_bytes", "check_fit_memory",
 
 _GB = 1024 ** 3
 #: Peak memory of a fit over the bytes autograd saves for its backward pass, measured on the
-#: pendulum task (500 and 100 trajectories x 200 steps, fast RK4 path): 2.1 and 2.2.
+#: pendulum task (500 and 100 trajectories x 200 steps, fast RK4 path, peak resident memory
+#: less the ~0.6 GB of the interpreter and libraries): 2.1 and 2.2.
 _PEAK_OVER_SAVED = 2.2
 
 
 def fit_memory_bytes(model, inputs: tuple[torch.Tensor, ...], n_batch: int) -> int:
-    """Bytes kept for the backward pass when training on ``n_batch`` samples.
+    """Estimated peak bytes of training on batches of ``n_batch`` samples.
 
     Measured, not modelled: one forward pass on two samples through plain
     autograd records the storage of every tensor saved for the backward

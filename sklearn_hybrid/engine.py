@@ -17,6 +17,8 @@ import numpy as np
 import torch
 from torch import nn
 
+from . import _fast
+
 __all__ = ["TrainConfig", "train", "DivergenceError", "data_loss", "make_optimizer",
            "explain_nonfinite"]
 
@@ -110,23 +112,19 @@ def explain_nonfinite(model: nn.Module, inputs: tuple[torch.Tensor, ...]) -> str
         theta; None if the science stays finite there (the network or the
         optimiser produced the non-finite values).
     """
-    from . import _fast  # the fast path calls the science function directly; bypass it
-
     def check(module, args, out):
         if all(torch.isfinite(a).all() for a in args) and not torch.isfinite(out).all():
             raise _ScienceNotFinite(args, out)
 
     hook = model.science.register_forward_hook(check)
     try:
-        with torch.no_grad(), _fast.disabled():
+        with torch.no_grad(), _fast.disabled():  # the fast path calls science.func directly
             model(*inputs)
     except _ScienceNotFinite as found:
         bad = ~torch.isfinite(found.out).reshape(len(found.out), -1).all(dim=1)
         row = int(bad.nonzero()[0])
-        func = model.science.func
-        name = getattr(func, "__name__", type(func).__name__)
         values = ", ".join(f"{n}={a[row].tolist()}" for n, a in zip(model.science.inputs, found.args))
-        return (f"The science function {name!r} returned {found.out[row].tolist()} for {values} "
+        return (f"The science function {model.science.name!r} returned {found.out[row].tolist()} for {values} "
                 f"({int(bad.sum())} of {len(bad)} rows of that call non-finite; theta "
                 f"{model.science.as_dict()}). Make it finite over the range the data and the "
                 "model visit (guard its domain, or bound theta with theta_bounds).")

@@ -199,6 +199,11 @@ class ScienceModel(nn.Module):
             )
         return low.copy(), high.copy()
 
+    @property
+    def name(self) -> str:
+        """The science function's name, for messages."""
+        return getattr(self.func, "__name__", type(self.func).__name__)
+
     def values(self) -> dict[str, torch.Tensor]:
         """Current parameter values (differentiable), keyed by name."""
         return {name: self.transforms[name](self.raw[name]) for name in self.names}

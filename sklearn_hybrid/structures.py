@@ -56,11 +56,6 @@ def probe_batch(inputs, avoid) -> tuple:
     return tuple(t[rows] for t in inputs)
 
 
-def _science_name(science) -> str:
-    func = getattr(science, "func", science)
-    return getattr(func, "__name__", type(func).__name__)
-
-
 def _call_science(science, args, expected_shape, what, differentiable=False):
     """Run the science function on a probe batch and check what it returns.
 
@@ -71,7 +66,7 @@ def _call_science(science, args, expected_shape, what, differentiable=False):
     ``differentiable`` the inputs require a gradient, as ODE states do in
     training, so that numpy calls on them fail here rather than later.
     """
-    name = _science_name(science)
+    name = science.name
     before = [a.clone() for a in args]
     if differentiable:  # non-leaf copies: in-place writes reach the mutation check below
         args = tuple(a.clone().requires_grad_() * 1 for a in args)
