@@ -150,8 +150,8 @@ def train_batched(models: list, method, inputs: tuple, y: torch.Tensor, config: 
     residual_names = [n for n in stacked.names if n.startswith("residual.")]
     is_weight = ["weight" in n for n in residual_names] + [False] * (len(perturbed) - len(phi))
     dtype = y.dtype
-    rho_t = torch.as_tensor(rho, dtype=dtype)
-    lam_t = torch.as_tensor(lam, dtype=dtype)
+    rho_t = torch.as_tensor(rho, dtype=dtype, device=y.device)
+    lam_t = torch.as_tensor(lam, dtype=dtype, device=y.device)
 
     optimizer, scheduler = make_optimizer(theta, phi, config)
     batches = [_Batches(len(y), config.batch_size, g) for g in generators]

@@ -14,6 +14,7 @@ from sklearn.metrics import r2_score
 from sklearn.utils import Bunch, check_random_state
 from sklearn.utils.validation import check_is_fitted, validate_data
 
+from ._device import resolve_device
 from ._kernels import reusing_buffers
 from .engine import TrainConfig, explain_nonfinite, train
 from ._memory import check_fit_memory, explained_memory_errors
@@ -131,6 +132,11 @@ class HybridRegressor(RegressorMixin, BaseEstimator):
         Slight L2 decay of the network parameters (never of theta).
     dtype : {"float32", "float64"}, default="float32"
         Floating point type of the computation.
+    device : {"cpu", "cuda", "cuda:N", "auto"} or torch.device, default="cpu"
+        Where fit and predict run: ``"auto"`` takes a CUDA GPU when torch
+        finds one, else the CPU; asking for ``"cuda"`` where there is none is
+        an error.  The fast RK4 path is CPU-only; on a GPU hybrid ODEs train
+        with the plain autograd loop.
     n_threads : int or None, default=1
         torch threads during fit/predict (small models are fastest on one);
         None keeps torch's setting.
@@ -162,6 +168,8 @@ class HybridRegressor(RegressorMixin, BaseEstimator):
         Column names of ``X`` in ``fit``, when it was a DataFrame with string names.
     x_shape_ : tuple
         Per-sample shape of ``X`` in ``fit``, which ``predict`` requires.
+    device_ : torch.device
+        Where the fitted model lives (``device`` resolved).
     """
 
     def __init__(self, science=None, *, structure="ode", residual="mlp", method="fsam",
@@ -169,8 +177,8 @@ class HybridRegressor(RegressorMixin, BaseEstimator):
                  theta_bounds=None, theta_fixed=None, dt=1.0, n_substeps=4, solver="rk4",
                  observed=None, n_inputs=0, input_interp="cubic", lr=1e-3, lr_theta=None,
                  max_iter=2000,
-                 batch_size=None, weight_decay=1e-5, dtype="float32", n_threads=1,
-                 random_state=None, verbose=False):
+                 batch_size=None, weight_decay=1e-5, dtype="float32", device="cpu",
+                 n_threads=1, random_state=None, verbose=False):
         self.science = science
         self.structure = structure
         self.residual = residual
@@ -194,6 +202,7 @@ class HybridRegressor(RegressorMixin, BaseEstimator):
         self.batch_size = batch_size
         self.weight_decay = weight_decay
         self.dtype = dtype
+        self.device = device
         self.n_threads = n_threads
         self.random_state = random_state
         self.verbose = verbose
@@ -267,7 +276,7 @@ class HybridRegressor(RegressorMixin, BaseEstimator):
         # self changes only in _set_fitted: a failed refit leaves the earlier fit whole
         (X, y), features = validate_into_copy(self, X, y, allow_nd=True, multi_output=True,
                                               y_numeric=True, dtype=np.float64)
-        dtype = _DTYPES[self.dtype]
+        dtype, device = _DTYPES[self.dtype], resolve_device(self.device)
         seed = int(check_random_state(self.random_state).randint(np.iinfo(np.int32).max))
         science = ScienceModel(self.science, self.theta_init, self.theta_bounds,
                                self.theta_fixed, dtype=dtype)
@@ -281,12 +290,14 @@ class HybridRegressor(RegressorMixin, BaseEstimator):
                 in_shapes, out_shape = structure.residual_shapes()
                 residual = build_residual(self.residual, in_shapes, out_shape, dtype)
                 reduction = structure.make_reduction(dtype) if method.name == "f-reg" else None
-        model = HybridModule(science, residual, structure, reduction)
+        model = HybridModule(science, residual, structure, reduction).to(device)
+        inputs = tuple(t.to(device) for t in inputs)
         config = TrainConfig(lr=self.lr, lr_theta=self.lr_theta, max_iter=self.max_iter,
                              batch_size=self.batch_size,
                              weight_decay=self.weight_decay, perturb=self.perturb,
                              verbose=self.verbose)
-        setup = Bunch(model=model, method=method, inputs=inputs, y=torch.tensor(y, dtype=dtype),
+        setup = Bunch(model=model, method=method, inputs=inputs,
+                      y=torch.tensor(y, dtype=dtype, device=device),
                       config=config, seed=seed, y_shape=y_shape, x_shape=X.shape[1:],
                       features=features)
         with _torch_threads(self.n_threads):
@@ -300,6 +311,7 @@ class HybridRegressor(RegressorMixin, BaseEstimator):
         self.model_, self.residual_ = model, model.residual
         self.theta_, self.history_ = model.science.as_dict(), history
         self.y_shape_, self.x_shape_ = setup.y_shape, setup.x_shape
+        self.device_ = setup.y.device
         self.n_iter_ = self.max_iter
         set_feature_info(self, setup.features)
 
@@ -311,12 +323,14 @@ class HybridRegressor(RegressorMixin, BaseEstimator):
                 f"X has per-sample shape {X.shape[1:]}; this model was fitted on {self.x_shape_}."
             )
         model = self.model_
-        dtype = next(model.science.parameters()).dtype  # the fitted one, whatever set_params says
+        theta = next(model.science.parameters())  # the fitted dtype and device, whatever
+        dtype, device = theta.dtype, theta.device  # set_params says since
         parts = []
         with _torch_threads(self.n_threads), torch.no_grad():
             # in chunks: memory then grows with the chunk, not with len(X)
             for start in range(0, max(len(X), 1), _PREDICT_CHUNK):
-                inputs = model.structure.tensors(X[start:start + _PREDICT_CHUNK], dtype)
+                inputs = tuple(t.to(device) for t in
+                               model.structure.tensors(X[start:start + _PREDICT_CHUNK], dtype))
                 pred, extras = model.structure.forward(model, *inputs, use_residual=use_residual)
                 if not torch.isfinite(pred).all():
                     bad = (~torch.isfinite(pred.reshape(len(pred), -1)).all(dim=1)).nonzero()

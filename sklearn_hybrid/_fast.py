@@ -76,9 +76,15 @@ def mlp_parts(module: nn.Module):
 
 
 def supports(residual: nn.Module, state_shape: tuple, solver: str) -> bool:
-    """Whether the fast path serves this network, state and solver."""
+    """Whether the fast path serves this network, state and solver.
+
+    CPU only: its kernels are laid out for a CPU's matrix library; on a GPU
+    the plain autograd loop runs (batched products are what a GPU is good at).
+    """
+    parts = mlp_parts(residual)
     return (getattr(_STATE, "enabled", True) and solver == "rk4" and len(state_shape) == 1
-            and state_shape[0] <= MAX_STATE and mlp_parts(residual) is not None)
+            and state_shape[0] <= MAX_STATE and parts is not None
+            and parts[0][0].device.type == "cpu")
 
 
 @dataclass

@@ -45,8 +45,11 @@ def fit_memory_bytes(model, inputs: tuple[torch.Tensor, ...], n_batch: int) -> i
     return int(_PEAK_OVER_SAVED * sum(storages.values()) / len(probe[0]) * n_batch)
 
 
-def available_memory_bytes() -> int | None:
-    """Memory the system can give without swapping (Linux ``MemAvailable``), or None."""
+def available_memory_bytes(device: torch.device | None = None) -> int | None:
+    """Free memory of a GPU, or what the system can give without swapping (Linux
+    ``MemAvailable``); None where it cannot be read."""
+    if device is not None and device.type == "cuda":
+        return torch.cuda.mem_get_info(device)[0]
     try:
         with open("/proc/meminfo") as f:
             for line in f:
@@ -74,7 +77,7 @@ def check_fit_memory(setup) -> None:
         What ``HybridRegressor._setup_fit`` builds (``model``, ``inputs``,
         ``y``, ``config``).
     """
-    available = available_memory_bytes()
+    available = available_memory_bytes(setup.y.device)
     if available is None:
         return
     n = len(setup.y)
@@ -84,7 +87,7 @@ def check_fit_memory(setup) -> None:
         raise MemoryError(
             f"This fit would need about {needed / _GB:.1f} GB "
             f"({n_batch} samples of shape {tuple(setup.y_shape)} per batch), more than "
-            f"the {available / _GB:.1f} GB this machine has available. "
+            f"the {available / _GB:.1f} GB available on {setup.y.device}. "
             + _advice(setup, needed / n_batch, 0.5 * available)
         )
 
@@ -102,6 +105,6 @@ def explained_memory_errors(setup):
         raise MemoryError(
             f"The fit ran out of memory ({text.splitlines()[0]}). "
             + _advice(setup, fit_memory_bytes(setup.model, setup.inputs, 1),
-                      0.5 * (available_memory_bytes() or 0) or 2 * _GB)
+                      0.5 * (available_memory_bytes(setup.y.device) or 0) or 2 * _GB)
             + f" (now {min(setup.config.batch_size or n, n)} samples per batch)"
         ) from exc

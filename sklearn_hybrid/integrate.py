@@ -82,7 +82,7 @@ def _rk4(rhs, x, n_steps, dt, n_substeps, u_fine):
 def _odeint(rhs, x, n_steps, dt, n_substeps, u_fine, method, options):
     import torchdiffeq
 
-    t = torch.arange(n_steps + 1, dtype=x.dtype) * dt
+    t = torch.arange(n_steps + 1, dtype=x.dtype, device=x.device) * dt
     if u_fine is None:
         func = lambda t_, v: rhs(v, None)  # noqa: E731
     else:

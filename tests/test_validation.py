@@ -204,7 +204,7 @@ def test_fit_too_large_for_memory_says_what_to_change(data, monkeypatch):
 
     est = fit(data)
     theta = dict(est.theta_)
-    monkeypatch.setattr(_memory, "available_memory_bytes", lambda: 20_000)
+    monkeypatch.setattr(_memory, "available_memory_bytes", lambda device=None: 20_000)
     with pytest.raises(MemoryError, match=r"would need about .* GB .*batch_size=\d+"):
         est.fit(*data)
     assert est.theta_ == theta

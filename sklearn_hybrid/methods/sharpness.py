@@ -25,7 +25,7 @@ def _member_sum(tensors, n_batch_dims):
 
 
 def _per_member(scale, like, n_batch_dims):
-    scale = torch.as_tensor(scale, dtype=like.dtype)
+    scale = torch.as_tensor(scale, dtype=like.dtype, device=like.device)
     return scale.reshape(scale.shape + (1,) * (like.dim() - scale.dim()))
 
 
