@@ -418,11 +418,14 @@ class CallableStructure(ComposeStructure):
     def trace(self, model, inputs, pred, extras):
         raise ValueError("A user-supplied composition does not say where its network acts.")
 
+    def make_reduction(self, dtype):
+        raise ValueError(self._NO_REDUCTION)
+
     def functional_penalty(self, model, pred, extras):
-        raise ValueError(
-            "method='f-reg' needs a structure that defines a science-only reduction "
-            "('ode', 'compose' or 'additive'); a user-supplied composition has none."
-        )
+        raise ValueError(self._NO_REDUCTION)
+
+    _NO_REDUCTION = ("method='f-reg' needs a structure that defines a science-only reduction "
+                     "('ode', 'compose' or 'additive'); a user-supplied composition has none.")
 
 
 STRUCTURES = {"ode": OdeStructure, "compose": ComposeStructure, "additive": AdditiveStructure}

@@ -178,6 +178,10 @@ CASES = [
     ("n_substeps=True", fit(n_substeps=True), ValueError, "n_substeps must be a positive integer"),
     ("max_iter=0", fit(max_iter=0), ValueError, "max_iter must be a positive integer"),
     ("unknown method", fit(method="sgd"), ValueError, "Unknown method 'sgd'"),
+    ("f-reg with a user composition", fit_on(lambda X, y: (X, X), method="f-reg",
+                                            structure=lambda x, f, g: f(x) + g(x),
+                                            residual=lambda: torch.nn.Linear(2, 2)),
+     ValueError, "method='f-reg' needs a structure that defines a science-only reduction"),
     ("HybridRegressorCV seeds=[0, 1.5]", cv(seeds=[0, 1.5]),
      ValueError, "seeds must hold integers, got 1.5"),
     ("HybridRegressorCV n_jobs=0", cv(n_jobs=0), ValueError, "n_jobs must be a non-zero integer"),
@@ -225,7 +229,7 @@ def test_bad_input_is_named_and_changes_nothing(earlier, what, call, error, phra
 
 def test_table_size():
     """The closing note quotes this count; keep it in step with CASES."""
-    assert len(CASES) == 41
+    assert len(CASES) == 42
 
 
 def test_data_home_that_is_a_file(tmp_path, monkeypatch):
