@@ -16,6 +16,7 @@ from sklearn.utils.validation import check_is_fitted, validate_data
 
 from ._device import resolve_device
 from ._kernels import reusing_buffers
+from . import encoder as _encoder
 from .engine import TrainConfig, explain_nonfinite, train
 from ._memory import check_fit_memory, explained_memory_errors
 from .methods import make_method
@@ -105,6 +106,18 @@ class HybridRegressor(RegressorMixin, BaseEstimator):
         ``name -> (low, high)``, enforced by a smooth reparametrisation.
     theta_fixed : list of str, optional
         Parameters kept at their initial value.
+    theta_encoder : str, dict, callable or None, default=None
+        Theta that varies from sample to sample: an encoder network reads each
+        sample ``X[i]`` and outputs that sample's free parameters, trained
+        jointly (see :mod:`sklearn_hybrid.encoder`): ``"mlp"`` (256x2 ReLU
+        over the flattened window), ``"cnn"`` (conv 288, 144 with batch norm
+        and a dense 256 head, for fields), a dict of options or a factory
+        ``factory(in_shape, n_out) -> torch.nn.Module``.  For ``"ode"``, ``X``
+        then holds input windows ``(n, m_x, *state_shape)`` and the last state
+        of each window is the initial state.  ``theta_bounds`` hold for every
+        sample; ``theta_fixed`` parameters stay shared.  The encoder is part
+        of theta: ``lr_theta``, no weight decay, perturbed by the SAM family
+        only with ``perturb="all"``.
     dt : float, default=1.0
         ``"ode"``: time between consecutive outputs (outputs at ``dt, 2 dt, ...``).
     n_substeps : int, default=4
@@ -151,7 +164,10 @@ class HybridRegressor(RegressorMixin, BaseEstimator):
     Attributes
     ----------
     theta_ : dict
-        Estimated parameters (floats, or arrays for vector parameters).
+        Estimated parameters (floats, or arrays for vector parameters); with a
+        ``theta_encoder``, the mean over the training samples of
+        :meth:`predict_theta` (``history_["theta"]`` then holds the mean over
+        each iteration's batch).
     residual_ : torch.nn.Module
         The trained network g_phi.
     model_ : HybridModule
@@ -174,7 +190,8 @@ class HybridRegressor(RegressorMixin, BaseEstimator):
 
     def __init__(self, science=None, *, structure="ode", residual="mlp", method="fsam",
                  rho=0.05, lam=1e-3, eta=None, perturb="residual", theta_init=None,
-                 theta_bounds=None, theta_fixed=None, dt=1.0, n_substeps=4, solver="rk4",
+                 theta_bounds=None, theta_fixed=None, theta_encoder=None, dt=1.0, n_substeps=4,
+                 solver="rk4",
                  observed=None, n_inputs=0, input_interp="cubic", lr=1e-3, lr_theta=None,
                  max_iter=2000,
                  batch_size=None, weight_decay=1e-5, dtype="float32", device="cpu",
@@ -190,6 +207,7 @@ class HybridRegressor(RegressorMixin, BaseEstimator):
         self.theta_init = theta_init
         self.theta_bounds = theta_bounds
         self.theta_fixed = theta_fixed
+        self.theta_encoder = theta_encoder
         self.dt = dt
         self.n_substeps = n_substeps
         self.solver = solver
@@ -281,17 +299,24 @@ class HybridRegressor(RegressorMixin, BaseEstimator):
         science = ScienceModel(self.science, self.theta_init, self.theta_bounds,
                                self.theta_fixed, dtype=dtype)
         structure = self._make_structure()
-        structure.setup(X, y_shape)
+        X_struct = self._structure_X(X)
+        structure.setup(X_struct, y_shape)
         with _torch_threads(self.n_threads):
-            inputs = structure.tensors(X, dtype)  # copies: the science never sees the caller's X
+            inputs = structure.tensors(X_struct, dtype)  # copies: the science never sees the caller's X
             structure.probe(science, inputs)
             with torch.random.fork_rng(devices=[]):  # seed init without touching global state
                 torch.manual_seed(seed)
                 in_shapes, out_shape = structure.residual_shapes()
                 residual = build_residual(self.residual, in_shapes, out_shape, dtype)
                 reduction = structure.make_reduction(dtype) if method.name == "f-reg" else None
-        model = HybridModule(science, residual, structure, reduction).to(device)
+                encoder = None
+                if self.theta_encoder is not None:
+                    encoder = _encoder.make_theta_encoder(self.theta_encoder, science, X.shape[1:], dtype)
+                    inputs = inputs + (torch.tensor(X, dtype=dtype),)  # the window comes last
+        model = HybridModule(science, residual, structure, reduction, encoder).to(device)
         inputs = tuple(t.to(device) for t in inputs)
+        if encoder is not None:
+            _encoder.probe_per_sample(model, inputs)
         config = TrainConfig(lr=self.lr, lr_theta=self.lr_theta, max_iter=self.max_iter,
                              batch_size=self.batch_size,
                              weight_decay=self.weight_decay, perturb=self.perturb,
@@ -304,12 +329,36 @@ class HybridRegressor(RegressorMixin, BaseEstimator):
             check_fit_memory(setup)
         return setup
 
+    def _structure_X(self, X):
+        """What the structure reads of ``X`` (the last state of each window with an encoder)."""
+        if self.theta_encoder is None:
+            return X
+        if self.n_inputs:
+            raise ValueError("theta_encoder does not support forced ODEs (n_inputs > 0) yet.")
+        return _encoder.split_window(self.structure, X)
+
+    def _inputs(self, X, dtype, device):
+        """Model inputs of validated ``X``: the structure's tensors, then the encoder's window."""
+        model = self.model_
+        inputs = model.structure.tensors(self._structure_X(X), dtype)
+        if model.encoder is not None:
+            inputs = inputs + (torch.tensor(X, dtype=dtype),)
+        return tuple(t.to(device) for t in inputs)
+
     def _set_fitted(self, setup, history):
-        """Store a trained model as this estimator's fitted state."""
+        """Store a trained model as this estimator's fitted state.
+
+        With a theta encoder, ``theta_`` is the mean of the per-sample theta
+        over the training inputs ``setup.inputs``.
+        """
         model = setup.model
         model.eval()
         self.model_, self.residual_ = model, model.residual
         self.theta_, self.history_ = model.science.as_dict(), history
+        if model.encoder is not None:
+            with _torch_threads(self.n_threads), torch.no_grad():
+                window = setup.inputs[-1]
+                self.theta_.update(_encoder.summarize(model.encoder(window, model.science)))
         self.y_shape_, self.x_shape_ = setup.y_shape, setup.x_shape
         self.device_ = setup.y.device
         self.n_iter_ = self.max_iter
@@ -329,9 +378,8 @@ class HybridRegressor(RegressorMixin, BaseEstimator):
         with _torch_threads(self.n_threads), torch.no_grad():
             # in chunks: memory then grows with the chunk, not with len(X)
             for start in range(0, max(len(X), 1), _PREDICT_CHUNK):
-                inputs = tuple(t.to(device) for t in
-                               model.structure.tensors(X[start:start + _PREDICT_CHUNK], dtype))
-                pred, extras = model.structure.forward(model, *inputs, use_residual=use_residual)
+                inputs = self._inputs(X[start:start + _PREDICT_CHUNK], dtype, device)
+                pred, extras = model(*inputs, use_residual=use_residual)
                 if not torch.isfinite(pred).all():
                     bad = (~torch.isfinite(pred.reshape(len(pred), -1)).all(dim=1)).nonzero()
                     raise ValueError(
@@ -341,7 +389,7 @@ class HybridRegressor(RegressorMixin, BaseEstimator):
                            "The science function stays finite there: the network or the "
                            "integration blew up (X far outside the training data?).")
                     )
-                parts.append(model.structure.trace(model, inputs, pred, extras) if trace else pred)
+                parts.append(model.trace(inputs, pred, extras) if trace else pred)
         if trace:
             return {k: None if parts[0][k] is None else torch.cat([p[k] for p in parts])
                     for k in parts[0]}
@@ -362,10 +410,44 @@ class HybridRegressor(RegressorMixin, BaseEstimator):
         """
         return self._forward(X)
 
+    def predict_theta(self, X) -> dict:
+        """Each sample's parameters theta.
+
+        Parameters
+        ----------
+        X : array-like of shape (n_samples, ...)
+            Inputs, shaped as in ``fit`` (windows with a ``theta_encoder``).
+
+        Returns
+        -------
+        dict of str to ndarray
+            ``name -> (n_samples, *shape)``: the encoder's output with a
+            ``theta_encoder`` (fixed parameters repeated), ``theta_`` repeated
+            for every sample otherwise.
+        """
+        check_is_fitted(self)
+        X = validate_data(self, X, reset=False, allow_nd=True, dtype=np.float64)
+        if X.shape[1:] != self.x_shape_:
+            raise ValueError(
+                f"X has per-sample shape {X.shape[1:]}; this model was fitted on {self.x_shape_}."
+            )
+        model, n = self.model_, len(X)
+        per_sample = {}
+        if model.encoder is not None:
+            fitted = next(model.science.parameters())  # the fitted dtype and device
+            with _torch_threads(self.n_threads), torch.no_grad():
+                window = torch.tensor(X, dtype=fitted.dtype, device=fitted.device)
+                theta = model.encoder(window, model.science)
+                per_sample = {k: v.cpu().numpy().astype(np.float64) for k, v in theta.items()}
+        return {name: per_sample[name] if name in per_sample
+                else np.repeat(np.asarray(value, dtype=np.float64)[None], n, axis=0)
+                for name, value in self.theta_.items()}
+
     def predict_science(self, X):
         """Predict with the science part alone (fitted theta, network switched off).
 
-        For ``"ode"`` the science model is integrated without g_phi; for
+        With a ``theta_encoder`` each sample uses its own theta (see
+        :meth:`predict_theta`).  For ``"ode"`` the science model is integrated without g_phi; for
         ``"additive"`` it is f_theta(x); for ``"compose"`` it is f_theta(x)
         (or A f_theta(x) after ``method="f-reg"``) where that has y's shape.
 

@@ -189,7 +189,7 @@ def train(model: nn.Module, method, inputs: tuple[torch.Tensor, ...], y: torch.T
     DivergenceError
         If the loss or a parameter becomes NaN or infinite.
     """
-    theta = [p for p in model.science.parameters() if p.requires_grad]
+    theta = model.theta_parameters()  # with a theta encoder: its weights
     phi = list(model.residual.parameters())
     extra = [] if model.reduction is None else list(model.reduction.parameters())
     params = theta + phi + extra
@@ -235,7 +235,7 @@ def train(model: nn.Module, method, inputs: tuple[torch.Tensor, ...], y: torch.T
         scheduler.step()
         losses[it] = loss_value
         with torch.no_grad():
-            for n, v in model.science.values().items():
+            for n, v in model.theta_values().items():
                 thetas[n][it] = v.cpu().numpy()
         if config.verbose and (it % 25 == 0 or it == config.max_iter - 1):
             bar.set_postfix(loss=f"{loss_value:.3g}", **{

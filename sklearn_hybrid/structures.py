@@ -31,18 +31,51 @@ __all__ = ["HybridModule", "make_structure", "STRUCTURES", "pack_inputs"]
 
 
 class HybridModule(nn.Module):
-    """Science part, network and structure in one module (what training updates)."""
+    """Science part, network and structure in one module (what training updates).
+
+    With a theta ``encoder`` (see :mod:`sklearn_hybrid.encoder`) the last
+    input is the encoder's window: each sample's theta is inferred from it and
+    the structure runs on the other inputs with that theta bound.
+    """
 
     def __init__(self, science: nn.Module, residual: nn.Module, structure,
-                 reduction: nn.Module | None = None):
+                 reduction: nn.Module | None = None, encoder: nn.Module | None = None):
         super().__init__()
         self.science = science
         self.residual = residual
         self.reduction = reduction
         self.structure = structure
+        self.encoder = encoder
 
-    def forward(self, *inputs: torch.Tensor):
-        return self.structure.forward(self, *inputs)
+    def bind(self, inputs):
+        """The model the structure sees and the structure's inputs (per-sample theta bound)."""
+        if self.encoder is None:
+            return self, inputs
+        from .encoder import BoundModel
+
+        *inputs, window = inputs
+        return BoundModel(self, self.encoder(window, self.science)), tuple(inputs)
+
+    def forward(self, *inputs: torch.Tensor, use_residual: bool = True):
+        model, inputs = self.bind(inputs)
+        return self.structure.forward(model, *inputs, use_residual=use_residual)
+
+    def trace(self, inputs, pred, extras):
+        """Where the network acts and what it contributes (see ``HybridRegressor.residual_trace``)."""
+        model, inputs = self.bind(inputs)
+        return self.structure.trace(model, inputs, pred, extras)
+
+    def theta_parameters(self) -> list:
+        """Trainable tensors of theta: free science parameters, or the encoder's weights."""
+        own = [p for p in self.science.parameters() if p.requires_grad]
+        return own + ([] if self.encoder is None else list(self.encoder.parameters()))
+
+    def theta_values(self) -> dict:
+        """Current theta; with an encoder, the batch mean of its last forward pass."""
+        values = self.science.values()
+        if self.encoder is not None and self.encoder.last_mean is not None:
+            values.update(self.encoder.last_mean)
+        return values
 
 
 def probe_batch(inputs, avoid) -> tuple:
@@ -278,7 +311,8 @@ class OdeStructure:
                 return model.science(*args)
             return model.science(*args) + model.residual(*args)
 
-        if (use_residual and torch.is_grad_enabled()
+        # the fast RK4 assumes one theta shared by every sample (not so with a theta encoder)
+        if (use_residual and torch.is_grad_enabled() and not getattr(model, "per_sample_theta", False)
                 and _fast.supports(model.residual, self.state_shape, self.solver)):
             # same RK4, gradients without per-stage autograd overhead (see _fast); without
             # gradients (predict) the plain loop is faster, as nothing is kept for a backward
