@@ -16,7 +16,7 @@ from sklearn.utils.validation import check_is_fitted
 from ._batched import BATCHABLE_METHODS, train_batched
 from ._estimator import HybridRegressor, _torch_threads, set_feature_info, validate_into_copy
 from ._kernels import reusing_buffers
-from .engine import DivergenceError
+from .engine import DivergenceError, train
 
 __all__ = ["HybridRegressorCV"]
 
@@ -44,6 +44,23 @@ def _train_group(models, method, inputs, y, config, seeds, rho, lam, n_threads):
         history = train_batched(models, method, inputs, y, config,
                                 [torch.Generator().manual_seed(s) for s in seeds], rho=rho, lam=lam)
     return history, models
+
+
+def _train_member(model, method, inputs, y, config, seed, n_threads):
+    """Train one member as a separate fit would (members with a theta encoder).
+
+    Returns its history in the stacked format (a diverged member: NaN, and
+    ``diverged_at`` 0 since a single fit does not report where it diverged).
+    """
+    with _torch_threads(n_threads), reusing_buffers():
+        try:
+            history = train(model, method, inputs, y, config, torch.Generator().manual_seed(seed))
+            history["diverged_at"] = -1
+        except DivergenceError:
+            shapes = model.science.shapes
+            history = {"loss": np.full(config.max_iter, np.nan), "diverged_at": 0,
+                       "theta": {n: np.full((config.max_iter, *shapes[n]), np.nan) for n in shapes}}
+    return history, model
 
 
 class HybridRegressorCV(RegressorMixin, BaseEstimator):
@@ -85,6 +102,15 @@ class HybridRegressorCV(RegressorMixin, BaseEstimator):
         operations; the science function must then be picklable (a
         module-level function, or anything cloudpickle handles).  Negative
         values follow joblib: -1 gives one group per core.
+
+    Notes
+    -----
+    With a ``theta_encoder`` (theta varying per sample) the members are
+    trained one by one (in ``n_jobs`` worker processes), not stacked: the
+    stacked model would have to vectorise the per-sample science calls over
+    members too.  Each member's update is still that of a separate fit;
+    ``theta_`` and ``theta_std_`` then describe the members' ``theta_`` (the
+    mean of the per-sample theta over the training samples).
 
     Attributes
     ----------
@@ -227,6 +253,18 @@ class HybridRegressorCV(RegressorMixin, BaseEstimator):
         n_jobs = self._n_groups()
         groups = [g for g in np.array_split(np.arange(len(setups)), n_jobs) if len(g)]
         threads = self.estimator.n_threads if len(groups) == 1 else 1
+        if self.estimator.theta_encoder is not None:  # member by member (see Notes)
+            parts = Parallel(n_jobs=min(n_jobs, len(setups)))(
+                delayed(_train_member)(s.model, s.method, s.inputs, s.y, s.config, s.seed,
+                                       self.estimator.n_threads if n_jobs == 1 else 1)
+                for s in setups)
+            for setup, (_, model) in zip(setups, parts):
+                setup.model = model
+            histories = [h for h, _ in parts]
+            return {"loss": np.stack([h["loss"] for h in histories], axis=1),
+                    "theta": {n: np.stack([h["theta"][n] for h in histories], axis=1)
+                              for n in histories[0]["theta"]},
+                    "diverged_at": np.array([h["diverged_at"] for h in histories])}
         parts = Parallel(n_jobs=len(groups))(
             delayed(_train_group)([setups[k].model for k in group], first.method, first.inputs,
                                   first.y, first.config, [setups[k].seed for k in group],
@@ -263,6 +301,11 @@ class HybridRegressorCV(RegressorMixin, BaseEstimator):
         """
         check_is_fitted(self)
         return self.best_estimator_.predict(X)
+
+    def predict_theta(self, X):
+        """Each sample's theta according to the best member (see ``HybridRegressor.predict_theta``)."""
+        check_is_fitted(self)
+        return self.best_estimator_.predict_theta(X)
 
     def score(self, X, y, sample_weight=None):
         """R^2 of the best member (targets flattened per sample)."""

@@ -8,7 +8,8 @@ import numpy as np
 from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.metrics import get_scorer
 
-__all__ = ["theta_error", "make_theta_scorer", "ThetaScorer", "make_flat_scorer", "FlatScorer"]
+__all__ = ["theta_error", "make_theta_scorer", "ThetaScorer", "make_flat_scorer", "FlatScorer",
+           "make_per_sample_theta_scorer", "PerSampleThetaScorer"]
 
 _METRICS = ("rmse", "cosine")
 
@@ -143,3 +144,72 @@ def make_flat_scorer(scoring) -> FlatScorer:
     make_flat_scorer('neg_mean_squared_error')
     """
     return FlatScorer(scoring)
+
+
+class PerSampleThetaScorer:
+    """Scorer comparing ``estimator.predict_theta(X)`` with each sample's reference theta.
+
+    The reference of a sample is found by its row of ``X`` (exact match of
+    the float64 values), so the scorer works on whatever subset a
+    cross-validation split hands it.  Greater is better: minus the RMSE over
+    all samples and entries, or the cosine similarity of the stacked vectors.
+    """
+
+    def __init__(self, X, theta_true: Mapping, metric: str = "rmse"):
+        if metric not in _METRICS:
+            raise ValueError(f"Unknown metric {metric!r}; choose one of {_METRICS}.")
+        X = np.asarray(X, dtype=float)
+        if X.ndim < 1 or len(X) == 0:
+            raise ValueError("X must hold at least one sample.")
+        self.theta_true = {}
+        for name, values in dict(theta_true).items():
+            values = np.asarray(values, dtype=float)
+            if values.ndim == 0 or len(values) != len(X):
+                raise ValueError(
+                    f"theta_true[{name!r}] must hold one value per sample of X ({len(X)}), "
+                    f"got shape {values.shape}."
+                )
+            self.theta_true[name] = values
+        self.metric = metric
+        self._rows = {row.tobytes(): i for i, row in enumerate(X.reshape(len(X), -1))}
+
+    def __call__(self, estimator, X, y=None) -> float:
+        X = np.asarray(X, dtype=float)
+        idx = [self._rows.get(row.tobytes()) for row in X.reshape(len(X), -1)]
+        missing = sum(i is None for i in idx)
+        if missing:
+            raise ValueError(
+                f"{missing} of the {len(X)} samples to score are not rows of the X given to "
+                "make_per_sample_theta_scorer, so their reference theta is unknown."
+            )
+        theta = estimator.predict_theta(X)
+        truth = {name: values[idx] for name, values in self.theta_true.items()}
+        error = theta_error(theta, truth, self.metric)
+        return -error if self.metric == "rmse" else error
+
+    def __repr__(self) -> str:
+        return (f"make_per_sample_theta_scorer(X of {len(self._rows)} rows, "
+                f"{sorted(self.theta_true)}, metric={self.metric!r})")
+
+
+def make_per_sample_theta_scorer(X, theta_true: Mapping, metric: str = "rmse") -> PerSampleThetaScorer:
+    """Make a scorer of per-sample theta (``theta_encoder``) for ``GridSearchCV`` and friends.
+
+    Parameters
+    ----------
+    X : array-like of shape (n_samples, ...)
+        The samples that will be scored (e.g. the whole ``X`` given to
+        ``GridSearchCV.fit``); each sample's reference is looked up by its row.
+    theta_true : dict
+        ``name -> (n_samples, ...)`` reference values, in the order of ``X``
+        (e.g. ``data.theta_train`` of the varying-parameter generators).
+    metric : {"rmse", "cosine"}
+        See :func:`theta_error`.
+
+    Returns
+    -------
+    PerSampleThetaScorer
+        A picklable callable ``scorer(estimator, X, y) -> float`` (greater is
+        better) that calls ``estimator.predict_theta(X)``.
+    """
+    return PerSampleThetaScorer(X, theta_true, metric)
