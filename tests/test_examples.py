@@ -11,7 +11,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 TASKS = ["pendulum", "duffing", "reaction_diffusion", "pendulum_images", "wind_tunnel",
-         "light_tunnel"]
+         "light_tunnel", "varying_theta"]
 
 
 def test_gallery_has_one_example_per_task():
