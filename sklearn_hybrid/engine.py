@@ -196,6 +196,9 @@ def train(model: nn.Module, method, inputs: tuple[torch.Tensor, ...], y: torch.T
     perturbed = phi + theta if config.perturb == "all" else phi
     n_perturbed = len(perturbed)
     is_weight = ["weight" in name for name, _ in model.residual.named_parameters()]
+    if config.perturb == "all" and model.encoder is not None:  # ASAM scales the encoder's weights too
+        encoder = list(model.encoder.named_parameters())
+        is_weight += [False] * (len(theta) - len(encoder)) + ["weight" in n for n, _ in encoder]
     is_weight += [False] * (n_perturbed - len(is_weight))
 
     optimizer, scheduler = make_optimizer(theta, phi + extra, config)

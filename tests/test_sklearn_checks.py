@@ -18,6 +18,10 @@ ESTIMATORS = [
                     residual={"hidden": (16,)}),
     HybridRegressor(science=scaled_mean, structure="additive", method="erm", max_iter=20,
                     random_state=0, residual={"hidden": (16,)}, dtype="float64"),
+    # theta varying per sample: the encoder reads each row of X
+    HybridRegressor(science=scaled_mean, structure="additive", method="erm", max_iter=20,
+                    random_state=0, residual={"hidden": (16,)}, dtype="float64",
+                    theta_encoder={"hidden": (8,)}),
 ]
 
 
