@@ -199,6 +199,7 @@ def main() -> None:
         if args.budget_s is not None and time.perf_counter() - start > args.budget_s:
             break
         row = run(*job)
+        path.parent.mkdir(parents=True, exist_ok=True)  # survives the folder vanishing meanwhile
         path.write_text(json.dumps(row))
         print(f"{job}: theta RMSE {row['theta_rmse']:.4g}, y RMSE {row['y_rmse']:.4g} "
               f"({row['seconds']:.0f} s)", flush=True)
