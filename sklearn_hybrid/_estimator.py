@@ -446,10 +446,11 @@ class HybridRegressor(RegressorMixin, BaseEstimator):
     def predict_science(self, X):
         """Predict with the science part alone (fitted theta, network switched off).
 
-        With a ``theta_encoder`` each sample uses its own theta (see
-        :meth:`predict_theta`).  For ``"ode"`` the science model is integrated without g_phi; for
+        For ``"ode"`` the science model is integrated without g_phi; for
         ``"additive"`` it is f_theta(x); for ``"compose"`` it is f_theta(x)
         (or A f_theta(x) after ``method="f-reg"``) where that has y's shape.
+        With a ``theta_encoder`` each sample uses its own theta (see
+        :meth:`predict_theta`).
 
         Parameters
         ----------
