@@ -171,7 +171,11 @@ def _markdown(rows: list[dict], pending: list[tuple]) -> str:
     for r in rows:
         groups.setdefault((r["task"], r["method"], r["perturb"]), []).append(r)
     order = list(PAPER)
-    for (task, method, perturb), rs in sorted(groups.items(), key=lambda kv: (order.index(kv[0][0]), kv[0][1], kv[0][2] != "residual")):
+    def key(item):
+        task, method, perturb = item[0]
+        return order.index(task), method, perturb != "residual"
+
+    for (task, method, perturb), rs in sorted(groups.items(), key=key):
         rs = sorted(rs, key=lambda r: r["seed"])
         rmse = [r["theta_rmse"] for r in rs]
         corr = "; ".join(", ".join(f"{n} {c:.2f}" for n, c in r["theta_corr"].items()) for r in rs)
