@@ -148,8 +148,9 @@ def _scatter(rows: list[dict], path: Path) -> None:
                              fontsize=8)
                 if len(r["true"]) > 1:
                     ax.legend(fontsize=7)
-            ax.set_xlabel("true theta")
-            ax.set_ylabel("inferred theta")
+            names = " and ".join(next(r for r in first if r["task"] == task)["true"])
+            ax.set_xlabel(f"true {names}")
+            ax.set_ylabel(f"inferred {names}")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
