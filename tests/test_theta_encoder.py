@@ -276,3 +276,16 @@ def test_hybrid_regressor_cv_trains_members_one_by_one(decay):
     alone.fit(X[train_idx], y[train_idx])
     np.testing.assert_allclose(member.predict_theta(X)["k"], alone.predict_theta(X)["k"], rtol=1e-5)
     assert set(cv.theta_std_) == {"k"}
+
+
+def test_closed_loop_refits_with_the_encoder(decay):
+    """close_the_loop reads residual_trace and predict_science; the added terms are per sample too."""
+    from sklearn_hybrid.diagnosis import close_the_loop
+
+    X, y, _ = decay
+    result = close_the_loop(HybridRegressor(science=decay_columns_f, **{**FAST, "max_iter": 30}),
+                            X, y, X, y, state_names=["v"], refit_params={"max_iter": 5})
+    assert "| before |" in result.report and result.after is not None
+    theta = result.after.predict_theta(X)  # the added terms' coefficients, per sample
+    assert set(theta) > {"k"} and all(v.shape == (len(X),) for v in theta.values())
+    assert result.after.predict_science(X).shape == y.shape
