@@ -153,6 +153,7 @@ def test_unfitted_and_bad_specs(decay):
         HybridRegressor(science=decay_f, n_inputs=1, **FAST).fit(X, y)
 
 
+@pytest.mark.filterwarnings("ignore:Converting a tensor with requires_grad")
 def test_science_that_cannot_run_per_sample(decay):
     X, y, _ = decay
 
