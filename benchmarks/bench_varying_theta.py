@@ -161,9 +161,10 @@ def _markdown(rows: list[dict], pending: list[tuple]) -> str:
              "RMSE of `predict_theta(X_test)` against the per-sample truth on the test split, at the end of "
              "training (no model selection; the paper reports the best theta-error model).", "",
              "**Reduced protocol** (the paper: 20,000 full-batch iterations, Adam lr 1e-4 cosine to 1e-6; "
-             "CNN encoder 288/144 + dense 256 on 32 x 32 fields, 100/100/100 samples). Here: Adam with cosine "
-             "annealing, full batch, float32, one torch thread, theta encoder at theta's learning rate "
-             "(= lr), no weight decay:", ""]
+             "CNN encoder 288/144 + dense 256 on 32 x 32 fields; its appendix does not give sample sizes, its "
+             "main tasks use 25 pendulum and 100 Duffing / reaction-diffusion training samples). Here: Adam "
+             "with cosine annealing, full batch, float32, one torch thread, theta encoder at theta's learning "
+             "rate (= lr), no weight decay:", ""]
     lines += [f"- **{t}**: " + ", ".join(f"{k}={v}" for k, v in p.items()) for t, p in PROTOCOL.items()]
     lines += ["", "| task | method | perturb | seeds | theta RMSE (mean over seeds) | per seed | paper | "
               "constant guess | theta RMSE on train | corr(inferred, true) | y RMSE (test) | s per run |",
@@ -190,6 +191,8 @@ def _markdown(rows: list[dict], pending: list[tuple]) -> str:
         lines.append(f"| {task} | {method} | {perturb} | {[r['seed'] for r in rs]} | {np.mean(rmse):.4g} | "
                      f"{', '.join(f'{v:.4g}' for v in rmse)} | {paper} | {constant:.3g} | {train} | {corr} | "
                      f"{np.mean([r['y_rmse'] for r in rs]):.4g} | {np.mean([r['seconds'] for r in rs]):.0f} |")
+    total = sum(r["seconds"] for r in rows)
+    lines += ["", f"{len(rows)} runs, {total / 60:.0f} min of training in all."]
     if pending:
         lines += ["", "Not run (budget): " + ", ".join(f"{t} {m} perturb={p} seed {s}" for t, m, p, s in pending)]
     lines += ["", "*constant guess*: RMSE of predicting every test sample's theta by the mean of the true test "
