@@ -333,7 +333,7 @@ def probe_per_sample(model: nn.Module, inputs: tuple) -> None:
         with torch.no_grad():
             model(*probe)
             theta = model.encoder(window, model.science)
-            spread = torch.tensor([0.8, 1.2], dtype=window.dtype)[:len(window)]
+            spread = torch.tensor([0.8, 1.2], dtype=window.dtype, device=window.device)[:len(window)]
             theta = {k: v * spread.reshape(-1, *([1] * (v.dim() - 1))) + 0.01 * (spread - 1).reshape(
                 -1, *([1] * (v.dim() - 1))) for k, v in theta.items()}
             structure = model.structure
