@@ -40,8 +40,15 @@ def fit_memory_bytes(model, inputs: tuple[torch.Tensor, ...], n_batch: int) -> i
         storages[storage.data_ptr()] = storage.nbytes()
         return t
 
-    with torch.autograd.graph.saved_tensors_hooks(pack, lambda t: t), _fast.disabled():
-        model(*probe)
+    buffers = list(model.buffers())  # batch-norm running statistics: the probe must not move them
+    saved = [b.clone() for b in buffers]
+    try:
+        with torch.autograd.graph.saved_tensors_hooks(pack, lambda t: t), _fast.disabled():
+            model(*probe)
+    finally:
+        with torch.no_grad():
+            for b, s in zip(buffers, saved):
+                b.copy_(s)
     return int(_PEAK_OVER_SAVED * sum(storages.values()) / len(probe[0]) * n_batch)
 
 

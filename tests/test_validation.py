@@ -264,3 +264,18 @@ def test_failed_refit_of_a_sweep_keeps_the_earlier_sweep(data):
         cv.fit(np.c_[data[0], data[0][:, :1]], data[1])
     assert cv.n_features_in_ == 2 and cv.theta_ == theta
     np.testing.assert_array_equal(cv.predict(data[0]), pred)
+
+
+def test_memory_probe_leaves_batch_norm_statistics_alone():
+    from sklearn_hybrid._memory import fit_memory_bytes
+
+    def net(in_shapes, out_shape):
+        return torch.nn.Sequential(torch.nn.Flatten(), torch.nn.BatchNorm1d(2),
+                                   torch.nn.Linear(2, 2))
+
+    X = np.random.default_rng(0).uniform(-1, 1, (4, 2)) + 5  # far from BN's initial mean 0
+    setup = HybridRegressor(**{**FAST, "science": pendulum_f, "structure": "additive",
+                               "residual": net})._setup_fit(X, X)
+    before = [b.clone() for b in setup.model.buffers()]
+    fit_memory_bytes(setup.model, setup.inputs, 4)
+    assert all(torch.equal(a, b) for a, b in zip(before, setup.model.buffers()))
