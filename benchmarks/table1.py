@@ -7,8 +7,12 @@ choosing each method's hyperparameter:
 
 * **oracle** (the paper's): the grid value with the lowest mean theta error *along training*
   ("best"), which needs the true theta;
-* **no oracle** (what a user can do): the grid value with the lowest mean validation error, and
-  theta at the *end* of training.
+* **no oracle** (what a user can do), theta at the *end* of training, two rules: **val**, the
+  grid value with the lowest mean validation error; **1.1 x val**, the strongest regularisation
+  (largest rho or lambda) whose mean validation error is within 10 % of the lowest, after the
+  one-standard-error rule of cross-validation (prediction alone prefers the weakest
+  regularisation, which is what lets the network explain the physics). The second rule was
+  added after the pendulum and Duffing runs had been seen; it uses no true theta.
 
 Protocols (``--budget``):
 
@@ -265,6 +269,10 @@ def summarise(runs: list[dict]) -> list[dict]:
                 for h, rs in by_hyper.items()}
         oracle = min(mean, key=lambda h: mean[h]["theta_error_best"])
         chosen = min(mean, key=lambda h: mean[h]["val_error"])
+        best_val = mean[chosen]["val_error"]
+        strength = {h: json.loads(h).get("rho", json.loads(h).get("lam", 0.0)) for h in mean}
+        ruled = max((h for h in mean if mean[h]["val_error"] <= 1.1 * best_val),
+                    key=strength.get)
         rows.append({
             "protocol": protocol, "task": task, "method": method,
             "seeds": sorted({r["seed"] for r in members}), "grid": len(by_hyper),
@@ -275,6 +283,8 @@ def summarise(runs: list[dict]) -> list[dict]:
             "chosen": _stats([r["theta_error_end"] for r in by_hyper[chosen]]),
             "chosen_drift": float(np.max([r["drift"] for r in by_hyper[chosen]])),
             "chosen_y": _stats([r["y_error_test"] for r in by_hyper[chosen]]),
+            "rule_hyper": json.loads(ruled),
+            "rule": _stats([r["theta_error_end"] for r in by_hyper[ruled]]),
             "seconds": float(np.mean([r["seconds"] for r in members]))})
     return rows
 
@@ -285,32 +295,34 @@ def render(rows: list[dict]) -> str:
              "theta error: RMSE to the true theta (light tunnel: cosine similarity, higher is "
              "better, as in the paper). **oracle**: the grid value with the best mean theta "
              "error along training (the paper's selection; needs the true theta). **no oracle**: "
-             "the grid value with the lowest mean validation RMSE, theta at the end of training "
-             "(what a user gets). drift: the largest relative change of theta over the last 10 % "
+             "theta at the end of training (what a user gets), with the grid value of the lowest "
+             "mean validation RMSE (val), or the strongest regularisation within 10 % of it "
+             "(1.1 x val; see the script's docstring). drift: the largest relative change of theta over the last 10 % "
              "of training among the chosen runs. Mean ± sd over the seeds listed.", "",
              "| protocol | task | data | method | iters | seeds | oracle: theta error | "
-             "no oracle: theta error (end) | chosen | drift | y error (test) | paper |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             "val: theta error (end) | chosen | drift | y error (test) | 1.1 x val: theta error "
+             "(end) | chosen | paper |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         cosine = r["task"] == "light_tunnel"
-        hyper = ", ".join(f"{k}={v}" for k, v in r["chosen_hyper"].items()
-                          if k != "perturb") or "-"
+        hyper, rule = (", ".join(f"{k}={v}" for k, v in h.items() if k != "perturb") or "-"
+                       for h in (r["chosen_hyper"], r["rule_hyper"]))
         paper = PAPER[r["task"]][r["method"]]
         lines.append(
             f"| {r['protocol']} | {r['task']} | {r['source']} | {r['method']} | {r['iters']} | "
             f"{len(r['seeds'])} | {_fmt(*r['oracle'], cosine)} | {_fmt(*r['chosen'], cosine)} | "
             f"{hyper} | {r['chosen_drift']:.2g} | {r['chosen_y'][0]:.3g} | "
-            f"{paper:.3g} |")
+            f"{_fmt(*r['rule'], cosine)} | {rule} | {paper:.3g} |")
     verdicts = []
     for protocol, task in sorted({(r["protocol"], r["task"]) for r in rows}):
-        got = {r["method"]: r["chosen"][0] for r in rows
-               if (r["protocol"], r["task"]) == (protocol, task)}
+        got = {r["method"]: r for r in rows if (r["protocol"], r["task"]) == (protocol, task)}
         if "erm" in got and "fsam" in got:
-            better = got["fsam"] < got["erm"]
             cosine = task == "light_tunnel"
-            verdicts.append(f"- {protocol}, {task}: fsam {'beats' if better else 'does not beat'} "
-                            f"erm without the oracle ({_value(got['fsam'], cosine)} vs "
-                            f"{_value(got['erm'], cosine)}).")
+            said = [f"{'beats' if got['fsam'][k][0] < got['erm'][k][0] else 'does not beat'} erm "
+                    f"by {name} ({_value(got['fsam'][k][0], cosine)} vs "
+                    f"{_value(got['erm'][k][0], cosine)})"
+                    for k, name in (("chosen", "val"), ("rule", "1.1 x val"))]
+            verdicts.append(f"- {protocol}, {task}: fsam {'; '.join(said)}.")
     missing = [f"- {task}, {method}: not run, {why}." for (task, method), why in UNSUPPORTED.items()]
     return "\n".join(lines + ["", *verdicts, "", *missing])
 
