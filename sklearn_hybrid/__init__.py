@@ -2,14 +2,32 @@
 
 The main entry point is :class:`HybridRegressor`; :func:`make_theta_scorer`
 and :func:`theta_error` compare estimated parameters with reference values.
+
+The public names are imported on first use (PEP 562), so that importing the
+package, and the command line's ``--help`` and ``--version``, do not pay for
+importing torch.
 """
 
-from ._cv import HybridRegressorCV
-from ._estimator import HybridRegressor
-from .engine import DivergenceError
-from .metrics import make_flat_scorer, make_per_sample_theta_scorer, make_theta_scorer, theta_error
-from .structures import pack_inputs
+import importlib
+
+__version__ = "0.1.0"
+
+_LAZY = {"HybridRegressor": "._estimator", "HybridRegressorCV": "._cv",
+         "DivergenceError": ".engine", "make_theta_scorer": ".metrics",
+         "make_per_sample_theta_scorer": ".metrics", "make_flat_scorer": ".metrics",
+         "theta_error": ".metrics", "pack_inputs": ".structures"}
 
 __all__ = ["HybridRegressor", "HybridRegressorCV", "DivergenceError", "make_theta_scorer",
            "make_per_sample_theta_scorer", "make_flat_scorer", "theta_error", "pack_inputs"]
-__version__ = "0.1.0"
+
+
+def __getattr__(name):
+    if name in _LAZY:
+        value = getattr(importlib.import_module(_LAZY[name], __name__), name)
+        globals()[name] = value  # later look-ups skip this function
+        return value
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(list(globals()) + __all__)

@@ -288,6 +288,31 @@ class HybridRegressorCV(RegressorMixin, BaseEstimator):
             results[f"theta_{name}"] = np.array([np.asarray(m.theta_[name]) for m in self.estimators_])
         return results
 
+    def fit_report(self) -> str:
+        """A text report: the chosen configuration, and theta with its spread across seeds.
+
+        The uncertainty is the standard deviation of theta across the members
+        that differ only in their seed (``theta_std_``): the spread between
+        training runs, which a single fit's standard error (the best member's
+        ``fit_report()``) does not see.  With one seed it is 0 and the report
+        says so.
+
+        Returns
+        -------
+        str
+        """
+        check_is_fitted(self)
+        best = self.best_estimator_
+        n_seeds = len(_values("seeds", self.seeds, 0, kind=numbers.Integral, positive=False))
+        lines = [f"members: {len(self.estimators_)} (rho x lam x {n_seeds} seed(s)), "
+                 f"{best.max_iter} iterations each",
+                 f"best: {self.best_params_}, score {self.cv_results_['score'][self.best_index_]:.4g}"]
+        how = (f"uncertainty: standard deviation across the {n_seeds} seed(s) of the best "
+               "configuration" + (" (one seed: no spread measured)" if n_seeds < 2 else ""))
+        from ._report import format_report
+
+        return format_report("Hybrid sweep", lines, self.theta_, self.theta_std_, how)
+
     def predict(self, X):
         """Predict with the best member.
 

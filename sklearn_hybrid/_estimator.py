@@ -18,7 +18,9 @@ from ._device import resolve_device
 from ._kernels import reusing_buffers
 from . import encoder as _encoder
 from .engine import TrainConfig, explain_nonfinite, train
+from ._extras import EstimatorExtras, _check_sample_weight, _holdout
 from ._memory import check_fit_memory, explained_memory_errors
+from ._report import theta_uncertainty
 from .methods import make_method
 from .residual import build_residual
 from .science import ScienceModel
@@ -71,7 +73,7 @@ def _check_positive(name, value, integer=False, allow_none=False):
         raise ValueError(f"{name} must be a positive {'integer' if integer else 'number'}, got {value!r}.")
 
 
-class HybridRegressor(RegressorMixin, BaseEstimator):
+class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
     """Hybrid model ``science + neural network`` that estimates the science parameters.
 
     Parameters
@@ -131,14 +133,31 @@ class HybridRegressor(RegressorMixin, BaseEstimator):
         :func:`sklearn_hybrid.structures.pack_inputs`).
     input_interp : {"cubic", "linear", "zoh", "fft"}, default="cubic"
         ``"ode"``: reconstruction of u(t) between samples.
-    lr : float, default=1e-3
-        Initial Adam learning rate, cosine-annealed to 1e-6 over ``max_iter``.
+    lr : float, default=1e-2
+        Initial Adam learning rate, cosine-annealed to 1e-6 over ``max_iter``
+        (with early stopping the fit usually ends while it is still high; on
+        the pendulum task 1e-2 estimates theta better in 600 iterations than
+        1e-3 in 2,000, see ``benchmarks/results/early_stopping.md``).
     lr_theta : float or None, default=None
         Initial learning rate of theta if it should differ from ``lr`` (Adam
         moves each parameter by about its learning rate per step, so a theta
         far from its start or of a different scale may need its own).
     max_iter : int, default=2000
-        Number of optimisation steps.
+        Largest number of optimisation steps (the cosine schedule spans it).
+    tol : float or None, default=1e-3
+        Early stopping: training stops once, over ``n_iter_no_change``
+        iterations, the monitored loss improved by less than ``tol`` times
+        the variance of ``y`` (R^2 improved by less than ``tol``) *and* no
+        component of theta moved by more than ``tol`` relative to
+        ``max(|theta|, 1e-3)``.  The monitored loss is the
+        validation loss with ``validation_fraction``, else the training loss
+        averaged over the window.  None trains for ``max_iter`` steps.
+    n_iter_no_change : int, default=100
+        Window of the early-stopping tests, in iterations.
+    validation_fraction : float or None, default=None
+        Fraction of the samples held out (seeded by ``random_state``) for the
+        early-stopping validation loss; they are then not trained on.  None
+        monitors the training loss.
     batch_size : int or None, default=None
         Mini-batch size; None trains on the full batch.
     weight_decay : float, default=1e-5
@@ -175,7 +194,16 @@ class HybridRegressor(RegressorMixin, BaseEstimator):
     history_ : dict
         ``"loss"`` (per iteration) and ``"theta"`` (name -> values per iteration).
     n_iter_ : int
-        Number of optimisation steps taken.
+        Number of optimisation steps taken (``max_iter`` unless stopped early).
+    stopped_early_ : bool
+        Whether early stopping ended the fit before ``max_iter``.
+    theta_std_ : dict
+        Standard error of each parameter (0 for fixed ones), from the
+        Gauss-Newton approximation of the data loss in theta with the network
+        held fixed (see :meth:`fit_report`); it reflects the noise in the data,
+        not the bias a misspecified science model leaves.
+    theta_cov_ : ndarray of shape (p, p)
+        Covariance of the free parameters, flattened in the order of ``theta_``.
     y_shape_ : tuple
         Per-sample shape of ``y`` in ``fit``, which ``predict`` returns.
     n_features_in_ : int
@@ -192,8 +220,8 @@ class HybridRegressor(RegressorMixin, BaseEstimator):
                  rho=0.05, lam=1e-3, eta=None, perturb="residual", theta_init=None,
                  theta_bounds=None, theta_fixed=None, theta_encoder=None, dt=1.0, n_substeps=4,
                  solver="rk4",
-                 observed=None, n_inputs=0, input_interp="cubic", lr=1e-3, lr_theta=None,
-                 max_iter=2000,
+                 observed=None, n_inputs=0, input_interp="cubic", lr=1e-2, lr_theta=None,
+                 max_iter=2000, tol=1e-3, n_iter_no_change=100, validation_fraction=None,
                  batch_size=None, weight_decay=1e-5, dtype="float32", device="cpu",
                  n_threads=1, random_state=None, verbose=False):
         self.science = science
@@ -217,6 +245,9 @@ class HybridRegressor(RegressorMixin, BaseEstimator):
         self.lr = lr
         self.lr_theta = lr_theta
         self.max_iter = max_iter
+        self.tol = tol
+        self.n_iter_no_change = n_iter_no_change
+        self.validation_fraction = validation_fraction
         self.batch_size = batch_size
         self.weight_decay = weight_decay
         self.dtype = dtype
@@ -237,6 +268,8 @@ class HybridRegressor(RegressorMixin, BaseEstimator):
         _check_positive("lr", self.lr)
         _check_positive("lr_theta", self.lr_theta, allow_none=True)
         _check_positive("max_iter", self.max_iter, integer=True)
+        _check_positive("tol", self.tol, allow_none=True)
+        _check_positive("n_iter_no_change", self.n_iter_no_change, integer=True)
         _check_positive("batch_size", self.batch_size, integer=True, allow_none=True)
         _check_positive("n_threads", self.n_threads, integer=True, allow_none=True)
         if not (isinstance(self.weight_decay, numbers.Real) and self.weight_decay >= 0):
@@ -255,7 +288,7 @@ class HybridRegressor(RegressorMixin, BaseEstimator):
                               solver=self.solver, observed=self.observed,
                               n_inputs=self.n_inputs, input_interp=self.input_interp)
 
-    def fit(self, X, y):
+    def fit(self, X, y, sample_weight=None):
         """Fit theta and the network to data.
 
         Parameters
@@ -265,6 +298,10 @@ class HybridRegressor(RegressorMixin, BaseEstimator):
         y : array-like of shape (n_samples, ...)
             Targets (observed states at the output times for ``"ode"``),
             any per-sample shape; ``predict`` returns the same shape.
+        sample_weight : array-like of shape (n_samples,), optional
+            Non-negative weight of each sample in the data loss (each
+            sample's mean squared error counts in proportion to its weight,
+            as :meth:`score` weighs it).
 
         Returns
         -------
@@ -274,10 +311,14 @@ class HybridRegressor(RegressorMixin, BaseEstimator):
             earlier fit is left untouched.
         """
         setup = self._setup_fit(X, y)
+        weight = _check_sample_weight(sample_weight, len(setup.y), setup.y.dtype)
+        inputs, y_t, validation = _holdout(setup, weight, self.validation_fraction)
+        weight = validation.pop("train_weight")
         with _torch_threads(self.n_threads), reusing_buffers(), explained_memory_errors(setup):
-            history = train(setup.model, setup.method, setup.inputs, setup.y, setup.config,
-                            torch.Generator().manual_seed(setup.seed))
-        self._set_fitted(setup, history)
+            history = train(setup.model, setup.method, inputs, y_t, setup.config,
+                            torch.Generator().manual_seed(setup.seed), sample_weight=weight,
+                            validation=validation.get("data"))
+        self._set_fitted(setup, history, (inputs, y_t, weight))
         return self
 
     def _setup_fit(self, X, y):
@@ -320,7 +361,8 @@ class HybridRegressor(RegressorMixin, BaseEstimator):
         config = TrainConfig(lr=self.lr, lr_theta=self.lr_theta, max_iter=self.max_iter,
                              batch_size=self.batch_size,
                              weight_decay=self.weight_decay, perturb=self.perturb,
-                             verbose=self.verbose)
+                             verbose=self.verbose, tol=self.tol,
+                             n_iter_no_change=self.n_iter_no_change)
         setup = Bunch(model=model, method=method, inputs=inputs,
                       y=torch.tensor(y, dtype=dtype, device=device),
                       config=config, seed=seed, y_shape=y_shape, x_shape=X.shape[1:],
@@ -345,27 +387,35 @@ class HybridRegressor(RegressorMixin, BaseEstimator):
             inputs = inputs + (torch.tensor(X, dtype=dtype),)
         return tuple(t.to(device) for t in inputs)
 
-    def _set_fitted(self, setup, history):
+    def _set_fitted(self, setup, history, data=None):
         """Store a trained model as this estimator's fitted state.
 
         With a theta encoder, ``theta_`` is the mean of the per-sample theta
-        over the training inputs ``setup.inputs``.
+        over the training inputs ``setup.inputs``.  ``data`` is ``(inputs, y,
+        sample_weight)`` of the trained samples, for the standard errors of
+        theta (default: all samples of ``setup``, unweighted).
         """
         model = setup.model
         model.eval()
+        with _torch_threads(self.n_threads):  # first: an error here must leave an earlier fit whole
+            std, cov, _ = theta_uncertainty(model, *(data or (setup.inputs, setup.y, None)))
         self.model_, self.residual_ = model, model.residual
         self.theta_, self.history_ = model.science.as_dict(), history
         if model.encoder is not None:
             with _torch_threads(self.n_threads), torch.no_grad():
                 window = setup.inputs[-1]
                 self.theta_.update(_encoder.summarize(model.encoder(window, model.science)))
+        self.theta_std_, self.theta_cov_ = std, cov
         self.y_shape_, self.x_shape_ = setup.y_shape, setup.x_shape
         self.device_ = setup.y.device
-        self.n_iter_ = self.max_iter
+        self.n_iter_ = len(history["loss"])
+        self.stopped_early_ = self.n_iter_ < self.max_iter
+        self._fitted_structure = self._structure_params()
         set_feature_info(self, setup.features)
 
     def _forward(self, X, use_residual=True, trace=False):
         check_is_fitted(self)
+        self._check_structure_unchanged()
         X = validate_data(self, X, reset=False, allow_nd=True, dtype=np.float64)
         if X.shape[1:] != self.x_shape_:
             raise ValueError(

@@ -7,7 +7,14 @@ Examples
     sklearn-hybrid loop silverbox            # measured Silverbox, about 10 minutes on 2 cores
     sklearn-hybrid loop pendulum --fast      # synthetic pendulum, seconds (pipeline check only)
     sklearn-hybrid loop tanks --method fsam --max-iter 500 --json tanks.json
+    sklearn-hybrid loop silverbox --data-home /path/to/data   # measured files looked up there
     sklearn-hybrid demo
+    sklearn-hybrid --version
+
+Only argparse is imported at start: torch and the package load after the
+arguments are parsed, so ``--help`` and ``--version`` answer at once.  A
+missing data file or a bad argument ends with one line on stderr and exit
+status 2 (``--traceback`` shows the full error).
 """
 
 from __future__ import annotations
@@ -23,7 +30,11 @@ DATASETS = ("silverbox", "tanks", "pendulum-freeswing", "pendulum", "duffing")
 
 
 def _parser() -> argparse.ArgumentParser:
+    from . import __version__
+
     parser = argparse.ArgumentParser(prog="sklearn-hybrid", description="Hybrid models that estimate physics.")
+    parser.add_argument("--version", action="version", version=f"sklearn-hybrid {__version__}")
+    parser.add_argument("--traceback", action="store_true", help="show the full error instead of one line")
     sub = parser.add_subparsers(dest="command", required=True)
     loop = sub.add_parser("loop", help="fit -> diagnose the residual -> add the missing terms -> refit -> compare")
     loop.add_argument("dataset", choices=DATASETS, help="measured (silverbox, tanks, pendulum-freeswing) "
@@ -33,7 +44,9 @@ def _parser() -> argparse.ArgumentParser:
     loop.add_argument("--fast", action="store_true", help="tiny data and few iterations: checks the pipeline only")
     loop.add_argument("--seed", type=int, default=0)
     loop.add_argument("--json", default=None, help="also write the before/after table to this JSON file")
-    loop.add_argument("--quiet", action="store_true", help="print the table only")
+    loop.add_argument("--quiet", action="store_true", help="print the table only (no progress bars)")
+    loop.add_argument("--data-home", default=None,
+                      help="folder of the measured data (default: $SKLEARN_HYBRID_DATA, else ~/sklearn_hybrid_data)")
     sub.add_parser("demo", help="run sklearn_hybrid.demo (erm vs Fisher SAM on the pendulum)")
     return parser
 
@@ -52,6 +65,23 @@ def main(argv: Sequence[str] | None = None) -> int:
         Exit status, 0 on success.
     """
     args = _parser().parse_args(argv)
+    try:
+        return _run(args)
+    except (FileNotFoundError, ValueError, OSError) as exc:
+        if args.traceback:
+            raise
+        first = str(exc).strip().splitlines()[0].rstrip(":") if str(exc).strip() else type(exc).__name__
+        hint = ""
+        if isinstance(exc, FileNotFoundError):
+            from .datasets import get_data_home
+
+            hint = (f" (data home: {get_data_home(getattr(args, 'data_home', None)).resolve()}; "
+                    "pass --data-home DIR or set SKLEARN_HYBRID_DATA)")
+        print(f"sklearn-hybrid: error: {first}{hint}", file=sys.stderr)
+        return 2
+
+
+def _run(args) -> int:
     if args.command == "demo":
         from . import demo
 
@@ -62,8 +92,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     from .diagnosis.cases import run_case
 
     torch.set_num_threads(1)  # small sequential models are fastest on one thread
+    options = {} if args.data_home is None or args.dataset in ("pendulum", "duffing") else \
+        {"data_home": args.data_home}
     out = run_case(args.dataset, fast=args.fast, method=args.method, max_iter=args.max_iter,
-                   random_state=args.seed, verbose=not args.quiet)
+                   random_state=args.seed, verbose=not args.quiet, progress=not args.quiet, **options)
     print(out.case.description)
     if args.quiet:
         print(out.report)

@@ -18,6 +18,7 @@ import torch
 from torch import nn
 
 from . import _fast
+from ._stopping import EarlyStopping
 
 __all__ = ["TrainConfig", "train", "DivergenceError", "data_loss", "make_optimizer",
            "explain_nonfinite"]
@@ -31,7 +32,7 @@ class DivergenceError(FloatingPointError):
 class TrainConfig:
     """Optimisation settings (validated by the estimator)."""
 
-    lr: float = 1e-3
+    lr: float = 1e-2
     lr_theta: float | None = None
     max_iter: int = 2000
     batch_size: int | None = None
@@ -39,6 +40,8 @@ class TrainConfig:
     perturb: str = "residual"
     min_lr: float = 1e-6
     verbose: bool = False
+    tol: float | None = None
+    n_iter_no_change: int = 100
 
 
 def make_optimizer(theta: list, phi: list, config: TrainConfig):
@@ -74,9 +77,18 @@ def gradients_at_perturbed(perturbed: list, eps: list, loss_and_grads):
                 p.copy_(s)
 
 
-def data_loss(pred: torch.Tensor, y: torch.Tensor) -> torch.Tensor:
-    """Mean squared error over every output value (what all methods minimise)."""
-    return (pred.reshape(y.shape) - y).pow(2).mean()
+def data_loss(pred: torch.Tensor, y: torch.Tensor, sample_weight: torch.Tensor | None = None
+              ) -> torch.Tensor:
+    """Mean squared error over every output value (what all methods minimise).
+
+    With ``sample_weight`` (one non-negative weight per sample) each sample's
+    mean squared error counts in proportion to its weight, so a weight of 2
+    equals a duplicated sample.
+    """
+    sq = (pred.reshape(y.shape) - y).pow(2)
+    if sample_weight is None:
+        return sq.mean()
+    return (sq.reshape(len(y), -1).mean(1) * sample_weight).sum() / sample_weight.sum()
 
 
 @contextmanager
@@ -135,9 +147,9 @@ def explain_nonfinite(model: nn.Module, inputs: tuple[torch.Tensor, ...]) -> str
     return None
 
 
-def _loss_and_grads(model, method, inputs, y, params):
+def _loss_and_grads(model, method, inputs, y, params, weight=None):
     pred, extras = model(*inputs)
-    loss = data_loss(pred, y) + method.penalty(model, pred, extras)
+    loss = data_loss(pred, y, weight) + method.penalty(model, pred, extras)
     grads = torch.autograd.grad(loss, params, allow_unused=True)
     return loss.detach(), [torch.zeros_like(p) if g is None else g for p, g in zip(params, grads)]
 
@@ -160,7 +172,8 @@ class _Batches:
 
 
 def train(model: nn.Module, method, inputs: tuple[torch.Tensor, ...], y: torch.Tensor,
-          config: TrainConfig, generator: torch.Generator) -> dict:
+          config: TrainConfig, generator: torch.Generator,
+          sample_weight: torch.Tensor | None = None, validation: tuple | None = None) -> dict:
     """Train ``model`` in place and return its history.
 
     Parameters
@@ -177,12 +190,21 @@ def train(model: nn.Module, method, inputs: tuple[torch.Tensor, ...], y: torch.T
         Optimisation settings.
     generator : torch.Generator
         Source of randomness for mini-batches.
+    sample_weight : Tensor of shape (n_samples,), optional
+        Per-sample weights of the data loss.
+    validation : tuple, optional
+        ``(inputs, y, sample_weight)`` of held-out samples whose data loss
+        early stopping monitors (see :class:`~sklearn_hybrid._stopping.EarlyStopping`).
 
     Returns
     -------
     dict
-        ``{"loss": ndarray (max_iter,), "theta": {name: ndarray (max_iter, ...)}}``;
-        the loss is the training objective at the unperturbed parameters.
+        ``{"loss": ndarray (n_iter,), "theta": {name: ndarray (n_iter, ...)},
+        "n_iter": int, "stopped_early": bool}`` (plus ``"validation_loss"``,
+        one value per stopping window, when ``validation`` is given); the loss
+        is the training objective at the unperturbed parameters.  With
+        ``config.tol`` set, training stops before ``max_iter`` once the loss and
+        theta have stopped changing.
 
     Raises
     ------
@@ -209,6 +231,8 @@ def train(model: nn.Module, method, inputs: tuple[torch.Tensor, ...], y: torch.T
 
     from tqdm.auto import tqdm
 
+    stopper = _make_stopper(model, config, y, validation)
+    n_iter = config.max_iter
     stream = sys.stderr or sys.stdout  # both are None under pythonw and some services
     bar = tqdm(range(config.max_iter), disable=not config.verbose or stream is None,
                desc=method.name, file=stream)
@@ -217,8 +241,10 @@ def train(model: nn.Module, method, inputs: tuple[torch.Tensor, ...], y: torch.T
         idx = batches.next()
         xb = inputs if idx is None else tuple(t[idx] for t in inputs)
         yb = y if idx is None else y[idx]
+        wb = sample_weight if idx is None or sample_weight is None else sample_weight[idx]
         # the SAM family needs only the perturbed tensors' gradients at the first point
-        loss, grads = _loss_and_grads(model, method, xb, yb, perturbed if method.perturbs else params)
+        loss, grads = _loss_and_grads(model, method, xb, yb, perturbed if method.perturbs else params,
+                                      wb)
         loss_value = float(loss)
         if not np.isfinite(loss_value):
             cause = explain_nonfinite(model, xb)
@@ -231,7 +257,7 @@ def train(model: nn.Module, method, inputs: tuple[torch.Tensor, ...], y: torch.T
                 eps = method.perturbation(perturbed, grads, is_weight)
             with _frozen_batchnorm_stats(model):
                 _, grads = gradients_at_perturbed(
-                    perturbed, eps, lambda: _loss_and_grads(model, method, xb, yb, params))
+                    perturbed, eps, lambda: _loss_and_grads(model, method, xb, yb, params, wb))
         for p, g in zip(params, grads):
             p.grad = g
         optimizer.step()
@@ -243,6 +269,37 @@ def train(model: nn.Module, method, inputs: tuple[torch.Tensor, ...], y: torch.T
         if config.verbose and (it % 25 == 0 or it == config.max_iter - 1):
             bar.set_postfix(loss=f"{loss_value:.3g}", **{
                 n: np.array2string(thetas[n][it], precision=4) for n in names})
+        if stopper is not None and stopper.should_stop(
+                it, losses, np.concatenate([thetas[n][it].ravel() for n in names])):
+            n_iter = it + 1
+            break
+    bar.close()
     if not all(torch.isfinite(p).all() for p in params):
-        raise DivergenceError(f"A parameter became NaN or infinite at iteration {config.max_iter - 1}.")
-    return {"loss": losses, "theta": thetas}
+        raise DivergenceError(f"A parameter became NaN or infinite at iteration {n_iter - 1}.")
+    history = {"loss": losses[:n_iter], "theta": {n: v[:n_iter] for n, v in thetas.items()},
+               "n_iter": n_iter, "stopped_early": n_iter < config.max_iter}
+    if stopper is not None and validation is not None:
+        history["validation_loss"] = np.array(stopper.validation_history)
+    return history
+
+
+def _make_stopper(model, config, y, validation):
+    """The early-stopping rule of ``config`` (None when ``tol`` is None)."""
+    if config.tol is None:
+        return None
+    scale = float(y.reshape(len(y), -1).var(0, unbiased=False).mean()) if len(y) > 1 else 1.0
+    if validation is None:
+        return EarlyStopping(config.tol, config.n_iter_no_change, scale)
+    inputs, y, weight = validation
+
+    def validation_loss():
+        was_training = model.training
+        model.eval()
+        try:
+            with torch.no_grad():
+                pred, _ = model(*inputs)
+                return float(data_loss(pred, y, weight))
+        finally:
+            model.train(was_training)
+
+    return EarlyStopping(config.tol, config.n_iter_no_change, scale, validation_loss)

@@ -304,7 +304,17 @@ class OdeStructure:
         ins = (tuple(self.state_shape),) + (((self.n_inputs,),) if self.n_inputs else ())
         return ins, tuple(self.state_shape)
 
-    def forward(self, model, x0, u_fine=None, use_residual=True):
+    def states(self, model, x0, u_fine=None, use_residual=True, n_steps=None, dt=None,
+               n_substeps=None):
+        """States at ``dt, ..., n_steps * dt`` (default: the training grid), all components.
+
+        ``u_fine`` holds the inputs on the grid ``2 * n_substeps`` times finer
+        than the output grid, as :meth:`tensors` builds it.
+        """
+        n_steps = self.n_steps if n_steps is None else n_steps
+        dt = self.dt if dt is None else dt
+        n_substeps = self.n_substeps if n_substeps is None else n_substeps
+
         def rhs(v, u):
             args = self._args(v, u)
             if not use_residual:
@@ -316,12 +326,13 @@ class OdeStructure:
                 and _fast.supports(model.residual, self.state_shape, self.solver)):
             # same RK4, gradients without per-stage autograd overhead (see _fast); without
             # gradients (predict) the plain loop is faster, as nothing is kept for a backward
-            states = _fast.hybrid_states(model.science, model.residual, x0, u_fine,
-                                         self.n_steps, self.dt, self.n_substeps)
-        else:
-            states = integrate(rhs, x0, self.n_steps, self.dt, n_substeps=self.n_substeps,
-                               solver=self.solver, u_fine=u_fine,
-                               solver_options=self.solver_options)
+            return _fast.hybrid_states(model.science, model.residual, x0, u_fine, n_steps, dt,
+                                       n_substeps)
+        return integrate(rhs, x0, n_steps, dt, n_substeps=n_substeps, solver=self.solver,
+                         u_fine=u_fine, solver_options=self.solver_options)
+
+    def forward(self, model, x0, u_fine=None, use_residual=True):
+        states = self.states(model, x0, u_fine, use_residual)
         pred = states if self.observed is None else states[..., self.observed]
         return pred, {"states": torch.cat([x0[:, None], states], dim=1), "u_fine": u_fine}
 

@@ -237,11 +237,16 @@ CASES = {"silverbox": silverbox_case, "tanks": tanks_case, "pendulum-freeswing":
 
 
 def run_case(name: str, fast: bool = False, method: str = "erm", max_iter: int | None = None,
-             verbose: bool = False, science_only: bool = True, **options) -> Bunch:
-    """Run :func:`close_the_loop` on a named case and return its result (plus ``case``)."""
+             verbose: bool = False, science_only: bool = True, progress: bool = False, **options) -> Bunch:
+    """Run :func:`close_the_loop` on a named case and return its result (plus ``case``).
+
+    ``progress=True`` shows every fit's progress bar (the estimators' ``verbose``).
+    """
     if name not in CASES:
         raise ValueError(f"Unknown case {name!r}; choose one of {sorted(CASES)}.")
     case = CASES[name](fast=fast, method=method, max_iter=max_iter, **options)
+    if progress:
+        case.estimator.set_params(verbose=True)
     diagnosis = ResidualDiagnosis(state_names=case.state_names, input_names=case.input_names, units=case.units,
                                   library=case.library, random_state=0)
     out = close_the_loop(case.estimator, case.X, case.y, case.get("X_test"), case.get("y_test"),

@@ -22,7 +22,6 @@ from sklearn.utils.validation import check_is_fitted
 from torch import nn
 
 from ..engine import DivergenceError
-from ..integrate import integrate, upsample_inputs
 from ..residual import MLP
 from .augment import augment_science
 from .residual import ResidualDiagnosis, science_sensitivities, _rms
@@ -110,6 +109,9 @@ def free_run(estimator: Any, x0: np.ndarray, u: np.ndarray | None = None, n_step
              use_residual: bool = True) -> np.ndarray:
     """Simulate a fitted hybrid ODE from ``x0`` over any number of output steps.
 
+    A shorthand of :meth:`HybridRegressor.simulate <sklearn_hybrid.HybridRegressor.simulate>`
+    that also accepts one record's inputs as ``(n_steps + 1,)`` or ``(n_steps + 1, n_inputs)``.
+
     Parameters
     ----------
     estimator : fitted HybridRegressor with structure ``"ode"``
@@ -128,29 +130,11 @@ def free_run(estimator: Any, x0: np.ndarray, u: np.ndarray | None = None, n_step
         States at times 0, dt, ..., n_steps dt (all components, observed or not).
     """
     check_is_fitted(estimator, "model_")
-    model, s = estimator.model_, estimator.model_.structure
     x0 = np.atleast_2d(np.asarray(x0, dtype=float))
-    dtype = next(model.science.parameters()).dtype
-    u_fine = None
-    if s.n_inputs:
-        if u is None:
-            raise ValueError("This hybrid ODE is forced: give u.")
+    if u is not None:  # the shorthands of a single record: (n_steps + 1,) or (n_steps + 1, n_inputs)
         u = np.asarray(u, dtype=float)
-        u = u.reshape(1, -1, 1) if u.ndim == 1 else (u[None] if u.ndim == 2 and len(x0) == 1 and
-                                                      u.shape[-1] == s.n_inputs else u)
-        n_steps = u.shape[1] - 1
-        u_fine = torch.as_tensor(upsample_inputs(u, 2 * s.n_substeps, s.input_interp), dtype=dtype)
-    if n_steps is None or n_steps < 1:
-        raise ValueError("Give n_steps >= 1 (or u) for the simulation horizon.")
-
-    def rhs(v, uu):
-        args = (v,) if uu is None else (v, uu)
-        return model.science(*args) + model.residual(*args) if use_residual else model.science(*args)
-
-    with torch.no_grad():
-        x = torch.as_tensor(x0, dtype=dtype)
-        states = integrate(rhs, x, int(n_steps), s.dt, n_substeps=s.n_substeps, solver=s.solver, u_fine=u_fine)
-        return torch.cat([x[:, None], states], dim=1).numpy().astype(float)
+        u = u.reshape(1, -1, 1) if u.ndim == 1 else (u[None] if u.ndim == 2 and len(x0) == 1 else u)
+    return estimator.simulate(x0, None if u is not None else n_steps, u=u, use_residual=use_residual)
 
 
 def fit_initial_state(estimator: Any, y_head: np.ndarray, x0_guess: np.ndarray, u_head: np.ndarray | None = None,

@@ -1,0 +1,257 @@
+"""HybridRegressor beyond fit and predict: simulation over any horizon, the fit report,
+nested ``residual__`` parameters, sample weights and the early-stopping hold-out.
+
+A mixin, so that :mod:`sklearn_hybrid._estimator` keeps the scikit-learn core
+(parameters, validation, fit, predict) and each addition stays in one place.
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+
+import numpy as np
+import torch
+from sklearn.utils.validation import check_is_fitted
+
+from ._report import format_report
+from .integrate import upsample_inputs
+
+__all__ = ["EstimatorExtras"]
+
+#: Parameters that fix how predictions are computed; changing one after fit would be ignored.
+STRUCTURE_PARAMS = ("structure", "dt", "n_substeps", "solver", "observed", "n_inputs",
+                    "input_interp")
+
+
+def _same(a, b) -> bool:
+    if a is b:
+        return True
+    try:
+        return bool(np.array_equal(np.asarray(a, dtype=object), np.asarray(b, dtype=object)))
+    except Exception:  # values that numpy cannot compare are different objects
+        return False
+
+
+def _check_sample_weight(sample_weight, n: int, dtype: torch.dtype) -> torch.Tensor | None:
+    """Validate per-sample weights: shape (n,), finite, non-negative, not all zero."""
+    if sample_weight is None:
+        return None
+    w = np.asarray(sample_weight, dtype=float)
+    if w.ndim == 0:
+        w = np.full(n, float(w))
+    if w.shape != (n,):
+        raise ValueError(f"sample_weight has shape {w.shape}; expected ({n},), one weight per sample.")
+    if not np.all(np.isfinite(w)) or np.any(w < 0):
+        raise ValueError("sample_weight must be finite and non-negative.")
+    if not w.sum() > 0:
+        raise ValueError("sample_weight sums to zero: no sample would count.")
+    return torch.as_tensor(w, dtype=dtype)
+
+
+def _holdout(setup, weight, fraction):
+    """Split the samples of a fit setup into trained and validation parts.
+
+    Returns ``(inputs, y, info)``; ``info["train_weight"]`` is the weight of the
+    trained samples and ``info["data"]`` (only with a fraction) the validation
+    ``(inputs, y, weight)``.
+    """
+    if fraction is None:
+        return setup.inputs, setup.y, {"train_weight": weight}
+    n = len(setup.y)
+    if not (isinstance(fraction, numbers.Real) and 0 < fraction < 1):
+        raise ValueError(f"validation_fraction must be in (0, 1) or None, got {fraction!r}.")
+    n_val = int(round(fraction * n))
+    if n_val < 1 or n - n_val < 1:
+        raise ValueError(f"validation_fraction={fraction} leaves no usable split of {n} samples.")
+    order = torch.randperm(n, generator=torch.Generator().manual_seed(setup.seed))
+    train, val = order[n_val:].sort().values, order[:n_val].sort().values
+
+    def part(idx):
+        return (tuple(t[idx] for t in setup.inputs), setup.y[idx],
+                None if weight is None else weight[idx])
+
+    inputs, y, w = part(train)
+    return inputs, y, {"train_weight": w, "data": part(val)}
+
+
+class EstimatorExtras:
+    """Methods of :class:`~sklearn_hybrid.HybridRegressor` beyond fit and predict."""
+
+    def set_params(self, **params):
+        """Set parameters; ``residual__<option>`` sets one option of the residual specification.
+
+        ``set_params(residual__hidden=(64, 64))`` turns ``residual="mlp"`` into
+        ``{"kind": "mlp", "hidden": (64, 64)}`` (a dict given by the user is
+        copied, never changed), so grids such as ``{"residual__hidden": [...]}``
+        work in ``GridSearchCV``.
+
+        Parameters
+        ----------
+        **params : dict
+            Estimator parameters.
+
+        Returns
+        -------
+        self
+        """
+        nested = {k.split("__", 1)[1]: params.pop(k) for k in list(params)
+                  if k.startswith("residual__")}
+        super().set_params(**params)
+        if nested:
+            spec = self.residual
+            if isinstance(spec, str):
+                spec = {"kind": spec}
+            elif isinstance(spec, dict):
+                spec = dict(spec)
+            else:
+                raise ValueError(
+                    f"residual__{next(iter(nested))} sets an option of a residual given by name "
+                    f"or dict, but residual is a {type(spec).__name__}; set residual itself."
+                )
+            spec.update(nested)
+            self.residual = spec
+        return self
+
+    def _structure_params(self) -> dict:
+        return {name: getattr(self, name) for name in STRUCTURE_PARAMS}
+
+    def _check_structure_unchanged(self) -> None:
+        """Raise if a parameter that fixes the predictions changed since fit (it would be ignored)."""
+        fitted = getattr(self, "_fitted_structure", None)
+        if fitted is None:
+            return
+        changed = [k for k, v in self._structure_params().items() if not _same(v, fitted[k])]
+        if changed:
+            detail = ", ".join(f"{k}={fitted[k]!r} -> {getattr(self, k)!r}" for k in changed)
+            raise ValueError(
+                f"{detail} was changed after fit, and the fitted model was built with the old "
+                "value. Refit, or set it back; to predict on another time grid or horizon use "
+                "simulate(x0, n_steps, dt=...)."
+            )
+
+    def simulate(self, x0, n_steps=None, *, u=None, dt=None, use_residual=True) -> np.ndarray:
+        """Simulate the fitted hybrid ODE from initial states over any horizon and output spacing.
+
+        The RK4 step is never longer than in training: with another ``dt`` the
+        number of steps per output interval becomes
+        ``ceil(n_substeps * dt / dt_fit)``.
+
+        Parameters
+        ----------
+        x0 : array-like of shape (n, *state_shape) or state_shape
+            Initial states (all components, observed or not).
+        n_steps : int, optional
+            Number of output intervals; for a forced system it follows from ``u``.
+        u : array-like of shape (n, n_steps + 1, n_inputs), optional
+            Inputs on the output grid from time 0 (forced systems only); for one
+            initial state ``(n_steps + 1, n_inputs)`` or ``(n_steps + 1,)``.
+        dt : float, optional
+            Time between outputs (default: the ``dt`` of the fit).
+        use_residual : bool, default=True
+            False simulates the science part alone.
+
+        Returns
+        -------
+        ndarray of shape (n, n_steps + 1, *state_shape)
+            States at times ``0, dt, ..., n_steps * dt`` (without the leading
+            axis for a single initial state).  ``[..., observed]`` gives the
+            observed components.
+        """
+        check_is_fitted(self)
+        self._check_structure_unchanged()
+        s = self.model_.structure
+        if not hasattr(s, "states"):
+            raise ValueError(f"simulate needs structure='ode'; this model's structure is {self.structure!r}.")
+        if getattr(self.model_, "encoder", None) is not None:
+            raise ValueError("simulate does not support a theta_encoder yet (theta is inferred per "
+                             "input window); use predict.")
+        state_shape = tuple(s.state_shape)
+        x0 = np.asarray(x0, dtype=float)
+        single = x0.shape == state_shape
+        x0 = x0[None] if single else x0
+        if x0.shape[1:] != state_shape:
+            raise ValueError(f"x0 has shape {x0.shape}; expected (n, {', '.join(map(str, state_shape))}) "
+                             f"or {state_shape}.")
+        if not np.all(np.isfinite(x0)):
+            raise ValueError("x0 contains NaN or infinite values.")
+        dt = s.dt if dt is None else dt
+        if not (isinstance(dt, numbers.Real) and not isinstance(dt, bool) and dt > 0):
+            raise ValueError(f"dt must be a positive number, got {dt!r}.")
+        n_sub = max(1, math.ceil(s.n_substeps * dt / s.dt - 1e-9))
+        u, n_steps = self._check_inputs(s, u, n_steps, len(x0), single)
+        dtype = next(self.model_.science.parameters()).dtype
+        from ._estimator import _torch_threads
+
+        with _torch_threads(self.n_threads), torch.no_grad():
+            x = torch.as_tensor(x0, dtype=dtype)
+            u_fine = None if u is None else torch.as_tensor(
+                upsample_inputs(u, 2 * n_sub, s.input_interp), dtype=dtype)
+            states = s.states(self.model_, x, u_fine, use_residual, n_steps, float(dt), n_sub)
+            out = torch.cat([x[:, None], states], dim=1).cpu().numpy().astype(float)
+        out[:, 0] = x0  # exactly the given states, not their rounding to the model's dtype
+        return out[0] if single else out
+
+    @staticmethod
+    def _check_inputs(s, u, n_steps, n, single):
+        if not s.n_inputs:
+            if u is not None:
+                raise ValueError("This hybrid ODE has no inputs (n_inputs=0): do not pass u.")
+            if not (isinstance(n_steps, numbers.Integral) and not isinstance(n_steps, bool)
+                    and n_steps >= 1):
+                raise ValueError(f"n_steps must be a positive integer, got {n_steps!r}.")
+            return None, int(n_steps)
+        if u is None:
+            raise ValueError(f"This hybrid ODE is forced (n_inputs={s.n_inputs}): give u.")
+        u = np.asarray(u, dtype=float)
+        if single and u.ndim == 1:
+            u = u[:, None]
+        if single and u.ndim == 2:
+            u = u[None]
+        if u.ndim != 3 or u.shape[0] != n or u.shape[2] != s.n_inputs or u.shape[1] < 2:
+            raise ValueError(f"u has shape {u.shape}; expected ({n}, n_steps + 1, {s.n_inputs}).")
+        if n_steps is not None and n_steps != u.shape[1] - 1:
+            raise ValueError(f"n_steps={n_steps} disagrees with u, which covers {u.shape[1] - 1} steps.")
+        if not np.all(np.isfinite(u)):
+            raise ValueError("u contains NaN or infinite values.")
+        return u, u.shape[1] - 1
+
+    def fit_report(self) -> str:
+        """A text report of the fit: settings, iterations, and theta with standard errors.
+
+        The standard errors (``theta_std_``) come from the Gauss-Newton
+        approximation of the data loss in theta around the fit, with the
+        network held at its fitted weights: ``cov = s^2 (J^T W J)^-1`` with
+        ``J`` the derivative of every predicted value with respect to theta,
+        ``s^2`` the weighted residual variance over ``N - p`` degrees of
+        freedom.  The intervals are ``theta +/- 1.96 std`` (95 % for a normal
+        estimate).  They measure the effect of the noise in the data, not the
+        bias a misspecified science model leaves (the network may absorb part
+        of the physics) nor the spread between training runs; see
+        ``benchmarks/results/coverage.md`` for how often they hold the true
+        value.
+
+        Returns
+        -------
+        str
+        """
+        check_is_fitted(self)
+        science = self.model_.science
+        func = getattr(self.science, "__name__", type(self.science).__name__)
+        stop = (f"stopped early: loss and theta changed by less than tol={self.tol} over "
+                f"{self.n_iter_no_change} iterations" if self.stopped_early_ else
+                "ran to max_iter")
+        lines = [f"science: {func}, structure: {self.structure}, method: {self.method}",
+                 f"iterations: {self.n_iter_} of max_iter={self.max_iter} ({stop})",
+                 f"training loss (last iteration): {self.history_['loss'][-1]:.4g}"]
+        if "validation_loss" in self.history_ and len(self.history_["validation_loss"]):
+            lines.append(f"validation loss (last check): {self.history_['validation_loss'][-1]:.4g}")
+        notes = {}
+        for name in science.names:
+            if not science.raw[name].requires_grad:
+                notes[name] = "(fixed)"
+            elif self.theta_bounds and name in self.theta_bounds:
+                notes[name] = f"(bounds {tuple(self.theta_bounds[name])})"
+        how = ("standard errors: Gauss-Newton, s^2 (J^T W J)^-1 with the network held fixed; "
+               "noise only, not the bias of a misspecified science model")
+        return format_report("Hybrid fit", lines, self.theta_, self.theta_std_, how, extra=notes)

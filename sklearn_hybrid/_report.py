@@ -1,0 +1,158 @@
+"""Uncertainty of theta after a fit, and the fit report (as lmfit's ``fit_report``).
+
+A single fit's standard errors come from the Gauss-Newton (linearised least
+squares) approximation of the data loss around the fitted theta, with the
+network held at its fitted weights:
+
+    J = d prediction / d theta        (every output value, central differences in float64)
+    s^2 = sum_i w_i r_i^2 / (N - p)   (weighted residual variance, N output values, p free parameters)
+    cov(theta) = s^2 (J^T W J)^-1
+
+This is the standard error lmfit and ``scipy.optimize.curve_fit`` report. It
+measures what the noise in the data does to theta; it does not measure the
+bias that remains when the network absorbs part of the physics, nor the spread
+between training runs (for that, fit several seeds with
+:class:`~sklearn_hybrid.HybridRegressorCV`, whose ``theta_std_`` is that spread).
+"""
+
+from __future__ import annotations
+
+import copy
+
+import numpy as np
+import torch
+
+__all__ = ["theta_uncertainty", "format_report"]
+
+
+def _predict(model, inputs):
+    with torch.no_grad():
+        pred, _ = model(*inputs)
+    return pred.reshape(len(inputs[0]), -1).numpy()
+
+
+def theta_uncertainty(model, inputs, y, sample_weight=None) -> tuple[dict, np.ndarray, list]:
+    """Standard errors and covariance of the free parameters of a fitted model.
+
+    Parameters
+    ----------
+    model : HybridModule
+        The fitted model (not modified: a float64 copy is differentiated).
+    inputs : tuple of Tensor
+        Structure inputs of the training samples.
+    y : Tensor
+        Their targets.
+    sample_weight : Tensor of shape (n_samples,), optional
+        The weights of the fit.
+
+    Returns
+    -------
+    std : dict
+        name -> standard error (float, or array for vector parameters; 0 for
+        fixed parameters; NaN where the data do not determine the parameter).
+    cov : ndarray of shape (p, p)
+        Covariance of the flattened free parameters.
+    labels : list of str
+        Names of the flattened free parameters (``name`` or ``name[k]``).
+    """
+    science = model.science
+    if getattr(model, "encoder", None) is not None:  # theta is per sample: no shared theta to vary
+        std = {name: (np.nan if science.shapes[name] == () else np.full(science.shapes[name], np.nan))
+               for name in science.names}
+        return std, np.zeros((0, 0)), []
+    model = copy.deepcopy(model).to(torch.float64).eval()
+    inputs = tuple(t.to(torch.float64) for t in inputs)
+    science = model.science
+    y = y.reshape(len(y), -1).to(torch.float64).numpy()
+    n = len(y)
+    w = np.ones(n) if sample_weight is None else sample_weight.to(torch.float64).numpy()
+    w = np.repeat(w / w.mean(), y.shape[1])  # one weight per output value, mean 1
+    base = _predict(model, inputs).ravel()
+    columns, labels, where = [], [], []
+    for name in science.names:
+        raw = science.raw[name]
+        if not raw.requires_grad:
+            continue
+        flat = raw.data.view(-1)
+        for k in range(flat.numel()):
+            original = float(flat[k])
+            h = 1e-6 * max(abs(original), 1.0)
+            values, preds = [], []
+            for step in (h, -h):
+                flat[k] = original + step
+                values.append(science.values()[name].detach().reshape(-1)[k].item())
+                preds.append(_predict(model, inputs).ravel())
+            flat[k] = original
+            columns.append((preds[0] - preds[1]) / (values[0] - values[1]))
+            labels.append(name if raw.numel() == 1 and raw.dim() == 0 else f"{name}[{k}]")
+            where.append((name, k))
+    p = len(columns)
+    std = {name: (0.0 if science.shapes[name] == () else np.zeros(science.shapes[name]))
+           for name in science.names}
+    if p == 0:
+        return std, np.zeros((0, 0)), labels
+    J = np.stack(columns, axis=1)
+    resid = y.ravel() - base
+    dof = max(len(resid) - p, 1)
+    s2 = float(np.sum(w * resid**2) / dof)
+    JtWJ = J.T @ (w[:, None] * J)
+    try:
+        cov = s2 * np.linalg.inv(JtWJ)
+    except np.linalg.LinAlgError:
+        cov = np.full((p, p), np.nan)
+    diag = np.sqrt(np.where(np.diag(cov) >= 0, np.diag(cov), np.nan))
+    for (name, k), value in zip(where, diag):
+        if science.shapes[name] == ():
+            std[name] = float(value)
+        else:
+            std[name].reshape(-1)[k] = value
+    return std, cov, labels
+
+
+def _fmt(value) -> str:
+    if np.ndim(value) == 0:
+        return f"{float(value):.6g}"
+    return np.array2string(np.asarray(value, float), precision=5, separator=", ")
+
+
+def format_report(title: str, lines: list[str], theta: dict, std: dict | None, how: str,
+                  z: float = 1.96, extra: dict | None = None) -> str:
+    """Text of a fit report: a header, key facts, and theta with standard errors and intervals.
+
+    Parameters
+    ----------
+    title : str
+        First line.
+    lines : list of str
+        ``key: value`` facts about the fit.
+    theta, std : dict
+        Values and standard errors by name (``std`` None: no uncertainty).
+    how : str
+        How the uncertainty was computed (printed under the table).
+    z : float
+        Half-width of the interval in standard errors (1.96: 95 % for a normal estimate).
+    extra : dict, optional
+        name -> note printed after a parameter (e.g. ``"fixed"``, ``"bounds (0, 2)"``).
+    """
+    out = [f"[[{title}]]", *(f"    {line}" for line in lines), "[[Parameters]]"]
+    for name, value in theta.items():
+        note = (extra or {}).get(name, "")
+        if std is None:
+            out.append(f"    {name}: {_fmt(value)}{'  ' + note if note else ''}")
+            continue
+        s = std[name]
+        lo = np.asarray(value) - z * np.asarray(s)
+        hi = np.asarray(value) + z * np.asarray(s)
+        rel = ""
+        if np.ndim(value) == 0 and value != 0 and s > 0:
+            rel = f" ({abs(s / value):.2%})"
+        out.append(f"    {name}: {_fmt(value)} +/- {_fmt(s)}{rel}, {100 * _coverage(z):.0f} % "
+                   f"interval [{_fmt(lo)}, {_fmt(hi)}]{'  ' + note if note else ''}")
+    out.append(f"    ({how})")
+    return "\n".join(out)
+
+
+def _coverage(z: float) -> float:
+    from math import erf, sqrt
+
+    return erf(z / sqrt(2))
