@@ -66,7 +66,7 @@ def _train_member(model, method, inputs, y, config, seed, n_threads):
 class HybridRegressorCV(RegressorMixin, BaseEstimator):
     """A sweep over rho, lam and seeds of one HybridRegressor, trained as one batched model.
 
-    As :class:`~sklearn.linear_model.RidgeCV` is to ``Ridge``: every
+    As scikit-learn's ``RidgeCV`` is to ``Ridge``: every
     combination of the given ``rhos``, ``lams`` and ``seeds`` is a *member*; the
     K members are trained at once as a single stacked model (each member's
     update is exactly the one a separate ``HybridRegressor`` fit with that
@@ -322,7 +322,8 @@ class HybridRegressorCV(RegressorMixin, BaseEstimator):
 
         Returns
         -------
-        ndarray of shape (n_samples, *y.shape[1:])
+        ndarray of shape (n_samples, ...)
+            Shaped as ``y`` in ``fit``.
         """
         check_is_fitted(self)
         return self.best_estimator_.predict(X)

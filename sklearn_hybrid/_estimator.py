@@ -130,7 +130,7 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
         ``"ode"``: indices of the state components that ``y`` observes.
     n_inputs : int, default=0
         ``"ode"``: number of measured input channels u(t) (see
-        :func:`sklearn_hybrid.structures.pack_inputs`).
+        :func:`~sklearn_hybrid.pack_inputs`).
     input_interp : {"cubic", "linear", "zoh", "fft"}, default="cubic"
         ``"ode"``: reconstruction of u(t) between samples.
     lr : float, default=1e-2
@@ -456,7 +456,8 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
 
         Returns
         -------
-        ndarray of shape (n_samples, *y.shape[1:])
+        ndarray of shape (n_samples, ...)
+            Shaped as ``y`` in ``fit``.
         """
         return self._forward(X)
 
@@ -509,7 +510,8 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
 
         Returns
         -------
-        ndarray of shape (n_samples, *y.shape[1:])
+        ndarray of shape (n_samples, ...)
+            Shaped as ``y`` in ``fit``.
         """
         return self._forward(X, use_residual=False)
 

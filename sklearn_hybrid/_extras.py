@@ -139,8 +139,9 @@ class EstimatorExtras:
 
         Parameters
         ----------
-        x0 : array-like of shape (n, *state_shape) or state_shape
-            Initial states (all components, observed or not).
+        x0 : array-like of shape (n, ...)
+            Initial states (all components, observed or not; without the
+            inputs of a forced system); one state alone may drop the leading axis.
         n_steps : int, optional
             Number of output intervals; for a forced system it follows from ``u``.
         u : array-like of shape (n, n_steps + 1, n_inputs), optional
@@ -153,7 +154,7 @@ class EstimatorExtras:
 
         Returns
         -------
-        ndarray of shape (n, n_steps + 1, *state_shape)
+        ndarray of shape (n, n_steps + 1, ...)
             States at times ``0, dt, ..., n_steps * dt`` (without the leading
             axis for a single initial state).  ``[..., observed]`` gives the
             observed components.

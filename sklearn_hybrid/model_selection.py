@@ -49,7 +49,7 @@ def sensitivity_curve(estimator, param_name: str, param_range: Sequence, X, y, X
     seeds : sequence of int, default=(0, 1, 2)
         ``random_state`` of the repeated fits.
     metric : {"rmse", "cosine"}, default="rmse"
-        Theta comparison (see :func:`~sklearn_hybrid.metrics.theta_error`).
+        Theta comparison (see :func:`~sklearn_hybrid.theta_error`).
     n_jobs : int or None
         Parallel fits (joblib); each fit keeps the estimator's ``n_threads``.
 

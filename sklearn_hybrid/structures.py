@@ -6,12 +6,12 @@ few samples (``probe``), names the shapes its network needs
 (``residual_shapes``), computes predictions (``forward``), and defines the
 functional regulariser of ``method="f-reg"`` (``functional_penalty``).
 
-============  =========================================================
-``"ode"``     hybrid neural ODE ``dv/dt = f_theta(v[, u]) + g_phi(v[, u])``
-``"compose"`` general composition ``y = g_phi(x, f_theta(x))``
-``"additive"`` static additive model ``y = f_theta(x) + g_phi(x)``
-callable      ``structure(x, f, g) -> y`` for anything more nested
-============  =========================================================
+==============  =========================================================
+``"ode"``       hybrid neural ODE ``dv/dt = f_theta(v[, u]) + g_phi(v[, u])``
+``"compose"``   general composition ``y = g_phi(x, f_theta(x))``
+``"additive"``  static additive model ``y = f_theta(x) + g_phi(x)``
+callable        ``structure(x, f, g) -> y`` for anything more nested
+==============  =========================================================
 """
 
 from __future__ import annotations

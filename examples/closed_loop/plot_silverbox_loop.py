@@ -28,23 +28,41 @@ import os
 import matplotlib.pyplot as plt
 import torch
 
+from sklearn_hybrid.datasets import fetch_silverbox, get_data_home
 from sklearn_hybrid.diagnosis.cases import run_case
 
 torch.set_num_threads(1)
 FAST = os.environ.get("SKLEARN_HYBRID_FAST", "0") == "1"
+if FAST:  # say so on the page: these numbers are not the method's results
+    print("FAST MODE (SKLEARN_HYBRID_FAST=1): tiny data and a few iterations; the numbers below "
+          "only show that the pipeline runs. Full-run results: benchmarks/results/closed_loop.md.")
 
-out = run_case("silverbox", fast=FAST)
-print(out.case.description)
+try:
+    fetch_silverbox()  # the measured records: from the data home (downloaded when online)
+except FileNotFoundError:
+    out = None  # the page still builds, and says why it shows no results
+    print(f"SKIPPED: the measured Silverbox records are not in {get_data_home().resolve()} and could "
+          "not be downloaded. Set SKLEARN_HYBRID_DATA to a folder holding silverbox/SNLS80mV.csv to "
+          "run this example; committed full-run results: benchmarks/results/closed_loop.md.")
+else:
+    out = run_case("silverbox", fast=FAST)
+    print(out.case.description)
 
 # %%
 # What the network learned, in named terms
 # ----------------------------------------
-# ``y^3`` is a new term; ``df/dk`` and ``df/du0`` are corrections of the
-# linear stiffness and of the input offset that the network had absorbed.
-print(out.diagnosis.summary())
-if out.diagnosis.terms_:
-    out.diagnosis.plot()
-    plt.tight_layout()
+# In a full run the diagnosis reads ``g[y_dot] = -0.0171 y^3 - 0.0741 df/dk +
+# 0.0395 df/du0``: ``y^3`` is a new term; ``df/dk`` and ``df/du0`` are
+# corrections of the linear stiffness and of the input offset that the network
+# had absorbed (``benchmarks/results/closed_loop.md``). In fast mode the fit is
+# too short for that, and the summary below says what it found instead.
+if out is not None:
+    print(out.diagnosis.summary())
+    if out.diagnosis.terms_:
+        axes = out.diagnosis.plot()
+        for ax in axes.ravel():
+            ax.tick_params(labelsize=8)
+        plt.tight_layout()
 
 # %%
 # Before and after
@@ -53,6 +71,8 @@ if out.diagnosis.terms_:
 # the test records, the share of the prediction the network carries, and the
 # parameters. The classical grey-box fit of the same linear + cubic model by
 # simulation-error minimisation reaches about 0.35 mV (multisine) and 0.45 mV
-# (full arrow); see ``benchmarks/bench_greybox.py``.
-print(out.report)
+# (full arrow); see ``benchmarks/bench_greybox.py``. The full run's table: after
+# adding ``c_y3 * y^3`` the multisine RMSE falls from 1.9 mV to 0.41 mV.
+if out is not None:
+    print(out.report)
 plt.show()

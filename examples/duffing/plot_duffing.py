@@ -29,6 +29,9 @@ from sklearn_hybrid.models import duffing_f
 
 torch.set_num_threads(1)
 FAST = os.environ.get("SKLEARN_HYBRID_FAST", "0") == "1"  # tiny run for tests and doc builds
+if FAST:  # say so on the page: these numbers are not the method's results
+    print("FAST MODE (SKLEARN_HYBRID_FAST=1): tiny data and a few iterations; the numbers below "
+          "only show that the pipeline runs. Full-run results: benchmarks/results/tasks.md.")
 N_TRAIN, MAX_ITER = (10, 10) if FAST else (100, 1500)
 
 data = make_duffing(N_TRAIN, N_TRAIN, N_TRAIN, random_state=0)

@@ -41,6 +41,9 @@ from sklearn_hybrid.models import light_tunnel_unet, make_light_tunnel_f
 
 torch.set_num_threads(1)
 FAST = os.environ.get("SKLEARN_HYBRID_FAST", "0") == "1"  # tiny run for tests and doc builds
+if FAST:  # say so on the page: these numbers are not the method's results
+    print("FAST MODE (SKLEARN_HYBRID_FAST=1): tiny data and a few iterations; the numbers below "
+          "only show that the pipeline runs. Full-run results: benchmarks/results/tasks.md.")
 N_SAMPLES, SIZE, MAX_ITER, CHANNELS = (60, 16, 5, (4, 8)) if FAST else (2000, 32, 600, (8, 16, 32))
 
 try:

@@ -39,6 +39,9 @@ from sklearn_hybrid.models import (PendulumImagesNet, PendulumImagesStructure,
 
 torch.set_num_threads(1)
 FAST = os.environ.get("SKLEARN_HYBRID_FAST", "0") == "1"  # tiny run for tests and doc builds
+if FAST:  # say so on the page: these numbers are not the method's results
+    print("FAST MODE (SKLEARN_HYBRID_FAST=1): tiny data and a few iterations; the numbers below "
+          "only show that the pipeline runs. Full-run results: benchmarks/results/tasks.md.")
 if FAST:
     N_TRAIN, SIZE, M_X, MAX_ITER = 8, 16, 4, 3
     sizes = dict(latent_dim=2, encoder_channels=(4, 8), encoder_hidden=16, ode_hidden=(16, 16),

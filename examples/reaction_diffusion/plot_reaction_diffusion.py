@@ -29,6 +29,9 @@ from sklearn_hybrid.models import diffusion_f
 
 torch.set_num_threads(1)
 FAST = os.environ.get("SKLEARN_HYBRID_FAST", "0") == "1"  # tiny run for tests and doc builds
+if FAST:  # say so on the page: these numbers are not the method's results
+    print("FAST MODE (SKLEARN_HYBRID_FAST=1): tiny data and a few iterations; the numbers below "
+          "only show that the pipeline runs. Full-run results: benchmarks/results/tasks.md.")
 N_TRAIN, GRID, MAX_ITER = (3, 16, 5) if FAST else (10, 32, 300)
 
 data = make_reaction_diffusion(N_TRAIN, N_TRAIN, N_TRAIN, grid_size=GRID, random_state=0)

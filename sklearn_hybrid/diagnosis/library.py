@@ -197,7 +197,7 @@ class CandidateLibrary(TransformerMixin, BaseEstimator):
 
         Returns
         -------
-        Theta : ndarray of shape (n_samples, n_terms_)
+        Theta : ndarray of shape (n_samples, n_terms)
             Candidate terms, columns named by :meth:`get_feature_names_out`.
         """
         check_is_fitted(self, "term_names_")

@@ -157,7 +157,7 @@ def light_tunnel_unet(in_shapes: Sequence[tuple], out_shape: tuple,
     out_shape : tuple
         ``(3, H, W)``.
     channels : sequence of int, default=(16, 32, 64)
-        Channels per U-Net level; bind other values with :func:`functools.partial`.
+        Channels per U-Net level; bind other values with ``functools.partial``.
 
     Returns
     -------
