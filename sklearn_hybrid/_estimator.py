@@ -311,7 +311,7 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
             earlier fit is left untouched.
         """
         setup = self._setup_fit(X, y)
-        weight = _check_sample_weight(sample_weight, len(setup.y), setup.y.dtype)
+        weight = _check_sample_weight(sample_weight, len(setup.y), setup.y.dtype, setup.y.device)
         inputs, y_t, validation = _holdout(setup, weight, self.validation_fraction)
         weight = validation.pop("train_weight")
         with _torch_threads(self.n_threads), reusing_buffers(), explained_memory_errors(setup):

@@ -33,7 +33,7 @@ def _same(a, b) -> bool:
         return False
 
 
-def _check_sample_weight(sample_weight, n: int, dtype: torch.dtype) -> torch.Tensor | None:
+def _check_sample_weight(sample_weight, n: int, dtype: torch.dtype, device=None) -> torch.Tensor | None:
     """Validate per-sample weights: shape (n,), finite, non-negative, not all zero."""
     if sample_weight is None:
         return None
@@ -46,7 +46,7 @@ def _check_sample_weight(sample_weight, n: int, dtype: torch.dtype) -> torch.Ten
         raise ValueError("sample_weight must be finite and non-negative.")
     if not w.sum() > 0:
         raise ValueError("sample_weight sums to zero: no sample would count.")
-    return torch.as_tensor(w, dtype=dtype)
+    return torch.as_tensor(w, dtype=dtype, device=device)
 
 
 def _holdout(setup, weight, fraction):
@@ -65,7 +65,8 @@ def _holdout(setup, weight, fraction):
     if n_val < 1 or n - n_val < 1:
         raise ValueError(f"validation_fraction={fraction} leaves no usable split of {n} samples.")
     order = torch.randperm(n, generator=torch.Generator().manual_seed(setup.seed))
-    train, val = order[n_val:].sort().values, order[:n_val].sort().values
+    device = setup.y.device
+    train, val = order[n_val:].sort().values.to(device), order[:n_val].sort().values.to(device)
 
     def part(idx):
         return (tuple(t[idx] for t in setup.inputs), setup.y[idx],
@@ -181,13 +182,13 @@ class EstimatorExtras:
             raise ValueError(f"dt must be a positive number, got {dt!r}.")
         n_sub = max(1, math.ceil(s.n_substeps * dt / s.dt - 1e-9))
         u, n_steps = self._check_inputs(s, u, n_steps, len(x0), single)
-        dtype = next(self.model_.science.parameters()).dtype
+        dtype, device = next(self.model_.science.parameters()).dtype, self.device_
         from ._estimator import _torch_threads
 
         with _torch_threads(self.n_threads), torch.no_grad():
-            x = torch.as_tensor(x0, dtype=dtype)
+            x = torch.as_tensor(x0, dtype=dtype, device=device)
             u_fine = None if u is None else torch.as_tensor(
-                upsample_inputs(u, 2 * n_sub, s.input_interp), dtype=dtype)
+                upsample_inputs(u, 2 * n_sub, s.input_interp), dtype=dtype, device=device)
             states = s.states(self.model_, x, u_fine, use_residual, n_steps, float(dt), n_sub)
             out = torch.cat([x[:, None], states], dim=1).cpu().numpy().astype(float)
         out[:, 0] = x0  # exactly the given states, not their rounding to the model's dtype

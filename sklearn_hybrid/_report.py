@@ -28,7 +28,7 @@ __all__ = ["theta_uncertainty", "format_report"]
 def _predict(model, inputs):
     with torch.no_grad():
         pred, _ = model(*inputs)
-    return pred.reshape(len(inputs[0]), -1).numpy()
+    return pred.reshape(len(inputs[0]), -1).cpu().numpy()
 
 
 def theta_uncertainty(model, inputs, y, sample_weight=None) -> tuple[dict, np.ndarray, list]:
@@ -63,9 +63,9 @@ def theta_uncertainty(model, inputs, y, sample_weight=None) -> tuple[dict, np.nd
     model = copy.deepcopy(model).to(torch.float64).eval()
     inputs = tuple(t.to(torch.float64) for t in inputs)
     science = model.science
-    y = y.reshape(len(y), -1).to(torch.float64).numpy()
+    y = y.reshape(len(y), -1).to(torch.float64).cpu().numpy()
     n = len(y)
-    w = np.ones(n) if sample_weight is None else sample_weight.to(torch.float64).numpy()
+    w = np.ones(n) if sample_weight is None else sample_weight.to(torch.float64).cpu().numpy()
     w = np.repeat(w / w.mean(), y.shape[1])  # one weight per output value, mean 1
     base = _predict(model, inputs).ravel()
     columns, labels, where = [], [], []

@@ -128,7 +128,7 @@ def test_simulate_extends_predict(fitted, pendulum):
     np.testing.assert_array_equal(long[:, 0], X)
     np.testing.assert_allclose(long[:, 1:6], fitted.predict(X), rtol=1e-5, atol=1e-6)
     single = fitted.simulate(X[0], 40)
-    np.testing.assert_allclose(single, long[0], rtol=1e-6, atol=1e-7)
+    np.testing.assert_allclose(single, long[0], rtol=1e-5, atol=1e-6)  # float32: batch size rounds
     # half the output spacing: every second output is on the training grid
     fine = fitted.simulate(X, 20, dt=0.1)
     np.testing.assert_allclose(fine[:, ::2], long[:, :11], atol=2e-4)
