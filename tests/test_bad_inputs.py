@@ -224,6 +224,9 @@ def test_bad_input_is_named_and_changes_nothing(earlier, what, call, error, phra
     # the earlier fit is whole
     assert est.theta_ == earlier.theta
     assert est.n_features_in_ == earlier.n_features
+    # predict refuses parameters that no longer describe the fitted model (a changed dt or
+    # structure would be ignored): with the parameters set back, the earlier fit predicts as before
+    est.set_params(**earlier.est.get_params())
     np.testing.assert_array_equal(est.predict(earlier.X), earlier.pred)
 
 
