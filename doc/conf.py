@@ -36,10 +36,12 @@ numpydoc_show_class_members = False
 numpydoc_class_members_toctree = False
 
 autodoc_typehints = "none"  # the numpydoc sections already give the types
-# Docstrings inherited from scikit-learn (get_params, set_params, score) link to scikit-learn's
-# own pages, which an offline build cannot reach; every other reference must resolve (-n -W).
+# Docstrings inherited from scikit-learn (get_params, set_params, score), and ours where they name
+# a scikit-learn function, link to scikit-learn's own pages, which an offline build cannot reach;
+# every other reference must resolve (-n -W).
 nitpick_ignore = [("py:class", "sklearn.pipeline.Pipeline"), ("py:func", "sklearn.metrics.r2_score"),
-                  ("py:class", "sklearn.multioutput.MultiOutputRegressor"), ("std:ref", "r2_score")]
+                  ("py:class", "sklearn.multioutput.MultiOutputRegressor"), ("std:ref", "r2_score"),
+                  ("py:func", "sklearn.metrics.get_scorer")]
 
 sphinx_gallery_conf = {
     "examples_dirs": "../examples",
