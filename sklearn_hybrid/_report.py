@@ -9,9 +9,10 @@ network held at its fitted weights:
     cov(theta) = s^2 (J^T W J)^-1
 
 This is the standard error lmfit and ``scipy.optimize.curve_fit`` report. It
-measures what the noise in the data does to theta; it does not measure the
-bias that remains when the network absorbs part of the physics, nor the spread
-between training runs (for that, fit several seeds with
+measures what independent noise in ``y`` does to theta; it does not measure
+noise in ``X`` carried along a trajectory, the bias that remains when the
+network absorbs part of the physics, nor the spread between training runs
+(``benchmarks/results/coverage.md``: a lower bound) (for that, fit several seeds with
 :class:`~sklearn_hybrid.HybridRegressorCV`, whose ``theta_std_`` is that spread).
 """
 
