@@ -72,7 +72,9 @@ class HybridRegressorCV(RegressorMixin, BaseEstimator):
     update is exactly the one a separate ``HybridRegressor`` fit with that
     configuration and seed makes, up to floating-point summation order), then
     scored, and the best member is kept.  The spread of theta across seeds
-    at the chosen configuration is reported as an uncertainty.
+    at the chosen configuration is reported as an uncertainty.  Every member
+    trains for ``max_iter`` iterations: early stopping (``tol``) applies to
+    single fits only, as the members share one batched optimiser.
 
     Parameters
     ----------

@@ -200,8 +200,9 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
     theta_std_ : dict
         Standard error of each parameter (0 for fixed ones), from the
         Gauss-Newton approximation of the data loss in theta with the network
-        held fixed (see :meth:`fit_report`); it reflects the noise in the data,
-        not the bias a misspecified science model leaves.
+        held fixed (see :meth:`fit_report`); it reflects independent noise in
+        ``y`` only, not the bias of the network taking part of the physics: a
+        lower bound (``benchmarks/results/coverage.md``).
     theta_cov_ : ndarray of shape (p, p)
         Covariance of the free parameters, flattened in the order of ``theta_``.
     y_shape_ : tuple
