@@ -28,7 +28,8 @@ CONFIGS = [("erm", {}), ("sam", {"rho": 0.05}), ("sam", {"rho": 0.2}),
 def run(method, params, seed, iters):
     data = make_pendulum(random_state=seed)
     start = time.perf_counter()
-    est = HybridRegressor(science=pendulum_f, method=method, dt=0.2, n_substeps=4, lr=1e-3,
+    # tol=None: the protocol is a fixed number of iterations (no early stopping)
+    est = HybridRegressor(science=pendulum_f, method=method, dt=0.2, n_substeps=4, lr=1e-3, tol=None,
                           max_iter=iters, random_state=seed, **params).fit(data.X_train, data.y_train)
     y_err = float(np.sqrt(np.mean((est.predict(data.X_test) - data.y_test) ** 2)))
     return {"method": method, **params, "seed": seed, "omega": est.theta_["omega"],

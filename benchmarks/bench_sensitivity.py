@@ -31,7 +31,8 @@ def main():
     args = parser.parse_args()
     d = make_pendulum(random_state=0)
     data = (d.X_train, d.y_train, d.X_test, d.y_test)
-    common = dict(science=pendulum_f, dt=0.2, n_substeps=2, lr=3e-3, max_iter=args.iters)
+    # tol=None: every fit trains args.iters iterations (no early stopping)
+    common = dict(science=pendulum_f, dt=0.2, n_substeps=2, lr=3e-3, max_iter=args.iters, tol=None)
     seeds = list(range(args.seeds))
     sweeps = {
         "erm": (HybridRegressor(method="erm", **common), "weight_decay", [1e-5]),
