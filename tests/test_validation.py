@@ -213,7 +213,7 @@ def test_fit_too_large_for_memory_says_what_to_change(data, monkeypatch):
 def test_allocator_failure_is_explained(data, monkeypatch):
     from sklearn_hybrid import _estimator
 
-    def out_of_memory(*args):
+    def out_of_memory(*args, **kwargs):
         raise RuntimeError("[enforce fail at alloc_cpu.cpp:121] DefaultCPUAllocator: can't "
                            "allocate memory: you tried to allocate 38654705664 bytes.")
 
