@@ -35,6 +35,9 @@ from sklearn_hybrid.models import pendulum_f
 
 torch.set_num_threads(1)
 FAST = os.environ.get("SKLEARN_HYBRID_FAST", "0") == "1"  # tiny run for tests and doc builds
+if FAST:  # say so on the page: these numbers are not the method's results
+    print("FAST MODE (SKLEARN_HYBRID_FAST=1): tiny data and a few iterations; the numbers below "
+          "only show that the pipeline runs. Full-run results: benchmarks/results/varying_theta.md.")
 N_TRAIN, MAX_ITER = (8, 10) if FAST else (25, 1500)
 
 data = make_pendulum(N_TRAIN, N_TRAIN, N_TRAIN, omega=(0.1, 1.0), n_input_steps=10, random_state=0)
