@@ -15,7 +15,7 @@ sample ``x`` (an input window) has its own theta, and an encoder network
   last layer starts at zero, start every sample at ``theta_init``; parameters
   in ``theta_fixed`` keep their value for every sample;
 - :class:`PerSampleScience` calls the user's science function once per sample
-  with that sample's scalar theta, vectorised by :func:`torch.func.vmap`, so
+  with that sample's scalar theta, vectorised by ``torch.func.vmap``, so
   science functions written for one shared theta (``a * lap[:, 0]`` over
   fields) need no change.  When a probe at fit time shows that the function
   already gives the per-sample result with theta of shape ``(n, *shape)``
@@ -238,9 +238,9 @@ class PerSampleScience:
     """The science function with a batch of per-sample thetas bound (a transient callable).
 
     ``func(*inputs, **theta)`` is called for each sample with a batch of one
-    and that sample's theta, vectorised with :func:`torch.func.vmap`: the
+    and that sample's theta, vectorised with ``torch.func.vmap``: the
     function must use torch operations without data-dependent Python control
-    flow or ``.item()``, as :func:`torch.func.vmap` requires.
+    flow or ``.item()``, as ``torch.func.vmap`` requires.
     """
 
     per_sample = True
