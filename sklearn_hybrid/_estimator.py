@@ -5,6 +5,7 @@ from __future__ import annotations
 import copy
 import math
 import numbers
+import threading
 from contextlib import contextmanager
 
 import numpy as np
@@ -29,6 +30,7 @@ from .structures import HybridModule, make_structure
 __all__ = ["HybridRegressor"]
 
 _DTYPES = {"float32": torch.float32, "float64": torch.float64}
+_SEEDED_INIT = threading.Lock()  # torch's global generator is shared by all threads
 _PREDICT_CHUNK = 512  # samples per forward pass in predict
 
 
@@ -346,7 +348,9 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
         with _torch_threads(self.n_threads):
             inputs = structure.tensors(X_struct, dtype)  # copies: the science never sees the caller's X
             structure.probe(science, inputs)
-            with torch.random.fork_rng(devices=[]):  # seed init without touching global state
+            # seed init without touching global state; the lock keeps fits in other threads
+            # (dask or joblib threading workers) from reseeding the shared generator meanwhile
+            with _SEEDED_INIT, torch.random.fork_rng(devices=[]):
                 torch.manual_seed(seed)
                 in_shapes, out_shape = structure.residual_shapes()
                 residual = build_residual(self.residual, in_shapes, out_shape, dtype)
