@@ -7,18 +7,20 @@ Both with the default method (fsam, rho 0.05) on ``make_pendulum(random_state=se
 thread, fits run one after the other (the wall-clock times are those of a shared 2-core machine:
 the load average is recorded).
 
-Usage: python benchmarks/bench_early_stopping.py [--seeds 3]
+Usage: python benchmarks/bench_early_stopping.py [--seeds 3] [--settings default]
+(``--settings`` reruns only those settings and keeps the other rows from the last results file.)
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import time
 
 import numpy as np
 
-from _common import write_results
+from _common import RESULTS, write_results
 from sklearn_hybrid import HybridRegressor, theta_error
 from sklearn_hybrid.datasets import make_pendulum
 from sklearn_hybrid.models import pendulum_f
@@ -45,16 +47,23 @@ def run(name, seed):
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=3)
+    parser.add_argument("--settings", nargs="+", default=list(SETTINGS), choices=list(SETTINGS))
     args = parser.parse_args()
-    rows = [run(name, seed) for seed in range(args.seeds) for name in SETTINGS]
+    kept = []
+    if set(args.settings) != set(SETTINGS):  # the other settings' rows from the last run
+        previous = json.loads((RESULTS / "early_stopping.json").read_text())["runs"]
+        kept = [dict(r, kept=True) for r in previous if r["setting"] not in args.settings]
+    rows = kept + [run(name, seed) for seed in range(args.seeds) for name in args.settings]
     lines = [f"# Pendulum default fit: early stopping vs 2,000 iterations ({args.seeds} seeds)", "",
-             f"Command: `python benchmarks/bench_early_stopping.py --seeds {args.seeds}`", "",
+             f"Command: `python benchmarks/bench_early_stopping.py --seeds {args.seeds}"
+             + ("" if not kept else f" --settings {' '.join(args.settings)}") + "`"
+             + ("" if not kept else " (rows marked * kept from the previous run)"), "",
              "before: lr 1e-3, 2,000 iterations (the defaults until issue 12); default: lr 1e-2, "
              "early stopping (tol 1e-3, n_iter_no_change 100). Method fsam (rho 0.05), one thread.", "",
              "| setting | seed | iterations | seconds | omega | theta std (Gauss-Newton) | "
              "abs(omega - 2/3) | test RMSE | load avg before |", "|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
-        lines.append(f"| {r['setting']} | {r['seed']} | {r['n_iter']} | {r['seconds']:.1f} | "
+        lines.append(f"| {r['setting']}{'*' if r.get('kept') else ''} | {r['seed']} | {r['n_iter']} | {r['seconds']:.1f} | "
                      f"{r['omega']:.4f} | {r['omega_std']:.4f} | {r['theta_error']:.4f} | "
                      f"{r['test_rmse']:.4f} | {r['load_before']:.2f} |")
     lines += ["", "| setting | mean iterations | mean seconds | max seconds | mean abs(omega - 2/3) | "
