@@ -14,7 +14,8 @@ from sklearn.metrics import check_scoring
 from sklearn.utils.validation import check_is_fitted
 
 from ._batched import BATCHABLE_METHODS, train_batched
-from ._estimator import HybridRegressor, _torch_threads, set_feature_info, validate_into_copy
+from ._estimator import HybridRegressor
+from ._validation import set_feature_info, torch_threads, validate_into_copy
 from ._kernels import reusing_buffers
 from .engine import DivergenceError, train
 
@@ -40,7 +41,7 @@ def _train_group(models, method, inputs, y, config, seeds, rho, lam, n_threads):
     stage loop dispatches thousands of small operations, and threads would
     queue for the interpreter lock between them).
     """
-    with _torch_threads(n_threads), reusing_buffers():
+    with torch_threads(n_threads), reusing_buffers():
         history = train_batched(models, method, inputs, y, config,
                                 [torch.Generator().manual_seed(s) for s in seeds], rho=rho, lam=lam)
     return history, models
@@ -52,7 +53,7 @@ def _train_member(model, method, inputs, y, config, seed, n_threads):
     Returns its history in the stacked format (a diverged member: NaN, and
     ``diverged_at`` 0 since a single fit does not report where it diverged).
     """
-    with _torch_threads(n_threads), reusing_buffers():
+    with torch_threads(n_threads), reusing_buffers():
         try:
             history = train(model, method, inputs, y, config, torch.Generator().manual_seed(seed))
             history["diverged_at"] = -1

@@ -2,11 +2,9 @@
 
 from __future__ import annotations
 
-import copy
 import math
 import numbers
 import threading
-from contextlib import contextmanager
 
 import numpy as np
 import torch
@@ -21,6 +19,7 @@ from . import encoder as _encoder
 from .engine import TrainConfig, explain_nonfinite, train
 from ._extras import EstimatorExtras, _check_sample_weight, _holdout
 from ._memory import check_fit_memory, explained_memory_errors
+from ._validation import check_positive, set_feature_info, torch_threads, validate_into_copy
 from ._report import theta_uncertainty
 from .methods import make_method
 from .residual import build_residual
@@ -32,47 +31,6 @@ __all__ = ["HybridRegressor"]
 _DTYPES = {"float32": torch.float32, "float64": torch.float64}
 _SEEDED_INIT = threading.Lock()  # torch's global generator is shared by all threads
 _PREDICT_CHUNK = 512  # samples per forward pass in predict
-
-
-@contextmanager
-def _torch_threads(n_threads):
-    """Run with ``n_threads`` intra-op threads, restoring the caller's setting."""
-    previous = torch.get_num_threads()
-    if n_threads is not None:
-        torch.set_num_threads(n_threads)
-    try:
-        yield
-    finally:
-        torch.set_num_threads(previous)
-
-
-def validate_into_copy(estimator, *args, **kwargs):
-    """``validate_data`` on a shallow copy of ``estimator``; returns its output and the feature info.
-
-    ``validate_data`` records ``n_features_in_`` / ``feature_names_in_`` on the
-    estimator it is given; doing that on a copy keeps an earlier fit whole
-    until the new one succeeds (then :func:`set_feature_info` stores them).
-    """
-    checked = copy.copy(estimator)
-    out = validate_data(checked, *args, **kwargs)
-    return out, {k: getattr(checked, k) for k in ("n_features_in_", "feature_names_in_")
-                 if hasattr(checked, k)}
-
-
-def set_feature_info(estimator, features: dict) -> None:
-    """Store what :func:`validate_into_copy` recorded, dropping stale feature names."""
-    if "feature_names_in_" not in features and hasattr(estimator, "feature_names_in_"):
-        del estimator.feature_names_in_
-    for name, value in features.items():
-        setattr(estimator, name, value)
-
-
-def _check_positive(name, value, integer=False, allow_none=False):
-    if value is None and allow_none:
-        return
-    kind = numbers.Integral if integer else numbers.Real
-    if not isinstance(value, kind) or isinstance(value, bool) or not value > 0:
-        raise ValueError(f"{name} must be a positive {'integer' if integer else 'number'}, got {value!r}.")
 
 
 class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
@@ -268,13 +226,13 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
     def _check_params(self):
         if self.science is None:
             raise ValueError("HybridRegressor needs a science function: HybridRegressor(science=f).")
-        _check_positive("lr", self.lr)
-        _check_positive("lr_theta", self.lr_theta, allow_none=True)
-        _check_positive("max_iter", self.max_iter, integer=True)
-        _check_positive("tol", self.tol, allow_none=True)
-        _check_positive("n_iter_no_change", self.n_iter_no_change, integer=True)
-        _check_positive("batch_size", self.batch_size, integer=True, allow_none=True)
-        _check_positive("n_threads", self.n_threads, integer=True, allow_none=True)
+        check_positive("lr", self.lr)
+        check_positive("lr_theta", self.lr_theta, allow_none=True)
+        check_positive("max_iter", self.max_iter, integer=True)
+        check_positive("tol", self.tol, allow_none=True)
+        check_positive("n_iter_no_change", self.n_iter_no_change, integer=True)
+        check_positive("batch_size", self.batch_size, integer=True, allow_none=True)
+        check_positive("n_threads", self.n_threads, integer=True, allow_none=True)
         if not (isinstance(self.weight_decay, numbers.Real) and self.weight_decay >= 0):
             raise ValueError(f"weight_decay must be a non-negative number, got {self.weight_decay!r}.")
         if self.perturb not in ("residual", "all"):
@@ -317,7 +275,7 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
         weight = _check_sample_weight(sample_weight, len(setup.y), setup.y.dtype, setup.y.device)
         inputs, y_t, validation = _holdout(setup, weight, self.validation_fraction)
         weight = validation.pop("train_weight")
-        with _torch_threads(self.n_threads), reusing_buffers(), explained_memory_errors(setup):
+        with torch_threads(self.n_threads), reusing_buffers(), explained_memory_errors(setup):
             history = train(setup.model, setup.method, inputs, y_t, setup.config,
                             torch.Generator().manual_seed(setup.seed), sample_weight=weight,
                             validation=validation.get("data"))
@@ -345,7 +303,7 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
         structure = self._make_structure()
         X_struct = self._structure_X(X)
         structure.setup(X_struct, y_shape)
-        with _torch_threads(self.n_threads):
+        with torch_threads(self.n_threads):
             inputs = structure.tensors(X_struct, dtype)  # copies: the science never sees the caller's X
             structure.probe(science, inputs)
             # seed init without touching global state; the lock keeps fits in other threads
@@ -372,7 +330,7 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
                       y=torch.tensor(y, dtype=dtype, device=device),
                       config=config, seed=seed, y_shape=y_shape, x_shape=X.shape[1:],
                       features=features)
-        with _torch_threads(self.n_threads):
+        with torch_threads(self.n_threads):
             check_fit_memory(setup)
         return setup
 
@@ -402,12 +360,12 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
         """
         model = setup.model
         model.eval()
-        with _torch_threads(self.n_threads):  # first: an error here must leave an earlier fit whole
+        with torch_threads(self.n_threads):  # first: an error here must leave an earlier fit whole
             std, cov, _ = theta_uncertainty(model, *(data or (setup.inputs, setup.y, None)))
         self.model_, self.residual_ = model, model.residual
         self.theta_, self.history_ = model.science.as_dict(), history
         if model.encoder is not None:
-            with _torch_threads(self.n_threads), torch.no_grad():
+            with torch_threads(self.n_threads), torch.no_grad():
                 window = setup.inputs[-1]
                 self.theta_.update(_encoder.summarize(model.encoder(window, model.science)))
         self.theta_std_, self.theta_cov_ = std, cov
@@ -430,7 +388,7 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
         theta = next(model.science.parameters())  # the fitted dtype and device, whatever
         dtype, device = theta.dtype, theta.device  # set_params says since
         parts = []
-        with _torch_threads(self.n_threads), torch.no_grad():
+        with torch_threads(self.n_threads), torch.no_grad():
             # in chunks: memory then grows with the chunk, not with len(X)
             for start in range(0, max(len(X), 1), _PREDICT_CHUNK):
                 inputs = self._inputs(X[start:start + _PREDICT_CHUNK], dtype, device)
@@ -491,7 +449,7 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
         per_sample = {}
         if model.encoder is not None:
             fitted = next(model.science.parameters())  # the fitted dtype and device
-            with _torch_threads(self.n_threads), torch.no_grad():
+            with torch_threads(self.n_threads), torch.no_grad():
                 window = torch.tensor(X, dtype=fitted.dtype, device=fitted.device)
                 theta = model.encoder(window, model.science)
                 per_sample = {k: v.cpu().numpy().astype(np.float64) for k, v in theta.items()}

@@ -15,6 +15,7 @@ import torch
 from sklearn.utils.validation import check_is_fitted
 
 from ._report import format_report
+from ._validation import torch_threads
 from .integrate import upsample_inputs
 
 __all__ = ["EstimatorExtras"]
@@ -183,9 +184,7 @@ class EstimatorExtras:
         n_sub = max(1, math.ceil(s.n_substeps * dt / s.dt - 1e-9))
         u, n_steps = self._check_inputs(s, u, n_steps, len(x0), single)
         dtype, device = next(self.model_.science.parameters()).dtype, self.device_
-        from ._estimator import _torch_threads
-
-        with _torch_threads(self.n_threads), torch.no_grad():
+        with torch_threads(self.n_threads), torch.no_grad():
             x = torch.as_tensor(x0, dtype=dtype, device=device)
             u_fine = None if u is None else torch.as_tensor(
                 upsample_inputs(u, 2 * n_sub, s.input_interp), dtype=dtype, device=device)

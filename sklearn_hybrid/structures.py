@@ -25,6 +25,7 @@ import torch
 from torch import nn
 
 from . import _fast
+from ._probe import call_science, probe_batch
 from .integrate import INPUT_INTERPOLATIONS, integrate, upsample_inputs
 
 __all__ = ["HybridModule", "make_structure", "STRUCTURES", "pack_inputs"]
@@ -76,88 +77,6 @@ class HybridModule(nn.Module):
         if self.encoder is not None and self.encoder.last_mean is not None:
             values.update(self.encoder.last_mean)
         return values
-
-
-def probe_batch(inputs, avoid) -> tuple:
-    """The first samples of ``inputs``, as many as no per-sample axis has.
-
-    A probe batch whose size equals a state dimension cannot tell a transposed
-    output ``(d, n)`` from ``(n, d)``; rows are repeated if there are too few.
-    """
-    k = next(k for k in range(3, 100) if k not in avoid)
-    rows = torch.arange(k) % len(inputs[0])
-    return tuple(t[rows] for t in inputs)
-
-
-def _call_science(science, args, expected_shape, what, differentiable=False):
-    """Run the science function on a probe batch and check what it returns.
-
-    Besides the output's type and shape, the probe checks that the function
-    leaves its inputs alone, returns finite values, and passes a gradient to
-    every free parameter (numpy calls, ``.item()`` or ``.detach()`` inside it
-    cut the graph, and theta would silently stay at its start).  With
-    ``differentiable`` the inputs require a gradient, as ODE states do in
-    training, so that numpy calls on them fail here rather than later.
-    """
-    name = science.name
-    before = [a.clone() for a in args]
-    if differentiable:  # non-leaf copies: in-place writes reach the mutation check below
-        args = tuple(a.clone().requires_grad_() * 1 for a in args)
-    try:
-        with torch.enable_grad():
-            out = science(*args)
-    except Exception as exc:
-        shapes = ", ".join(str(tuple(a.shape)) for a in args)
-        hint = ("It calls numpy on a tensor (e.g. np.sin): use the torch function (torch.sin); "
-                "detaching would cut the gradient of theta. " if "numpy()" in str(exc) else "")
-        raise ValueError(
-            f"The science function {name!r} raised {type(exc).__name__}: {exc} (called with "
-            f"{what} of shape(s) {shapes}). {hint}It must accept torch tensors with a "
-            "leading batch dimension and use torch operations."
-        ) from exc
-    if not isinstance(out, torch.Tensor):
-        raise TypeError(
-            f"The science function {name!r} returned {type(out).__name__}, expected a torch.Tensor.")
-    if any(not torch.equal(a.detach(), b) for a, b in zip(args, before)):
-        raise ValueError(
-            f"The science function {name!r} modifies its input in place (e.g. `v[:, 0] *= k` or "
-            "`v.mul_(k)`); it would rewrite the data at every call. Use out-of-place "
-            "operations (`v = v * k`, `torch.stack`)."
-        )
-    batch = args[0].shape[0]
-    if expected_shape is not None and tuple(out.shape) != tuple(expected_shape):
-        hint = (" It looks transposed: stack the components along the last axis (dim=-1)."
-                if tuple(out.shape) == tuple(expected_shape)[::-1] else "")
-        raise ValueError(
-            f"The science function {name!r} returned shape {tuple(out.shape)} for {what} of "
-            f"shape {tuple(args[0].shape)}; the structure needs {tuple(expected_shape)}.{hint}"
-        )
-    if out.ndim == 0 or out.shape[0] != batch:
-        raise ValueError(
-            f"The science function {name!r} returned shape {tuple(out.shape)}; its first axis "
-            f"must be the batch axis of length {batch}."
-        )
-    bad = ~torch.isfinite(out.detach()).reshape(batch, -1).all(dim=1)
-    if bad.any():
-        i = int(bad.nonzero()[0])
-        raise ValueError(
-            f"The science function {name!r} returned non-finite values for {what} "
-            f"{[a[i].tolist() for a in before]} (theta {science.as_dict()}). Make it finite "
-            "on the data's range (bound theta with theta_bounds or guard its domain)."
-        )
-    free = [(n, p) for n, p in science.raw.items() if p.requires_grad]
-    grads = (torch.autograd.grad(out.sum(), [p for _, p in free], allow_unused=True)
-             if free and out.requires_grad else [None] * len(free))
-    cut = [n for (n, _), g in zip(free, grads) if g is None]
-    if cut:
-        raise ValueError(
-            f"The science function {name!r} passes no gradient to parameter(s) {cut}: its "
-            "output does not depend on them through torch operations (numpy calls, .item(), "
-            "float(), .detach() or torch.as_tensor of a computed value cut the graph), so "
-            "they would stay at their initial value. Write it with torch operations, or keep "
-            "them constant with theta_fixed."
-        )
-    return out
 
 
 def pack_inputs(x0: np.ndarray, u: np.ndarray) -> np.ndarray:
@@ -297,7 +216,7 @@ class OdeStructure:
         batch = probe_batch(inputs, self.state_shape)
         v = batch[0]
         u = batch[1][:, 0] if self.n_inputs else None
-        _call_science(science, self._args(v, u), v.shape,
+        call_science(science, self._args(v, u), v.shape,
                       "states" + (" and inputs" if u is not None else ""), differentiable=True)
 
     def residual_shapes(self):
@@ -377,7 +296,7 @@ class ComposeStructure:
 
     def probe(self, science, inputs):
         x = probe_batch(inputs, (*self.x_shape, *self.y_shape))[0]
-        self.z_shape = tuple(_call_science(science, (x,), None, "X").shape[1:])
+        self.z_shape = tuple(call_science(science, (x,), None, "X").shape[1:])
 
     def residual_shapes(self):
         return (tuple(self.x_shape), self.z_shape), self.y_shape
@@ -420,7 +339,7 @@ class AdditiveStructure(ComposeStructure):
 
     def probe(self, science, inputs):
         x = probe_batch(inputs, (*self.x_shape, *self.y_shape))[0]
-        _call_science(science, (x,), (len(x), *self.y_shape), "X")
+        call_science(science, (x,), (len(x), *self.y_shape), "X")
 
     def residual_shapes(self):
         return (tuple(self.x_shape),), self.y_shape

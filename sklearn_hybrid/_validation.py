@@ -1,0 +1,55 @@
+"""Checks shared by the estimators: validation that keeps an earlier fit whole, positive
+numbers, and torch's thread count for the duration of a fit or a prediction."""
+
+from __future__ import annotations
+
+import copy
+import numbers
+from contextlib import contextmanager
+
+import torch
+from sklearn.utils.validation import validate_data
+
+__all__ = ["torch_threads", "validate_into_copy", "set_feature_info", "check_positive"]
+
+
+@contextmanager
+def torch_threads(n_threads):
+    """Run with ``n_threads`` intra-op threads, restoring the caller's setting."""
+    previous = torch.get_num_threads()
+    if n_threads is not None:
+        torch.set_num_threads(n_threads)
+    try:
+        yield
+    finally:
+        torch.set_num_threads(previous)
+
+
+def validate_into_copy(estimator, *args, **kwargs):
+    """``validate_data`` on a shallow copy of ``estimator``; returns its output and the feature info.
+
+    ``validate_data`` records ``n_features_in_`` / ``feature_names_in_`` on the
+    estimator it is given; doing that on a copy keeps an earlier fit whole
+    until the new one succeeds (then :func:`set_feature_info` stores them).
+    """
+    checked = copy.copy(estimator)
+    out = validate_data(checked, *args, **kwargs)
+    return out, {k: getattr(checked, k) for k in ("n_features_in_", "feature_names_in_")
+                 if hasattr(checked, k)}
+
+
+def set_feature_info(estimator, features: dict) -> None:
+    """Store what :func:`validate_into_copy` recorded, dropping stale feature names."""
+    if "feature_names_in_" not in features and hasattr(estimator, "feature_names_in_"):
+        del estimator.feature_names_in_
+    for name, value in features.items():
+        setattr(estimator, name, value)
+
+
+def check_positive(name, value, integer=False, allow_none=False):
+    """Raise a ValueError naming ``name`` unless ``value`` is a positive number (or integer)."""
+    if value is None and allow_none:
+        return
+    kind = numbers.Integral if integer else numbers.Real
+    if not isinstance(value, kind) or isinstance(value, bool) or not value > 0:
+        raise ValueError(f"{name} must be a positive {'integer' if integer else 'number'}, got {value!r}.")
