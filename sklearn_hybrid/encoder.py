@@ -152,10 +152,12 @@ def build_encoder(spec, in_shape: tuple, n_out: int,
     torch.nn.Module
     """
     if isinstance(spec, nn.Module):
+        name = type(spec).__name__
         raise TypeError(
-            f"theta_encoder is a {type(spec).__name__} instance. Pass a factory rather than a "
-            "module instance (e.g. `theta_encoder=lambda in_shape, n_out: net`), so that every "
-            "fit starts from a fresh encoder and the estimator stays clonable."
+            f"theta_encoder is a {name} instance. Pass a factory rather than a module instance "
+            f"(e.g. `theta_encoder=lambda in_shape, n_out: {name}(...)`, a new encoder each "
+            "call), so that every fit starts from a fresh encoder and the estimator stays "
+            "clonable."
         )
     if callable(spec):
         module = spec(tuple(in_shape), int(n_out))
