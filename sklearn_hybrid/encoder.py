@@ -36,7 +36,7 @@ from typing import Sequence
 import torch
 from torch import nn
 
-from .residual import _activation
+from .residual import _activation, from_registry, new_module
 
 __all__ = ["ThetaEncoder", "PerSampleScience", "build_encoder", "make_theta_encoder", "ENCODERS",
            "MLPEncoder", "ConvEncoder"]
@@ -160,30 +160,12 @@ def build_encoder(spec, in_shape: tuple, n_out: int,
             "clonable."
         )
     if callable(spec):
-        module = spec(tuple(in_shape), int(n_out))
-        if not isinstance(module, nn.Module):
-            raise TypeError(
-                f"The theta_encoder factory returned {type(module).__name__}, expected a "
-                "torch.nn.Module."
-            )
-        return module.to(dtype)
-    options = {"kind": spec} if isinstance(spec, str) else dict(spec) if isinstance(spec, dict) else None
-    if options is None:
-        raise TypeError(
-            f"theta_encoder must be None, a name {sorted(ENCODERS)}, a dict of options or a "
-            f"factory, got {type(spec).__name__}."
-        )
-    kind = options.pop("kind", "mlp")
-    if kind not in ENCODERS:
-        raise ValueError(f"Unknown theta_encoder kind {kind!r}; choose one of {sorted(ENCODERS)}.")
-    try:
-        module = ENCODERS[kind](tuple(in_shape), int(n_out), **options)
-    except TypeError as exc:
-        raise ValueError(f"Invalid options for theta_encoder {kind!r}: {exc}") from None
+        return new_module(spec(tuple(in_shape), int(n_out)), "theta_encoder").to(dtype)
+    module = from_registry("theta_encoder", spec, ENCODERS, (tuple(in_shape), int(n_out)), dtype)
     with torch.no_grad():  # every sample starts at theta_init; the body still learns (see module doc)
         module.head.weight.zero_()
         module.head.bias.zero_()
-    return module.to(dtype)
+    return module
 
 
 class ThetaEncoder(nn.Module):

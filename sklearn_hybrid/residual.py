@@ -14,7 +14,7 @@ from typing import Sequence
 import torch
 from torch import nn
 
-__all__ = ["MLP", "ConvNet", "build_residual", "RESIDUALS"]
+__all__ = ["MLP", "ConvNet", "build_residual", "RESIDUALS", "new_module", "from_registry"]
 
 _ACTIVATIONS = {"relu": nn.ReLU, "tanh": nn.Tanh, "elu": nn.ELU, "gelu": nn.GELU,
                 "silu": nn.SiLU, "leaky_relu": nn.LeakyReLU, "softplus": nn.Softplus}
@@ -103,6 +103,46 @@ class ConvNet(nn.Module):
 RESIDUALS: dict[str, type[nn.Module]] = {"mlp": MLP, "cnn": ConvNet}
 
 
+def new_module(module, what: str) -> nn.Module:
+    """Check what a ``what`` factory returned: a torch Module it has not returned before.
+
+    Shared by the residual and theta-encoder specifications: ``lambda: net``
+    would hand every fit (and every clone in a search) the same network.
+    """
+    name = type(module).__name__
+    if not isinstance(module, nn.Module):
+        raise TypeError(f"The {what} factory returned {name}, expected a torch.nn.Module.")
+    if getattr(module, "_sklearn_hybrid_built", False):
+        raise ValueError(
+            f"The {what} factory returned a {name} it had returned before; it must build a new "
+            f"network at each call (e.g. `lambda: {name}(...)`, not `lambda: net`)."
+        )
+    module._sklearn_hybrid_built = True
+    return module
+
+
+def from_registry(what: str, spec, registry: dict, args: tuple, dtype: torch.dtype) -> nn.Module:
+    """Build ``registry[kind](*args, **options)`` from a name or a dict ``{"kind": ..., **options}``.
+
+    Shared by the residual and theta-encoder specifications; ``what`` names the
+    parameter in the messages.
+    """
+    options = {"kind": spec} if isinstance(spec, str) else dict(spec) if isinstance(spec, dict) else None
+    if options is None:
+        raise TypeError(
+            f"{what} must be a name {sorted(registry)}, a dict of options or a factory, "
+            f"got {type(spec).__name__}. Pass a factory rather than a module instance, "
+            "so that every fit starts from a fresh network."
+        )
+    kind = options.pop("kind", "mlp")
+    if kind not in registry:
+        raise ValueError(f"Unknown {what} kind {kind!r}; choose one of {sorted(registry)}.")
+    try:
+        return registry[kind](*args, **options).to(dtype)
+    except TypeError as exc:
+        raise ValueError(f"Invalid options for {what} {kind!r}: {exc}") from None
+
+
 def _takes_arguments(factory) -> bool:
     """Whether a factory has required positional arguments (the shapes) or takes none."""
     try:
@@ -146,36 +186,10 @@ def build_residual(spec, in_shapes: Sequence[tuple] | None, out_shape: tuple | N
     if callable(spec):
         wants_shapes = in_shapes is not None and _takes_arguments(spec)
         module = spec(tuple(in_shapes), tuple(out_shape)) if wants_shapes else spec()
-        if not isinstance(module, nn.Module):
-            raise TypeError(
-                f"The residual factory returned {type(module).__name__}, expected a "
-                "torch.nn.Module."
-            )
-        if getattr(module, "_sklearn_hybrid_built", False):
-            # `lambda: net` hands every fit (and every clone in a search) the same network
-            raise ValueError(
-                f"The residual factory returned a {type(module).__name__} it had returned "
-                "before; it must build a new network at each call (e.g. `lambda: "
-                f"{type(module).__name__}(...)`, not `lambda: net`)."
-            )
-        module._sklearn_hybrid_built = True
-        return module.to(dtype)
+        return new_module(module, "residual").to(dtype)
     if in_shapes is None:
         raise ValueError(
             "A user-supplied structure needs `residual` to be a factory returning a "
             "torch.nn.Module (called with no arguments)."
         )
-    options = {"kind": spec} if isinstance(spec, str) else dict(spec) if isinstance(spec, dict) else None
-    if options is None:
-        raise TypeError(
-            f"residual must be a name {sorted(RESIDUALS)}, a dict of options or a factory, "
-            f"got {type(spec).__name__}. Pass a factory rather than a module instance, "
-            "so that every fit starts from a fresh network."
-        )
-    kind = options.pop("kind", "mlp")
-    if kind not in RESIDUALS:
-        raise ValueError(f"Unknown residual kind {kind!r}; choose one of {sorted(RESIDUALS)}.")
-    try:
-        return RESIDUALS[kind](in_shapes, out_shape, **options).to(dtype)
-    except TypeError as exc:
-        raise ValueError(f"Invalid options for residual {kind!r}: {exc}") from None
+    return from_registry("residual", spec, RESIDUALS, (in_shapes, out_shape), dtype)

@@ -153,6 +153,15 @@ def test_unfitted_and_bad_specs(decay):
         HybridRegressor(science=decay_f, n_inputs=1, **FAST).fit(X, y)
 
 
+def test_encoder_factory_returning_one_network_twice(decay):
+    X, y, _ = decay
+    net = torch.nn.Sequential(torch.nn.Flatten(), torch.nn.Linear(int(np.prod(X.shape[1:])), 1))
+    same = lambda in_shape, n_out: net  # noqa: E731  (the trap: one network for every fit)
+    HybridRegressor(science=decay_f, **{**FAST, "theta_encoder": same}).fit(X, y)
+    with pytest.raises(ValueError, match="it had returned before; it must build a new network"):
+        HybridRegressor(science=decay_f, **{**FAST, "theta_encoder": same}).fit(X, y)
+
+
 @pytest.mark.filterwarnings("ignore:Converting a tensor with requires_grad")
 def test_science_that_cannot_run_per_sample(decay):
     X, y, _ = decay
