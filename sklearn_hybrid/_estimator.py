@@ -376,17 +376,26 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
         self._fitted_structure = self._structure_params()
         set_feature_info(self, setup.features)
 
-    def _forward(self, X, use_residual=True, trace=False):
+    def _fitted_X(self, X):
+        """``X`` validated against the fit: feature count and per-sample shape."""
         check_is_fitted(self)
-        self._check_structure_unchanged()
         X = validate_data(self, X, reset=False, allow_nd=True, dtype=np.float64)
         if X.shape[1:] != self.x_shape_:
             raise ValueError(
                 f"X has per-sample shape {X.shape[1:]}; this model was fitted on {self.x_shape_}."
             )
+        return X
+
+    def _fitted_dtype(self):
+        """The dtype the model was fitted in, whatever ``set_params`` says since."""
+        return next(self.model_.science.parameters()).dtype
+
+    def _forward(self, X, use_residual=True, trace=False):
+        check_is_fitted(self)
+        self._check_structure_unchanged()
+        X = self._fitted_X(X)
         model = self.model_
-        theta = next(model.science.parameters())  # the fitted dtype and device, whatever
-        dtype, device = theta.dtype, theta.device  # set_params says since
+        dtype, device = self._fitted_dtype(), self.device_
         parts = []
         with torch_threads(self.n_threads), torch.no_grad():
             # in chunks: memory then grows with the chunk, not with len(X)
@@ -439,18 +448,12 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
             ``theta_encoder`` (fixed parameters repeated), ``theta_`` repeated
             for every sample otherwise.
         """
-        check_is_fitted(self)
-        X = validate_data(self, X, reset=False, allow_nd=True, dtype=np.float64)
-        if X.shape[1:] != self.x_shape_:
-            raise ValueError(
-                f"X has per-sample shape {X.shape[1:]}; this model was fitted on {self.x_shape_}."
-            )
+        X = self._fitted_X(X)
         model, n = self.model_, len(X)
         per_sample = {}
         if model.encoder is not None:
-            fitted = next(model.science.parameters())  # the fitted dtype and device
             with torch_threads(self.n_threads), torch.no_grad():
-                window = torch.tensor(X, dtype=fitted.dtype, device=fitted.device)
+                window = torch.tensor(X, dtype=self._fitted_dtype(), device=self.device_)
                 theta = model.encoder(window, model.science)
                 per_sample = {k: v.cpu().numpy().astype(np.float64) for k, v in theta.items()}
         return {name: per_sample[name] if name in per_sample

@@ -15,7 +15,7 @@ import torch
 from sklearn.utils.validation import check_is_fitted
 
 from ._report import format_report
-from ._validation import torch_threads
+from ._validation import check_positive, torch_threads
 from .integrate import upsample_inputs
 
 __all__ = ["EstimatorExtras"]
@@ -179,11 +179,10 @@ class EstimatorExtras:
         if not np.all(np.isfinite(x0)):
             raise ValueError("x0 contains NaN or infinite values.")
         dt = s.dt if dt is None else dt
-        if not (isinstance(dt, numbers.Real) and not isinstance(dt, bool) and dt > 0):
-            raise ValueError(f"dt must be a positive number, got {dt!r}.")
+        check_positive("dt", dt)
         n_sub = max(1, math.ceil(s.n_substeps * dt / s.dt - 1e-9))
         u, n_steps = self._check_inputs(s, u, n_steps, len(x0), single)
-        dtype, device = next(self.model_.science.parameters()).dtype, self.device_
+        dtype, device = self._fitted_dtype(), self.device_
         with torch_threads(self.n_threads), torch.no_grad():
             x = torch.as_tensor(x0, dtype=dtype, device=device)
             u_fine = None if u is None else torch.as_tensor(

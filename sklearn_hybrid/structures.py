@@ -26,6 +26,7 @@ from torch import nn
 
 from . import _fast
 from ._probe import call_science, probe_batch
+from ._validation import check_positive
 from .integrate import INPUT_INTERPOLATIONS, integrate, upsample_inputs
 
 __all__ = ["HybridModule", "make_structure", "STRUCTURES", "pack_inputs"]
@@ -129,11 +130,8 @@ class OdeStructure:
 
     def __init__(self, dt=1.0, n_substeps=4, solver="rk4", observed=None, n_inputs=0,
                  input_interp="cubic", solver_options=None):
-        if not (isinstance(dt, numbers.Real) and not isinstance(dt, bool) and dt > 0):
-            raise ValueError(f"dt must be a positive number, got {dt!r}.")
-        if not (isinstance(n_substeps, numbers.Integral) and not isinstance(n_substeps, bool)
-                and n_substeps >= 1):
-            raise ValueError(f"n_substeps must be a positive integer, got {n_substeps!r}.")
+        check_positive("dt", dt)
+        check_positive("n_substeps", n_substeps, integer=True)
         if input_interp not in INPUT_INTERPOLATIONS:
             raise ValueError(f"Unknown input_interp {input_interp!r}; choose one of {INPUT_INTERPOLATIONS}.")
         self.dt, self.n_substeps, self.solver = float(dt), int(n_substeps), solver
