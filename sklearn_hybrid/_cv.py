@@ -17,6 +17,7 @@ from ._batched import BATCHABLE_METHODS, train_batched
 from ._estimator import HybridRegressor
 from ._validation import set_feature_info, torch_threads, validate_into_copy
 from ._kernels import reusing_buffers
+from ._memory import check_fit_memory
 from .engine import DivergenceError, train
 
 __all__ = ["HybridRegressorCV"]
@@ -218,6 +219,12 @@ class HybridRegressorCV(RegressorMixin, BaseEstimator):
         train_idx, val_idx = self._split(len(X_arr), params[0]["random_state"])
         members = [clone(self.estimator).set_params(**p) for p in params]
         setups = [m._setup_fit(X_arr[train_idx], y_arr[train_idx]) for m in members]
+        # the members share shapes: measure one, count those in memory at once (all of them
+        # when stacked, one per worker when members with an encoder train one by one)
+        together = (len(setups) if self.estimator.theta_encoder is None
+                    else min(self._n_groups(), len(setups)))
+        with torch_threads(self.estimator.n_threads):
+            check_fit_memory(setups[0], n_models=together)
         history = self._train(setups, params)
         diverged = history["diverged_at"]
         if (diverged >= 0).all():

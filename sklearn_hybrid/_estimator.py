@@ -272,6 +272,8 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
             earlier fit is left untouched.
         """
         setup = self._setup_fit(X, y)
+        with torch_threads(self.n_threads):
+            check_fit_memory(setup)
         weight = _check_sample_weight(sample_weight, len(setup.y), setup.y.dtype, setup.y.device)
         inputs, y_t, validation = _holdout(setup, weight, self.validation_fraction)
         weight = validation.pop("train_weight")
@@ -330,8 +332,6 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
                       y=torch.tensor(y, dtype=dtype, device=device),
                       config=config, seed=seed, y_shape=y_shape, x_shape=X.shape[1:],
                       features=features)
-        with torch_threads(self.n_threads):
-            check_fit_memory(setup)
         return setup
 
     def _structure_X(self, X):

@@ -75,7 +75,7 @@ def _advice(setup, per_sample: float, budget: float) -> str:
             "or narrow the network.")
 
 
-def check_fit_memory(setup) -> None:
+def check_fit_memory(setup, n_models: int = 1) -> None:
     """Raise a MemoryError that says what to change if a fit cannot fit in memory.
 
     Parameters
@@ -83,17 +83,21 @@ def check_fit_memory(setup) -> None:
     setup : Bunch
         What ``HybridRegressor._setup_fit`` builds (``model``, ``inputs``,
         ``y``, ``config``).
+    n_models : int, default=1
+        How many such models train at once (the stacked members of a sweep):
+        measured once, counted that many times.
     """
     available = available_memory_bytes(setup.y.device)
     if available is None:
         return
     n = len(setup.y)
     n_batch = min(setup.config.batch_size or n, n)
-    needed = fit_memory_bytes(setup.model, setup.inputs, n_batch)
+    needed = n_models * fit_memory_bytes(setup.model, setup.inputs, n_batch)
     if needed > 0.8 * available:
+        models = "" if n_models == 1 else f"{n_models} models trained together, "
         raise MemoryError(
             f"This fit would need about {needed / _GB:.1f} GB "
-            f"({n_batch} samples of shape {tuple(setup.y_shape)} per batch), more than "
+            f"({models}{n_batch} samples of shape {tuple(setup.y_shape)} per batch), more than "
             f"the {available / _GB:.1f} GB available on {setup.y.device}. "
             + _advice(setup, needed / n_batch, 0.5 * available)
         )

@@ -279,3 +279,16 @@ def test_memory_probe_leaves_batch_norm_statistics_alone():
     before = [b.clone() for b in setup.model.buffers()]
     fit_memory_bytes(setup.model, setup.inputs, 4)
     assert all(torch.equal(a, b) for a, b in zip(before, setup.model.buffers()))
+
+
+def test_sweep_counts_the_memory_of_every_stacked_member(data, monkeypatch):
+    from sklearn_hybrid import HybridRegressorCV, _memory
+
+    estimator = HybridRegressor(science=pendulum_f, method="erm", **FAST)
+    setup = estimator._setup_fit(*data)
+    one = _memory.fit_memory_bytes(setup.model, setup.inputs, len(data[0]))
+    # room for two members, not for the four of the sweep (each trains on 3 of the 6 samples)
+    monkeypatch.setattr(_memory, "available_memory_bytes", lambda device=None: one / 0.8)
+    estimator.fit(*data)  # a single fit on all six samples fits
+    with pytest.raises(MemoryError, match="4 models trained together"):
+        HybridRegressorCV(estimator, seeds=[0, 1, 2, 3], validation_fraction=0.5).fit(*data)
