@@ -81,6 +81,7 @@ class _StackedModel:
         weights = [self.params[n] for n in layers if n.endswith("weight")]
         biases = [self.params[n] for n in layers if n.endswith("bias")]
         _, _, acts = _fast.mlp_parts(self.base.residual)
+        weights, biases = _fast.full_output(self.base.residual, weights, biases)
         x0, u_fine = inputs[0], (inputs[1] if len(inputs) > 1 else None)
         states = _fast.ode_states(science.func, science.names, thetas, weights, biases, acts,
                                   x0, u_fine, structure.n_steps, structure.dt, structure.n_substeps)

@@ -40,7 +40,7 @@ from torch import nn
 
 from . import _kernels
 from .integrate import integrate
-from .residual import MLP
+from .residual import MLP, MaskedMLP
 
 __all__ = ["supports", "mlp_parts", "ode_states", "disabled"]
 
@@ -63,7 +63,10 @@ def disabled():
 
 
 def mlp_parts(module: nn.Module):
-    """Weights, biases and activations of an :class:`MLP`, or None if it has another layout."""
+    """Weights, biases and activations of an :class:`MLP` (or the one inside a
+    :class:`MaskedMLP`, see :func:`full_output`), or None if it has another layout."""
+    if type(module) is MaskedMLP:
+        module = module.mlp
     if type(module) is not MLP:
         return None
     layers = list(module.net)
@@ -73,6 +76,20 @@ def mlp_parts(module: nn.Module):
     if any(isinstance(m, nn.Linear) or list(m.parameters()) for m in acts):
         return None  # only parameter-free, elementwise activations between layers
     return [m.weight for m in linears], [m.bias for m in linears], acts
+
+
+def full_output(residual: nn.Module, weights: list, biases: list) -> tuple[list, list]:
+    """A :class:`MaskedMLP`'s last layer widened to the whole output, zero rows elsewhere.
+
+    Differentiable (``index_copy``), so the exact components get no output and their rows no
+    gradient; works with a leading member axis. Other networks are returned unchanged.
+    """
+    if type(residual) is not MaskedMLP:
+        return weights, biases
+    W, b, index = weights[-1], biases[-1], residual.index
+    wide_W = W.new_zeros(*W.shape[:-2], residual.size, W.shape[-1]).index_copy(-2, index, W)
+    wide_b = b.new_zeros(*b.shape[:-1], residual.size).index_copy(-1, index, b)
+    return [*weights[:-1], wide_W], [*biases[:-1], wide_b]
 
 
 def supports(residual: nn.Module, state_shape: tuple, solver: str) -> bool:
@@ -325,6 +342,7 @@ def hybrid_states(science: nn.Module, residual: nn.Module, x0: torch.Tensor,
 
         return integrate(rhs, x0, n_steps, dt, n_substeps=n_substeps, u_fine=u_fine)
     weights, biases, acts = mlp_parts(residual)
+    weights, biases = full_output(residual, weights, biases)
     thetas = [values[n][None] for n in science.names]
     return ode_states(science.func, science.names, thetas, [w[None] for w in weights],
                       [b[None] for b in biases], acts, x0[None],

@@ -14,7 +14,7 @@ from typing import Sequence
 import torch
 from torch import nn
 
-__all__ = ["MLP", "ConvNet", "build_residual", "RESIDUALS", "new_module", "from_registry"]
+__all__ = ["MLP", "MaskedMLP", "ConvNet", "build_residual", "RESIDUALS", "new_module", "from_registry"]
 
 _ACTIVATIONS = {"relu": nn.ReLU, "tanh": nn.Tanh, "elu": nn.ELU, "gelu": nn.GELU,
                 "silu": nn.SiLU, "leaky_relu": nn.LeakyReLU, "softplus": nn.Softplus}
@@ -61,6 +61,33 @@ class MLP(nn.Module):
         batch = inputs[0].shape[0]
         flat = torch.cat([x.reshape(batch, -1) for x in inputs], dim=-1)
         return self.net(flat).reshape(batch, *self.out_shape)
+
+
+class MaskedMLP(nn.Module):
+    """An :class:`MLP` that changes only some components of the output (zero on the others).
+
+    The fast RK4 path serves it too (its last layer is widened with zero rows there).
+
+    Parameters
+    ----------
+    mlp : MLP
+        Network with one output per chosen component.
+    components : sequence of int
+        Components of the flattened output it writes.
+    out_shape : tuple
+        Per-sample shape of the whole output.
+    """
+
+    def __init__(self, mlp: MLP, components: Sequence[int], out_shape: tuple):
+        super().__init__()
+        self.mlp, self.out_shape = mlp, tuple(out_shape)
+        self.size = math.prod(self.out_shape)
+        self.register_buffer("index", torch.as_tensor(list(components), dtype=torch.long))
+
+    def forward(self, *inputs: torch.Tensor) -> torch.Tensor:
+        part = self.mlp(*inputs)
+        out = part.new_zeros(len(part), self.size)
+        return out.index_copy(1, self.index, part).reshape(len(part), *self.out_shape)
 
 
 class ConvNet(nn.Module):

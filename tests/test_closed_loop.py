@@ -13,8 +13,9 @@ from scipy.integrate import solve_ivp
 
 from sklearn_hybrid import HybridRegressor
 from sklearn_hybrid.datasets import make_duffing, make_pendulum
-from sklearn_hybrid.diagnosis import (CandidateLibrary, MLPOn, ResidualDiagnosis, augment_science,
-                                      close_the_loop, fit_initial_state, free_run, term_to_torch)
+from sklearn_hybrid.diagnosis import (CandidateLibrary, MLPOn, ResidualDiagnosis, ScienceFit, augment_science,
+                                      close_the_loop, evidence, fit_initial_state, free_run, physics_terms,
+                                      plot_unexplained, term_to_torch)
 from sklearn_hybrid.models import duffing_f, pendulum_f
 
 NAMES = ["v", "v_dot"]
@@ -63,30 +64,37 @@ def test_close_the_loop_pendulum(pendulum):
                          param_names={"v_dot": "c_damping"}, refit_params={"max_iter": 300},
                          theta_true={"omega": 2 / 3, "c_damping": -0.5})
     assert out.before is est and out.after is not None
+    assert [(t["output"], t["term"]) for t in out.added] == [("g[v_dot]", "v_dot")]
+    assert out.exact == [0]  # d v/dt = v_dot depends on no parameter: exact, no term there
     sig = inspect.signature(out.science).parameters
     assert list(sig) == ["v", "omega", "c_damping"]
-    before, after = out.table
+    # The network-free refit of the augmented science finds the damping and the frequency.
+    assert out.science_theta["c_damping"] == pytest.approx(-0.5, rel=0.05)
+    assert out.science_theta["omega"] == pytest.approx(2 / 3, rel=0.02)
+    before, after, alone = out.table
     assert after["theta"]["c_damping"] == pytest.approx(-0.5, rel=0.1)
     assert after["theta_error"]["omega"] < 0.03
+    assert alone["theta"]["c_damping"] == pytest.approx(out.science_theta["c_damping"], rel=1e-6)
     # The science part now predicts on its own, and the network carries much less.
     assert after["rmse_science_only"] < 0.5 * before["rmse_science_only"]
     assert after["network_share"] < 0.5 * before["network_share"]
-    assert after["rmse"] < 0.05
-    assert "c_damping" in out.report and "| before |" in out.report
+    assert after["rmse"] < 0.05 and alone["rmse"] < 0.05
+    accepted = [s for s in out.steps if s["accepted"]]
+    assert len(accepted) == 1 and accepted[0]["gain"] > 0.5
+    assert "c_damping" in out.report and "| before |" in out.report and "Selection" in out.report
 
 
 def test_duffing_cubic_recovered():
     data = make_duffing(100, 5, 25, n_steps=10, random_state=0)
     est = _fit(duffing_f, data.X_train, data.y_train, dt=float(data.dt), max_iter=500, lr=2e-2, zero_init=False)
+    assert est.theta_["alpha"] < 0.6  # the network took over much of the linear stiffness
     out = close_the_loop(est, data.X_train, data.y_train, data.X_test, data.y_test, state_names=NAMES,
                          param_names={"v^3": "beta"}, refit_params={"max_iter": 400},
                          theta_true={"alpha": 1.0, "beta": 1.0})
-    terms = _new_terms(out.diagnosis)
-    assert list(terms) == [("g[v_dot]", "v^3")]
-    # The network rounds the cubic off a little (0.89); the refit of the augmented model settles it.
-    assert terms[("g[v_dot]", "v^3")]["coef"] == pytest.approx(1.0, rel=0.2)
-    # The network took over much of the linear stiffness; the sensitivity term gives it back.
-    assert est.theta_["alpha"] < 0.6 and "alpha" in out.diagnosis.theta_shift_
+    assert [(t["output"], t["term"]) for t in out.added] == [("g[v_dot]", "v^3")]
+    # Without the network, the least-squares refit gives the stiffness back to the science model.
+    assert out.science_theta["beta"] == pytest.approx(1.0, rel=0.05)
+    assert out.science_theta["alpha"] == pytest.approx(1.0, rel=0.05)
     after = out.table[1]
     assert after["theta"]["beta"] == pytest.approx(1.0, rel=0.1)
     assert after["theta"]["alpha"] == pytest.approx(1.0, rel=0.1)
@@ -118,17 +126,23 @@ def test_quadratic_drag_recovered():
     assert terms[("g[v_dot]", "v_dot|v_dot|")]["coef"] == pytest.approx(-0.5, rel=0.1)
 
 
+def _static_data(effect, n=400, seed=0):
+    rng = np.random.default_rng(seed)
+    X = rng.uniform(-1, 1, (n, 2))
+    return X, 2.0 * X[:, :1] + effect(X)[:, None] + 0.01 * rng.standard_normal((n, 1))
+
+
+def _static_estimator(max_iter=300):
+    return HybridRegressor(science=lambda x, a=1.0: a * x[:, :1], structure="additive", method="erm", lr=1e-2,
+                           max_iter=max_iter, residual={"kind": "mlp", "hidden": (32, 32), "activation": "tanh"},
+                           random_state=0)
+
+
 def test_static_additive_model():
     """Static structure: y = a p + g(p, q); the network's part is 0.5 q^2 plus a correction of a."""
-    rng = np.random.default_rng(0)
-    X = rng.uniform(-1, 1, (400, 2))
-    y = 2.0 * X[:, :1] + 0.5 * X[:, 1:] ** 2 + 0.01 * rng.standard_normal((400, 1))
-    est = HybridRegressor(science=lambda x, a=1.0: a * x[:, :1], structure="additive", method="erm", lr=1e-2,
-                          max_iter=300, residual={"kind": "mlp", "hidden": (32, 32), "activation": "tanh"},
-                          random_state=0)
-    out = close_the_loop(est, X, y, X, y, state_names=["p", "q"], refit_params={"max_iter": 300},
-                         science_only=True)
-    assert [t["term"] for t in out.diagnosis.new_terms_] == ["q^2"]
+    X, y = _static_data(lambda X: 0.5 * X[:, 1] ** 2)
+    out = close_the_loop(_static_estimator(), X, y, X, y, state_names=["p", "q"], refit_params={"max_iter": 300})
+    assert [t["term"] for t in out.added] == ["q^2"]
     before, after, alone = out.table
     assert after["theta"]["c_q2"] == pytest.approx(0.5, rel=0.1)
     assert after["theta"]["a"] == pytest.approx(2.0, rel=0.05)
@@ -136,6 +150,89 @@ def test_static_additive_model():
     # Without any network the augmented science model fits to the noise level (0.01).
     assert alone["network_share"] == 0 and alone["rmse"] < 0.012
     assert alone["theta"]["c_q2"] == pytest.approx(0.5, rel=0.05)
+
+
+def test_knot_of_a_hinge_is_fitted():
+    """A one-sided effect beyond a threshold: the hinge's knot is fitted, not taken from a grid."""
+    X, y = _static_data(lambda X: 0.8 * np.maximum(0.0, X[:, 1] - 0.35))
+    out = close_the_loop(_static_estimator(), X, y, state_names=["p", "q"], refit_params={"max_iter": 50})
+    assert [(t["kind"], t["term"]) for t in out.added] == [("hinge", "max(0, q - c)")]
+    term = out.added[0]
+    assert term["shape"]["c"] == pytest.approx(0.35, abs=0.03)
+    assert term["coef"] == pytest.approx(0.8, rel=0.1)
+    # In function space: the added correction matches the effect on new points.
+    q = torch.linspace(-1, 1, 201, dtype=torch.float64)
+    Z = torch.stack([torch.zeros_like(q), q], -1)
+    added = out.science(Z, **out.science_theta)[:, 0] - out.science_theta["a"] * Z[:, 0]
+    truth = 0.8 * torch.relu(q - 0.35)
+    assert torch.sqrt(torch.mean((added - truth) ** 2)) < 0.1 * torch.sqrt(torch.mean(truth**2))
+
+
+def test_nothing_added_when_nothing_is_missing():
+    X, y = _static_data(lambda X: 0.0 * X[:, 0])
+    out = close_the_loop(_static_estimator(max_iter=150), X, y, X, y, state_names=["p", "q"])
+    assert out.added == [] and out.science is None and out.after is None
+    assert [r["stage"] for r in out.table] == ["before", "science only"]
+    assert out.science_theta["a"] == pytest.approx(2.0, rel=0.01)
+    assert not any(s["accepted"] for s in out.steps)
+    assert "Nothing added" in out.report and "Not explained" in out.report
+    assert set(out.unexplained["share"]) == {"g[0]"}
+    axes = plot_unexplained(out)
+    assert axes.shape == (1, 2)
+
+
+def test_evidence_separates_noise_from_a_real_gain():
+    rng = np.random.default_rng(0)
+    noise = rng.chisquare(20, size=(2, 15)) / 20
+    assert not evidence(noise[0], noise[1])["accepted"]  # two equally good models
+    real = evidence(noise[0], 0.3 * noise[1])
+    assert real["accepted"] and real["gain"] > 0.5
+    small = evidence(noise[0], 0.99 * noise[0])  # consistent but negligible: not worth a parameter
+    assert small["z"] > 3 and not small["accepted"]
+    assert not evidence(noise[0], np.r_[noise[1][:-1], np.inf])["accepted"]
+
+
+def test_exact_components_and_bad_options(pendulum):
+    data, est = pendulum
+    X, y = data.X_train[:12], data.y_train[:12]
+    with pytest.raises(ValueError, match="unknown state 'w'"):
+        close_the_loop(HybridRegressor(science=pendulum_f, dt=0.1, max_iter=2), X, y, state_names=NAMES,
+                       exact=["w"])
+    with pytest.raises(ValueError, match="validation_fraction"):
+        close_the_loop(est, X, y, validation_fraction=1.5)
+    with pytest.raises(ValueError, match="Every component is exact"):
+        close_the_loop(HybridRegressor(science=pendulum_f, dt=0.1, max_iter=2), X, y, exact=[0, 1])
+    # "auto" on an unfitted estimator: the default network is kept out of the exact equation.
+    out = close_the_loop(HybridRegressor(science=pendulum_f, dt=0.1, max_iter=3, method="erm"), X, y,
+                         state_names=NAMES, max_terms=1, n_candidates=1)
+    assert out.exact == [0] and isinstance(out.before.residual, MLPOn) and out.before.residual.components == [1]
+    assert all(s["component"] == 1 for s in out.steps)
+
+
+def test_science_fit_recovers_parameters(pendulum):
+    data, est = pendulum
+    fit = ScienceFit(est, data.X_train, data.y_train)
+    damped = augment_science(pendulum_f, [{"component": 1, "term": "v_dot", "coef": 0.0}], NAMES)
+    theta = fit.fit(damped, {"omega": 0.5, "c_v_dot": 0.0})
+    assert theta["omega"] == pytest.approx(2 / 3, rel=0.02) and theta["c_v_dot"] == pytest.approx(-0.5, rel=0.05)
+    assert fit.errors(damped, theta).mean() < 0.2 * fit.errors(pendulum_f, {"omega": 2 / 3}).mean()
+
+
+def test_physics_terms_and_shape_parameters():
+    values = np.random.default_rng(0).uniform(-2, 2, (100, 2))
+    terms = {t.name: t for t in physics_terms(["x", "u"], values, units={"x": "m", "u": "V"})}
+    assert {"x|x|", "tanh(x/w)", "max(0, x - c)", "sqrt|x|", "exp(k*x)", "x/(K + |x|)", "x*u"} <= set(terms)
+    d = {"x": torch.tensor([-1.0, 0.5, 2.0], dtype=torch.float64), "u": torch.zeros(3, dtype=torch.float64)}
+    np.testing.assert_allclose(terms["max(0, x - c)"](d, c=torch.tensor(0.4)).numpy(), [0.0, 0.1, 1.6])
+    assert terms["x|x|"].unit == "(m)^2" and len(terms["tanh(x/w)"].grid()) == 3
+    with pytest.raises(ValueError, match="Unknown term kinds"):
+        physics_terms(["x"], values[:, :1], kinds=["polynom"])
+    aug = augment_science(lambda v, k=1.0: -k * v, [{"component": 0, "term": "tanh(x/w)", "coef": 0.5,
+                                                      "function": terms["tanh(x/w)"].func, "shape": {"w": 0.1},
+                                                      "label": "friction"}], ["x"])
+    assert list(inspect.signature(aug).parameters) == ["v", "k", "c_friction", "w_friction"]
+    v = torch.tensor([[0.2]], dtype=torch.float64)
+    torch.testing.assert_close(aug(v), -v + 0.5 * torch.tanh(v / 0.1))
 
 
 # ---------------------------------------------------------------- building blocks, no training

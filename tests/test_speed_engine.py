@@ -117,6 +117,28 @@ def test_fit_same_with_and_without_fast_path(method):
     np.testing.assert_allclose(fast.predict(X), slow.predict(X), rtol=1e-9, atol=1e-12)
 
 
+def test_masked_network_on_the_fast_path():
+    """MLPOn (a MaskedMLP): the fast path serves it, with the same fit as autograd, and the masked
+    component gets nothing, in a single fit and in a stacked sweep."""
+    from sklearn_hybrid import HybridRegressorCV
+    from sklearn_hybrid.diagnosis import MLPOn
+
+    rng = np.random.default_rng(0)
+    X = rng.uniform(-1, 1, (10, 2))
+    y = np.stack([X * np.cos(0.3 * t) for t in range(1, 4)], axis=1)
+    kw = dict(science=pendulum_f, method="fsam", dt=0.2, max_iter=15, lr=1e-2, dtype="float64",
+              residual=MLPOn([1], hidden=(8, 8), zero_init=False), random_state=0)
+    fast = HybridRegressor(**kw).fit(X, y)
+    assert _fast.supports(fast.residual_, (2,), "rk4")
+    with _fast.disabled():
+        slow = HybridRegressor(**kw).fit(X, y)
+    assert fast.theta_["omega"] == pytest.approx(slow.theta_["omega"], rel=1e-9)
+    np.testing.assert_allclose(fast.history_["loss"], slow.history_["loss"], rtol=1e-9)
+    assert np.all(fast.residual_trace(X)["residual"][:, 0] == 0)
+    cv = HybridRegressorCV(HybridRegressor(**kw), rhos=[0.01, 0.1], seeds=[0]).fit(X, y)
+    assert np.all(cv.best_estimator_.residual_trace(X)["residual"][:, 0] == 0)
+
+
 def test_fixed_theta_gets_no_gradient_and_stays():
     rng = np.random.default_rng(0)
     X = rng.uniform(-1, 1, (6, 2))

@@ -1,19 +1,23 @@
-"""Residual diagnosis: explain what the neural part of a hybrid model learned with named terms.
+"""From the residual a hybrid model learned to the physics its science model lacks.
 
-:class:`ResidualDiagnosis` explains a fitted model's residual with a sparse
-combination of :class:`CandidateLibrary` terms (:class:`SparseTermRegression`);
-:func:`augment_science` adds the chosen terms to the science function, and
-:func:`close_the_loop` runs fit -> diagnose -> augment -> refit -> compare.
+:func:`close_the_loop` is the one call: fit, rank candidate terms (:func:`physics_terms`, what
+physics usually misses) by the residual the network learned, accept a term only when a
+network-free refit (:class:`ScienceFit`) validates better on held-out samples by more than the
+noise explains (:func:`evidence`), refit and compare. :class:`ResidualDiagnosis` explains a fitted
+model's residual by sparse regression on a :class:`CandidateLibrary` (an exploratory reading);
+:func:`augment_science` adds chosen terms to a science function.
 """
 
 from .augment import augment_science, parameter_name, term_to_torch
+from .evidence import ScienceFit, evidence
 from .library import CandidateLibrary
-from .loop import (MLPOn, ZeroResidual, close_the_loop, fit_initial_state, format_table,
-                   free_run, prediction_metrics)
+from .loop import MLPOn, ZeroResidual, close_the_loop, fit_initial_state, free_run
+from .report import format_table, plot_unexplained, prediction_metrics
 from .residual import ResidualDiagnosis, science_sensitivities
 from .sparse import SparseTermRegression
+from .terms import TERM_KINDS, Term, physics_terms
 
-__all__ = ["CandidateLibrary", "SparseTermRegression", "ResidualDiagnosis",
-           "science_sensitivities", "augment_science", "term_to_torch", "parameter_name",
-           "close_the_loop", "free_run", "fit_initial_state", "MLPOn", "ZeroResidual",
-           "prediction_metrics", "format_table"]
+__all__ = ["CandidateLibrary", "SparseTermRegression", "ResidualDiagnosis", "science_sensitivities",
+           "augment_science", "term_to_torch", "parameter_name", "close_the_loop", "free_run",
+           "fit_initial_state", "MLPOn", "ZeroResidual", "prediction_metrics", "format_table",
+           "plot_unexplained", "Term", "physics_terms", "TERM_KINDS", "ScienceFit", "evidence"]

@@ -78,11 +78,14 @@ def term_to_torch(term: str, variables: Sequence[str],
     return monomial
 
 
-def parameter_name(term: str, taken: Sequence[str], suffix: str = "") -> str:
-    """A valid, unused parameter name for the coefficient of ``term`` (``"v^3"`` -> ``"c_v3"``)."""
+def parameter_name(term: str, taken: Sequence[str], suffix: str = "", prefix: str = "c") -> str:
+    """A valid, unused parameter name for the coefficient of ``term`` (``"v^3"`` -> ``"c_v3"``).
+
+    ``prefix`` names other parameters of the term, e.g. ``"w"`` for the width of dry friction.
+    """
     text = re.sub(r"\|(\w+)\|", r"_abs_\1_", term).replace("^", "").replace("*", "_")
     text = re.sub(r"\W+", "_", text).strip("_") or "term"
-    base = f"c_{text}" + (f"_{suffix}" if suffix else "")
+    base = f"{prefix}_{text}" + (f"_{suffix}" if suffix else "")
     name, i = base, 2
     while name in taken:
         name, i = f"{base}_{i}", i + 1
@@ -101,7 +104,10 @@ def augment_science(science: Callable, terms: Sequence[Mapping[str, Any]], varia
     terms : list of dict
         Each with ``"component"`` (index of the output component the term is added to), ``"term"``
         (its library name) and ``"coef"`` (initial value of its new parameter), as in
-        :attr:`ResidualDiagnosis.new_terms_`; an optional ``"param"`` names the parameter.
+        :attr:`ResidualDiagnosis.new_terms_`; an optional ``"param"`` names the parameter. A term
+        may bring its own torch ``"function"`` ``f(d, **shape)`` (a :class:`~sklearn_hybrid.diagnosis.Term`)
+        with initial ``"shape"`` values (each a new parameter named ``<shape>_<label>``), and a
+        ``"label"`` for the parameter names (default the term's name).
     variable_names : list of str
         Names of the columns of the first input (the state or the features), then of the second
         input (the measured inputs of a forced ODE), if any.
@@ -138,12 +144,19 @@ def augment_science(science: Callable, terms: Sequence[Mapping[str, Any]], varia
     added, taken = [], list(values) + list(inputs)
     for t in terms:
         component, term = int(t["component"]), str(t["term"])
-        param = t.get("param") or parameter_name(term, taken)
+        param = t.get("param") or parameter_name(t.get("label") or term, taken)
         if param in taken or not param.isidentifier():
             raise ValueError(f"Parameter name {param!r} is taken or not a valid identifier.")
         taken.append(param)
         values[param] = float(t["coef"])
-        added.append((component, term, param, term_to_torch(term, variable_names, term_functions)))
+        func = t.get("function") or term_to_torch(term, variable_names, term_functions)
+        # a term's nonlinear (shape) parameters become parameters of the new function too
+        shape = {}
+        for local, value in dict(t.get("shape") or {}).items():
+            shape[local] = parameter_name(t.get("label") or term, taken, prefix=local)
+            taken.append(shape[local])
+            values[shape[local]] = float(value)
+        added.append((component, term, param, func, shape))
 
     initial = dict(values)
 
@@ -157,8 +170,9 @@ def augment_science(science: Callable, terms: Sequence[Mapping[str, Any]], varia
         d = dict(zip(variable_names, columns))
         flat = out.reshape(len(out), -1)
         extra = [torch.zeros_like(flat[:, 0]) for _ in range(flat.shape[1])]
-        for component, _, param, func in added:
-            extra[component] = extra[component] + params[param] * func(d)
+        for component, _, param, func, shape in added:
+            value = func(d, **{local: params[name] for local, name in shape.items()})
+            extra[component] = extra[component] + params[param] * value
         return (flat + torch.stack(extra, dim=-1)).reshape(out.shape)
 
     params = [inspect.Parameter(n, inspect.Parameter.POSITIONAL_OR_KEYWORD) for n in inputs]
@@ -166,7 +180,8 @@ def augment_science(science: Callable, terms: Sequence[Mapping[str, Any]], varia
     augmented.__signature__ = inspect.Signature(params)
     augmented.__name__ = name or f"{getattr(science, '__name__', 'science')}_augmented"
     augmented.__qualname__ = augmented.__name__
-    augmented.terms = [(c, term, p) for c, term, p, _ in added]
+    augmented.terms = [(c, term, p) for c, term, p, _, _ in added]
+    augmented.shape_names = [dict(shape) for *_, shape in added]  # per term: shape -> parameter name
     augmented.equation = " ".join(f"+ {p}*{term} [component {c}]" for c, term, p in augmented.terms)
     augmented.__doc__ = (f"{getattr(science, '__name__', 'science')} {augmented.equation}\n\n"
                          f"Original science function plus the terms found by the residual diagnosis.")

@@ -21,8 +21,8 @@ from ..datasets import (fetch_cascaded_tanks, fetch_silverbox, load_pendulum_fre
                         make_pendulum)
 from ..models import duffing_f, pendulum_f
 from .library import CandidateLibrary
-from .loop import MLPOn, close_the_loop, fit_initial_state, free_run, prediction_metrics
-from .residual import ResidualDiagnosis
+from .loop import MLPOn, close_the_loop, fit_initial_state, free_run
+from .report import prediction_metrics
 
 __all__ = ["CASES", "run_case", "silverbox_case", "tanks_case", "pendulum_freeswing_case", "synthetic_case",
            "silverbox_f", "tanks_f", "swing_f", "SILVERBOX_SCALE"]
@@ -237,7 +237,7 @@ CASES = {"silverbox": silverbox_case, "tanks": tanks_case, "pendulum-freeswing":
 
 
 def run_case(name: str, fast: bool = False, method: str = "erm", max_iter: int | None = None,
-             verbose: bool = False, science_only: bool = True, progress: bool = False, **options) -> Bunch:
+             verbose: bool = False, progress: bool = False, **options) -> Bunch:
     """Run :func:`close_the_loop` on a named case and return its result (plus ``case``).
 
     ``progress=True`` shows every fit's progress bar (the estimators' ``verbose``).
@@ -247,11 +247,9 @@ def run_case(name: str, fast: bool = False, method: str = "erm", max_iter: int |
     case = CASES[name](fast=fast, method=method, max_iter=max_iter, **options)
     if progress:
         case.estimator.set_params(verbose=True)
-    diagnosis = ResidualDiagnosis(state_names=case.state_names, input_names=case.input_names, units=case.units,
-                                  library=case.library, random_state=0)
     out = close_the_loop(case.estimator, case.X, case.y, case.get("X_test"), case.get("y_test"),
-                         diagnosis=diagnosis, param_names=case.param_names, term_functions=case.get("term_functions"),
-                         theta_true=case.get("theta_true"), test_scorer=case.get("test_scorer"),
-                         science_only=science_only, verbose=verbose)
+                         state_names=case.state_names, input_names=case.input_names, units=case.units,
+                         positive=case.get("positive", ()), param_names=case.param_names,
+                         theta_true=case.get("theta_true"), test_scorer=case.get("test_scorer"), verbose=verbose)
     out["case"] = case
     return out

@@ -7,6 +7,7 @@ horizon (test records are usually longer than the training windows) and
 
 from __future__ import annotations
 
+import copy
 import math
 import time
 from collections.abc import Callable, Mapping, Sequence
@@ -17,30 +18,19 @@ import torch
 from scipy.optimize import least_squares
 from sklearn.base import clone
 from sklearn.exceptions import NotFittedError
-from sklearn.utils import Bunch
+from sklearn.utils import Bunch, check_random_state
 from sklearn.utils.validation import check_is_fitted
 from torch import nn
 
 from ..engine import DivergenceError
-from ..residual import MLP
-from .augment import augment_science
-from .residual import ResidualDiagnosis, science_sensitivities, _rms
+from ..residual import MLP, MaskedMLP
+from ..science import read_signature
+from .report import evaluate, format_table, residual_profile
+from .evidence import ScienceFit
+from .stepwise import forward_selection, parameter_jacobian, science_output
+from .terms import Term, physics_terms
 
-__all__ = ["close_the_loop", "free_run", "fit_initial_state", "MLPOn", "ZeroResidual", "prediction_metrics"]
-
-
-class _Masked(nn.Module):
-    """An MLP whose output is zero outside the chosen components."""
-
-    def __init__(self, mlp: nn.Module, components: Sequence[int], out_shape: tuple):
-        super().__init__()
-        self.mlp, self.out_shape = mlp, tuple(out_shape)
-        self.register_buffer("index", torch.as_tensor(list(components), dtype=torch.long))
-
-    def forward(self, *inputs):
-        part = self.mlp(*inputs)
-        out = torch.zeros(len(part), math.prod(self.out_shape), dtype=part.dtype)
-        return out.index_copy(1, self.index, part).reshape(len(part), *self.out_shape)
+__all__ = ["close_the_loop", "free_run", "fit_initial_state", "MLPOn", "ZeroResidual"]
 
 
 class MLPOn:
@@ -76,7 +66,7 @@ class MLPOn:
             with torch.no_grad():
                 mlp.net[-1].weight.zero_()
                 mlp.net[-1].bias.zero_()
-        return _Masked(mlp, self.components, out_shape)
+        return MaskedMLP(mlp, self.components, out_shape)
 
     def __repr__(self) -> str:
         return (f"MLPOn({self.components}, hidden={self.hidden}, activation={self.activation!r}, "
@@ -185,159 +175,243 @@ def _put(x: np.ndarray, idx: list[int], values: np.ndarray) -> np.ndarray:
     return out
 
 
-def prediction_metrics(y: np.ndarray, y_hybrid: np.ndarray, y_science: np.ndarray) -> dict[str, float]:
-    """Test RMSE of the hybrid and of the science part alone, and the network's share of the prediction.
-
-    The share is ``RMS(y_hybrid - y_science) / RMS(y_hybrid)``: how much of the prediction would
-    change if the network were switched off.
-    """
-    def rms(a):
-        return float(_rms(a, axis=None))
-
-    return {"rmse": rms(y_hybrid - y), "rmse_science_only": rms(y_science - y),
-            "network_share": rms(y_hybrid - y_science) / max(rms(y_hybrid), 1e-300)}
-
-
-def _rhs_share(estimator: Any, X: Any) -> float:
-    """Largest per-component RMS(g) / RMS(f + g) along the visited points (NaN if not defined)."""
-    trace = estimator.residual_trace(X)
-    args = [trace["points"]] + ([] if trace["inputs"] is None else [trace["inputs"]])
-    g = trace["residual"].reshape(len(args[0]), -1)
-    f = science_sensitivities(estimator, args, jacobian=False)[0]
-    if f.shape != g.shape:
-        return float("nan")
-    total = np.sqrt(np.mean((f + g) ** 2, axis=0))
-    return float(np.nanmax(np.sqrt(np.mean(g**2, axis=0)) / np.where(total > 0, total, np.nan)))
-
-
-def _evaluate(est, X, X_test, y_test, test_scorer, theta_true) -> dict:
-    row: dict[str, Any] = {}
-    if test_scorer is not None:
-        row.update(test_scorer(est))
-    elif X_test is not None:
-        y_test = np.asarray(y_test, float).reshape(len(X_test), -1)
-        row.update(prediction_metrics(y_test, est.predict(X_test).reshape(len(y_test), -1),
-                                      est.predict_science(X_test).reshape(len(y_test), -1)))
-    row["network_share_rhs"] = _rhs_share(est, X)
-    row["theta"] = {k: (float(v) if np.ndim(v) == 0 else np.asarray(v).tolist()) for k, v in est.theta_.items()}
-    if theta_true:
-        row["theta_error"] = {k: float(np.max(np.abs(np.asarray(est.theta_[k]) - np.asarray(v))
-                                              / np.maximum(np.abs(v), 1e-12)))
-                              for k, v in theta_true.items() if k in est.theta_}
-    return row
-
-
 def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: Any = None, *,
-                   diagnosis: ResidualDiagnosis | None = None, state_names: Sequence[str] | None = None,
-                   input_names: Sequence[str] | None = None, units: Mapping[str, str] | None = None,
-                   param_names: Mapping[str, str] | None = None, term_functions: Mapping[str, Callable] | None = None,
-                   apply_theta_shift: bool = True, refit_params: Mapping[str, Any] | None = None,
-                   theta_true: Mapping[str, Any] | None = None, test_scorer: Callable | None = None,
-                   science_only: bool = False, verbose: bool = False) -> Bunch:
-    """Fit (if needed), diagnose the residual, add the missing terms, refit, and compare.
+                   state_names: Sequence[str] | None = None, input_names: Sequence[str] | None = None,
+                   units: Mapping[str, str] | None = None, exact: str | Sequence[Any] | None = "auto",
+                   terms: Sequence[Term] | None = None, term_kinds: Sequence[str] | None = None,
+                   user_terms: Mapping[str, Callable] | None = None, positive: Sequence[str] = (),
+                   validation_fraction: float = 0.25, max_terms: int = 4, n_candidates: int = 4,
+                   z: float = 3.0, min_gain: float = 0.05, param_names: Mapping[str, str] | None = None,
+                   refit_params: Mapping[str, Any] | None = None, theta_true: Mapping[str, Any] | None = None,
+                   test_scorer: Callable | None = None, random_state: Any = 0, verbose: bool = False) -> Bunch:
+    """Fit, find the residual, add the missing terms that held-out data support, refit, compare.
+
+    1. The hybrid model is fitted (unless it already is). With exact components (below) and the
+       default network, the network acts only on the other components (:class:`MLPOn`).
+    2. What the hybrid learned along the visited states, science plus network, is compared with the
+       science model; candidate terms (:func:`~sklearn_hybrid.diagnosis.physics_terms`) are ranked
+       by how much of the difference each explains on the uncertain components.
+    3. The best-ranked few are each added to the science model, refitted *without the network* by
+       least squares on the training samples (shape parameters such as a knot or a width fitted
+       too), and judged on the last ``validation_fraction`` of the samples: a term is kept only when
+       it lowers the held-out error by at least ``min_gain`` and by more than ``z`` standard errors.
+       This repeats from the augmented model until no candidate passes, so the augmented science
+       never validates worse than the original.
+    4. The hybrid is refitted with the augmented science (``after``); the network-free model is
+       reported beside it (``science_only``).
 
     Parameters
     ----------
     estimator : HybridRegressor
-        Fitted or not (then a clone is fitted on ``X, y``).
+        Fitted or not (then a clone is fitted on ``X, y``); structure ``"ode"``, ``"additive"``
+        or ``"compose"`` with a science output shaped like ``y``.
     X, y : array-like
-        Training data, as for the estimator's ``fit``.
+        Training data, as for the estimator's ``fit``. For windows cut from one record, keep them
+        in time order: the validation samples are the last ones.
     X_test, y_test : array-like, optional
-        Test data for the default metrics (:func:`prediction_metrics` of ``predict`` and
-        ``predict_science``).
-    diagnosis : ResidualDiagnosis, optional
-        Diagnosis settings (library, regression...); default built from the names and units.
+        Test data for the default metrics (:func:`prediction_metrics`).
     state_names, input_names, units : optional
-        Names of the states (or features) and inputs, and their units, for the default diagnosis.
+        Names of the states (or features) and inputs, and their units (shown in the report).
+    exact : "auto", list of str or int, or None, default="auto"
+        Components of an ODE whose science equation is exact (kinematic identities such as
+        ``d angle/dt = velocity``, conservation laws): no term is added there and the default
+        network does not act there. ``"auto"`` takes the components whose science output depends on
+        no parameter -- the physicist's default: an equation with nothing to estimate is a
+        definition, not a model. ``None`` makes every component uncertain.
+    terms : list of Term, optional
+        The candidates; default :func:`physics_terms` over the states and inputs.
+    term_kinds, user_terms, positive : optional
+        Passed to :func:`physics_terms`: which kinds, your own terms by name (torch functions of a
+        dict of variables), variables that are never negative.
+    validation_fraction : float, default=0.25
+        Share of the samples (the last ones) that judge each term.
+    max_terms, n_candidates : int, default=4
+        At most this many terms added, and candidates refitted per step.
+    z, min_gain : float, default=3.0 and 0.05
+        The evidence a term needs (see :func:`~sklearn_hybrid.diagnosis.evidence`).
     param_names : dict of str to str, optional
-        Names of the new parameters by term, e.g. ``{"v^3": "k3"}``; default ``c_<term>``.
-    term_functions : dict of str to callable, optional
-        Torch versions of custom library terms (see :func:`~sklearn_hybrid.diagnosis.term_to_torch`).
-    apply_theta_shift : bool, default=True
-        Start the refit from theta corrected by the diagnosis' ``theta_shift_``.
+        Names of the new coefficients by term, e.g. ``{"v_dot": "c_damping"}``.
     refit_params : dict, optional
-        ``set_params`` overrides for the refit (e.g. more iterations).
+        ``set_params`` overrides for the hybrid refit (e.g. ``max_iter``).
     theta_true : dict, optional
-        Known parameter values (of either model) for the theta error (max relative error).
+        Known parameter values for the theta error (max relative error).
     test_scorer : callable, optional
-        ``test_scorer(estimator) -> dict`` of named metrics, used instead of the default metrics
-        (e.g. free-run simulations of long test records, see :func:`free_run`).
-    science_only : bool, default=False
-        Also refit the augmented science model alone (network removed, ``method="erm"``), from the
-        refit's theta: the model an engineer would keep, comparable with classical grey-box fits.
+        ``test_scorer(estimator) -> dict`` of named metrics, used instead of the default metrics.
+    random_state : int, default=0
+        Seeds the subsampling of visited states.
     verbose : bool, default=False
-        Print progress and the report.
+        Print progress.
 
     Returns
     -------
     Bunch
-        ``before``, ``after`` (fitted estimators; ``after`` is None when no term was found),
-        ``diagnosis``, ``science`` (the augmented function or None), ``science_only`` (the
-        network-free refit or None), ``table`` (list of row dicts: before, after, and with
-        ``science_only`` "science only"), ``report`` (markdown text) and ``seconds``.
+        ``before``, ``after`` (hybrid refitted with the augmented science; None when nothing was
+        added or the refit failed), ``science`` (the augmented function, or None), ``science_theta``
+        (fitted values of every parameter of the final science model, without the network),
+        ``science_only`` (an estimator holding that model), ``added`` (the accepted terms),
+        ``steps`` (every candidate tried, with its validation error and verdict), ``exact``
+        (the exact components), ``unexplained`` (what the final science model still misses:
+        ``share`` per output and binned ``profiles``; see :func:`plot_unexplained`), ``table``,
+        ``report`` (markdown) and ``seconds``.
     """
     start = time.perf_counter()
+    log = print if verbose else (lambda *_: None)
+    _check_options(validation_fraction, max_terms, n_candidates)
     try:
         check_is_fitted(estimator, "model_")
         before = estimator
     except NotFittedError:
-        if verbose:
-            print("fitting the hybrid model ...")
-        before = clone(estimator).fit(X, y)
-    diag = clone_diagnosis(diagnosis, state_names, input_names, units)
-    diag.fit(before, X)
-    if verbose:
-        print(diag.summary())
-    rows = [{"stage": "before", "science": getattr(before.science, "__name__", "science"), "added": "",
-             **_evaluate(before, X, X_test, y_test, test_scorer, theta_true)}]
-    after, science = None, None
-    new_terms = [dict(t, param=(param_names or {}).get(t["term"])) for t in diag.new_terms_]
-    if new_terms:
-        theta = dict(before.theta_)
-        if apply_theta_shift:
-            theta.update({k: theta[k] + v for k, v in diag.theta_shift_.items() if k in theta})
-        n_states = len(diag.output_names_) if before.structure == "ode" else None
-        science = augment_science(before.science, new_terms, diag.variable_names_, n_states=n_states,
-                                  theta=_inside_bounds(theta, before.theta_bounds), term_functions=term_functions)
-        after = clone(before).set_params(science=science, theta_init=None, **dict(refit_params or {}))
-        if verbose:
-            print(f"refitting with {science.__name__}: {science.equation}")
+        before = clone(estimator)
+        uncertain = _uncertain_components(before, X, y, exact, state_names)
+        if before.structure == "ode" and _is_default_network(before.residual) and uncertain is not None:
+            before.set_params(residual=MLPOn(uncertain))  # the network stays out of the exact equations
+        log("fitting the hybrid model ...")
+        before.fit(X, y)
+    trace = before.residual_trace(X)
+    points, inputs = trace["points"], trace["inputs"]
+    keep = check_random_state(random_state).permutation(len(points))[:_MAX_POINTS]
+    args = [points[keep]] + ([] if inputs is None else [inputs[keep]])
+    science = before.science
+    residual = trace["residual"][keep].reshape(len(keep), -1)
+    base = science_output(science, before.theta_, args)
+    if base.shape != residual.shape:
+        raise ValueError(f"The science output has {base.shape[1]} values per sample and the network's part "
+                         f"{residual.shape[1]}: close_the_loop needs a science model shaped like the target.")
+    learned = base + residual
+    n_states = points[0].size
+    states = _names(state_names, n_states, "x")
+    variables = states + ([] if inputs is None else _names(input_names, inputs.shape[1], "u"))
+    outputs = [f"g[{s}]" for s in states] if before.structure == "ode" else [f"g[{j}]" for j in range(base.shape[1])]
+    uncertain = _uncertain_components(before, X, y, exact, state_names)
+    components = list(range(base.shape[1])) if uncertain is None else uncertain
+    values = np.hstack([a.reshape(len(a), -1) for a in args])
+    if terms is None:
+        terms = physics_terms(variables, values, units, term_kinds, user_terms, positive)
+
+    fit = ScienceFit(before, X, y)
+    n = len(fit.y)
+    n_val = int(np.clip(round(validation_fraction * n), 2, n - 2))
+    log(f"selecting terms ({len(terms)} candidates on {len(components)} component(s), "
+        f"{n_val} validation samples) ...")
+    sel = forward_selection(science, before.theta_, fit, np.arange(n - n_val), np.arange(n - n_val, n), terms,
+                            variables, n_states, args, learned, components, max_terms=max_terms,
+                            n_candidates=n_candidates, z=z, min_gain=min_gain, param_names=param_names, log=log)
+    final = sel["science"]
+    bounds = {g: t["bounds"][loc][1] for t in sel["added"] for loc, g in t["shape_params"].items()}
+    science_theta = fit.fit(final, sel["theta"], bounds)  # every sample, now that the terms are chosen
+    added = [{**t, "output": outputs[t["component"]], "coef": float(science_theta[t["param"]]),
+              "shape": {loc: float(science_theta[g]) for loc, g in t["shape_params"].items()}}
+             for t in sel["added"]]
+    for s in sel["steps"]:
+        s["output"] = outputs[s["component"]]
+    remaining = learned - science_output(final, science_theta, args)
+    unexplained = residual_profile(remaining, learned, values, variables, outputs, components)
+
+    rows = [{"stage": "before", "science": getattr(science, "__name__", "science"), "added": "",
+             **evaluate(before, X, X_test, y_test, test_scorer, theta_true)}]
+    after, augmented = None, (final if sel["added"] else None)
+    if augmented is not None:
+        # warm start: theta from the network-free refit, the network from the first fit
+        after = clone(before).set_params(science=augmented, theta_init=_inside(science_theta, before.theta_bounds),
+                                         residual=_WarmStart(before.residual_), **dict(refit_params or {}))
+        log(f"refitting the hybrid with {augmented.__name__}: {augmented.equation}")
         try:
             after.fit(X, y)
-        except DivergenceError as exc:  # reported, not raised: the diagnosis itself stays useful
-            rows.append({"stage": "after", "science": science.__name__, "added": science.equation,
-                         "theta": {}, "failed": f"refit diverged: {exc}"})
+        except DivergenceError as exc:  # reported, not raised: the selection itself stays useful
+            rows.append({"stage": "after", "theta": {}, "failed": f"refit diverged: {exc}"})
             after = None
         else:
-            rows.append({"stage": "after", "science": science.__name__, "added": science.equation,
-                         **_evaluate(after, X, X_test, y_test, test_scorer, theta_true)})
-    alone = None
-    if science_only and after is not None:
-        alone = clone(after).set_params(residual=ZeroResidual(), method="erm",
-                                        theta_init=_inside_bounds(after.theta_, after.theta_bounds))
-        if verbose:
-            print("refitting the augmented science model alone ...")
-        alone.fit(X, y)
-        rows.append({"stage": "science only", "science": science.__name__, "added": science.equation,
-                     **_evaluate(alone, X, X_test, y_test, test_scorer, theta_true)})
-    report = format_table(rows, diag)
-    if verbose:
-        print(report)
-    return Bunch(before=before, after=after, diagnosis=diag, science=science, science_only=alone, table=rows,
-                 report=report, seconds=time.perf_counter() - start)
+            rows.append({"stage": "after", "science": augmented.__name__, "added": augmented.equation,
+                         **evaluate(after, X, X_test, y_test, test_scorer, theta_true)})
+    alone = _fixed_science(before, final, science_theta, X, y)
+    rows.append({"stage": "science only", "science": getattr(final, "__name__", "science"),
+                 "added": getattr(augmented, "equation", ""),
+                 **evaluate(alone, X, X_test, y_test, test_scorer, theta_true)})
+    report = format_table(rows, added, sel["steps"], unexplained, n_val)
+    log(report)
+    return Bunch(before=before, after=after, science=augmented, science_theta=science_theta, science_only=alone,
+                 added=added, steps=sel["steps"], exact=[] if uncertain is None else
+                 [j for j in range(base.shape[1]) if j not in uncertain],
+                 unexplained=unexplained, table=rows, report=report, seconds=time.perf_counter() - start)
 
 
-def clone_diagnosis(diagnosis, state_names, input_names, units) -> ResidualDiagnosis:
-    """The diagnosis to run: a copy of the given one, or a default from the names and units."""
-    if diagnosis is None:
-        return ResidualDiagnosis(state_names=state_names, input_names=input_names, units=units, random_state=0)
-    if not isinstance(diagnosis, ResidualDiagnosis):
-        raise TypeError(f"diagnosis must be a ResidualDiagnosis, got {type(diagnosis).__name__}.")
-    return clone(diagnosis)
+class _WarmStart:
+    """Residual factory: a copy of a fitted network (a new one per fit, as factories must)."""
+
+    def __init__(self, network: nn.Module):
+        self.network = network
+
+    def __call__(self, in_shapes, out_shape) -> nn.Module:
+        network = copy.deepcopy(self.network)
+        network.__dict__.pop("_sklearn_hybrid_built", None)  # a new network: the copy is not the one built
+        return network
+
+    def __repr__(self) -> str:
+        return f"_WarmStart({type(self.network).__name__})"
 
 
-def _inside_bounds(theta: dict, bounds: Mapping | None) -> dict:
-    """Keep shifted parameters strictly inside their bounds (the reparametrisation needs it)."""
+_MAX_POINTS = 5000  # visited states used to rank candidates: plenty for a handful of columns
+
+
+def _check_options(validation_fraction, max_terms, n_candidates):
+    if not (isinstance(validation_fraction, (int, float)) and 0 < validation_fraction < 1):
+        raise ValueError(f"validation_fraction must be in (0, 1), got {validation_fraction!r}.")
+    for name, value in (("max_terms", max_terms), ("n_candidates", n_candidates)):
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
+            raise ValueError(f"{name} must be a positive integer, got {value!r}.")
+
+
+def _names(given, size, prefix):
+    if given is None:
+        return [f"{prefix}{i}" for i in range(size)]
+    names = [given] if isinstance(given, str) else list(given)
+    if len(names) != size:
+        raise ValueError(f"{len(names)} names given for {size} variables: {names}.")
+    return names
+
+
+def _is_default_network(residual) -> bool:
+    return residual == "mlp" or (isinstance(residual, Mapping) and residual.get("kind", "mlp") == "mlp"
+                                 and set(residual) <= {"kind"})
+
+
+def _uncertain_components(estimator, X, y, exact, state_names) -> list[int] | None:
+    """Output components that may receive terms (None: all of them)."""
+    if exact is None or estimator.structure != "ode":
+        return None
+    X, y = np.asarray(X, dtype=float), np.asarray(y)
+    n_inputs = estimator.n_inputs or 0
+    d = X.shape[1] - (y.shape[1] + 1) * n_inputs if n_inputs else int(np.prod(X.shape[1:]))
+    if isinstance(exact, str):
+        if exact != "auto":
+            raise ValueError(f"exact must be 'auto', None or a list of state names or indices, got {exact!r}.")
+        theta = getattr(estimator, "theta_", None) or {**read_signature(estimator.science)[1],
+                                                       **dict(estimator.theta_init or {})}
+        sample = X[: min(len(X), 64)]
+        args = [sample[:, :d]] + ([sample[:, d:d + n_inputs]] if n_inputs else [])
+        jac, _ = parameter_jacobian(estimator.science, theta, args)
+        if jac.shape[-1] == 0:
+            return None
+        fixed = [j for j in range(jac.shape[1]) if not np.any(np.abs(jac[:, j, :]) > 1e-12)]
+    else:
+        names = _names(state_names, d, "x")
+        fixed = []
+        for item in exact:
+            if isinstance(item, str):
+                if item not in names:
+                    raise ValueError(f"exact names unknown state {item!r}; states are {names}.")
+                item = names.index(item)
+            if isinstance(item, bool) or not isinstance(item, (int, np.integer)) or not 0 <= item < d:
+                raise ValueError(f"exact component {item!r} is not a state index in [0, {d}).")
+            fixed.append(int(item))
+    uncertain = [j for j in range(d) if j not in fixed]
+    if not uncertain:
+        raise ValueError("Every component is exact: there is nothing for the network or the diagnosis to do.")
+    return uncertain if fixed else None
+
+
+def _inside(theta: dict, bounds: Mapping | None) -> dict:
+    """Keep values strictly inside their bounds (the reparametrisation needs it)."""
     out = dict(theta)
     for k, (low, high) in (bounds or {}).items():
         if k in out and np.ndim(out[k]) == 0:
@@ -348,27 +422,10 @@ def _inside_bounds(theta: dict, bounds: Mapping | None) -> dict:
     return out
 
 
-def format_table(rows: list[dict], diagnosis: ResidualDiagnosis | None = None) -> str:
-    """Markdown before/after table of :func:`close_the_loop` rows."""
-    skip = ("stage", "science", "added", "theta", "theta_error", "failed")
-    metrics = list(dict.fromkeys(k for r in rows for k in r if k not in skip))
-    names = list(dict.fromkeys(k for r in rows for k in r["theta"]))
-    head = ["stage", *metrics, *names]
-    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
-    for r in rows:
-        cells = [r["stage"]] + [f"{r.get(m, float('nan')):.4g}" for m in metrics]
-        for n in names:
-            v = r["theta"].get(n)
-            text = "" if v is None else (f"{v:.5g}" if np.ndim(v) == 0 else str(np.round(v, 4).tolist()))
-            err = r.get("theta_error", {}).get(n)
-            cells.append(text + ("" if err is None else f" (err {err:.1%})"))
-        lines.append("| " + " | ".join(cells) + " |")
-    if diagnosis is not None:
-        lines += ["", "Diagnosis: " + ("; ".join(diagnosis.equations()) or "no component to explain")]
-        if len(rows) > 1:
-            lines.append(f"Added: {rows[1]['added']}")
-            if "failed" in rows[1]:
-                lines.append(f"The refit failed ({rows[1]['failed']}); the after row is empty.")
-        else:
-            lines.append("No missing term found: nothing added, no refit.")
-    return "\n".join(lines)
+def _fixed_science(before, science, theta, X, y):
+    """An estimator holding ``science`` at ``theta``, no network: the model an engineer keeps."""
+    names = list(read_signature(science)[1])
+    est = clone(before).set_params(science=science, residual=ZeroResidual(), method="erm", max_iter=1,
+                                   theta_init=_inside(theta, before.theta_bounds), theta_fixed=names,
+                                   verbose=False)
+    return est.fit(X, y)

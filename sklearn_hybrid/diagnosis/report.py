@@ -1,0 +1,169 @@
+"""What :func:`~sklearn_hybrid.diagnosis.close_the_loop` reports: metrics per stage, the selection
+log, the added terms in words, and the residual nothing explained (numbers and a plot)."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from .residual import _rms, science_sensitivities
+
+__all__ = ["prediction_metrics", "format_table", "residual_profile", "plot_unexplained"]
+
+KIND_WORDS = {"polynomial": "polynomial", "drag": "drag (v|v|, |v|)", "dry_friction": "dry friction",
+              "hinge": "hinge / stop / overflow", "sqrt": "square root (Torricelli)",
+              "exponential": "exponential", "saturation": "saturation (Michaelis-Menten)", "user": "user term"}
+
+
+def prediction_metrics(y: np.ndarray, y_hybrid: np.ndarray, y_science: np.ndarray) -> dict[str, float]:
+    """Test RMSE of the hybrid and of the science part alone, and the network's share of the prediction.
+
+    The share is ``RMS(y_hybrid - y_science) / RMS(y_hybrid)``: how much of the prediction would
+    change if the network were switched off.
+    """
+    def rms(a):
+        return float(_rms(a, axis=None))
+
+    return {"rmse": rms(y_hybrid - y), "rmse_science_only": rms(y_science - y),
+            "network_share": rms(y_hybrid - y_science) / max(rms(y_hybrid), 1e-300)}
+
+
+def _rhs_share(estimator: Any, X: Any) -> float:
+    """Largest per-component RMS(g) / RMS(f + g) along the visited points (NaN if not defined)."""
+    trace = estimator.residual_trace(X)
+    args = [trace["points"]] + ([] if trace["inputs"] is None else [trace["inputs"]])
+    g = trace["residual"].reshape(len(args[0]), -1)
+    f = science_sensitivities(estimator, args, jacobian=False)[0]
+    if f.shape != g.shape:
+        return float("nan")
+    total = np.sqrt(np.mean((f + g) ** 2, axis=0))
+    return float(np.nanmax(np.sqrt(np.mean(g**2, axis=0)) / np.where(total > 0, total, np.nan)))
+
+
+def evaluate(est, X, X_test, y_test, test_scorer, theta_true) -> dict:
+    """One table row: test metrics, the network's share, theta (and its error when known)."""
+    row: dict[str, Any] = {}
+    if test_scorer is not None:
+        row.update(test_scorer(est))
+    elif X_test is not None:
+        y_test = np.asarray(y_test, float).reshape(len(X_test), -1)
+        row.update(prediction_metrics(y_test, est.predict(X_test).reshape(len(y_test), -1),
+                                      est.predict_science(X_test).reshape(len(y_test), -1)))
+    row["network_share_rhs"] = _rhs_share(est, X)
+    row["theta"] = {k: (float(v) if np.ndim(v) == 0 else np.asarray(v).tolist()) for k, v in est.theta_.items()}
+    if theta_true:
+        row["theta_error"] = {k: float(np.max(np.abs(np.asarray(est.theta_[k]) - np.asarray(v))
+                                              / np.maximum(np.abs(v), 1e-12)))
+                              for k, v in theta_true.items() if k in est.theta_}
+    return row
+
+
+def residual_profile(remaining: np.ndarray, learned: np.ndarray, values: np.ndarray, variables: Sequence[str],
+                     output_names: Sequence[str], components: Sequence[int], n_bins: int = 8) -> dict:
+    """How much of what the hybrid learned the final science model still misses, and where.
+
+    Returns ``share`` (per output: RMS of the remainder over RMS of the learned right-hand side)
+    and ``profiles`` (per explained output and variable: bin centres and the mean remainder in
+    each quantile bin of that variable), which show the shape of a missing effect.
+    """
+    total = _rms(learned)
+    share = _rms(remaining) / np.where(total > 0, total, np.nan)
+    profiles = {}
+    for j in components:
+        for i, name in enumerate(variables):
+            x = values[:, i]
+            edges = np.unique(np.quantile(x, np.linspace(0, 1, n_bins + 1)))
+            if len(edges) < 3:
+                continue
+            which = np.clip(np.searchsorted(edges, x, side="right") - 1, 0, len(edges) - 2)
+            centre = np.array([x[which == b].mean() for b in range(len(edges) - 1)])
+            mean = np.array([remaining[which == b, j].mean() for b in range(len(edges) - 1)])
+            profiles[(output_names[j], name)] = (centre, mean)
+    return {"share": dict(zip(output_names, share.tolist())), "profiles": profiles,
+            "components": [output_names[j] for j in components], "_data": (values, remaining, list(variables))}
+
+
+def plot_unexplained(result: Any, axes: Any = None) -> np.ndarray:
+    """Scatter the remaining residual of each explained output against each variable.
+
+    Parameters
+    ----------
+    result : Bunch
+        What :func:`~sklearn_hybrid.diagnosis.close_the_loop` returned.
+    axes : array of matplotlib Axes, optional
+        ``(n_outputs, n_variables)``; a new figure when None.
+
+    Returns
+    -------
+    ndarray of matplotlib Axes
+    """
+    import matplotlib.pyplot as plt  # optional dependency
+
+    info = result.unexplained
+    values, remaining, variables = info["_data"]
+    outputs = info["components"]
+    names = list(info["share"])
+    if axes is None:
+        _, axes = plt.subplots(len(outputs), len(variables), figsize=(3.5 * len(variables), 3 * len(outputs)),
+                               squeeze=False)
+    axes = np.asarray(axes, dtype=object).reshape(len(outputs), len(variables))
+    for r, out in enumerate(outputs):
+        j = names.index(out)
+        for c, var in enumerate(variables):
+            ax = axes[r, c]
+            ax.scatter(values[:, c], remaining[:, j], s=3, alpha=0.3)
+            centre, mean = info["profiles"].get((out, var), ([], []))
+            ax.plot(centre, mean, "r.-", lw=1.5)
+            ax.axhline(0, color="k", lw=0.5)
+            ax.set_xlabel(var)
+            ax.set_ylabel(f"{out} not explained")
+    return axes
+
+
+def format_table(rows: list[dict], added: Sequence[dict] = (), steps: Sequence[dict] = (),
+                 unexplained: dict | None = None, n_validation: int | None = None) -> str:
+    """Markdown report: the before/after table, the selection log, the terms added, what is left."""
+    skip = ("stage", "science", "added", "theta", "theta_error", "failed")
+    metrics = list(dict.fromkeys(k for r in rows for k in r if k not in skip))
+    names = list(dict.fromkeys(k for r in rows for k in r["theta"]))
+    head = ["stage", *metrics, *names]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for r in rows:
+        cells = [r["stage"]] + [f"{r.get(m, float('nan')):.4g}" for m in metrics]
+        for n in names:
+            v = r["theta"].get(n)
+            text = "" if v is None else (f"{v:.5g}" if np.ndim(v) == 0 else str(np.round(v, 4).tolist()))
+            err = r.get("theta_error", {}).get(n)
+            cells.append(text + ("" if err is None else f" (err {err:.1%})"))
+        lines.append("| " + " | ".join(cells) + " |")
+        if "failed" in r:
+            lines.append(f"\nThe {r['stage']} fit failed: {r['failed']}\n")
+    if steps:
+        lines += ["", f"Selection (science model refitted without the network, mean squared error on "
+                      f"{n_validation} validation samples; a term is accepted when it lowers it by at "
+                      "least 5 % and by more than 3 standard errors):", "",
+                  "| step | output | term | kind | validation MSE before | after | gain | z | accepted |",
+                  "|---|---|---|---|---|---|---|---|---|"]
+        for s in steps:
+            if "failed" in s:
+                lines.append(f"| {s['step']} | {s['output']} | {s['term']} | {s['kind']} | | failed | | | no |")
+                continue
+            lines.append(f"| {s['step']} | {s['output']} | {s['term']} | {s['kind']} | {s['mse_before']:.4g} | "
+                         f"{s['mse_after']:.4g} | {s['gain']:.1%} | {s['z']:.1f} | "
+                         f"{'yes' if s['accepted'] else 'no'} |")
+    lines.append("")
+    if added:
+        for t in added:
+            shape = ", ".join(f"{k} = {v:.4g}" for k, v in t["shape"].items())
+            lines.append(f"Added to {t['output']}: {t['coef']:+.4g} * {t['term']}"
+                         + (f" with {shape}" if shape else "") + f" ({KIND_WORDS.get(t['kind'], t['kind'])}"
+                         + (f", term in {t['unit']}" if t.get("unit") else "") + f"; parameter {t['param']})")
+    else:
+        lines.append("Nothing added: no candidate improved the held-out error by more than the noise explains.")
+    if unexplained is not None:
+        shares = ", ".join(f"{k} {v:.1%}" for k, v in unexplained["share"].items()
+                           if k in unexplained["components"])
+        lines.append(f"Not explained by the final science model (RMS share of what the hybrid learned): {shares}.")
+    return "\n".join(lines)

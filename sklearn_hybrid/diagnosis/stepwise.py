@@ -1,0 +1,204 @@
+"""Forward selection of missing terms: rank by the network's residual, accept on held-out evidence.
+
+One step: the residual the network still carries beyond the current science model is explained,
+candidate by candidate, on the states it visited (a least-squares fit of the term together with
+the science parameters' sensitivities, which absorb mere parameter shifts); the best-ranked few
+are each added to the science model, refitted without the network (:class:`ScienceFit`) and
+judged on validation samples (:func:`evidence`). The best one that passes is kept; the next step
+starts from it. Selection stops when no candidate passes.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any
+
+import numpy as np
+import torch
+
+from .augment import augment_science
+from .evidence import ScienceFit, evidence
+from .terms import Term
+
+__all__ = ["forward_selection", "science_output", "parameter_jacobian"]
+
+
+def science_output(science: Callable, theta: Mapping[str, Any], args: Sequence[np.ndarray]) -> np.ndarray:
+    """The science function's output at ``args`` (batch first), flattened: ``(n, n_outputs)``."""
+    tensors = [torch.as_tensor(np.asarray(a, dtype=float)) for a in args]
+    values = {k: torch.as_tensor(np.asarray(v, dtype=float)) for k, v in theta.items()}
+    with torch.no_grad():
+        out = science(*tensors, **values)
+    return out.reshape(len(tensors[0]), -1).numpy()
+
+
+def parameter_jacobian(science: Callable, theta: Mapping[str, Any],
+                       args: Sequence[np.ndarray]) -> tuple[np.ndarray, list[str]]:
+    """Central differences of the science output in every scalar parameter: ``(n, n_outputs, p)``."""
+    columns, names = [], []
+    for name, value in theta.items():
+        value = np.asarray(value, dtype=float)
+        for idx in np.ndindex(value.shape):
+            h = 1e-5 * max(abs(float(value[idx])), 1e-3)
+            plus, minus = value.copy(), value.copy()
+            plus[idx] += h
+            minus[idx] -= h
+            diff = (science_output(science, {**theta, name: plus}, args)
+                    - science_output(science, {**theta, name: minus}, args))
+            columns.append(diff / (2 * h))
+            names.append(name if value.ndim == 0 else f"{name}[{','.join(map(str, idx))}]")
+    n = len(args[0])
+    return (np.stack(columns, axis=-1) if columns else np.zeros((n, 0, 0))), names
+
+
+def _rank(terms: Sequence[Term], variables: dict[str, torch.Tensor], remaining: np.ndarray,
+          jac: np.ndarray, components: Sequence[int], taken: set) -> list[dict]:
+    """Every (component, term) scored by the share of the remaining residual it explains.
+
+    The term is fitted together with the parameter sensitivities of its component, so a term that
+    only stands in for a parameter shift gains nothing.
+    """
+    total = float(sum(np.sum(remaining[:, j] ** 2) for j in components)) or 1.0
+    columns = {}
+    for term in terms:
+        for shape in term.grid():
+            with torch.no_grad():
+                col = term(variables, **{k: torch.tensor(v, dtype=torch.float64) for k, v in shape.items()})
+            col = np.broadcast_to(col.numpy(), remaining[:, 0].shape)
+            if np.all(np.isfinite(col)) and np.any(col):
+                columns.setdefault(term.name, []).append((term, shape, col))
+    ranked = []
+    for j in components:
+        S = jac[:, j, :]
+        S = S[:, np.any(np.abs(S) > 0, axis=0)]
+        Q = np.linalg.qr(S)[0] if S.shape[1] else np.zeros((len(S), 0))
+        r = remaining[:, j] - Q @ (Q.T @ remaining[:, j])
+        for name, options in columns.items():
+            if (j, name) in taken:
+                continue
+            best = None
+            for term, shape, col in options:
+                c = col - Q @ (Q.T @ col)
+                cc = float(c @ c)
+                if cc < 1e-3 * float(col @ col):  # within the parameters' span: a shift, not a term
+                    continue
+                gain = float(c @ r) ** 2 / cc
+                if best is None or gain > best["gain"]:
+                    best = {"component": j, "term": name, "kind": term.kind, "unit": term.unit,
+                            "function": term.func, "shape": shape, "bounds": term.shape,
+                            "coef": float(c @ r) / cc, "gain": gain / total}
+            if best is not None:
+                ranked.append(best)
+    return sorted(ranked, key=lambda t: -t["gain"])
+
+
+def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceFit, train: np.ndarray,
+                      validation: np.ndarray, terms: Sequence[Term], variables: Sequence[str], n_states: int,
+                      args: Sequence[np.ndarray], learned: np.ndarray, components: Sequence[int], *,
+                      max_terms: int = 4, n_candidates: int = 4, z: float = 3.0, min_gain: float = 0.05,
+                      param_names: Mapping[str, str] | None = None, log: Callable[[str], None] = lambda s: None
+                      ) -> dict:
+    """Add terms one at a time while a network-free refit validates better by more than the noise.
+
+    Parameters
+    ----------
+    science : callable
+        The original science function.
+    theta : dict
+        Starting values of its parameters (the hybrid fit's ``theta_``).
+    fit : ScienceFit
+        Network-free simulation over every sample; ``train`` and ``validation`` index it.
+    terms : list of Term
+        The candidates.
+    variables : list of str
+        Names of the columns of ``args`` (states, then inputs).
+    n_states : int
+        Number of state columns (the rest are inputs).
+    args : list of ndarray
+        The science function's inputs at the states the network visited.
+    learned : ndarray of shape (n_points, n_outputs)
+        What the hybrid model learned there: science output plus network.
+    components : list of int
+        Outputs that may receive terms (the uncertain ones).
+
+    Returns
+    -------
+    dict
+        ``science`` (augmented function, or the original), ``theta`` (fitted on the training
+        samples), ``added`` (accepted term dicts), ``steps`` (every candidate tried, with its
+        validation error and verdict), ``base_errors`` / ``errors`` (validation errors per sample
+        before any term and at the end) and ``seconds``.
+    """
+    start_time = time.perf_counter()
+    tensors = {name: torch.as_tensor(np.asarray(col, dtype=float))
+               for name, col in zip(variables, np.hstack([np.asarray(a).reshape(len(a), -1) for a in args]).T)}
+    train_fit, val_fit = fit.subset(train), fit.subset(validation)
+    current, theta_now = science, train_fit.fit(science, theta)
+    errors = base_errors = val_fit.errors(science, theta_now)
+    log(f"science refitted alone: validation MSE {errors.mean():.4g}")
+    added: list[dict] = []
+    steps: list[dict] = []
+    while len(added) < max_terms:
+        remaining = learned - science_output(current, theta_now, args)
+        jac, _ = parameter_jacobian(current, theta_now, args)
+        taken = {(t["component"], t["term"]) for t in added}
+        ranked = _rank(terms, tensors, remaining, jac, components, taken)[:n_candidates]
+        if not ranked:
+            break
+        best = None
+        for cand in ranked:
+            placed = [*added, cand]
+            candidate_science = _augment(science, placed, variables, n_states, param_names)
+            start = {**theta_now, **_initial_values(candidate_science, placed)}
+            try:
+                fitted = train_fit.fit(candidate_science, start, _shape_bounds(candidate_science, placed))
+                cand_errors = val_fit.errors(candidate_science, fitted)
+            except (RuntimeError, ValueError, FloatingPointError) as exc:  # a term that breaks the simulation
+                steps.append({"step": len(added) + 1, **_public(cand), "failed": repr(exc), "accepted": False})
+                continue
+            verdict = evidence(errors, cand_errors, z=z, min_gain=min_gain)
+            steps.append({"step": len(added) + 1, **_public(cand), **verdict, "accepted": False})
+            log(f"  step {len(added) + 1}: {cand['term']} on component {cand['component']}: validation MSE "
+                f"{verdict['mse_after']:.4g} (gain {verdict['gain']:.1%}, z {verdict['z']:.1f})")
+            if best is None or verdict["mse_after"] < best[2]["mse_after"]:
+                best = (cand, fitted, verdict, cand_errors, candidate_science, len(steps) - 1)
+        if best is None or not best[2]["accepted"]:
+            break
+        cand, theta_now, _, errors, current, index = best
+        steps[index]["accepted"] = True
+        added.append(_with_fitted(cand, current, theta_now, len(added)))
+        log(f"  accepted {cand['term']} on component {cand['component']}")
+    return {"science": current, "theta": theta_now, "added": added, "steps": steps,
+            "base_errors": base_errors, "errors": errors, "seconds": time.perf_counter() - start_time}
+
+
+def _augment(science, placed, variables, n_states, param_names):
+    terms = [{"component": t["component"], "term": t["term"], "coef": t["coef"], "function": t["function"],
+              "shape": t["shape"], "param": (param_names or {}).get(t["term"])} for t in placed]
+    return augment_science(science, terms, variables, n_states=n_states)
+
+
+def _initial_values(augmented, placed) -> dict:
+    """Starting values of the newest term's coefficient and shape parameters."""
+    component, term, coef_name = augmented.terms[-1]
+    out = {coef_name: placed[-1]["coef"]}
+    out.update({glob: placed[-1]["shape"][local] for local, glob in augmented.shape_names[-1].items()})
+    return out
+
+
+def _shape_bounds(augmented, placed) -> dict:
+    return {glob: t["bounds"][local][1] for t, names in zip(placed, augmented.shape_names)
+            for local, glob in names.items()}
+
+
+def _with_fitted(cand, augmented, theta, i) -> dict:
+    """The accepted term with its fitted coefficient and shape values."""
+    _, _, coef_name = augmented.terms[i]
+    shape = {local: float(theta[glob]) for local, glob in augmented.shape_names[i].items()}
+    return {**cand, "coef": float(theta[coef_name]), "shape": shape, "param": coef_name,
+            "shape_params": dict(augmented.shape_names[i])}
+
+
+def _public(cand: dict) -> dict:
+    return {k: cand[k] for k in ("component", "term", "kind", "gain", "shape")}

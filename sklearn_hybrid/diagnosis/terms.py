@@ -1,0 +1,156 @@
+"""What physics usually misses: named candidate terms, some with a fitted nonlinear parameter.
+
+A :class:`Term` is a torch function of the named variables (states, then inputs) with, for some
+kinds, one *shape* parameter fitted together with its coefficient: the width ``w`` of dry friction
+``tanh(v/w)``, the knot ``c`` of a hinge ``max(0, x - c)``, the constant ``K`` of a saturation
+``x/(K + |x|)``, the rate ``k`` of ``exp(k x)``. :func:`physics_terms` builds the default library
+from the data's scale; the same torch function serves the ranking (on the states the network
+visited) and the augmented science model (during its refit), so there is one implementation per
+term.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+from itertools import combinations
+from typing import Any
+
+import numpy as np
+import torch
+
+__all__ = ["Term", "physics_terms", "TERM_KINDS"]
+
+TERM_KINDS = ("polynomial", "drag", "dry_friction", "hinge", "sqrt", "exponential", "saturation", "user")
+
+
+class Term:
+    """A candidate term ``coef * func(d, **shape)`` of the named variables.
+
+    Parameters
+    ----------
+    name : str
+        Readable name, e.g. ``"tanh(v/w)"``.
+    func : callable
+        ``func(d, **shape) -> Tensor`` with ``d`` mapping variable names to ``(batch,)`` tensors.
+    kind : str
+        Which physics it stands for (one of :data:`TERM_KINDS`), shown in reports.
+    shape : dict of str to (list of float, (float, float)), optional
+        Each nonlinear parameter's starting grid and bounds, e.g. ``{"w": ([0.01, 0.1], (1e-4, 10))}``.
+    unit : str, default=""
+        Units of the term (for the report); ``""`` if dimensionless or unknown.
+    """
+
+    def __init__(self, name: str, func: Callable, kind: str,
+                 shape: Mapping[str, tuple[Sequence[float], tuple[float, float]]] | None = None,
+                 unit: str = "") -> None:
+        self.name, self.func, self.kind, self.unit = name, func, kind, unit
+        self.shape = dict(shape or {})
+
+    def __call__(self, d: Mapping[str, torch.Tensor], **shape: Any) -> torch.Tensor:
+        return self.func(d, **shape)
+
+    def grid(self) -> list[dict[str, float]]:
+        """Every combination of the shape parameters' starting values (one empty dict if none)."""
+        combos: list[dict[str, float]] = [{}]
+        for pname, (values, _) in self.shape.items():
+            combos = [{**c, pname: float(v)} for c in combos for v in values]
+        return combos
+
+    def __repr__(self) -> str:
+        return f"Term({self.name!r}, kind={self.kind!r})"
+
+
+def _power(unit: str, p: int) -> str:
+    return "" if not unit else (unit if p == 1 else f"({unit})^{p}")
+
+
+def physics_terms(variables: Sequence[str], values: np.ndarray, units: Mapping[str, str] | None = None,
+                  kinds: Sequence[str] | None = None, user_terms: Mapping[str, Callable] | None = None,
+                  positive: Sequence[str] = ()) -> list[Term]:
+    """The default candidate library over the named variables.
+
+    Parameters
+    ----------
+    variables : list of str
+        Variable names (states, then inputs).
+    values : ndarray of shape (n_points, n_variables)
+        Where the variables were visited; sets the starting grids (scales, quantiles for knots).
+    units : dict of str to str, optional
+        Units of the variables (for the report).
+    kinds : list of str, optional
+        Kinds to include (default all of :data:`TERM_KINDS`).
+    user_terms : dict of str to callable, optional
+        Your own terms by name: ``f(d) -> Tensor`` with ``d`` mapping variable names to tensors.
+    positive : list of str, optional
+        Variables that are never negative (levels, concentrations): no hinge below zero for them.
+
+    Returns
+    -------
+    list of Term
+    """
+    kinds = list(TERM_KINDS if kinds is None else kinds)
+    unknown = sorted(set(kinds) - set(TERM_KINDS))
+    if unknown:
+        raise ValueError(f"Unknown term kinds {unknown}; choose from {list(TERM_KINDS)}.")
+    units = dict(units or {})
+    values = np.asarray(values, dtype=float).reshape(len(values), len(variables))
+    terms: list[Term] = []
+    if "polynomial" in kinds:
+        terms += _polynomials(variables, units)
+    for i, x in enumerate(variables):
+        col, u = values[:, i], units.get(x, "")
+        scale = float(np.sqrt(np.mean(col**2))) or 1.0
+        terms += _single_variable(x, col, scale, u, kinds, x in positive)
+    for name, func in (user_terms or {}).items() if "user" in kinds else ():
+        if not callable(func):
+            raise TypeError(f"user term {name!r} is not callable.")
+        terms.append(Term(name, lambda d, _f=func: _f(d), "user", unit=units.get(name, "")))
+    return terms
+
+
+def _polynomials(variables: Sequence[str], units: Mapping[str, str]) -> list[Term]:
+    """Constant, powers up to 3 and the products of two variables up to degree 3."""
+    terms = [Term("1", lambda d: torch.ones_like(next(iter(d.values()))), "polynomial")]
+    for x in variables:
+        for p in (1, 2, 3):
+            terms.append(Term(x if p == 1 else f"{x}^{p}", lambda d, x=x, p=p: d[x] ** p, "polynomial",
+                              unit=_power(units.get(x, ""), p)))
+    for x, z in combinations(variables, 2):
+        for px, pz in ((1, 1), (2, 1), (1, 2)):
+            name = "*".join(v if p == 1 else f"{v}^{p}" for v, p in ((x, px), (z, pz)))
+            unit = "*".join(filter(None, (_power(units.get(x, ""), px), _power(units.get(z, ""), pz))))
+            terms.append(Term(name, lambda d, x=x, z=z, px=px, pz=pz: d[x] ** px * d[z] ** pz, "polynomial",
+                              unit=unit))
+    return terms
+
+
+def _single_variable(x: str, col: np.ndarray, scale: float, unit: str, kinds: Sequence[str],
+                     positive: bool) -> list[Term]:
+    """Non-polynomial terms of one variable, their grids set by its scale and quantiles."""
+    out = []
+    wide = (1e-6 * scale, 1e3 * scale)
+    if "drag" in kinds:
+        out.append(Term(f"{x}|{x}|", lambda d: d[x] * d[x].abs(), "drag", unit=_power(unit, 2)))
+        out.append(Term(f"|{x}|", lambda d: d[x].abs(), "drag", unit=unit))
+    if "dry_friction" in kinds:  # sign(x) smoothed over a fitted width w (-> sign as w -> 0)
+        out.append(Term(f"tanh({x}/w)", lambda d, w: torch.tanh(d[x] / w), "dry_friction",
+                        {"w": ([0.01 * scale, 0.1 * scale, 0.5 * scale], wide)}))
+    if "hinge" in kinds:  # a stop, an overflow, a dead zone: active beyond a fitted knot c
+        knots = np.quantile(col, [0.1, 0.3, 0.5, 0.7, 0.9])
+        bounds = (float(col.min()), float(col.max()))
+        out.append(Term(f"max(0, {x} - c)", lambda d, c: torch.relu(d[x] - c), "hinge",
+                        {"c": (knots[1:], bounds)}, unit=unit))
+        if not (positive and bounds[0] >= 0 and knots[0] <= 0):
+            out.append(Term(f"max(0, c - {x})", lambda d, c: torch.relu(c - d[x]), "hinge",
+                            {"c": (knots[:-1], bounds)}, unit=unit))
+    if "sqrt" in kinds:  # Torricelli outflow, turbulent flow; signed so it stays odd
+        out.append(Term(f"sqrt|{x}|", lambda d: torch.sign(d[x]) * torch.sqrt(d[x].abs() + 1e-12), "sqrt",
+                        unit=f"{unit}^(1/2)" if unit else ""))
+    if "exponential" in kinds:  # Arrhenius-like activation, diode current, decay
+        k = [s / scale for s in (-3.0, -1.0, 1.0, 3.0)]
+        out.append(Term(f"exp(k*{x})", lambda d, k: torch.exp(torch.clamp(k * d[x], max=50.0)), "exponential",
+                        {"k": (k, (-20.0 / scale, 20.0 / scale))}))
+    if "saturation" in kinds:  # Michaelis-Menten, Holling type II, a saturating actuator
+        out.append(Term(f"{x}/(K + |{x}|)", lambda d, K: d[x] / (K + d[x].abs()), "saturation",
+                        {"K": ([0.1 * scale, 0.5 * scale, 2.0 * scale], (1e-3 * scale, 1e3 * scale))}))
+    return out
