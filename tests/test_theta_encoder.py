@@ -288,14 +288,11 @@ def test_hybrid_regressor_cv_trains_members_one_by_one(decay):
     assert set(cv.theta_std_) == {"k"}
 
 
-def test_closed_loop_refits_with_the_encoder(decay):
-    """close_the_loop reads residual_trace and predict_science; the added terms are per sample too."""
+def test_closed_loop_refuses_the_encoder_clearly(decay):
+    """The loop's network-free refits use one theta for every sample: a per-sample theta is refused."""
     from sklearn_hybrid.diagnosis import close_the_loop
 
     X, y, _ = decay
-    result = close_the_loop(HybridRegressor(science=decay_columns_f, **{**FAST, "max_iter": 30}),
-                            X, y, X, y, state_names=["v"], refit_params={"max_iter": 5})
-    assert "| before |" in result.report and result.after is not None
-    theta = result.after.predict_theta(X)  # the added terms' coefficients, per sample
-    assert set(theta) > {"k"} and all(v.shape == (len(X),) for v in theta.values())
-    assert result.after.predict_science(X).shape == y.shape
+    with pytest.raises(ValueError, match="does not support theta_encoder"):
+        close_the_loop(HybridRegressor(science=decay_columns_f, **{**FAST, "max_iter": 3}), X, y,
+                       state_names=["v"])

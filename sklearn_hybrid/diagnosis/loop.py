@@ -7,7 +7,6 @@ horizon (test records are usually longer than the training windows) and
 
 from __future__ import annotations
 
-import copy
 import math
 import time
 from collections.abc import Callable, Mapping, Sequence
@@ -82,7 +81,8 @@ class _Zero(nn.Module):
         self.unused = nn.Parameter(torch.zeros(1))
 
     def forward(self, *inputs):
-        return torch.zeros(len(inputs[0]), *self.out_shape, dtype=inputs[0].dtype)
+        # times the unused parameter: the loss stays differentiable when every theta is fixed
+        return self.unused * torch.zeros(len(inputs[0]), *self.out_shape, dtype=inputs[0].dtype)
 
 
 class ZeroResidual:
@@ -257,6 +257,9 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
     start = time.perf_counter()
     log = print if verbose else (lambda *_: None)
     _check_options(validation_fraction, max_terms, n_candidates)
+    if getattr(estimator, "theta_encoder", None) is not None:
+        raise ValueError("close_the_loop does not support theta_encoder: its network-free refits judge each term "
+                         "with one theta shared by every sample. Close the loop on a model with a shared theta.")
     try:
         check_is_fitted(estimator, "model_")
         before = estimator
@@ -311,9 +314,10 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
              **evaluate(before, X, X_test, y_test, test_scorer, theta_true)}]
     after, augmented = None, (final if sel["added"] else None)
     if augmented is not None:
-        # warm start: theta from the network-free refit, the network from the first fit
+        # theta starts from the network-free refit; the network starts afresh, since the first
+        # fit's network already carries the effect and erm has no reason to hand it to the term
         after = clone(before).set_params(science=augmented, theta_init=_inside(science_theta, before.theta_bounds),
-                                         residual=_WarmStart(before.residual_), **dict(refit_params or {}))
+                                         **dict(refit_params or {}))
         log(f"refitting the hybrid with {augmented.__name__}: {augmented.equation}")
         try:
             after.fit(X, y)
@@ -333,21 +337,6 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
                  added=added, steps=sel["steps"], exact=[] if uncertain is None else
                  [j for j in range(base.shape[1]) if j not in uncertain],
                  unexplained=unexplained, table=rows, report=report, seconds=time.perf_counter() - start)
-
-
-class _WarmStart:
-    """Residual factory: a copy of a fitted network (a new one per fit, as factories must)."""
-
-    def __init__(self, network: nn.Module):
-        self.network = network
-
-    def __call__(self, in_shapes, out_shape) -> nn.Module:
-        network = copy.deepcopy(self.network)
-        network.__dict__.pop("_sklearn_hybrid_built", None)  # a new network: the copy is not the one built
-        return network
-
-    def __repr__(self) -> str:
-        return f"_WarmStart({type(self.network).__name__})"
 
 
 _MAX_POINTS = 5000  # visited states used to rank candidates: plenty for a handful of columns

@@ -146,7 +146,7 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
         ranked = _rank(terms, tensors, remaining, jac, components, taken)[:n_candidates]
         if not ranked:
             break
-        best = None
+        tried = []
         for cand in ranked:
             placed = [*added, cand]
             candidate_science = _augment(science, placed, variables, n_states, param_names)
@@ -161,8 +161,8 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
             steps.append({"step": len(added) + 1, **_public(cand), **verdict, "accepted": False})
             log(f"  step {len(added) + 1}: {cand['term']} on component {cand['component']}: validation MSE "
                 f"{verdict['mse_after']:.4g} (gain {verdict['gain']:.1%}, z {verdict['z']:.1f})")
-            if best is None or verdict["mse_after"] < best[2]["mse_after"]:
-                best = (cand, fitted, verdict, cand_errors, candidate_science, len(steps) - 1)
+            tried.append((cand, fitted, verdict, cand_errors, candidate_science, len(steps) - 1))
+        best = _simplest_of_the_best(tried, min_gain)
         if best is None or not best[2]["accepted"]:
             break
         cand, theta_now, _, errors, current, index = best
@@ -171,6 +171,25 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
         log(f"  accepted {cand['term']} on component {cand['component']}")
     return {"science": current, "theta": theta_now, "added": added, "steps": steps,
             "base_errors": base_errors, "errors": errors, "seconds": time.perf_counter() - start_time}
+
+
+def _simplest_of_the_best(tried: list, min_gain: float) -> tuple | None:
+    """The simplest candidate among those the data cannot tell from the best.
+
+    ``c tanh(v/w)`` with a large ``w`` mimics ``v^3`` once the linear part is absorbed, and over a
+    small range ``v|v|`` and ``v^3`` fit alike; when the held-out error of one is within
+    ``min_gain`` of the best (the margin below which a term is not worth a parameter either), the
+    reading a physicist would keep is the one with fewer parameters, and among those a polynomial
+    (a Taylor term). A paired test is no judge here: the samples' noise is shared by both models,
+    so a 3 % difference from noise in the fitted parameters looks "significant".
+    """
+    if not tried:
+        return None
+    best = min(tried, key=lambda t: t[2]["mse_after"])
+    if not best[2]["accepted"]:
+        return best
+    alike = [t for t in tried if t[2]["accepted"] and t[2]["mse_after"] <= (1 + min_gain) * best[2]["mse_after"]]
+    return min(alike, key=lambda t: (len(t[0]["shape"]), t[0]["kind"] != "polynomial", t[2]["mse_after"]))
 
 
 def _augment(science, placed, variables, n_states, param_names):
