@@ -147,6 +147,7 @@ def format_table(rows: list[dict], added: Sequence[dict] = (), steps: Sequence[d
                   "| step | output | term | kind | validation MSE before | after | gain | z | accepted |",
                   "|---|---|---|---|---|---|---|---|---|"]
         for s in steps:
+            s = {**s, "term": s["term"].replace("|", "\\|")}  # a bar inside a cell would split it
             if "failed" in s:
                 lines.append(f"| {s['step']} | {s['output']} | {s['term']} | {s['kind']} | | failed | | | no |")
                 continue
