@@ -1,6 +1,6 @@
 """Close the loop on measured and synthetic data: fit -> diagnose -> augment -> refit -> before/after.
 
-Cases (``sklearn_hybrid.diagnosis.cases``): Silverbox (linear science model, cubic stiffness
+Cases (``sklearn_hybrid.recipes``): Silverbox (linear science model, cubic stiffness
 undeclared), Cascaded tanks (Torricelli, overflow undeclared), the real pendulum free swing
 (friction undeclared), and the synthetic pendulum (damping undeclared) and Duffing (cubic term
 undeclared) tasks. Measured cases are scored by free runs of their test records; the grey-box
@@ -18,7 +18,7 @@ import time
 import torch
 
 from _common import RESULTS, write_results
-from sklearn_hybrid.diagnosis.cases import CASES, run_case
+from sklearn_hybrid.recipes import CASES, run_case
 
 
 def _baselines() -> dict:

@@ -89,7 +89,7 @@ def _run(args) -> int:
         return 0
     import torch
 
-    from .diagnosis.cases import run_case
+    from .recipes import run_case
 
     torch.set_num_threads(1)  # small sequential models are fastest on one thread
     options = {} if args.data_home is None or args.dataset in ("pendulum", "duffing") else \

@@ -20,12 +20,12 @@ def test_version_and_help_do_not_import_torch():
 
 
 def test_missing_data_is_one_line_on_stderr(tmp_path, capsys, monkeypatch):
-    import sklearn_hybrid.diagnosis.cases as cases
+    import sklearn_hybrid.recipes as recipes
 
     def missing(*args, **kwargs):  # as fetch_silverbox reports an absent file offline
         raise FileNotFoundError("Could not download silverbox/SNLS80mV.csv:\n  details ...")
 
-    monkeypatch.setattr(cases, "fetch_silverbox", missing)
+    monkeypatch.setattr(recipes, "fetch_silverbox", missing)
     assert cli.main(["loop", "silverbox", "--fast", "--data-home", str(tmp_path)]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1
@@ -36,7 +36,7 @@ def test_missing_data_is_one_line_on_stderr(tmp_path, capsys, monkeypatch):
 
 
 def test_data_home_reaches_the_loader(tmp_path, monkeypatch):
-    import sklearn_hybrid.diagnosis.cases as cases
+    import sklearn_hybrid.recipes as recipes
 
     seen = {}
 
@@ -44,6 +44,35 @@ def test_data_home_reaches_the_loader(tmp_path, monkeypatch):
         seen["data_home"] = data_home
         raise FileNotFoundError("stop here")
 
-    monkeypatch.setattr(cases, "fetch_silverbox", record)
+    monkeypatch.setattr(recipes, "fetch_silverbox", record)
     cli.main(["loop", "silverbox", "--fast", "--data-home", str(tmp_path)])
     assert seen["data_home"] == str(tmp_path)
+
+
+def test_loop_shows_progress_by_default_and_quiet_hides_it(capsys):
+    """The long fits of ``loop`` report as they go (stage lines, progress bars); --quiet prints the table only."""
+    assert cli.main(["loop", "pendulum", "--fast", "--max-iter", "3"]) == 0
+    out, err = capsys.readouterr()
+    assert "fitting the hybrid model ..." in out
+    assert "erm: 100%" in err  # the fit's progress bar (tqdm, on stderr)
+    assert cli.main(["loop", "pendulum", "--fast", "--max-iter", "3", "--quiet"]) == 0
+    out, err = capsys.readouterr()
+    assert "fitting the hybrid model" not in out and "| before |" in out
+    assert err == ""
+
+
+def test_run_case_progress_times_the_free_run_scoring(monkeypatch, capsys):
+    import sklearn_hybrid.recipes as recipes
+
+    def toy_case(**kwargs):  # a synthetic case scored like the measured ones
+        case = recipes.synthetic_case("pendulum", **kwargs)
+        case.test_scorer = lambda fitted: {"test_rmse": 0.0}
+        return case
+
+    monkeypatch.setitem(recipes.CASES, "toy", toy_case)
+    out = recipes.run_case("toy", fast=True, max_iter=2, progress=True)
+    printed = capsys.readouterr().out
+    assert "scoring: free-run simulations of the test records ..." in printed and "scoring done" in printed
+    assert out.table[0]["test_rmse"] == 0.0
+    recipes.run_case("toy", fast=True, max_iter=2)
+    assert "scoring" not in capsys.readouterr().out

@@ -29,7 +29,7 @@ import matplotlib.pyplot as plt
 import torch
 
 from sklearn_hybrid.datasets import fetch_silverbox, get_data_home
-from sklearn_hybrid.diagnosis.cases import run_case
+from sklearn_hybrid.recipes import run_case
 
 torch.set_num_threads(1)
 FAST = os.environ.get("SKLEARN_HYBRID_FAST", "0") == "1"

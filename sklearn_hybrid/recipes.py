@@ -1,28 +1,30 @@
-"""Ready-made closed-loop cases: measured benchmarks and synthetic tasks, each with its science model.
+"""Recipes: the closed-loop cases of the benchmarks and the CLI, each a data set with its science model.
 
-Every ``*_case`` function returns a :class:`~sklearn.utils.Bunch` with an unfitted ``estimator``, the
-training data ``X``, ``y``, a ``test_scorer`` (free-run simulation of the test records, RMSE in the
-data's units) and the names, units and library for :func:`~sklearn_hybrid.diagnosis.close_the_loop`
-(see :func:`run_case`). Conditioning: time is counted in samples (or tenths of a second) and the
-states are scaled to order one, so that the parameters are of order one for Adam; training uses
-windows of the records, starting from states estimated from the data.
+These are worked examples, not library logic: each ``*_case`` function loads a data set, scales it,
+cuts training windows with :func:`~sklearn_hybrid.datasets.make_windows` (initial velocities from
+:func:`~sklearn_hybrid.datasets.estimate_derivative`) and returns a :class:`~sklearn.utils.Bunch`
+with an unfitted ``estimator``, the training data ``X``, ``y``, a ``test_scorer`` (free-run
+simulation of the test records, RMSE in the data's units) and the names, units and library for
+:func:`~sklearn_hybrid.diagnosis.close_the_loop` (see :func:`run_case`; ``sklearn-hybrid loop NAME``
+runs one). Copy one to start a study of your own recordings. Conditioning: time is counted in
+samples (or tenths of a second) and the states are scaled to order one, so that the parameters
+are of order one for Adam.
 """
 
 from __future__ import annotations
 
-from typing import Any
+import time
+from typing import Any, Callable
 
 import numpy as np
 import torch
 from sklearn.utils import Bunch
 
-from .. import HybridRegressor, pack_inputs
-from ..datasets import (fetch_cascaded_tanks, fetch_silverbox, load_pendulum_freeswing, make_duffing,
-                        make_pendulum)
-from ..models import duffing_f, pendulum_f
-from .library import CandidateLibrary
-from .loop import MLPOn, close_the_loop, fit_initial_state, free_run
-from .report import prediction_metrics
+from . import HybridRegressor
+from .datasets import (estimate_derivative, fetch_cascaded_tanks, fetch_silverbox, load_pendulum_freeswing,
+                       make_duffing, make_pendulum, make_windows)
+from .diagnosis import CandidateLibrary, MLPOn, close_the_loop, fit_initial_state, free_run, prediction_metrics
+from .models import duffing_f, pendulum_f
 
 __all__ = ["CASES", "run_case", "silverbox_case", "tanks_case", "pendulum_freeswing_case", "synthetic_case",
            "silverbox_f", "tanks_f", "swing_f", "SILVERBOX_SCALE"]
@@ -54,18 +56,6 @@ def swing_f(v, f0=1.0):
     return torch.stack([v[:, 1], -w2 * torch.sin(SWING_SCALE * v[:, 0]) / SWING_SCALE], dim=-1)
 
 
-def _derivative(y: np.ndarray, idx: np.ndarray) -> np.ndarray:
-    """Seven-point central difference of a sampled signal at indices ``idx`` (per sample)."""
-    w = np.array([-1, 9, -45, 0, 45, -9, 1]) / 60.0
-    return sum(wi * y[idx + k - 3] for k, wi in enumerate(w))
-
-
-def _windows(y, u, starts, length):
-    """Windows ``[s, s + length]`` of y (targets after the first) and u (including the first)."""
-    idx = starts[:, None] + np.arange(length + 1)[None]
-    return y[idx[:, 1:]], None if u is None else u[idx]
-
-
 # ------------------------------------------------------------------------------ Silverbox
 def silverbox_case(fast: bool = False, method: str = "erm", max_iter: int | None = None, window: int = 16,
                    data_home: Any = None, random_state: int = 0) -> Bunch:
@@ -73,10 +63,10 @@ def silverbox_case(fast: bool = False, method: str = "erm", max_iter: int | None
     data = fetch_silverbox(data_home)
     s = SILVERBOX_SCALE
     y, u = data.y_train / s, data.u_train / s
-    stride = 4 * window if fast else window
-    starts = np.arange(3, len(y) - window - 4, stride)
-    Y, U = _windows(y, u, starts, window)
-    X = pack_inputs(np.column_stack([y[starts], _derivative(y, starts)]), U[:, :, None])
+    # Initial velocity by a 7-point central difference; windows keep 3 (4 at the end) samples from the edges.
+    states = np.column_stack([y, estimate_derivative(y, method="central")])
+    train = make_windows(y, u, length=window, stride=4 * window if fast else window, start=3, stop=len(y) - 4,
+                         states=states)
     est = HybridRegressor(science=silverbox_f, observed=[0], n_inputs=1, input_interp="cubic", dt=1.0,
                           n_substeps=1, residual=MLPOn([1], hidden=(32, 32)), method=method, rho=0.05,
                           lr=1e-2, max_iter=max_iter or (30 if fast else 300), batch_size=512,
@@ -91,7 +81,7 @@ def silverbox_case(fast: bool = False, method: str = "erm", max_iter: int | None
             yt, ut = data.y[sl][:n_test] / s, data.u[sl][:n_test] / s
             sims = {}
             for use_residual in (True, False):
-                guess = np.array([yt[3], _derivative(yt, np.array([3]))[0]])
+                guess = np.array([yt[3], estimate_derivative(yt[:7], method="central")[3]])
                 x0 = fit_initial_state(fitted, yt[3:n0], guess, u_head=ut[3:n0], observed=[0],
                                        use_residual=use_residual)
                 sims[use_residual] = free_run(fitted, x0, u=ut[3:], use_residual=use_residual)[0, :, 0]
@@ -111,7 +101,7 @@ def silverbox_case(fast: bool = False, method: str = "erm", max_iter: int | None
             out["k3_over_k_per_V2"] = -k3 / (fitted.theta_["k"] * s**2)
         return out
 
-    return Bunch(name="silverbox", estimator=est, X=X, y=Y[:, :, None], test_scorer=scorer,
+    return Bunch(name="silverbox", estimator=est, X=train.X, y=train.y, test_scorer=scorer,
                  state_names=["y", "y_dot"], input_names=["u"],
                  units={"y": "100 mV", "y_dot": "100 mV/sample", "u": "100 mV"},
                  library=CandidateLibrary(degree=3, include_bias=True), param_names={},
@@ -123,20 +113,16 @@ def silverbox_case(fast: bool = False, method: str = "erm", max_iter: int | None
 def tanks_case(fast: bool = False, method: str = "erm", max_iter: int | None = None, data_home: Any = None,
                random_state: int = 0) -> Bunch:
     """Cascaded tanks: Torricelli science model, overflow undeclared; validation free run."""
-    from scipy.signal import savgol_filter
-
     data = fetch_cascaded_tanks(data_home)
     y, u = data.y_est, data.u_est
-    n = len(y)
-    # Windows of 64 samples (a full 1024-sample simulation per iteration is ~20x slower). The
-    # unobserved upper level at each window start comes from the lower tank's balance with
+    # The unobserved upper level at each window start comes from the lower tank's balance with
     # k1 = k3 (only ratios are identifiable): sqrt(x1) = sqrt(x2) + x2' / k1, k1 at its initial 4.
-    window = 64
-    starts = np.arange(0, n - window - 1, 128 if fast else 32)
-    dy = savgol_filter(y, 15, 2, deriv=1) * 25.0  # per time unit of 25 samples
+    dy = estimate_derivative(y, dt=0.04, method="savgol", window_length=15, polyorder=2)  # per 25 samples
     x1 = (np.sqrt(np.clip(y, 0, None)) + dy / 4.0).clip(0, None) ** 2
-    Y, U = _windows(y, u, starts, window)
-    X = pack_inputs(np.column_stack([x1[starts], y[starts]]), U[:, :, None])
+    # Windows of 64 samples (a full 1024-sample simulation per iteration is ~20x slower); the last
+    # sample is left out (stop), as in the published runs.
+    train = make_windows(y, u, length=64, stride=128 if fast else 32, stop=len(y) - 1,
+                         states=np.column_stack([x1, y]))
     # Time unit 25 samples: rates, parameters and new-term coefficients of order 0.1-10 for Adam.
     est = HybridRegressor(science=tanks_f, observed=[1], n_inputs=1, input_interp="linear", dt=0.04,
                           n_substeps=1, residual=MLPOn([0, 1], hidden=(32, 32)), method=method, rho=0.05,
@@ -160,7 +146,7 @@ def tanks_case(fast: bool = False, method: str = "erm", max_iter: int | None = N
 
     terms = {"sqrt(x1)": lambda Z: np.sqrt(np.clip(Z["x1"], 0, None)),
              "sqrt(x2)": lambda Z: np.sqrt(np.clip(Z["x2"], 0, None))}
-    return Bunch(name="tanks", estimator=est, X=X, y=Y[:, :, None], test_scorer=scorer,
+    return Bunch(name="tanks", estimator=est, X=train.X, y=train.y, test_scorer=scorer,
                  state_names=["x1", "x2"], input_names=["u"],
                  units={"x1": "V", "x2": "V", "u": "V", "sqrt(x1)": "V^(1/2)", "sqrt(x2)": "V^(1/2)"},
                  library=CandidateLibrary(degree=2, include_bias=True, custom_terms=terms),
@@ -175,17 +161,14 @@ def tanks_case(fast: bool = False, method: str = "erm", max_iter: int | None = N
 def pendulum_freeswing_case(fast: bool = False, method: str = "erm", max_iter: int | None = None,
                             data_home: Any = None, random_state: int = 0) -> Bunch:
     """Real pendulum free swing: frictionless science model, friction undeclared."""
-    from scipy.signal import savgol_filter
-
     full = load_pendulum_freeswing(data_home)
     # Velocity from a local cubic fit at full rate (1e-4 s) before decimating to 0.01 s.
-    vel = savgol_filter(full.angle_from_bottom, 201, 3, deriv=1, delta=full.dt)
+    vel = estimate_derivative(full.angle_from_bottom, dt=full.dt, method="savgol", window_length=201, polyorder=3)
     angle, vel = full.angle_from_bottom[::100] / SWING_SCALE, vel[::100] / SWING_SCALE * 0.1
     # The swing dies out after ~6 s (600 samples): train on the first 3 s, free-run test on the next 3.5 s.
     dt, window, n_train, n_test = 0.1, 50, 300, 350  # time unit 0.1 s: a sample is dt = 0.1 units
-    starts = np.arange(0, n_train - window, 50 if fast else 5)
-    Y, _ = _windows(angle, None, starts, window)
-    X = np.column_stack([angle[starts], vel[starts]])
+    train = make_windows(angle, length=window, stride=50 if fast else 5, stop=n_train,
+                         states=np.column_stack([angle, vel]))
     est = HybridRegressor(science=swing_f, dt=dt, n_substeps=1, observed=[0],
                           residual=MLPOn([1], hidden=(32, 32)), method=method, rho=0.05, lr=1e-2,
                           max_iter=max_iter or (20 if fast else 400), random_state=random_state)
@@ -199,7 +182,7 @@ def pendulum_freeswing_case(fast: bool = False, method: str = "erm", max_iter: i
                 "test_science_only_rmse_mrad": 1e3 * SWING_SCALE * m["rmse_science_only"],
                 "network_share": m["network_share"]}
 
-    return Bunch(name="pendulum-freeswing", estimator=est, X=X, y=Y[:, :, None], test_scorer=scorer,
+    return Bunch(name="pendulum-freeswing", estimator=est, X=train.X, y=train.y, test_scorer=scorer,
                  state_names=["theta", "theta_dot"], input_names=None,
                  units={"theta": "0.1 rad", "theta_dot": "rad/s"},
                  library=CandidateLibrary(degree=3, include_bias=False, nonsmooth=["theta_dot"]),
@@ -236,20 +219,53 @@ CASES = {"silverbox": silverbox_case, "tanks": tanks_case, "pendulum-freeswing":
          "duffing": lambda **kw: synthetic_case("duffing", **kw)}
 
 
+def _announced(scorer: Callable | None) -> Callable | None:
+    """``scorer`` that says when it starts and how long it took (free runs of long records take minutes)."""
+    if scorer is None:
+        return None
+
+    def scorer_with_progress(fitted):
+        print("scoring: free-run simulations of the test records ...", flush=True)
+        start = time.perf_counter()
+        out = scorer(fitted)
+        print(f"scoring done ({time.perf_counter() - start:.0f} s)", flush=True)
+        return out
+
+    return scorer_with_progress
+
+
 def run_case(name: str, fast: bool = False, method: str = "erm", max_iter: int | None = None,
              verbose: bool = False, progress: bool = False, **options) -> Bunch:
-    """Run :func:`close_the_loop` on a named case and return its result (plus ``case``).
+    """Run :func:`~sklearn_hybrid.diagnosis.close_the_loop` on a named case; return its result plus ``case``.
 
-    ``progress=True`` shows every fit's progress bar (the estimators' ``verbose``).
+    Parameters
+    ----------
+    name : str
+        A key of ``CASES``.
+    fast, method, max_iter : optional
+        Passed to the case function (``fast``: tiny data and few iterations, a pipeline check).
+    verbose : bool, default=False
+        ``close_the_loop`` prints its stages and the report.
+    progress : bool, default=False
+        Show every fit's progress bar (the estimators' ``verbose``) and time the free-run scoring.
+    **options
+        Further keyword arguments of the case function (``data_home``, ``random_state``).
+
+    Returns
+    -------
+    Bunch
+        The result of ``close_the_loop`` with the case's Bunch as ``case``.
     """
     if name not in CASES:
         raise ValueError(f"Unknown case {name!r}; choose one of {sorted(CASES)}.")
     case = CASES[name](fast=fast, method=method, max_iter=max_iter, **options)
+    scorer = case.get("test_scorer")
     if progress:
         case.estimator.set_params(verbose=True)
+        scorer = _announced(scorer)
     out = close_the_loop(case.estimator, case.X, case.y, case.get("X_test"), case.get("y_test"),
                          state_names=case.state_names, input_names=case.input_names, units=case.units,
                          positive=case.get("positive", ()), param_names=case.param_names,
-                         theta_true=case.get("theta_true"), test_scorer=case.get("test_scorer"), verbose=verbose)
+                         theta_true=case.get("theta_true"), test_scorer=scorer, verbose=verbose)
     out["case"] = case
     return out
