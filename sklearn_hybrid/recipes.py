@@ -2,7 +2,7 @@
 
 These are worked examples, not library logic: each ``*_case`` function loads a data set, scales it,
 cuts training windows with :func:`~sklearn_hybrid.datasets.make_windows` (initial velocities from
-:func:`~sklearn_hybrid.datasets.estimate_derivative`) and returns a :class:`~sklearn.utils.Bunch`
+:func:`~sklearn_hybrid.datasets.estimate_derivative`) and returns a ``Bunch``
 with an unfitted ``estimator``, the training data ``X``, ``y``, a ``test_scorer`` (free-run
 simulation of the test records, RMSE in the data's units) and the names, units and library for
 :func:`~sklearn_hybrid.diagnosis.close_the_loop` (see :func:`run_case`; ``sklearn-hybrid loop NAME``

@@ -143,10 +143,10 @@ def estimate_derivative(y, dt: float = 1.0, *, method: str = "savgol", window_le
         Time between samples, in the time unit of the model.
     method : {"savgol", "central"}, default="savgol"
         ``"savgol"``: derivative of a local polynomial fit (Savitzky-Golay,
-        :func:`scipy.signal.savgol_filter`), which smooths measurement noise; near the ends the
+        ``scipy.signal.savgol_filter``), which smooths measurement noise; near the ends the
         polynomial of the first / last window is used. ``"central"``: seven-point central
         difference (exact for polynomials up to degree 6, no smoothing: for clean or
-        oversampled signals); the three samples at each end use :func:`numpy.gradient`
+        oversampled signals); the three samples at each end use ``numpy.gradient``
         (second order).
     window_length, polyorder : int, default=15 and 2
         Samples per local fit (odd) and the polynomial degree; ``"savgol"`` only.
