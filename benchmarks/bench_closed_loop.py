@@ -69,9 +69,10 @@ def main():
     for name in args.cases:
         start = time.perf_counter()
         out = run_case(name, fast=args.fast, method=args.method, verbose=False)
-        results[name] = {"description": out.case.description, "table": out.table,
-                         "equations": out.diagnosis.equations(), "summary": out.diagnosis.summary(),
-                         "report": out.report, "seconds": time.perf_counter() - start}
+        added = [{k: t[k] for k in ("output", "term", "kind", "coef", "param")} for t in out.added]
+        steps = [{k: v for k, v in s.items() if k != "function"} for s in out.steps]
+        results[name] = {"description": out.case.description, "table": out.table, "added": added,
+                         "steps": steps, "report": out.report, "seconds": time.perf_counter() - start}
         print(f"== {name} ({results[name]['seconds']:.0f} s)\n{out.report}\n", flush=True)
     suffix = "_fast" if args.fast else ""
     tag = "" if set(args.cases) == set(CASES) else "_" + "_".join(c.replace("-", "") for c in args.cases)

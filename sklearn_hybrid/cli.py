@@ -102,8 +102,9 @@ def _run(args) -> int:
     print(f"({out.seconds:.0f} s)")
     if args.json:
         with open(args.json, "w") as fh:
-            json.dump({"dataset": args.dataset, "method": args.method, "table": out.table,
-                       "equations": out.diagnosis.equations(), "seconds": out.seconds}, fh, indent=2)
+            added = [{k: t[k] for k in ("output", "term", "kind", "coef", "param")} for t in out.added]
+            json.dump({"dataset": args.dataset, "method": args.method, "table": out.table, "added": added,
+                       "seconds": out.seconds}, fh, indent=2, default=float)
     return 0
 
 

@@ -76,3 +76,13 @@ def test_run_case_progress_times_the_free_run_scoring(monkeypatch, capsys):
     assert out.table[0]["test_rmse"] == 0.0
     recipes.run_case("toy", fast=True, max_iter=2)
     assert "scoring" not in capsys.readouterr().out
+
+
+def test_loop_json_lists_the_added_terms(tmp_path, capsys):
+    import json
+
+    path = tmp_path / "loop.json"
+    assert cli.main(["loop", "pendulum", "--fast", "--quiet", "--json", str(path)]) == 0
+    saved = json.loads(path.read_text())
+    assert saved["dataset"] == "pendulum" and saved["table"][0]["stage"] == "before"
+    assert all(set(t) == {"output", "term", "kind", "coef", "param"} for t in saved["added"])
