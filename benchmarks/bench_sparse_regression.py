@@ -32,6 +32,7 @@ Usage: python benchmarks/bench_sparse_regression.py [--problems 20] [--n-samples
 from __future__ import annotations
 
 import argparse
+import csv
 import sys
 import time
 import warnings
@@ -39,7 +40,7 @@ import warnings
 import numpy as np
 from sklearn.model_selection import KFold
 
-from _common import write_results
+from _common import RESULTS, write_results
 from sklearn_hybrid.diagnosis import CandidateLibrary, SparseTermRegression
 
 try:
@@ -182,7 +183,12 @@ def main() -> None:
           "| seconds |", "|---|---|---|---|---|---|---|---|"]
     md += [f"| {s['family']} | {s['noise']:g} | {s['method']} | {s['exact_support']:.0%} | {s['false_terms']:.2f} | "
            f"{s['missed_terms']:.2f} | {s['coef_rel_error_median']:.3g} | {s['seconds_mean']:.3f} |" for s in summary]
-    path = write_results("sparse_regression", {"command": command, "summary": summary, "runs": rows,
+    runs = RESULTS / "sparse_regression_runs.csv"  # one row per (problem, method), beside the summary
+    with open(runs, "w", newline="") as fh:
+        writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows({k: f"{v:.4g}" if isinstance(v, float) else v for k, v in r.items()} for r in rows)
+    path = write_results("sparse_regression", {"command": command, "summary": summary, "runs": runs.name,
                                                "pysindy": getattr(pysindy, "__version__", None)}, "\n".join(md))
     print(path.read_text())
 
