@@ -33,7 +33,7 @@ class Term:
     func : callable
         ``func(d, **shape) -> Tensor`` with ``d`` mapping variable names to ``(batch,)`` tensors.
     kind : str
-        Which physics it stands for (one of :data:`TERM_KINDS`), shown in reports.
+        Which physics it stands for (one of ``TERM_KINDS``), shown in reports.
     shape : dict of str to (list of float, (float, float)), optional
         Each nonlinear parameter's starting grid and bounds, e.g. ``{"w": ([0.01, 0.1], (1e-4, 10))}``.
     unit : str, default=""
@@ -78,7 +78,7 @@ def physics_terms(variables: Sequence[str], values: np.ndarray, units: Mapping[s
     units : dict of str to str, optional
         Units of the variables (for the report).
     kinds : list of str, optional
-        Kinds to include (default all of :data:`TERM_KINDS`).
+        Kinds to include (default all of ``TERM_KINDS``).
     user_terms : dict of str to callable, optional
         Your own terms by name: ``f(d) -> Tensor`` with ``d`` mapping variable names to tensors.
     positive : list of str, optional
