@@ -189,3 +189,21 @@ def test_penalties():
     f_reg = make_method("f-reg", lam=0.5)
     with pytest.raises(ValueError, match="f-reg.*user-supplied composition"):
         f_reg.penalty(model, torch.zeros(2, 1), {})
+
+
+@pytest.mark.parametrize("momentum", [0.1, None])
+def test_perturbed_pass_leaves_batchnorm_statistics_alone(momentum):
+    """SAM's second pass must not count as a batch, also for a cumulative average (momentum=None)."""
+    from sklearn_hybrid.engine import _frozen_batchnorm_stats
+
+    torch.manual_seed(0)
+    batches = [torch.randn(8, 2) + i for i in range(3)]
+    sam, plain = (nn.BatchNorm1d(2, momentum=momentum) for _ in range(2))
+    for x in batches:
+        sam(x), plain(x)
+        with _frozen_batchnorm_stats(sam):
+            sam(10 * x + 5)  # the perturbed pass sees other statistics
+    assert sam.momentum == momentum
+    assert int(sam.num_batches_tracked) == int(plain.num_batches_tracked) == 3
+    torch.testing.assert_close(sam.running_mean, plain.running_mean)
+    torch.testing.assert_close(sam.running_var, plain.running_var)
