@@ -16,7 +16,7 @@ from sklearn.utils.validation import check_is_fitted, validate_data
 from ._device import resolve_device
 from ._kernels import reusing_buffers
 from . import encoder as _encoder
-from .engine import TrainConfig, explain_nonfinite, train
+from .engine import TrainConfig, cosine_lr, explain_nonfinite, theta_drift, train
 from ._extras import EstimatorExtras, _check_sample_weight, _holdout
 from ._memory import check_fit_memory, explained_memory_errors
 from ._validation import check_positive, set_feature_info, torch_threads, validate_into_copy
@@ -99,9 +99,20 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
         the pendulum task 1e-2 estimates theta better in 600 iterations than
         1e-3 in 2,000, see ``benchmarks/results/early_stopping.md``).
     lr_theta : float or None, default=None
-        Initial learning rate of theta if it should differ from ``lr`` (Adam
-        moves each parameter by about its learning rate per step, so a theta
-        far from its start or of a different scale may need its own).
+        Initial learning rate of theta if it should differ from ``lr``.  Rule:
+        Adam moves theta's raw value by at most about its learning rate per
+        step, so over the cosine schedule by at most ``lr_theta * max_iter /
+        2`` in all; choose ``lr_theta`` so that this exceeds the distance
+        theta may have to go.  Raw is theta itself without bounds; with two
+        finite bounds it is the logit of theta's position between them (from
+        the middle to 90 % of the span is 2.2; theta's own step is at most
+        ``(high - low) / 4`` times the raw one), with one bound the inverse
+        softplus of the distance to it.  Example: ``r`` in (0, 1) from 0.5 at
+        ``lr=1e-3`` for 1,500 iterations can reach at most
+        ``sigmoid(0.75) = 0.68`` (a fit of the science part alone ends at
+        0.66 where the data say 0.83; with ``lr_theta=1e-2``, at 0.83; see
+        ``benchmarks/results/theta_convergence.md``).  ``theta_drift_`` shows
+        a theta that was still on its way when the schedule ended.
     max_iter : int, default=2000
         Largest number of optimisation steps (the cosine schedule spans it).
     tol : float or None, default=1e-3
@@ -157,6 +168,16 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
         Number of optimisation steps taken (``max_iter`` unless stopped early).
     stopped_early_ : bool
         Whether early stopping ended the fit before ``max_iter``.
+    theta_drift_ : dict of str to float
+        How far each parameter still moved at the end of training: its largest
+        relative change ``|theta_end - theta_start| / |theta_end|`` over the
+        last iterations in which 10 % of theta's summed learning rate was
+        spent (see :func:`~sklearn_hybrid.engine.theta_drift`).  A theta that
+        settled moves by much less there than one the cosine schedule froze
+        on its way (which moves about 10 % of its whole travel); a change of
+        plain iterations would hide that, as the learning rate is close to
+        zero over the last 10 % of them.  With a ``theta_encoder``, of the
+        per-iteration batch mean.
     theta_std_ : dict
         Standard error of each parameter (0 for fixed ones), from the
         Gauss-Newton approximation of the data loss in theta with the network
@@ -373,6 +394,9 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
         self.device_ = setup.y.device
         self.n_iter_ = len(history["loss"])
         self.stopped_early_ = self.n_iter_ < self.max_iter
+        config = setup.config
+        self.theta_drift_ = theta_drift(
+            history["theta"], cosine_lr(config.lr_theta or config.lr, self.n_iter_, config))
         self._fitted_structure = self._structure_params()
         set_feature_info(self, setup.features)
 

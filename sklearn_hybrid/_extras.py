@@ -247,6 +247,11 @@ class EstimatorExtras:
                  f"training loss (last iteration): {self.history_['loss'][-1]:.4g}"]
         if "validation_loss" in self.history_ and len(self.history_["validation_loss"]):
             lines.append(f"validation loss (last check): {self.history_['validation_loss'][-1]:.4g}")
+        drift = getattr(self, "theta_drift_", None)  # absent from fits made before it existed
+        if drift:
+            lines.append("theta drift (relative change over the last 10 % of its summed learning "
+                         "rate; a settled theta moves little there): "
+                         + ", ".join(f"{k} {v:.2g}" for k, v in drift.items()))
         notes = {}
         for name in science.names:
             if not science.raw[name].requires_grad:

@@ -279,3 +279,42 @@ def test_lr_theta_gives_theta_its_own_step(pendulum):
     assert moved_slow < 6e-4 and moved_fast > 20 * moved_slow
     with pytest.raises(ValueError, match="lr_theta must be a positive number"):
         HybridRegressor(lr_theta=0.0, **common).fit(X, y)
+
+
+def test_theta_drift_tells_a_frozen_theta_from_a_settled_one():
+    """The window is the last 10 % of the summed learning rate, not of the iterations."""
+    from sklearn_hybrid.engine import TrainConfig, cosine_lr, theta_drift
+
+    config = TrainConfig(lr=1e-2, max_iter=1000)
+    lr = cosine_lr(config.lr, 1000, config)
+    marching = 1.0 + np.cumsum(lr)  # Adam pushing steadily: one lr per step until the end
+    settled = 1.0 + 0.5 * (1 - np.exp(-np.arange(1000) / 50.0))  # arrived early on
+    drift = theta_drift({"a": marching, "b": settled}, lr)
+    assert drift["a"] == pytest.approx(0.1 * (marching[-1] - 1.0) / marching[-1], rel=0.02)
+    assert drift["b"] < 1e-4 < 1e-2 < drift["a"]
+    last_iters = abs(marching[-1] - marching[900]) / marching[-1]  # plain 10 % of iterations
+    assert last_iters < 0.05 * drift["a"]  # would call the frozen theta settled
+    constant = TrainConfig(lr=1e-2, max_iter=1000, min_lr=1e-2)
+    np.testing.assert_allclose(cosine_lr(1e-2, 1000, constant), 1e-2)
+    vector = theta_drift({"v": np.stack([settled, marching], axis=1)}, lr)
+    assert vector["v"] == pytest.approx(drift["a"])
+
+
+def test_theta_drift_attribute_and_schedule_match_the_optimizer(pendulum):
+    X, y = pendulum.X_train, pendulum.y_train
+    est = HybridRegressor(science=pendulum_f, dt=0.2, method="erm", lr=1e-2, lr_theta=3e-2,
+                          tol=None, **FAST).fit(X, y)
+    from sklearn_hybrid.engine import TrainConfig, cosine_lr, make_optimizer, theta_drift
+
+    config = TrainConfig(lr=1e-2, lr_theta=3e-2, max_iter=30)
+    p = torch.nn.Parameter(torch.zeros(1))
+    optimizer, scheduler = make_optimizer([p], [torch.nn.Parameter(torch.zeros(1))], config)
+    seen = []
+    for _ in range(30):
+        seen.append(optimizer.param_groups[0]["lr"])
+        optimizer.step(), scheduler.step()
+    np.testing.assert_allclose(cosine_lr(3e-2, 30, config), seen, rtol=1e-6)
+    assert est.theta_drift_ == pytest.approx(
+        theta_drift(est.history_["theta"], cosine_lr(3e-2, 30, config)))
+    assert set(est.theta_drift_) == {"omega"} and est.theta_drift_["omega"] > 0
+    assert "theta drift" in est.fit_report()
