@@ -20,13 +20,18 @@ Protocols (``--budget``):
 ``paper``  the paper's sizes, 20,000 iterations, its learning rates (1e-4 pendulum, Duffing,
            reaction-diffusion; 3e-4 wind tunnel; 1e-3 pendulum images, light tunnel), full batch
            except batch 50 for the image tasks, cosine schedule to 1e-6
-``cpu``    the reduced sizes of ``bench_tasks.py`` (a 2-core CPU runs a task's grid in hours)
+``cpu``    the reduced sizes of ``bench_tasks.py`` (a 2-core CPU runs a task's grid in hours);
+           the wind tunnel's theta keeps the paper's learning-rate budget (lr_theta 3e-3 x 2,000
+           = 3e-4 x 20,000; with lr 1e-3 alone r could not get from 0.5 past 0.73, see
+           ``results/theta_convergence.md``)
 ``smoke``  tiny sizes and 30 iterations: checks the pipeline in minutes, numbers meaningless
 =========  =====================================================================================
 
 Each record: task, method, seed, hyper, iters, theta_error_end, theta_error_best,
 y_error_test, val_error, theta_end, drift (largest relative change of theta over the last
-10 % of iterations: a theta that still moves there has not settled), seconds, device,
+10 % of iterations), drift_lr (the same over the last 10 % of theta's summed learning rate,
+``theta_drift_``: under the cosine schedule the plain drift is small for every theta), reference
+(the theta the errors are measured against), lr_theta, seconds, device,
 protocol, source (the wind and light tunnel run on SIMULATED stand-ins where the measured
 Causal Chamber files are absent). Light tunnel: theta_error_* is 1 - cosine similarity.
 
@@ -67,6 +72,14 @@ GRIDS = {"erm": [{}], "p-reg": [{"lam": v} for v in LAMS], "f-reg": [{"lam": v} 
 #: Combinations this package cannot run yet, and why (rendered under the table).
 UNSUPPORTED = {("pendulum_images", "f-reg"): "the nested images model is a user composition "
                "(encoders, ODE, decoder) with no science-only reduction h' = A f for f-reg"}
+#: What the runs show about a task's numbers (rendered under the table).
+NOTES = {"wind_tunnel": (
+    "on the SIMULATED stand-in the network reads z = f(x) beside x and absorbs any factor "
+    "(1 - r), so erm has no pull on r (it ends where it starts, 0.5); fsam pulls r up, weakly, "
+    "and r had not settled when the schedule ended: its end value grows with theta's "
+    "learning-rate budget (0.545 / 0.579 at 1,500 / 3,000 iterations, see drift (lr) and "
+    "`results/theta_convergence.md`). fsam's lower error here is a slow pull in the right "
+    "direction, not an identified r.")}
 #: Paper, Table 1 and Table 2 (mean over 5 seeds; light tunnel: cosine similarity).
 PAPER = {
     "pendulum": {"erm": 19.9e-3, "p-reg": 2.55e-3, "f-reg": 0.37e-3, "sam": 4.00e-3,
@@ -141,7 +154,12 @@ def _wind_tunnel(budget):
     kw = dict(science=models.wind_tunnel_f, structure="compose", residual=models.wind_tunnel_net,
               theta_bounds={"r": (0.0, 1.0)}, lr=_size(budget, 3e-4, 1e-3, 1e-3),
               max_iter=_size(budget, 20000, 2000, 30))
-    return Bunch(data=d, kw=kw, theta=raw.theta_reference, source=source)
+    if budget == "cpu":  # keep the paper's budget for theta: lr_theta * max_iter = 3e-4 * 20,000
+        kw["lr_theta"] = 3e-3  # = 3e-4 * 20,000 / 2,000 (lr alone reaches r <= 0.73 from 0.5)
+    # the stand-in is generated with r = 0.75 (hatch closed; the publisher's value), not the
+    # paper's 0.7 for the measured chamber: its error is measured against what made the data
+    theta = raw.theta_reference_code if raw.simulated else raw.theta_reference
+    return Bunch(data=d, kw=kw, theta=theta, source=source)
 
 
 def _light_tunnel(budget, n_samples=None):
@@ -227,6 +245,9 @@ def run(task, budget, method, hyper, seed, device="cpu"):
               "val_error": _rmse(est, d.X_val, d.y_val),
               "theta_end": {k: np.ravel(v).tolist() for k, v in est.theta_.items()},
               "drift": _drift(est.history_["theta"]), "seconds": seconds,
+              "reference": {k: np.ravel(v).tolist() for k, v in spec.theta.items()},
+              **({"drift_lr": max(est.theta_drift_.values()), "lr_theta": est.lr_theta}
+                 if hasattr(est, "theta_drift_") else {}),
               "device": str(est.device_), "source": spec.source}
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_suffix(".part")
@@ -249,6 +270,10 @@ def _stats(values):
 def _value(error, cosine):
     """As the paper shows it: the error, or the cosine similarity (higher is better)."""
     return f"{1 - error:.3f}" if cosine else f"{error:.3g}"
+
+
+def _maybe(value):
+    return "n/a" if value is None else f"{value:.2g}"
 
 
 def _fmt(mean, sd, cosine):
@@ -282,6 +307,10 @@ def summarise(runs: list[dict]) -> list[dict]:
             "chosen_hyper": json.loads(chosen),
             "chosen": _stats([r["theta_error_end"] for r in by_hyper[chosen]]),
             "chosen_drift": float(np.max([r["drift"] for r in by_hyper[chosen]])),
+            "chosen_drift_lr": (float(np.max([r["drift_lr"] for r in by_hyper[chosen]]))
+                                if all("drift_lr" in r for r in by_hyper[chosen]) else None),
+            "rule_drift_lr": (float(np.max([r["drift_lr"] for r in by_hyper[ruled]]))
+                              if all("drift_lr" in r for r in by_hyper[ruled]) else None),
             "chosen_y": _stats([r["y_error_test"] for r in by_hyper[chosen]]),
             "rule_hyper": json.loads(ruled),
             "rule": _stats([r["theta_error_end"] for r in by_hyper[ruled]]),
@@ -298,11 +327,19 @@ def render(rows: list[dict]) -> str:
              "theta at the end of training (what a user gets), with the grid value of the lowest "
              "mean validation RMSE (val), or the strongest regularisation within 10 % of it "
              "(1.1 x val; see the script's docstring). drift: the largest relative change of theta over the last 10 % "
-             "of training among the chosen runs. Mean ± sd over the seeds listed.", "",
+             "of iterations among the chosen runs (small by construction under the cosine "
+             "schedule, whose last 10 % of iterations hold 0.2 % of the summed learning rate); "
+             "drift (lr): over the last 10 % of theta's summed learning rate "
+             "(`theta_drift_`; a theta that Adam still pushed one way moves ~0.1 of its travel "
+             "there, a settled one much less; n/a: run before it was recorded). "
+             "Mean ± sd over the seeds listed. The wind tunnel's SIMULATED stand-in is "
+             "scored against r = 0.75, the value that generates it (hatch closed), not the "
+             "paper's 0.7 for the measured chamber; its cpu runs use lr_theta = 3e-3 "
+             "(`benchmarks/results/theta_convergence.md`).", "",
              "| protocol | task | data | method | iters | seeds | oracle: theta error | "
-             "val: theta error (end) | chosen | drift | y error (test) | 1.1 x val: theta error "
-             "(end) | chosen | paper |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             "val: theta error (end) | chosen | drift | drift (lr) | y error (test) | "
+             "1.1 x val: theta error (end) | chosen | drift (lr) | paper |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         cosine = r["task"] == "light_tunnel"
         hyper, rule = (", ".join(f"{k}={v}" for k, v in h.items() if k != "perturb") or "-"
@@ -311,8 +348,9 @@ def render(rows: list[dict]) -> str:
         lines.append(
             f"| {r['protocol']} | {r['task']} | {r['source']} | {r['method']} | {r['iters']} | "
             f"{len(r['seeds'])} | {_fmt(*r['oracle'], cosine)} | {_fmt(*r['chosen'], cosine)} | "
-            f"{hyper} | {r['chosen_drift']:.2g} | {r['chosen_y'][0]:.3g} | "
-            f"{_fmt(*r['rule'], cosine)} | {rule} | {paper:.3g} |")
+            f"{hyper} | {r['chosen_drift']:.2g} | {_maybe(r.get('chosen_drift_lr'))} | "
+            f"{r['chosen_y'][0]:.3g} | {_fmt(*r['rule'], cosine)} | {rule} | "
+            f"{_maybe(r.get('rule_drift_lr'))} | {paper:.3g} |")
     verdicts = []
     for protocol, task in sorted({(r["protocol"], r["task"]) for r in rows}):
         got = {r["method"]: r for r in rows if (r["protocol"], r["task"]) == (protocol, task)}
@@ -324,7 +362,9 @@ def render(rows: list[dict]) -> str:
                     for k, name in (("chosen", "val"), ("rule", "1.1 x val"))]
             verdicts.append(f"- {protocol}, {task}: fsam {'; '.join(said)}.")
     missing = [f"- {task}, {method}: not run, {why}." for (task, method), why in UNSUPPORTED.items()]
-    return "\n".join(lines + ["", *verdicts, "", *missing])
+    notes = [f"- {task}: {note}" for task, note in NOTES.items()
+             if any(r["task"] == task for r in rows)]
+    return "\n".join(lines + ["", *verdicts, "", *notes, "", *missing])
 
 
 def write_table(runs: list[dict]) -> Path:
