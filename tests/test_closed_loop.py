@@ -293,3 +293,24 @@ def test_cli_loop_and_demo(capsys, monkeypatch):
     assert cli.main(["demo"]) == 0 and called
     with pytest.raises(SystemExit):
         cli.main(["loop", "no-such-dataset"])
+
+
+def test_selection_judges_each_candidate_on_its_own_evidence():
+    """The lowest held-out error without evidence must not hide a candidate that passed (the real
+    pendulum's |theta_dot| at z 4.8 was dropped behind a hinge at z 2.9), and among those that
+    passed and are within min_gain of the best, the simplest wins."""
+    from sklearn_hybrid.diagnosis.stepwise import _interleave, _simplest_of_the_best
+
+    def tried(term, kind, shape, mse, accepted):
+        return ({"term": term, "kind": kind, "shape": shape}, {}, {"mse_after": mse, "accepted": accepted},
+                None, None, 0)
+
+    hinge = tried("max(0, x - c)", "hinge", {"c": 0.1}, 2.2, False)
+    drag = tried("|x|", "drag", {}, 3.5, True)
+    assert _simplest_of_the_best([hinge, drag], 0.05) is drag
+    assert _simplest_of_the_best([hinge], 0.05) is None
+    cubic = tried("x^3", "polynomial", {}, 1.03, True)
+    smooth = tried("tanh(x/w)", "dry_friction", {"w": 1.0}, 1.0, True)
+    assert _simplest_of_the_best([smooth, cubic, drag], 0.05) is cubic
+    ranked = [{"component": 1, "gain": g} for g in (0.9, 0.8, 0.7)] + [{"component": 0, "gain": 0.1}]
+    assert [c["component"] for c in _interleave(ranked, 3)] == [1, 0, 1]

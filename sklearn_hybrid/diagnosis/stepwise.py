@@ -143,7 +143,7 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
         remaining = learned - science_output(current, theta_now, args)
         jac, _ = parameter_jacobian(current, theta_now, args)
         taken = {(t["component"], t["term"]) for t in added}
-        ranked = _rank(terms, tensors, remaining, jac, components, taken)[:n_candidates]
+        ranked = _interleave(_rank(terms, tensors, remaining, jac, components, taken), n_candidates)
         if not ranked:
             break
         tried = []
@@ -163,7 +163,7 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
                 f"{verdict['mse_after']:.4g} (gain {verdict['gain']:.1%}, z {verdict['z']:.1f})")
             tried.append((cand, fitted, verdict, cand_errors, candidate_science, len(steps) - 1))
         best = _simplest_of_the_best(tried, min_gain)
-        if best is None or not best[2]["accepted"]:
+        if best is None:
             break
         cand, theta_now, _, errors, current, index = best
         steps[index]["accepted"] = True
@@ -171,6 +171,24 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
         log(f"  accepted {cand['term']} on component {cand['component']}")
     return {"science": current, "theta": theta_now, "added": added, "steps": steps,
             "base_errors": base_errors, "errors": errors, "seconds": time.perf_counter() - start_time}
+
+
+def _interleave(ranked: list[dict], n: int) -> list[dict]:
+    """The ``n`` best candidates, taken in turn from each component's own ranking.
+
+    Shares are compared within a component only: a large residual on one component (say the
+    observed tank) must not crowd out every candidate for another (the unobserved one).
+    """
+    by_component: dict[int, list[dict]] = {}
+    for cand in ranked:
+        by_component.setdefault(cand["component"], []).append(cand)
+    queues = sorted(by_component.values(), key=lambda q: -q[0]["gain"])
+    out = []
+    while len(out) < n and any(queues):
+        for queue in queues:
+            if queue and len(out) < n:
+                out.append(queue.pop(0))
+    return out
 
 
 def _simplest_of_the_best(tried: list, min_gain: float) -> tuple | None:
@@ -183,12 +201,11 @@ def _simplest_of_the_best(tried: list, min_gain: float) -> tuple | None:
     (a Taylor term). A paired test is no judge here: the samples' noise is shared by both models,
     so a 3 % difference from noise in the fitted parameters looks "significant".
     """
-    if not tried:
+    passed = [t for t in tried if t[2]["accepted"]]  # each candidate is judged on its own evidence
+    if not passed:
         return None
-    best = min(tried, key=lambda t: t[2]["mse_after"])
-    if not best[2]["accepted"]:
-        return best
-    alike = [t for t in tried if t[2]["accepted"] and t[2]["mse_after"] <= (1 + min_gain) * best[2]["mse_after"]]
+    best = min(passed, key=lambda t: t[2]["mse_after"])
+    alike = [t for t in passed if t[2]["mse_after"] <= (1 + min_gain) * best[2]["mse_after"]]
     return min(alike, key=lambda t: (len(t[0]["shape"]), t[0]["kind"] != "polynomial", t[2]["mse_after"]))
 
 
