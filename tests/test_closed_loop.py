@@ -156,9 +156,9 @@ def test_knot_of_a_hinge_is_fitted():
     """A one-sided effect beyond a threshold: the hinge's knot is fitted, not taken from a grid."""
     X, y = _static_data(lambda X: 0.8 * np.maximum(0.0, X[:, 1] - 0.35))
     out = close_the_loop(_static_estimator(), X, y, state_names=["p", "q"], refit_params={"max_iter": 50})
-    assert [(t["kind"], t["term"]) for t in out.added] == [("hinge", "max(0, q - c)")]
+    assert [(t["kind"], t["term"]) for t in out.added] == [("hinge", "max(0, q - knot)")]
     term = out.added[0]
-    assert term["shape"]["c"] == pytest.approx(0.35, abs=0.03)
+    assert term["shape"]["knot"] == pytest.approx(0.35, abs=0.03)
     assert term["coef"] == pytest.approx(0.8, rel=0.1)
     # In function space: the added correction matches the effect on new points.
     q = torch.linspace(-1, 1, 201, dtype=torch.float64)
@@ -221,9 +221,10 @@ def test_science_fit_recovers_parameters(pendulum):
 def test_physics_terms_and_shape_parameters():
     values = np.random.default_rng(0).uniform(-2, 2, (100, 2))
     terms = {t.name: t for t in physics_terms(["x", "u"], values, units={"x": "m", "u": "V"})}
-    assert {"x|x|", "tanh(x/w)", "max(0, x - c)", "sqrt|x|", "exp(k*x)", "x/(K + |x|)", "x*u"} <= set(terms)
+    assert {"x|x|", "tanh(x/w)", "max(0, x - knot)", "sqrt|x|", "exp(k*x)", "x/(K + |x|)", "x*u"} <= set(terms)
     d = {"x": torch.tensor([-1.0, 0.5, 2.0], dtype=torch.float64), "u": torch.zeros(3, dtype=torch.float64)}
-    np.testing.assert_allclose(terms["max(0, x - c)"](d, c=torch.tensor(0.4)).numpy(), [0.0, 0.1, 1.6])
+    np.testing.assert_allclose(terms["max(0, x - knot)"](d, knot=torch.tensor(0.4)).numpy(), [0.0, 0.1, 1.6])
+    assert list(terms["max(0, x - knot)"].shape) == ["knot"]
     assert terms["x|x|"].unit == "(m)^2" and len(terms["tanh(x/w)"].grid()) == 3
     with pytest.raises(ValueError, match="Unknown term kinds"):
         physics_terms(["x"], values[:, :1], kinds=["polynom"])
@@ -305,7 +306,7 @@ def test_selection_judges_each_candidate_on_its_own_evidence():
         return ({"term": term, "kind": kind, "shape": shape}, {}, {"mse_after": mse, "accepted": accepted},
                 None, None, 0)
 
-    hinge = tried("max(0, x - c)", "hinge", {"c": 0.1}, 2.2, False)
+    hinge = tried("max(0, x - knot)", "hinge", {"knot": 0.1}, 2.2, False)
     drag = tried("|x|", "drag", {}, 3.5, True)
     assert _simplest_of_the_best([hinge, drag], 0.05) is drag
     assert _simplest_of_the_best([hinge], 0.05) is None

@@ -2,7 +2,7 @@
 
 A :class:`Term` is a torch function of the named variables (states, then inputs) with, for some
 kinds, one *shape* parameter fitted together with its coefficient: the width ``w`` of dry friction
-``tanh(v/w)``, the knot ``c`` of a hinge ``max(0, x - c)``, the constant ``K`` of a saturation
+``tanh(v/w)``, the ``knot`` of a hinge ``max(0, x - knot)``, the constant ``K`` of a saturation
 ``x/(K + |x|)``, the rate ``k`` of ``exp(k x)``. :func:`physics_terms` builds the default library
 from the data's scale; the same torch function serves the ranking (on the states the network
 visited) and the augmented science model (during its refit), so there is one implementation per
@@ -138,11 +138,12 @@ def _single_variable(x: str, col: np.ndarray, scale: float, unit: str, kinds: Se
     if "hinge" in kinds:  # a stop, an overflow, a dead zone: active beyond a fitted knot c
         knots = np.quantile(col, [0.1, 0.3, 0.5, 0.7, 0.9])
         bounds = (float(col.min()), float(col.max()))
-        out.append(Term(f"max(0, {x} - c)", lambda d, c: torch.relu(d[x] - c), "hinge",
-                        {"c": (knots[1:], bounds)}, unit=unit))
+        # the knot is not called c: c_<term> names every coefficient
+        out.append(Term(f"max(0, {x} - knot)", lambda d, knot: torch.relu(d[x] - knot), "hinge",
+                        {"knot": (knots[1:], bounds)}, unit=unit))
         if not (positive and bounds[0] >= 0 and knots[0] <= 0):
-            out.append(Term(f"max(0, c - {x})", lambda d, c: torch.relu(c - d[x]), "hinge",
-                            {"c": (knots[:-1], bounds)}, unit=unit))
+            out.append(Term(f"max(0, knot - {x})", lambda d, knot: torch.relu(knot - d[x]), "hinge",
+                            {"knot": (knots[:-1], bounds)}, unit=unit))
     if "sqrt" in kinds:  # Torricelli outflow, turbulent flow; signed so it stays odd
         out.append(Term(f"sqrt|{x}|", lambda d: torch.sign(d[x]) * torch.sqrt(d[x].abs() + 1e-12), "sqrt",
                         unit=f"{unit}^(1/2)" if unit else ""))
