@@ -1,0 +1,344 @@
+"""Systems of the identification benchmark (``bench_identification.py``).
+
+Each :class:`System` is a science model ``f`` written as a user would write it (torch; keyword defaults are
+the user's initial guesses, 10-30 % off the truth), the true parameters, and the effect ``m`` the science model
+lacks (numpy; ``None`` for the controls, whose science model is the whole truth).  The data are generated from
+``f(theta_true) + m`` by :func:`simulate`, with scipy alone: nothing of ``sklearn_hybrid`` is used here.
+
+These systems were written for this benchmark and are kept out of ``tests/`` on purpose, so that the closed loop
+cannot be tuned to them.
+
+The three population models guard negative populations (``clamp(min=0)`` in their nonlinear factors), as the
+package's DivergenceError advises ("guard its domain"): with the plain formulas every fit diverged at its first
+iteration, the untrained network pushing a population below zero, where logistic growth blows up in finite time.
+The guard changes nothing where the data live (populations stay positive).
+"""
+
+from __future__ import annotations
+
+import zlib
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+import torch
+from scipy.integrate import solve_ivp
+
+RTOL, ATOL = 1e-9, 1e-11
+
+
+@dataclass(frozen=True)
+class System:
+    """One benchmark system.
+
+    Attributes
+    ----------
+    name, domain, effect_kind, effect : str
+        Identifier, field (oscillator, population, chemical, thermal, electrical), kind of the missing effect
+        (polynomial, non-smooth, rational, ...; "control" when nothing is missing) and the effect in words.
+    science : callable
+        ``f(v, **theta)`` or, forced, ``f(v, u, **theta)`` on torch tensors of shape (batch, d) and (batch, 1).
+    theta_true : dict of str to float
+        The data-generating parameters of ``science``.
+    missing : callable or None
+        ``m(x, u)`` on numpy arrays (n, d) and (n, 1) or None, returning (n, d); None for a control.
+    state_names, units : list of str, dict
+        Names of the states (and the input ``u``) and their units.
+    dt, n_steps : float, int
+        Time between outputs and outputs per trajectory.
+    x0_low, x0_high : tuple of float
+        Initial states are uniform in this box.
+    u_range : tuple of float or None
+        Forced systems: the input stays inside this interval (random sums of three sines).
+    zero_components : list of int
+        Components on which the missing effect is identically zero.
+    sign_of : int or None
+        For an effect that jumps with the sign of one state (dry friction): that state's index.  Trajectories
+        are then integrated piecewise between its zero crossings (no chattering of the step size), and a
+        trajectory in which the mass would stick is redrawn, so the data are smooth between crossings.
+    """
+
+    name: str
+    domain: str
+    effect_kind: str
+    effect: str
+    science: Callable
+    theta_true: dict
+    missing: Callable | None
+    state_names: list
+    units: dict
+    dt: float
+    n_steps: int
+    x0_low: tuple
+    x0_high: tuple
+    u_range: tuple | None = None
+    zero_components: list = field(default_factory=list)
+    sign_of: int | None = None
+
+    @property
+    def forced(self) -> bool:
+        return self.u_range is not None
+
+    def truth(self, x: np.ndarray, u: np.ndarray | None) -> np.ndarray:
+        """Right-hand side of the data-generating system at states ``x`` (n, d), inputs ``u`` (n, 1)."""
+        out = call_science(self, self.science, x, u, self.theta_true)
+        return out if self.missing is None else out + self.missing(x, u)
+
+
+def call_science(system: System, f: Callable, x: np.ndarray, u: np.ndarray | None, theta: dict) -> np.ndarray:
+    """Evaluate a science function in float64 at numpy states (and inputs); returns a numpy array."""
+    kw = {k: torch.as_tensor(np.asarray(v, dtype=float), dtype=torch.float64) for k, v in theta.items()}
+    args = [torch.as_tensor(x, dtype=torch.float64)]
+    if system.forced:
+        args.append(torch.as_tensor(u, dtype=torch.float64))
+    with torch.no_grad():
+        return f(*args, **kw).numpy()
+
+
+# ---------------------------------------------------------------------------------------------------- oscillators
+def drag_oscillator_f(v, k=3.3, c=0.25):
+    return torch.stack([v[:, 1], -k * v[:, 0] - c * v[:, 1]], dim=-1)
+
+
+def coulomb_oscillator_f(v, u, k=1.8, c=0.18):
+    return torch.stack([v[:, 1], -k * v[:, 0] - c * v[:, 1] + u[:, 0]], dim=-1)
+
+
+def hardening_oscillator_f(v, u, k=0.8, c=0.25, b=1.15):
+    return torch.stack([v[:, 1], -k * v[:, 0] - c * v[:, 1] + b * u[:, 0]], dim=-1)
+
+
+def end_stop_oscillator_f(v, k=1.2, c=0.08):
+    return torch.stack([v[:, 1], -k * v[:, 0] - c * v[:, 1]], dim=-1)
+
+
+def rlc_f(v, u, w2=2.4, r=0.32, g=0.85):
+    return torch.stack([v[:, 1], g * u[:, 0] - r * v[:, 1] - w2 * v[:, 0]], dim=-1)
+
+
+# --------------------------------------------------------------------------------------------------- populations
+def predator_prey_f(v, r=1.0, a=1.25, b=1.2, d=0.3):
+    x, y = v[:, 0], v[:, 1]
+    xp = x.clamp(min=0.0)  # guard: see the module docstring
+    eaten = xp * y / (1 + xp)
+    return torch.stack([r * x * (1 - xp) - a * eaten, b * eaten - d * y], dim=-1)
+
+
+def competition_f(v, r1=0.8, a12=0.5, r2=0.95):
+    x, y = v[:, 0], v[:, 1]
+    xp, yp = x.clamp(min=0.0), y.clamp(min=0.0)  # guard: see the module docstring
+    return torch.stack([r1 * x * (1 - xp - a12 * yp), r2 * y * (1 - yp)], dim=-1)
+
+
+def logistic_f(v, r=0.65, K=2.5):
+    return r * v * (1 - v.clamp(min=0.0) / K)  # guard: see the module docstring
+
+
+def sir_f(v, beta=2.5, gamma=1.2, mu=0.16):
+    s, i = v[:, 0], v[:, 1]
+    return torch.stack([-beta * s * i + mu * (1 - s), beta * s * i - (gamma + mu) * i], dim=-1)
+
+
+# ------------------------------------------------------------------------------------------------------ chemistry
+def consecutive_f(v, k1=0.8, k2=0.6):
+    a, b = v[:, 0], v[:, 1]
+    return torch.stack([-k1 * a, k1 * a - k2 * b, k2 * b], dim=-1)
+
+
+def reactor_f(v, u, d=0.4):
+    return torch.stack([u[:, 0] - d * v[:, 0], -d * v[:, 1]], dim=-1)
+
+
+def two_compartment_f(v, u, k12=0.6, k21=0.25, ke=0.32):
+    c1, c2 = v[:, 0], v[:, 1]
+    return torch.stack([u[:, 0] - (k12 + ke) * c1 + k21 * c2, k12 * c1 - k21 * c2], dim=-1)
+
+
+# ------------------------------------------------------------------------------------- tank, thermal, electrical
+def tank_f(v, u, a=0.18, b=0.4):
+    return b * u - a * v
+
+
+def heater_f(v, u, k=0.36, b=0.65):
+    return -k * v + b * u
+
+
+def flow_tank_f(v, u, k=0.25, p=0.33):
+    return -k * v + p
+
+
+def radiating_body_f(v, u, h=0.4, b=1.2):
+    return -h * (v - 1) + b * u
+
+
+def rc_f(v, u, a=0.8, g=0.25):
+    return a * (u - v) - g * v
+
+
+# ----------------------------------------------------------------------------------------------- missing effects
+def _on(component: int, d: int, values: np.ndarray) -> np.ndarray:
+    out = np.zeros((len(values), d))
+    out[:, component] = values
+    return out
+
+
+SYSTEMS = [
+    System("drag_oscillator", "oscillator", "non-smooth (C1)", "quadratic drag -0.3 v|v|",
+           drag_oscillator_f, {"k": 4.0, "c": 0.2},
+           lambda x, u: _on(1, 2, -0.3 * x[:, 1] * np.abs(x[:, 1])),
+           ["x", "v"], {"x": "m", "v": "m/s"}, 0.1, 30, (-1.5, -2.0), (1.5, 2.0), zero_components=[0]),
+    System("coulomb_oscillator", "oscillator", "non-smooth (jump)", "dry friction -0.35 sign(v)",
+           coulomb_oscillator_f, {"k": 2.25, "c": 0.15},
+           lambda x, u: _on(1, 2, -0.35 * np.sign(x[:, 1])),
+           ["x", "v"], {"x": "m", "v": "m/s", "u": "N/kg"}, 0.1, 40, (-1.0, -1.0), (1.0, 1.0), (-1.5, 1.5),
+           zero_components=[0], sign_of=1),
+    System("hardening_oscillator", "oscillator", "polynomial", "hardening spring -0.5 x^3",
+           hardening_oscillator_f, {"k": 1.0, "c": 0.2, "b": 1.0},
+           lambda x, u: _on(1, 2, -0.5 * x[:, 0] ** 3),
+           ["x", "v"], {"x": "m", "v": "m/s", "u": "N/kg"}, 0.15, 30, (-1.5, -1.0), (1.5, 1.0), (-1.0, 1.0),
+           zero_components=[0]),
+    System("end_stop_oscillator", "oscillator", "non-smooth (hinge)", "one-sided stop -4 max(0, x - 0.6)",
+           end_stop_oscillator_f, {"k": 1.0, "c": 0.1},
+           lambda x, u: _on(1, 2, -4.0 * np.maximum(0.0, x[:, 0] - 0.6)),
+           ["x", "v"], {"x": "m", "v": "m/s"}, 0.15, 30, (-1.5, -1.5), (1.5, 1.5), zero_components=[0]),
+    System("harvested_predator_prey", "population", "rational (saturating)",
+           "Michaelis-Menten harvest of the prey -0.25 x/(0.4 + x)",
+           predator_prey_f, {"r": 1.2, "a": 1.5, "b": 1.0, "d": 0.35},
+           lambda x, u: _on(0, 2, -0.25 * x[:, 0] / (0.4 + x[:, 0])),
+           ["x", "y"], {"x": "1", "y": "1"}, 0.4, 30, (0.2, 0.1), (1.0, 0.8), zero_components=[1]),
+    System("competition", "population", "polynomial (bilinear)", "competition of x on y: -0.5 x y",
+           competition_f, {"r1": 1.0, "a12": 0.6, "r2": 0.8},
+           lambda x, u: _on(1, 2, -0.5 * x[:, 0] * x[:, 1]),
+           ["x", "y"], {"x": "1", "y": "1"}, 0.3, 30, (0.05, 0.05), (1.2, 1.2), zero_components=[0]),
+    System("budworm", "population", "rational (sigmoidal)", "type-III predation -0.6 x^2/(0.3 + x^2)",
+           logistic_f, {"r": 0.8, "K": 3.0},
+           lambda x, u: -0.6 * x ** 2 / (0.3 + x ** 2),
+           ["x"], {"x": "1"}, 0.3, 30, (0.05,), (3.0,)),
+    System("consecutive_reactions", "chemical", "polynomial (quadratic)", "dimerisation 2B -> C: -0.8 B^2, +0.4 B^2",
+           consecutive_f, {"k1": 1.0, "k2": 0.5},
+           lambda x, u: np.stack([0 * x[:, 1], -0.8 * x[:, 1] ** 2, 0.4 * x[:, 1] ** 2], axis=1),
+           ["A", "B", "C"], {"A": "mol/L", "B": "mol/L", "C": "mol/L"}, 0.2, 30, (0.5, 0.0, 0.0), (1.5, 1.0, 0.5),
+           zero_components=[0]),
+    System("enzyme_reactor", "chemical", "rational (saturating)", "enzymatic conversion S -> P: 0.6 S/(0.3 + S)",
+           reactor_f, {"d": 0.5},
+           lambda x, u: 0.6 * x[:, :1] / (0.3 + x[:, :1]) * np.array([[-1.0, 1.0]]),
+           ["S", "P"], {"S": "mol/L", "P": "mol/L", "u": "mol/L/h"}, 0.25, 30, (0.0, 0.0), (1.5, 1.0), (0.0, 1.2)),
+    System("draining_tank", "tank", "fractional power", "Torricelli outflow -0.35 sqrt(h)",
+           tank_f, {"a": 0.15, "b": 0.5},
+           lambda x, u: -0.35 * np.sqrt(np.maximum(x, 0.0)),
+           ["h"], {"h": "m", "u": "m/s"}, 0.5, 30, (0.3,), (2.0,), (0.4, 1.6)),
+    System("saturating_heater", "thermal", "input-dependent (hinge in u)", "heater saturation -0.8 max(0, u - 1)",
+           heater_f, {"k": 0.3, "b": 0.8},
+           lambda x, u: -0.8 * np.maximum(0.0, u - 1.0),
+           ["T"], {"T": "K", "u": "kW"}, 0.3, 30, (0.0,), (2.5,), (0.0, 2.0)),
+    System("flow_cooled_tank", "thermal", "input-dependent (input x state)", "cold inflow 0.6 u (0.2 - T)",
+           flow_tank_f, {"k": 0.2, "p": 0.4},
+           lambda x, u: 0.6 * u * (0.2 - x),
+           ["T"], {"T": "K", "u": "L/s"}, 0.3, 30, (0.0,), (2.0,), (0.0, 1.5)),
+    System("radiating_body", "thermal", "polynomial (quartic)", "radiation -0.08 (T^4 - 1)",
+           radiating_body_f, {"h": 0.5, "b": 1.0},
+           lambda x, u: -0.08 * (x ** 4 - 1.0),
+           ["T"], {"T": "300 K", "u": "kW"}, 0.3, 30, (1.0,), (2.0,), (0.0, 1.5)),
+    System("diode_clamped_rc", "electrical", "exponential", "diode current -0.05 (exp(2 v) - 1)",
+           rc_f, {"a": 1.0, "g": 0.2},
+           lambda x, u: -0.05 * (np.exp(2.0 * x) - 1.0),
+           ["v"], {"v": "V", "u": "V"}, 0.2, 30, (0.0,), (1.5,), (0.0, 2.0)),
+    System("control_rlc", "electrical", "control", "nothing (series RLC)",
+           rlc_f, {"w2": 2.0, "r": 0.4, "g": 1.0}, None,
+           ["q", "i"], {"q": "C", "i": "A", "u": "V"}, 0.15, 30, (-1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)),
+    System("control_sir", "population", "control", "nothing (SIR with births)",
+           sir_f, {"beta": 3.0, "gamma": 1.0, "mu": 0.2}, None,
+           ["S", "I"], {"S": "1", "I": "1"}, 0.25, 30, (0.4, 0.02), (0.95, 0.3)),
+    System("control_two_compartment", "chemical", "control", "nothing (two-compartment kinetics)",
+           two_compartment_f, {"k12": 0.5, "k21": 0.3, "ke": 0.4}, None,
+           ["c1", "c2"], {"c1": "mg/L", "c2": "mg/L", "u": "mg/L/h"}, 0.3, 30, (0.0, 0.0), (1.5, 1.5), (0.0, 1.5)),
+]
+SYSTEMS = {s.name: s for s in SYSTEMS}
+
+
+# ----------------------------------------------------------------------------------------------------- simulation
+def _inputs(system: System, rng: np.random.Generator, horizon: float) -> Callable:
+    """A random sum of three sines inside ``system.u_range``: ``u(t)`` returns an array of shape (len(t), 1)."""
+    lo, hi = system.u_range
+    amp = (hi - lo) / 2 * rng.uniform(0.3, 1.0)
+    offset = rng.uniform(lo + amp, hi - amp)
+    a = amp * rng.dirichlet(np.ones(3))
+    w = 2 * np.pi * rng.uniform(0.5, 3.0, 3) / horizon
+    p = rng.uniform(0, 2 * np.pi, 3)
+    return lambda t: (offset + np.sin(np.multiply.outer(np.atleast_1d(t), w) + p) @ a)[:, None]
+
+
+def _solve(system: System, x0: np.ndarray, t: np.ndarray, u_of_t: Callable | None) -> np.ndarray | None:
+    """One trajectory on the grid ``t``; None when a dry-friction system would stick (then redrawn)."""
+
+    def rhs(time, state, sign=None):
+        x = state[None, :].copy()
+        u = u_of_t(time) if u_of_t is not None else None
+        if sign is not None:  # the effect evaluated on the current branch, not at the crossing itself
+            x[0, system.sign_of] = sign * max(abs(x[0, system.sign_of]), 1e-300)
+            return call_science(system, system.science, state[None, :], u, system.theta_true)[0] \
+                + system.missing(x, u)[0]
+        return system.truth(x, u)[0]
+
+    if system.sign_of is None:
+        sol = solve_ivp(rhs, (t[0], t[-1]), x0, t_eval=t, rtol=RTOL, atol=ATOL, method="DOP853")
+        return sol.y.T if sol.success else None
+    j, out, start, state = system.sign_of, np.empty((len(t), len(x0))), t[0], x0.astype(float)
+    sign = np.sign(state[j]) or 1.0
+    while True:
+        crossing = lambda time, s, sign=None: s[j]  # noqa: E731
+        crossing.terminal, crossing.direction = True, -sign
+        grid = t[(t >= start) & (t <= t[-1])]
+        sol = solve_ivp(rhs, (start, t[-1]), state, t_eval=grid, args=(sign,), events=crossing,
+                        rtol=RTOL, atol=ATOL, method="DOP853")
+        if not sol.success:
+            return None
+        ys = np.asarray(sol.y, dtype=float).reshape(len(x0), -1)
+        out[len(t) - len(grid):len(t) - len(grid) + ys.shape[1]] = ys.T
+        if sol.status == 0:
+            return out
+        start, state = sol.t_events[0][0], sol.y_events[0][0].copy()
+        state[j] = 0.0
+        # slips on only if the force without friction beats the friction in the new direction
+        push = rhs(start + 1e-12, state, -sign)[j]
+        if np.sign(push) != -sign:
+            return None
+        sign = -sign
+        if start >= t[-1]:
+            return out
+
+
+def simulate(system: System, n: int, seed: int, stream: int) -> tuple[np.ndarray, np.ndarray | None]:
+    """Noise-free trajectories of the true system.
+
+    Parameters
+    ----------
+    system : System
+    n : int
+        Number of trajectories.
+    seed, stream : int
+        The random initial states and inputs depend on (system name, seed, stream) only.
+
+    Returns
+    -------
+    x : ndarray of shape (n, n_steps + 1, d)
+        States on the output grid, the initial state first.
+    u : ndarray of shape (n, n_steps + 1, 1) or None
+        Inputs on the same grid (forced systems).
+    """
+    rng = np.random.default_rng([zlib.crc32(system.name.encode()), seed, stream])
+    horizon = system.dt * system.n_steps
+    t = np.linspace(0.0, horizon, system.n_steps + 1)
+    xs, us = [], []
+    for _ in range(100 * n):
+        x0 = rng.uniform(system.x0_low, system.x0_high)
+        u_of_t = _inputs(system, rng, horizon) if system.forced else None
+        x = _solve(system, x0, t, u_of_t)
+        if x is None:
+            continue
+        xs.append(x)
+        if u_of_t is not None:
+            us.append(u_of_t(t))
+        if len(xs) == n:
+            return np.array(xs), (np.array(us) if system.forced else None)
+    raise RuntimeError(f"{system.name}: fewer than {n} trajectories in {100 * n} draws")
