@@ -8,9 +8,9 @@ lacks (numpy; ``None`` for the controls, whose science model is the whole truth)
 These systems were written for this benchmark and are kept out of ``tests/`` on purpose, so that the closed loop
 cannot be tuned to them.
 
-The three population models guard negative populations (``clamp(min=0)`` in their nonlinear factors), as the
-package's DivergenceError advises ("guard its domain"): with the plain formulas every fit diverged at its first
-iteration, the untrained network pushing a population below zero, where logistic growth blows up in finite time.
+The four population models guard negative populations (``clamp(min=0)`` in their nonlinear factors), as the
+package's DivergenceError advises ("guard its domain"): with the plain formulas the fits diverged in their first
+iterations, the untrained network pushing a population below zero, where logistic growth blows up in finite time.
 The guard changes nothing where the data live (populations stay positive).
 """
 
@@ -136,7 +136,8 @@ def logistic_f(v, r=0.65, K=2.5):
 
 def sir_f(v, beta=2.5, gamma=1.2, mu=0.16):
     s, i = v[:, 0], v[:, 1]
-    return torch.stack([-beta * s * i + mu * (1 - s), beta * s * i - (gamma + mu) * i], dim=-1)
+    infected = beta * s.clamp(min=0.0) * i.clamp(min=0.0)  # guard: see the module docstring
+    return torch.stack([-infected + mu * (1 - s), infected - (gamma + mu) * i], dim=-1)
 
 
 # ------------------------------------------------------------------------------------------------------ chemistry

@@ -113,7 +113,7 @@ def run_case(system: System, noise: float, seed: int, fast: bool, command: str) 
     res = close_the_loop(est, data["X"], data["y"], state_names=system.state_names,
                          input_names=["u"] if system.forced else None, units=units)
     wall = time.perf_counter() - start
-    theta, added = _shim_science_theta(res), _shim_added(res, system)  # TEMPORARY SHIM
+    theta, added = res.science_theta, list(res.added)
     science = res.science if res.science is not None else system.science
     scores = score(system, science, theta, res.before.theta_, data["x_test"], data["u_test"])
     return {"system": system.name, "noise": noise, "seed": seed, "fast": fast, **scores,
@@ -123,26 +123,6 @@ def run_case(system: System, noise: float, seed: int, fast: bool, command: str) 
             "noise_sigma": data["sigma"].tolist(), "seconds": float(res.seconds), "wall_seconds": wall,
             "report": res.report, "package_commit": _commit(), "command": command,
             "protocol": FAST if fast else PROTOCOL, "machine": machine_description()}
-
-
-# ---- TEMPORARY SHIM: the close_the_loop on main has no science_theta / added yet; delete after the rebase ----
-def _shim_science_theta(res) -> dict:
-    theta = getattr(res, "science_theta", None)
-    if theta is not None:
-        return theta
-    return (res.after if res.science is not None else res.before).theta_
-
-
-def _shim_added(res, system: System) -> list:
-    added = getattr(res, "added", None)
-    if added is not None:
-        return [{k: (v if isinstance(v, (int, float, str)) else str(v)) for k, v in a.items()} for a in added]
-    if res.science is None:
-        return []
-    import inspect
-    old = set(inspect.signature(system.science).parameters)
-    return [{"component": None, "term": p} for p in inspect.signature(res.science).parameters if p not in old]
-# ---- end of the TEMPORARY SHIM ----
 
 
 def _commit() -> str:
