@@ -126,8 +126,9 @@ def run_case(system: System, noise: float, seed: int, fast: bool, command: str) 
 
 
 def _commit() -> str:
+    """The last commit that changed the package (not the benchmark's own result commits)."""
     try:
-        return subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
+        return subprocess.run(["git", "log", "-1", "--format=%h", "--", "sklearn_hybrid"], capture_output=True, text=True,
                               cwd=Path(__file__).resolve().parent).stdout.strip()
     except OSError:
         return "unknown"
