@@ -315,3 +315,13 @@ def test_selection_judges_each_candidate_on_its_own_evidence():
     assert _simplest_of_the_best([smooth, cubic, drag], 0.05) is cubic
     ranked = [{"component": 1, "gain": g} for g in (0.9, 0.8, 0.7)] + [{"component": 0, "gain": 0.1}]
     assert [c["component"] for c in _interleave(ranked, 3)] == [1, 0, 1]
+
+
+def test_report_states_the_thresholds_used():
+    from sklearn_hybrid.diagnosis import format_table
+
+    step = {"step": 1, "output": "g[x]", "term": "x|x|", "kind": "drag", "mse_before": 1.0, "mse_after": 0.5,
+            "gain": 0.5, "z": 4.0, "accepted": True}
+    text = format_table([{"stage": "before", "theta": {"k": 1.0}}], steps=[step], n_validation=5, z=2.5,
+                        min_gain=0.1)
+    assert "at least 10 % and by more than 2.5 standard errors" in text and "x\\|x\\|" in text

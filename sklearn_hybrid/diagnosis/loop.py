@@ -26,7 +26,8 @@ from ..residual import MLP, MaskedMLP
 from ..science import read_signature
 from .report import evaluate, format_table, residual_profile
 from .evidence import ScienceFit
-from .stepwise import forward_selection, parameter_jacobian, science_output
+from .residual import _names, parameter_jacobian, science_output
+from .stepwise import forward_selection
 from .terms import Term, physics_terms
 
 __all__ = ["close_the_loop", "free_run", "fit_initial_state", "MLPOn", "ZeroResidual"]
@@ -260,12 +261,12 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
     if getattr(estimator, "theta_encoder", None) is not None:
         raise ValueError("close_the_loop does not support theta_encoder: its network-free refits judge each term "
                          "with one theta shared by every sample. Close the loop on a model with a shared theta.")
+    uncertain = _uncertain_components(estimator, X, y, exact, state_names)
     try:
         check_is_fitted(estimator, "model_")
         before = estimator
     except NotFittedError:
         before = clone(estimator)
-        uncertain = _uncertain_components(before, X, y, exact, state_names)
         if before.structure == "ode" and _is_default_network(before.residual) and uncertain is not None:
             before.set_params(residual=MLPOn(uncertain))  # the network stays out of the exact equations
         log("fitting the hybrid model ...")
@@ -282,10 +283,9 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
                          f"{residual.shape[1]}: close_the_loop needs a science model shaped like the target.")
     learned = base + residual
     n_states = points[0].size
-    states = _names(state_names, n_states, "x")
-    variables = states + ([] if inputs is None else _names(input_names, inputs.shape[1], "u"))
+    states = _names(state_names, n_states, "x", "state_names")
+    variables = states + ([] if inputs is None else _names(input_names, inputs.shape[1], "u", "input_names"))
     outputs = [f"g[{s}]" for s in states] if before.structure == "ode" else [f"g[{j}]" for j in range(base.shape[1])]
-    uncertain = _uncertain_components(before, X, y, exact, state_names)
     components = list(range(base.shape[1])) if uncertain is None else uncertain
     values = np.hstack([a.reshape(len(a), -1) for a in args])
     if terms is None:
@@ -331,7 +331,7 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
     rows.append({"stage": "science only", "science": getattr(final, "__name__", "science"),
                  "added": getattr(augmented, "equation", ""),
                  **evaluate(alone, X, X_test, y_test, test_scorer, theta_true)})
-    report = format_table(rows, added, sel["steps"], unexplained, n_val)
+    report = format_table(rows, added, sel["steps"], unexplained, n_val, z=z, min_gain=min_gain)
     log(report)
     return Bunch(before=before, after=after, science=augmented, science_theta=science_theta, science_only=alone,
                  added=added, steps=sel["steps"], exact=[] if uncertain is None else
@@ -348,15 +348,6 @@ def _check_options(validation_fraction, max_terms, n_candidates):
     for name, value in (("max_terms", max_terms), ("n_candidates", n_candidates)):
         if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
             raise ValueError(f"{name} must be a positive integer, got {value!r}.")
-
-
-def _names(given, size, prefix):
-    if given is None:
-        return [f"{prefix}{i}" for i in range(size)]
-    names = [given] if isinstance(given, str) else list(given)
-    if len(names) != size:
-        raise ValueError(f"{len(names)} names given for {size} variables: {names}.")
-    return names
 
 
 def _is_default_network(residual) -> bool:
@@ -383,7 +374,7 @@ def _uncertain_components(estimator, X, y, exact, state_names) -> list[int] | No
             return None
         fixed = [j for j in range(jac.shape[1]) if not np.any(np.abs(jac[:, j, :]) > 1e-12)]
     else:
-        names = _names(state_names, d, "x")
+        names = _names(state_names, d, "x", "state_names")
         fixed = []
         for item in exact:
             if isinstance(item, str):

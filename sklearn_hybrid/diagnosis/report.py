@@ -123,8 +123,12 @@ def plot_unexplained(result: Any, axes: Any = None) -> np.ndarray:
 
 
 def format_table(rows: list[dict], added: Sequence[dict] = (), steps: Sequence[dict] = (),
-                 unexplained: dict | None = None, n_validation: int | None = None) -> str:
-    """Markdown report: the before/after table, the selection log, the terms added, what is left."""
+                 unexplained: dict | None = None, n_validation: int | None = None, z: float = 3.0,
+                 min_gain: float = 0.05) -> str:
+    """Markdown report: the before/after table, the selection log, the terms added, what is left.
+
+    ``z`` and ``min_gain`` are the evidence thresholds the selection used (stated in the report).
+    """
     skip = ("stage", "science", "added", "theta", "theta_error", "failed")
     metrics = list(dict.fromkeys(k for r in rows for k in r if k not in skip))
     names = list(dict.fromkeys(k for r in rows for k in r["theta"]))
@@ -143,7 +147,7 @@ def format_table(rows: list[dict], added: Sequence[dict] = (), steps: Sequence[d
     if steps:
         lines += ["", f"Selection (science model refitted without the network, mean squared error on "
                       f"{n_validation} validation samples; a term is accepted when it lowers it by at "
-                      "least 5 % and by more than 3 standard errors):", "",
+                      f"least {min_gain * 100:g} % and by more than {z:g} standard errors):", "",
                   "| step | output | term | kind | validation MSE before | after | gain | z | accepted |",
                   "|---|---|---|---|---|---|---|---|---|"]
         for s in steps:

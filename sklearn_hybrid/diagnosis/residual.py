@@ -15,7 +15,7 @@ span) are left out. A selected ``df/d<name>`` term says "shift theta by its coef
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -46,6 +46,38 @@ def _rms(a: np.ndarray, axis=0) -> np.ndarray:
     return np.sqrt(np.mean(np.square(a), axis=axis))
 
 
+def science_output(science: Callable, theta: Mapping[str, Any], args: Sequence[np.ndarray]) -> np.ndarray:
+    """The science function's output at ``args`` (batch first), in float64, flattened: ``(n, n_outputs)``."""
+    tensors = [torch.as_tensor(np.asarray(a, dtype=float)) for a in args]
+    values = {k: torch.as_tensor(np.asarray(v, dtype=float)) for k, v in theta.items()}
+    with torch.no_grad():
+        out = science(*tensors, **values)
+    return out.reshape(len(tensors[0]), -1).numpy()
+
+
+def parameter_jacobian(science: Callable, theta: Mapping[str, Any],
+                       args: Sequence[np.ndarray]) -> tuple[np.ndarray, list[str]]:
+    """Central differences of the science output in every scalar parameter: ``(n, n_outputs, p)``.
+
+    Also returns the parameter names (``name[i]`` for elements of vector parameters).
+    """
+    columns, names = [], []
+    for name, value in theta.items():
+        value = np.asarray(value, dtype=float)
+        for idx in np.ndindex(value.shape):
+            h = 1e-5 * max(abs(float(value[idx])), 1e-3)
+            plus, minus = value.copy(), value.copy()
+            plus[idx] += h
+            minus[idx] -= h
+            diff = (science_output(science, {**theta, name: plus}, args)
+                    - science_output(science, {**theta, name: minus}, args))
+            columns.append(diff / (2 * h))
+            names.append(name if value.ndim == 0 else f"{name}[{','.join(map(str, idx))}]")
+    if not columns:
+        return np.zeros((*science_output(science, theta, args).shape, 0)), names
+    return np.stack(columns, axis=-1), names
+
+
 def science_sensitivities(estimator: Any, args: list[np.ndarray],
                           jacobian: bool = True) -> tuple[np.ndarray, np.ndarray, list[str]]:
     """Science output and its derivatives with respect to every (scalar) parameter.
@@ -68,25 +100,10 @@ def science_sensitivities(estimator: Any, args: list[np.ndarray],
         Parameter names (``name[i]`` for elements of vector parameters).
     """
     func, theta = estimator.science, estimator.theta_
-    tensors = [torch.as_tensor(a, dtype=torch.float64) for a in args]
-
-    def call(values):
-        with torch.no_grad():
-            out = func(*tensors, **{k: torch.as_tensor(v, dtype=torch.float64) for k, v in values.items()})
-        return out.reshape(len(args[0]), -1).numpy()
-
-    f = call(theta)
-    columns, names = [], []
-    for name, value in (theta.items() if jacobian else ()):
-        value = np.asarray(value, dtype=float)
-        for idx in np.ndindex(value.shape):
-            h = 1e-5 * max(abs(float(value[idx])), 1e-3)
-            plus, minus = value.copy(), value.copy()
-            plus[idx] += h
-            minus[idx] -= h
-            columns.append((call({**theta, name: plus}) - call({**theta, name: minus})) / (2 * h))
-            names.append(name if value.ndim == 0 else f"{name}[{','.join(map(str, idx))}]")
-    jac = np.stack(columns, axis=-1) if columns else np.zeros((*f.shape, 0))
+    f = science_output(func, theta, args)
+    if not jacobian:
+        return f, np.zeros((*f.shape, 0)), []
+    jac, names = parameter_jacobian(func, theta, args)
     return f, jac, names
 
 

@@ -19,37 +19,10 @@ import torch
 
 from .augment import augment_science
 from .evidence import ScienceFit, evidence
+from .residual import parameter_jacobian, science_output
 from .terms import Term
 
-__all__ = ["forward_selection", "science_output", "parameter_jacobian"]
-
-
-def science_output(science: Callable, theta: Mapping[str, Any], args: Sequence[np.ndarray]) -> np.ndarray:
-    """The science function's output at ``args`` (batch first), flattened: ``(n, n_outputs)``."""
-    tensors = [torch.as_tensor(np.asarray(a, dtype=float)) for a in args]
-    values = {k: torch.as_tensor(np.asarray(v, dtype=float)) for k, v in theta.items()}
-    with torch.no_grad():
-        out = science(*tensors, **values)
-    return out.reshape(len(tensors[0]), -1).numpy()
-
-
-def parameter_jacobian(science: Callable, theta: Mapping[str, Any],
-                       args: Sequence[np.ndarray]) -> tuple[np.ndarray, list[str]]:
-    """Central differences of the science output in every scalar parameter: ``(n, n_outputs, p)``."""
-    columns, names = [], []
-    for name, value in theta.items():
-        value = np.asarray(value, dtype=float)
-        for idx in np.ndindex(value.shape):
-            h = 1e-5 * max(abs(float(value[idx])), 1e-3)
-            plus, minus = value.copy(), value.copy()
-            plus[idx] += h
-            minus[idx] -= h
-            diff = (science_output(science, {**theta, name: plus}, args)
-                    - science_output(science, {**theta, name: minus}, args))
-            columns.append(diff / (2 * h))
-            names.append(name if value.ndim == 0 else f"{name}[{','.join(map(str, idx))}]")
-    n = len(args[0])
-    return (np.stack(columns, axis=-1) if columns else np.zeros((n, 0, 0))), names
+__all__ = ["forward_selection"]
 
 
 def _rank(terms: Sequence[Term], variables: dict[str, torch.Tensor], remaining: np.ndarray,

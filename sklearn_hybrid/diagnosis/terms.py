@@ -101,10 +101,11 @@ def physics_terms(variables: Sequence[str], values: np.ndarray, units: Mapping[s
         col, u = values[:, i], units.get(x, "")
         scale = float(np.sqrt(np.mean(col**2))) or 1.0
         terms += _single_variable(x, col, scale, u, kinds, x in positive)
-    for name, func in (user_terms or {}).items() if "user" in kinds else ():
+    for name, func in (user_terms or {}).items():
         if not callable(func):
             raise TypeError(f"user term {name!r} is not callable.")
-        terms.append(Term(name, lambda d, _f=func: _f(d), "user", unit=units.get(name, "")))
+        if "user" in kinds:
+            terms.append(Term(name, lambda d, _f=func: _f(d), "user", unit=units.get(name, "")))
     return terms
 
 
