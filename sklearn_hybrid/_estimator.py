@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 import numbers
 import threading
+import warnings
 
 import numpy as np
 import torch
@@ -395,8 +396,13 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
         self.n_iter_ = len(history["loss"])
         self.stopped_early_ = self.n_iter_ < self.max_iter
         config = setup.config
-        self.theta_drift_ = theta_drift(
-            history["theta"], cosine_lr(config.lr_theta or config.lr, self.n_iter_, config))
+        self.theta_drift_ = theta_drift(history["theta"], history.get(
+            "lr_theta", cosine_lr(config.lr_theta or config.lr, self.n_iter_, config)))
+        if history.get("lr_halved_at"):
+            warnings.warn(
+                f"The training loss spiked at iterations {history['lr_halved_at']}; each time the last "
+                "good state was restored and the learning rates halved. A lower lr would train more smoothly.",
+                UserWarning, stacklevel=3)
         self._fitted_structure = self._structure_params()
         set_feature_info(self, setup.features)
 

@@ -1,14 +1,17 @@
-"""Early stopping of a fit: stop when the monitored loss and theta have both stopped changing.
+"""Rules that watch a fit: early stopping, and the guard against loss spikes.
 
-Kept apart from the training loop so that the rule is one small object: the
-loop reports every iteration's loss and theta, and asks whether to go on.
+Kept apart from the training loop so that each rule is one small object: the
+loop reports every iteration's loss (and theta), and asks what to do.
 """
 
 from __future__ import annotations
 
+import copy
+from collections import deque
+
 import numpy as np
 
-__all__ = ["EarlyStopping"]
+__all__ = ["EarlyStopping", "SpikeGuard"]
 
 
 class EarlyStopping:
@@ -65,3 +68,83 @@ class EarlyStopping:
         scale = np.maximum(np.abs(current[1]), 1e-3)
         moved = bool(np.any(np.abs(current[1] - previous[1]) > self.tol * scale))
         return not improved and not moved
+
+
+class SpikeGuard:
+    """Undo a loss spike: restore the last good state and halve the learning rates.
+
+    Adam with a learning rate too large for the problem (a long rollout, a
+    steep corner of the state space) can throw a fit out of a good basin in a
+    few steps: the loss jumps by orders of magnitude and may become NaN (the
+    draining tank of ``benchmarks/bench_identification.py`` does so at
+    ``lr=1e-2`` and fits to the noise level at ``5e-3``).  Every ``every``
+    healthy iterations the guard keeps a copy of the model and the optimiser.
+    A loss that is not finite, or above ``factor`` times the median of the last
+    ``every`` accepted losses, is a spike: the copy is restored and every
+    learning rate is halved (the cosine schedule goes on from the halved
+    rates).  After ``max_halvings`` halvings a spike is a divergence.
+
+    Parameters
+    ----------
+    model : torch.nn.Module
+        The model being trained (its ``state_dict`` is what is kept).
+    optimizer : torch.optim.Optimizer
+    scheduler : torch.optim.lr_scheduler.LRScheduler
+        Its base rates are halved with the optimiser's.
+    factor : float
+        Spike threshold, relative to the median of recent losses.
+    every : int
+        Iterations between copies, and the length of the median's window.
+    max_halvings : int
+        Halvings allowed before :meth:`roll_back` reports failure.
+    """
+
+    def __init__(self, model, optimizer, scheduler, factor: float = 10.0, every: int = 25,
+                 max_halvings: int = 5):
+        self.model, self.optimizer, self.scheduler = model, optimizer, scheduler
+        self.factor, self.every, self.max_halvings = float(factor), int(every), int(max_halvings)
+        self.recent: deque = deque(maxlen=self.every)
+        self.halved_at: list[int] = []
+        self._save()
+
+    def _save(self):
+        self.saved = (copy.deepcopy(self.model.state_dict()), copy.deepcopy(self.optimizer.state_dict()))
+        self.steps_since_save = 0
+
+    @property
+    def reference(self) -> float:
+        """Median of the recent accepted losses (NaN before the first)."""
+        return float(np.median(self.recent)) if self.recent else float("nan")
+
+    def is_spike(self, loss: float) -> bool:
+        """Whether ``loss`` (this iteration's, before the step) is a spike."""
+        if not np.isfinite(loss):
+            return True
+        return len(self.recent) == self.every and loss > self.factor * self.reference
+
+    def accept(self, it: int, loss: float) -> None:
+        """Record a healthy iteration; keep a copy every ``every`` iterations while the loss is near its median."""
+        self.recent.append(loss)
+        if (it + 1) % self.every == 0 and loss <= 2 * self.reference:
+            self._save()  # the state this loss was measured at, before its step
+        self.steps_since_save += 1
+
+    def roll_back(self, it: int) -> bool:
+        """Restore the last copy with halved learning rates.
+
+        False when no halving is left, or when no step was taken since the
+        copy (the spike is the state itself, not a step: e.g. a science
+        function that is not finite at the data).
+        """
+        if len(self.halved_at) >= self.max_halvings or self.steps_since_save == 0:
+            return False
+        rates = [group["lr"] for group in self.optimizer.param_groups]
+        model_state, optimizer_state = self.saved
+        self.model.load_state_dict(model_state)
+        self.optimizer.load_state_dict(copy.deepcopy(optimizer_state))
+        for group, rate in zip(self.optimizer.param_groups, rates):
+            group["lr"] = rate / 2
+        self.scheduler.base_lrs = [rate / 2 for rate in self.scheduler.base_lrs]
+        self.halved_at.append(it)
+        self.steps_since_save = 0
+        return True

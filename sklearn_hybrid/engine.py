@@ -18,7 +18,7 @@ import torch
 from torch import nn
 
 from . import _fast
-from ._stopping import EarlyStopping
+from ._stopping import EarlyStopping, SpikeGuard
 
 __all__ = ["TrainConfig", "train", "DivergenceError", "data_loss", "make_optimizer",
            "explain_nonfinite", "cosine_lr", "theta_drift"]
@@ -264,16 +264,22 @@ def train(model: nn.Module, method, inputs: tuple[torch.Tensor, ...], y: torch.T
     -------
     dict
         ``{"loss": ndarray (n_iter,), "theta": {name: ndarray (n_iter, ...)},
-        "n_iter": int, "stopped_early": bool}`` (plus ``"validation_loss"``,
+        "n_iter": int, "stopped_early": bool, "lr_theta": ndarray (n_iter,),
+        "lr_halved_at": list of int}`` (plus ``"validation_loss"``,
         one value per stopping window, when ``validation`` is given); the loss
-        is the training objective at the unperturbed parameters.  With
+        is the training objective at the unperturbed parameters, ``lr_theta``
+        theta's learning rate of each step (0 where a loss spike was undone)
+        and ``lr_halved_at`` the iterations of those spikes (see
+        :class:`~sklearn_hybrid._stopping.SpikeGuard`: the last good state is
+        restored and the learning rates are halved).  With
         ``config.tol`` set, training stops before ``max_iter`` once the loss and
         theta have stopped changing.
 
     Raises
     ------
     DivergenceError
-        If the loss or a parameter becomes NaN or infinite.
+        If the loss or a parameter becomes NaN or infinite after the
+        guard's last halving of the learning rates.
     """
     theta = model.theta_parameters()  # with a theta encoder: its weights
     phi = list(model.residual.parameters())
@@ -296,12 +302,21 @@ def train(model: nn.Module, method, inputs: tuple[torch.Tensor, ...], y: torch.T
     from tqdm.auto import tqdm
 
     stopper = _make_stopper(model, config, y, validation)
+    guard = SpikeGuard(model, optimizer, scheduler)
+    lr_theta = np.empty(config.max_iter)
+
+    def _record(it, loss_value, rate):
+        losses[it], lr_theta[it] = loss_value, rate
+        with torch.no_grad():
+            for n, v in model.theta_values().items():
+                thetas[n][it] = v.cpu().numpy()
     n_iter = config.max_iter
     stream = sys.stderr or sys.stdout  # both are None under pythonw and some services
     bar = tqdm(range(config.max_iter), disable=not config.verbose or stream is None,
                desc=method.name, file=stream)
     model.train()
     for it in bar:
+        rate = optimizer.param_groups[0]["lr"]  # theta's, for theta_drift
         idx = batches.next()
         xb = inputs if idx is None else tuple(t[idx] for t in inputs)
         yb = y if idx is None else y[idx]
@@ -310,12 +325,19 @@ def train(model: nn.Module, method, inputs: tuple[torch.Tensor, ...], y: torch.T
         loss, grads = _loss_and_grads(model, method, xb, yb, perturbed if method.perturbs else params,
                                       wb)
         loss_value = float(loss)
-        if not np.isfinite(loss_value):
-            cause = explain_nonfinite(model, xb)
-            raise DivergenceError(
-                f"The training loss became {loss_value} at iteration {it}. " + (cause or (
-                    "Lower lr or rho, check the data scale, or bound theta with theta_bounds."))
-            )
+        if guard.is_spike(loss_value):
+            if guard.roll_back(it):  # no step this iteration; it records the loss level it returned to
+                _record(it, guard.reference if guard.recent else loss_value, 0.0)
+                scheduler.step()
+                continue
+            if not np.isfinite(loss_value):
+                cause = explain_nonfinite(model, xb)
+                raise DivergenceError(
+                    f"The training loss became {loss_value} at iteration {it}"
+                    + (f" (after halving the learning rates {len(guard.halved_at)} times)"
+                       if guard.halved_at else "") + ". " + (cause or (
+                        "Lower lr or rho, check the data scale, or bound theta with theta_bounds.")))
+        guard.accept(it, loss_value)  # out of halvings, a finite spike is trained through
         if method.perturbs:
             with torch.no_grad():
                 eps = method.perturbation(perturbed, grads, is_weight)
@@ -326,10 +348,7 @@ def train(model: nn.Module, method, inputs: tuple[torch.Tensor, ...], y: torch.T
             p.grad = g
         optimizer.step()
         scheduler.step()
-        losses[it] = loss_value
-        with torch.no_grad():
-            for n, v in model.theta_values().items():
-                thetas[n][it] = v.cpu().numpy()
+        _record(it, loss_value, rate)
         if config.verbose and (it % 25 == 0 or it == config.max_iter - 1):
             bar.set_postfix(loss=f"{loss_value:.3g}", **{
                 n: np.array2string(thetas[n][it], precision=4) for n in names})
@@ -341,7 +360,8 @@ def train(model: nn.Module, method, inputs: tuple[torch.Tensor, ...], y: torch.T
     if not all(torch.isfinite(p).all() for p in params):
         raise DivergenceError(f"A parameter became NaN or infinite at iteration {n_iter - 1}.")
     history = {"loss": losses[:n_iter], "theta": {n: v[:n_iter] for n, v in thetas.items()},
-               "n_iter": n_iter, "stopped_early": n_iter < config.max_iter}
+               "n_iter": n_iter, "stopped_early": n_iter < config.max_iter,
+               "lr_theta": lr_theta[:n_iter], "lr_halved_at": list(guard.halved_at)}
     if stopper is not None and validation is not None:
         history["validation_loss"] = np.array(stopper.validation_history)
     return history

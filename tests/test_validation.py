@@ -130,6 +130,47 @@ def test_divergence_stops_and_keeps_previous_fit(data):
     np.testing.assert_array_equal(est.predict(data[0]), pred)
 
 
+def test_a_step_into_nan_is_undone_with_a_halved_learning_rate(data):
+    # Adam's first step moves omega by about lr: 0.5 -> 0.0 or 1.0 lands where the science is NaN,
+    # half of it does not.  The guard restores the start and halves the rates.
+    def cliff(v, omega=0.5):
+        return pendulum_f(v, omega) * torch.where((omega - 0.5).abs() > 0.4, torch.nan, 1.0)
+
+    with pytest.warns(UserWarning, match=r"spiked at iterations \[1\].*halved"):
+        est = fit(data, science=cliff, lr=0.5, max_iter=3)
+    assert est.history_["lr_halved_at"] == [1]
+    assert est.history_["lr_theta"][1] == 0.0  # no step at the undone iteration
+    assert 0.1 < est.theta_["omega"] < 0.9 and est.theta_["omega"] != 0.5
+    assert np.isfinite(est.predict(data[0])).all()
+
+
+def test_spike_guard_restores_the_last_good_state_and_gives_up_after_its_halvings():
+    from sklearn_hybrid._stopping import SpikeGuard
+
+    model = torch.nn.Linear(2, 1)
+    optimizer = torch.optim.Adam(model.parameters(), lr=0.1)
+    scheduler = torch.optim.lr_scheduler.CosineAnnealingLR(optimizer, T_max=100)
+    guard = SpikeGuard(model, optimizer, scheduler, every=4, max_halvings=2)
+    good = [p.detach().clone() for p in model.parameters()]
+    for it in range(4):  # healthy iterations: a copy at the 4th
+        assert not guard.is_spike(1.0)
+        guard.accept(it, 1.0)
+        good = [p.detach().clone() for p in model.parameters()]
+        model.weight.grad, model.bias.grad = torch.ones(1, 2), torch.ones(1)
+        optimizer.step()
+        scheduler.step()
+    assert not guard.is_spike(9.0) and guard.is_spike(11.0) and guard.is_spike(float("nan"))
+    rate = optimizer.param_groups[0]["lr"]
+    assert guard.roll_back(4)
+    assert all(torch.equal(p, q) for p, q in zip(model.parameters(), good))
+    assert optimizer.param_groups[0]["lr"] == rate / 2
+    assert scheduler.base_lrs == [0.05]
+    assert not guard.roll_back(5)  # no step since the copy: halving cannot help
+    guard.accept(5, 1.0)
+    assert guard.roll_back(6) and not guard.roll_back(7)  # two halvings allowed
+    assert guard.halved_at == [4, 6]
+
+
 def test_predict_before_fit_and_wrong_features(data):
     from sklearn.exceptions import NotFittedError
 
