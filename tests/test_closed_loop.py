@@ -325,3 +325,24 @@ def test_report_states_the_thresholds_used():
     text = format_table([{"stage": "before", "theta": {"k": 1.0}}], steps=[step], n_validation=5, z=2.5,
                         min_gain=0.1)
     assert "at least 10 % and by more than 2.5 standard errors" in text and "x\\|x\\|" in text
+
+
+def test_candidates_are_also_ranked_without_the_network(pendulum):
+    """A hybrid fit can trade the missing effect between theta and the network, so its residual may
+    point at the wrong term; the network-free ranking (a score test on the training trajectories)
+    still brings the right one to the refit. Here the 'learned' residual is a wrong v^3."""
+    from sklearn_hybrid.diagnosis.residual import science_output
+    from sklearn_hybrid.diagnosis.stepwise import forward_selection
+
+    data, est = pendulum
+    fit = ScienceFit(est, data.X_train, data.y_train)
+    states = data.X_train
+    learned = science_output(pendulum_f, {"omega": 2 / 3}, [states])
+    learned[:, 1] += 0.3 * states[:, 0] ** 3
+    n = len(fit.y)
+    sel = forward_selection(pendulum_f, {"omega": 0.6}, fit, np.arange(n - 12), np.arange(n - 12, n),
+                            physics_terms(NAMES, states), NAMES, 2, [states], learned, [1], max_terms=1)
+    tried = {(s["ranked_by"], s["term"]) for s in sel["steps"]}
+    assert ("residual", "v^3") in tried and ("fit", "v_dot") in tried
+    assert [t["term"] for t in sel["added"]] == ["v_dot"]
+    assert sel["theta"]["c_v_dot"] == pytest.approx(-0.5, rel=0.1)

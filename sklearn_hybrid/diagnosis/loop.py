@@ -191,8 +191,10 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
        default network, the network acts only on the other components (:class:`MLPOn`).
     2. What the hybrid learned along the visited states, science plus network, is compared with the
        science model; candidate terms (:func:`~sklearn_hybrid.diagnosis.physics_terms`) are ranked
-       by how much of the difference each explains on the uncertain components.
-    3. The best-ranked few are each added to the science model, refitted *without the network* by
+       by how much of the difference each explains on the uncertain components, and again by how
+       much of the network-free model's training error each would remove (the hybrid may have
+       traded the effect between theta and the network).
+    3. The best-ranked few of each ranking are each added to the science model, refitted *without the network* by
        least squares on the training samples (shape parameters such as a knot or a width fitted
        too), and judged on the last ``validation_fraction`` of the samples: a term is kept only when
        it lowers the held-out error by at least ``min_gain`` and by more than ``z`` standard errors.
@@ -227,7 +229,8 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
     validation_fraction : float, default=0.25
         Share of the samples (the last ones) that judge each term.
     max_terms, n_candidates : int, default=4
-        At most this many terms added, and candidates refitted per step.
+        At most this many terms added, and candidates taken from each ranking per step (up to
+        twice as many refitted).
     z, min_gain : float, default=3.0 and 0.05
         The evidence a term needs (see :func:`~sklearn_hybrid.diagnosis.evidence`).
     param_names : dict of str to str, optional

@@ -1,9 +1,11 @@
-"""Forward selection of missing terms: rank by the network's residual, accept on held-out evidence.
+"""Forward selection of missing terms: rank two ways, accept on held-out evidence.
 
-One step: the residual the network still carries beyond the current science model is explained,
-candidate by candidate, on the states it visited (a least-squares fit of the term together with
-the science parameters' sensitivities, which absorb mere parameter shifts); the best-ranked few
-are each added to the science model, refitted without the network (:class:`ScienceFit`) and
+One step ranks every candidate term twice: by how much of the residual the network still carries
+beyond the current science model it explains on the visited states (fitted together with the
+science parameters' sensitivities, which absorb mere parameter shifts), and by how much of the
+network-free model's training error its addition would remove (a score test on the trajectories,
+which does not trust the network to have learned the effect). The best few of each ranking are
+added to the science model one at a time, refitted without the network (:class:`ScienceFit`) and
 judged on validation samples (:func:`evidence`). The best one that passes is kept; the next step
 starts from it. Selection stops when no candidate passes.
 """
@@ -11,6 +13,7 @@ starts from it. Selection stops when no candidate passes.
 from __future__ import annotations
 
 import time
+from itertools import zip_longest
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
@@ -66,6 +69,64 @@ def _rank(terms: Sequence[Term], variables: dict[str, torch.Tensor], remaining: 
     return sorted(ranked, key=lambda t: -t["gain"])
 
 
+def _rank_by_fit(terms: Sequence[Term], variables: dict[str, torch.Tensor], science: Callable,
+                 added: list[dict], theta: Mapping[str, Any], fit: ScienceFit, scale: np.ndarray,
+                 components: Sequence[int], taken: set, names: Sequence[str], n_states: int,
+                 param_names: Mapping[str, str] | None) -> list[dict]:
+    """Every (component, term, shape) scored by the training error its addition removes, without the network.
+
+    A score test in trajectory space: the sensitivity of the network-free prediction to the new
+    term's coefficient (forward difference at 0), made orthogonal to the sensitivities of the
+    parameters already there, explains a share of the remaining training error. This does not rely
+    on the network having learned the missing effect well: where the hybrid fit traded the effect
+    between theta and the network, the ranking by its residual (:func:`_rank`) misleads.
+    """
+    current = _augment(science, added, names, n_states, param_names)
+    base = fit.predict(current, theta).ravel()
+    r = fit.y.ravel() - base
+    cols = []
+    for k, value in theta.items():  # sensitivities of the parameters already there
+        value = np.asarray(value, dtype=float)
+        for i in range(value.size):
+            h = 1e-6 * max(abs(float(value.flat[i])), 1e-3)
+            moved = value.copy()
+            moved.flat[i] += h
+            cols.append((fit.predict(current, {**theta, k: moved}).ravel() - base) / h)
+    J = np.stack(cols, axis=1) if cols else np.zeros((len(base), 0))
+    J = J[:, np.all(np.isfinite(J), axis=0)]
+    Q = np.linalg.qr(J)[0] if J.shape[1] else np.zeros((len(base), 0))
+    r = r - Q @ (Q.T @ r)
+    total = float(r @ r) or 1.0
+    best: dict[tuple, dict] = {}
+    for term in terms:
+        for shape in term.grid():
+            with torch.no_grad():
+                values = term(variables, **{k: torch.tensor(v, dtype=torch.float64) for k, v in shape.items()})
+            size = float(torch.sqrt(torch.mean(values ** 2)))
+            if not np.isfinite(size) or size == 0:
+                continue
+            for j in components:
+                if (j, term.name) in taken:
+                    continue
+                h = 1e-4 * scale[j] / size
+                cand = {"component": j, "term": term.name, "kind": term.kind, "unit": term.unit,
+                        "function": term.func, "shape": shape, "bounds": term.shape, "coef": h}
+                augmented = _augment(science, [*added, cand], names, n_states, param_names)
+                start = {**theta, **_initial_values(augmented, [*added, cand])}
+                with np.errstate(all="ignore"):
+                    col = (fit.predict(augmented, start).ravel() - base) / h
+                if not np.all(np.isfinite(col)):
+                    continue
+                c = col - Q @ (Q.T @ col)
+                cc = float(c @ c)
+                if cc < 1e-6 * float(col @ col) or cc == 0:  # within the parameters' span
+                    continue
+                gain = float(c @ r) ** 2 / cc / total
+                if (j, term.name) not in best or gain > best[j, term.name]["gain"]:
+                    best[j, term.name] = {**cand, "coef": float(c @ r) / cc, "gain": gain, "ranked_by": "fit"}
+    return sorted(best.values(), key=lambda t: -t["gain"])
+
+
 def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceFit, train: np.ndarray,
                       validation: np.ndarray, terms: Sequence[Term], variables: Sequence[str], n_states: int,
                       args: Sequence[np.ndarray], learned: np.ndarray, components: Sequence[int], *,
@@ -109,6 +170,7 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
     train_fit, val_fit = fit.subset(train), fit.subset(validation)
     current, theta_now = science, train_fit.fit(science, theta)
     errors = base_errors = val_fit.errors(science, theta_now)
+    scale = np.sqrt(np.mean(np.asarray(learned, dtype=float) ** 2, axis=0))
     log(f"science refitted alone: validation MSE {errors.mean():.4g}")
     added: list[dict] = []
     steps: list[dict] = []
@@ -116,7 +178,10 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
         remaining = learned - science_output(current, theta_now, args)
         jac, _ = parameter_jacobian(current, theta_now, args)
         taken = {(t["component"], t["term"]) for t in added}
-        ranked = _interleave(_rank(terms, tensors, remaining, jac, components, taken), n_candidates)
+        by_residual = _interleave(_rank(terms, tensors, remaining, jac, components, taken), n_candidates)
+        by_fit = _rank_by_fit(terms, tensors, science, added, theta_now, train_fit, scale, components, taken,
+                              variables, n_states, param_names)[:n_candidates]
+        ranked = _merge(by_residual, by_fit)
         if not ranked:
             break
         tried = []
@@ -161,6 +226,17 @@ def _interleave(ranked: list[dict], n: int) -> list[dict]:
         for queue in queues:
             if queue and len(out) < n:
                 out.append(queue.pop(0))
+    return out
+
+
+def _merge(*rankings: list[dict]) -> list[dict]:
+    """The candidates of several rankings, taken in turn, each (component, term) once."""
+    out, seen = [], set()
+    for group in zip_longest(*rankings):
+        for cand in group:
+            if cand is not None and (cand["component"], cand["term"]) not in seen:
+                seen.add((cand["component"], cand["term"]))
+                out.append(cand)
     return out
 
 
@@ -210,4 +286,5 @@ def _with_fitted(cand, augmented, theta, i) -> dict:
 
 
 def _public(cand: dict) -> dict:
-    return {k: cand[k] for k in ("component", "term", "kind", "gain", "shape")}
+    return {"ranked_by": cand.get("ranked_by", "residual"),
+            **{k: cand[k] for k in ("component", "term", "kind", "gain", "shape")}}
