@@ -346,3 +346,27 @@ def test_candidates_are_also_ranked_without_the_network(pendulum):
     assert ("residual", "v^3") in tried and ("fit", "v_dot") in tried
     assert [t["term"] for t in sel["added"]] == ["v_dot"]
     assert sel["theta"]["c_v_dot"] == pytest.approx(-0.5, rel=0.1)
+
+
+def test_a_term_made_dispensable_by_a_later_one_is_dropped(pendulum):
+    """Drag v_dot|v_dot| stands in for linear damping until v_dot itself is in; then it goes."""
+    from sklearn_hybrid.diagnosis.stepwise import _augment, _drop_dispensable, _with_fitted
+
+    data, est = pendulum
+    fit = ScienceFit(est, data.X_train, data.y_train)
+    n = len(fit.y)
+    train, val = fit.subset(np.arange(n - 12)), fit.subset(np.arange(n - 12, n))
+    terms = physics_terms(NAMES, data.X_train)
+    placed = [{"component": 1, "term": t.name, "kind": t.kind, "unit": t.unit, "function": t.func, "shape": {},
+               "bounds": t.shape, "coef": 0.0, "gain": 0.0} for t in terms if t.name in ("v_dot|v_dot|", "v_dot")]
+    assert [p["term"] for p in placed] == ["v_dot", "v_dot|v_dot|"]
+    placed = placed[::-1]  # the stand-in first
+    full = _augment(pendulum_f, placed, NAMES, 2, None)
+    theta = train.fit(full, {"omega": 0.6})
+    added = [_with_fitted(p, full, theta, k) for k, p in enumerate(placed)]
+    steps = []
+    current, kept, theta, errors = _drop_dispensable(pendulum_f, full, added, theta, val.errors(full, theta), train,
+                                                     val, NAMES, 2, None, 3.0, 0.05, steps, lambda s: None)
+    assert [t["term"] for t in kept] == ["v_dot"] and [s["term"] for s in steps] == ["v_dot|v_dot|"]
+    assert steps[0]["dropped"] and theta[kept[0]["param"]] == pytest.approx(-0.5, rel=0.1)
+    assert set(theta) == set(inspect.signature(current).parameters) - {"v"}

@@ -147,7 +147,8 @@ def format_table(rows: list[dict], added: Sequence[dict] = (), steps: Sequence[d
     if steps:
         lines += ["", f"Selection (science model refitted without the network, mean squared error on "
                       f"{n_validation} validation samples; a term is accepted when it lowers it by at "
-                      f"least {min_gain * 100:g} % and by more than {z:g} standard errors):", "",
+                      f"least {min_gain * 100:g} % and by more than {z:g} standard errors; a term the later "
+                      "ones make dispensable by that test is dropped):", "",
                   "| step | output | term | kind | validation MSE before | after | gain | z | accepted |",
                   "|---|---|---|---|---|---|---|---|---|"]
         for s in steps:
@@ -157,7 +158,7 @@ def format_table(rows: list[dict], added: Sequence[dict] = (), steps: Sequence[d
                 continue
             lines.append(f"| {s['step']} | {s['output']} | {s['term']} | {s['kind']} | {s['mse_before']:.4g} | "
                          f"{s['mse_after']:.4g} | {s['gain']:.1%} | {s['z']:.1f} | "
-                         f"{'yes' if s['accepted'] else 'no'} |")
+                         f"{'dropped' if s.get('dropped') else 'yes' if s['accepted'] else 'no'} |")
     lines.append("")
     if added:
         for t in added:

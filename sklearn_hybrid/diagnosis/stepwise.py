@@ -6,8 +6,9 @@ science parameters' sensitivities, which absorb mere parameter shifts), and by h
 network-free model's training error its addition would remove (a score test on the trajectories,
 which does not trust the network to have learned the effect). The best few of each ranking are
 added to the science model one at a time, refitted without the network (:class:`ScienceFit`) and
-judged on validation samples (:func:`evidence`). The best one that passes is kept; the next step
-starts from it. Selection stops when no candidate passes.
+judged on validation samples (:func:`evidence`). The best one that passes is kept, and a term kept
+earlier that it makes dispensable (the model without it validates as well) is dropped; the next
+step starts from there. Selection stops when no candidate passes.
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ import torch
 from .augment import augment_science
 from .evidence import ScienceFit, evidence
 from .residual import parameter_jacobian, science_output
+from ..science import read_signature
 from .terms import Term
 
 __all__ = ["forward_selection"]
@@ -207,8 +209,46 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
         steps[index]["accepted"] = True
         added.append(_with_fitted(cand, current, theta_now, len(added)))
         log(f"  accepted {cand['term']} on component {cand['component']}")
+        current, added, theta_now, errors = _drop_dispensable(
+            science, current, added, theta_now, errors, train_fit, val_fit, variables, n_states, param_names,
+            z, min_gain, steps, log)
     return {"science": current, "theta": theta_now, "added": added, "steps": steps,
             "base_errors": base_errors, "errors": errors, "seconds": time.perf_counter() - start_time}
+
+
+def _drop_dispensable(science, current, added, theta, errors, train_fit, val_fit, variables, n_states,
+                      param_names, z, min_gain, steps, log):
+    """Backward steps: drop a term that the terms accepted after it have made dispensable.
+
+    A term that passed early may only have stood in for one found later (a hinge with a low knot
+    for ``B^2``); it goes when the model without it, refitted, validates as well by the same test
+    a new term must pass (the model with it is not better by ``min_gain`` and ``z``).
+    """
+    while len(added) > 1:
+        trials = []
+        for i in range(len(added)):
+            rest = added[:i] + added[i + 1:]
+            reduced = _augment(science, rest, variables, n_states, param_names)
+            start = {k: v for k, v in theta.items() if k in read_signature(science)[1]}
+            for k, t in enumerate(rest):  # the kept terms' latest values, under the reduced model's names
+                start[reduced.terms[k][2]] = theta[t["param"]]
+                start.update({glob: theta[t["shape_params"][loc]] for loc, glob in reduced.shape_names[k].items()})
+            try:
+                fitted = train_fit.fit(reduced, start, _shape_bounds(reduced, rest))
+                reduced_errors = val_fit.errors(reduced, fitted)
+            except (RuntimeError, ValueError, FloatingPointError):
+                continue
+            if not evidence(reduced_errors, errors, z=z, min_gain=min_gain)["accepted"]:
+                trials.append((reduced_errors.mean(), i, rest, reduced, fitted, reduced_errors))
+        if not trials:
+            break
+        _, i, rest, reduced, fitted, reduced_errors = min(trials, key=lambda t: t[0])
+        steps.append({"step": "drop", **_public(added[i]), **evidence(errors, reduced_errors, z=z, min_gain=min_gain),
+                      "accepted": False, "dropped": True})
+        log(f"  dropped {added[i]['term']} on component {added[i]['component']}: the later terms explain it")
+        added = [_with_fitted(t, reduced, fitted, k) for k, t in enumerate(rest)]
+        current, theta, errors = reduced, fitted, reduced_errors
+    return current, added, theta, errors
 
 
 def _interleave(ranked: list[dict], n: int) -> list[dict]:
