@@ -82,7 +82,10 @@ class SpikeGuard:
     A loss that is not finite, or above ``factor`` times the median of the last
     ``every`` accepted losses, is a spike: the copy is restored and every
     learning rate is halved (the cosine schedule goes on from the halved
-    rates).  After ``max_halvings`` halvings a spike is a divergence.
+    rates).  After ``max_halvings`` halvings a spike is a divergence.  The
+    stacked engine of sweeps (``_batched.py``) shares one optimiser among its
+    members and has no guard: a member that diverges there is reported as
+    diverged, and a single fit of that configuration can be tried instead.
 
     Parameters
     ----------
