@@ -139,8 +139,9 @@ def run_case(system: System, noise: float, seed: int, fast: bool, command: str) 
 def _commit() -> str:
     """The last commit that changed the package (not the benchmark's own result commits)."""
     try:
-        return subprocess.run(["git", "log", "-1", "--format=%h", "--", "sklearn_hybrid"], capture_output=True, text=True,
-                              cwd=Path(__file__).resolve().parent).stdout.strip()
+        root = Path(__file__).resolve().parents[1]  # a relative path would be read from benchmarks/
+        return subprocess.run(["git", "log", "-1", "--format=%h", "--", str(root / "sklearn_hybrid")],
+                              capture_output=True, text=True, cwd=root).stdout.strip() or "unknown"
     except OSError:
         return "unknown"
 
