@@ -396,8 +396,9 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
         self.n_iter_ = len(history["loss"])
         self.stopped_early_ = self.n_iter_ < self.max_iter
         config = setup.config
-        self.theta_drift_ = theta_drift(history["theta"], history.get(
-            "lr_theta", cosine_lr(config.lr_theta or config.lr, self.n_iter_, config)))
+        rates = history["lr_theta"] if "lr_theta" in history else \
+            cosine_lr(config.lr_theta or config.lr, self.n_iter_, config)  # a sweep member's history
+        self.theta_drift_ = theta_drift(history["theta"], rates)
         if history.get("lr_halved_at"):
             warnings.warn(
                 f"The training loss spiked at iterations {history['lr_halved_at']}; each time the last "

@@ -55,9 +55,9 @@ def science_output(science: Callable, theta: Mapping[str, Any], args: Sequence[n
     return out.reshape(len(tensors[0]), -1).numpy()
 
 
-def parameter_jacobian(science: Callable, theta: Mapping[str, Any],
-                       args: Sequence[np.ndarray]) -> tuple[np.ndarray, list[str]]:
-    """Central differences of the science output in every scalar parameter: ``(n, n_outputs, p)``.
+def finite_differences(output: Callable[[dict], np.ndarray], theta: Mapping[str, Any]
+                       ) -> tuple[np.ndarray, list[str]]:
+    """Central differences of ``output(theta)`` in every scalar parameter: ``(*output shape, p)``.
 
     Also returns the parameter names (``name[i]`` for elements of vector parameters).
     """
@@ -69,13 +69,21 @@ def parameter_jacobian(science: Callable, theta: Mapping[str, Any],
             plus, minus = value.copy(), value.copy()
             plus[idx] += h
             minus[idx] -= h
-            diff = (science_output(science, {**theta, name: plus}, args)
-                    - science_output(science, {**theta, name: minus}, args))
+            diff = output({**theta, name: plus}) - output({**theta, name: minus})
             columns.append(diff / (2 * h))
             names.append(name if value.ndim == 0 else f"{name}[{','.join(map(str, idx))}]")
     if not columns:
-        return np.zeros((*science_output(science, theta, args).shape, 0)), names
+        return np.zeros((*output(dict(theta)).shape, 0)), names
     return np.stack(columns, axis=-1), names
+
+
+def parameter_jacobian(science: Callable, theta: Mapping[str, Any],
+                       args: Sequence[np.ndarray]) -> tuple[np.ndarray, list[str]]:
+    """Central differences of the science output in every scalar parameter: ``(n, n_outputs, p)``.
+
+    Also returns the parameter names (``name[i]`` for elements of vector parameters).
+    """
+    return finite_differences(lambda values: science_output(science, values, args), theta)
 
 
 def science_sensitivities(estimator: Any, args: list[np.ndarray],

@@ -14,45 +14,58 @@ step starts from there. Selection stops when no candidate passes.
 from __future__ import annotations
 
 import time
-from itertools import zip_longest
 from collections.abc import Callable, Mapping, Sequence
+from itertools import zip_longest
 from typing import Any
 
 import numpy as np
 import torch
 
+from ..science import read_signature
 from .augment import augment_science
 from .evidence import ScienceFit, evidence
-from .residual import parameter_jacobian, science_output
-from ..science import read_signature
+from .residual import finite_differences, parameter_jacobian, science_output
 from .terms import Term
 
 __all__ = ["forward_selection"]
 
 
-def _rank(terms: Sequence[Term], variables: dict[str, torch.Tensor], remaining: np.ndarray,
-          jac: np.ndarray, components: Sequence[int], taken: set) -> list[dict]:
+def _term_columns(terms: Sequence[Term], variables: dict[str, torch.Tensor]) -> list[tuple]:
+    """``(term, shape, values)`` of every term at every starting shape, on the visited states.
+
+    Finite and not identically zero only; the states do not change during the selection, so this is
+    computed once for both rankings and every step.
+    """
+    n = len(next(iter(variables.values())))
+    out = []
+    for term in terms:
+        for shape in term.grid():
+            with torch.no_grad():
+                col = term(variables, **{k: torch.tensor(v, dtype=torch.float64) for k, v in shape.items()})
+            col = np.broadcast_to(col.numpy(), (n,))
+            if np.all(np.isfinite(col)) and np.any(col):
+                out.append((term, shape, col))
+    return out
+
+
+def _rank(columns: list[tuple], remaining: np.ndarray, jac: np.ndarray, components: Sequence[int],
+          taken: set) -> list[dict]:
     """Every (component, term) scored by the share of the remaining residual it explains.
 
     The term is fitted together with the parameter sensitivities of its component, so a term that
     only stands in for a parameter shift gains nothing.
     """
     total = float(sum(np.sum(remaining[:, j] ** 2) for j in components)) or 1.0
-    columns = {}
-    for term in terms:
-        for shape in term.grid():
-            with torch.no_grad():
-                col = term(variables, **{k: torch.tensor(v, dtype=torch.float64) for k, v in shape.items()})
-            col = np.broadcast_to(col.numpy(), remaining[:, 0].shape)
-            if np.all(np.isfinite(col)) and np.any(col):
-                columns.setdefault(term.name, []).append((term, shape, col))
+    by_name: dict[str, list] = {}
+    for term, shape, col in columns:
+        by_name.setdefault(term.name, []).append((term, shape, col))
     ranked = []
     for j in components:
         S = jac[:, j, :]
         S = S[:, np.any(np.abs(S) > 0, axis=0)]
         Q = np.linalg.qr(S)[0] if S.shape[1] else np.zeros((len(S), 0))
         r = remaining[:, j] - Q @ (Q.T @ remaining[:, j])
-        for name, options in columns.items():
+        for name, options in by_name.items():
             if (j, name) in taken:
                 continue
             best = None
@@ -71,9 +84,9 @@ def _rank(terms: Sequence[Term], variables: dict[str, torch.Tensor], remaining: 
     return sorted(ranked, key=lambda t: -t["gain"])
 
 
-def _rank_by_fit(terms: Sequence[Term], variables: dict[str, torch.Tensor], science: Callable,
-                 added: list[dict], theta: Mapping[str, Any], fit: ScienceFit, scale: np.ndarray,
-                 components: Sequence[int], taken: set, names: Sequence[str], n_states: int,
+def _rank_by_fit(columns: list[tuple], science: Callable, current: Callable, added: list[dict],
+                 theta: Mapping[str, Any], fit: ScienceFit, scale: np.ndarray, components: Sequence[int],
+                 taken: set, names: Sequence[str], n_states: int,
                  param_names: Mapping[str, str] | None) -> list[dict]:
     """Every (component, term, shape) scored by the training error its addition removes, without the network.
 
@@ -82,50 +95,39 @@ def _rank_by_fit(terms: Sequence[Term], variables: dict[str, torch.Tensor], scie
     parameters already there, explains a share of the remaining training error. This does not rely
     on the network having learned the missing effect well: where the hybrid fit traded the effect
     between theta and the network, the ranking by its residual (:func:`_rank`) misleads.
+    ``current`` is ``science`` with the ``added`` terms.
     """
-    current = _augment(science, added, names, n_states, param_names)
     base = fit.predict(current, theta).ravel()
     r = fit.y.ravel() - base
-    cols = []
-    for k, value in theta.items():  # sensitivities of the parameters already there
-        value = np.asarray(value, dtype=float)
-        for i in range(value.size):
-            h = 1e-6 * max(abs(float(value.flat[i])), 1e-3)
-            moved = value.copy()
-            moved.flat[i] += h
-            cols.append((fit.predict(current, {**theta, k: moved}).ravel() - base) / h)
-    J = np.stack(cols, axis=1) if cols else np.zeros((len(base), 0))
+    J, _ = finite_differences(lambda values: fit.predict(current, values).ravel(), theta)
     J = J[:, np.all(np.isfinite(J), axis=0)]
     Q = np.linalg.qr(J)[0] if J.shape[1] else np.zeros((len(base), 0))
     r = r - Q @ (Q.T @ r)
     total = float(r @ r) or 1.0
     best: dict[tuple, dict] = {}
-    for term in terms:
-        for shape in term.grid():
-            with torch.no_grad():
-                values = term(variables, **{k: torch.tensor(v, dtype=torch.float64) for k, v in shape.items()})
-            size = float(torch.sqrt(torch.mean(values ** 2)))
-            if not np.isfinite(size) or size == 0:
+    for term, shape, values in columns:
+        size = float(np.sqrt(np.mean(values ** 2)))
+        if not np.isfinite(size) or size == 0:
+            continue
+        for j in components:
+            if (j, term.name) in taken:
                 continue
-            for j in components:
-                if (j, term.name) in taken:
-                    continue
-                h = 1e-4 * scale[j] / size
-                cand = {"component": j, "term": term.name, "kind": term.kind, "unit": term.unit,
-                        "function": term.func, "shape": shape, "bounds": term.shape, "coef": h}
-                augmented = _augment(science, [*added, cand], names, n_states, param_names)
-                start = {**theta, **_initial_values(augmented, [*added, cand])}
-                with np.errstate(all="ignore"):
-                    col = (fit.predict(augmented, start).ravel() - base) / h
-                if not np.all(np.isfinite(col)):
-                    continue
-                c = col - Q @ (Q.T @ col)
-                cc = float(c @ c)
-                if cc < 1e-6 * float(col @ col) or cc == 0:  # within the parameters' span
-                    continue
-                gain = float(c @ r) ** 2 / cc / total
-                if (j, term.name) not in best or gain > best[j, term.name]["gain"]:
-                    best[j, term.name] = {**cand, "coef": float(c @ r) / cc, "gain": gain, "ranked_by": "fit"}
+            h = 1e-4 * scale[j] / size
+            cand = {"component": j, "term": term.name, "kind": term.kind, "unit": term.unit,
+                    "function": term.func, "shape": shape, "bounds": term.shape, "coef": h}
+            augmented = _augment(science, [*added, cand], names, n_states, param_names)
+            start = {**theta, **_initial_values(augmented, [*added, cand])}
+            with np.errstate(all="ignore"):
+                col = (fit.predict(augmented, start).ravel() - base) / h
+            if not np.all(np.isfinite(col)):
+                continue
+            c = col - Q @ (Q.T @ col)
+            cc = float(c @ c)
+            if cc < 1e-6 * float(col @ col) or cc == 0:  # within the parameters' span
+                continue
+            gain = float(c @ r) ** 2 / cc / total
+            if (j, term.name) not in best or gain > best[j, term.name]["gain"]:
+                best[j, term.name] = {**cand, "coef": float(c @ r) / cc, "gain": gain, "ranked_by": "fit"}
     return sorted(best.values(), key=lambda t: -t["gain"])
 
 
@@ -169,6 +171,7 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
     start_time = time.perf_counter()
     tensors = {name: torch.as_tensor(np.asarray(col, dtype=float))
                for name, col in zip(variables, np.hstack([np.asarray(a).reshape(len(a), -1) for a in args]).T)}
+    columns = _term_columns(terms, tensors)
     train_fit, val_fit = fit.subset(train), fit.subset(validation)
     current, theta_now = science, train_fit.fit(science, theta)
     errors = base_errors = val_fit.errors(science, theta_now)
@@ -180,8 +183,8 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
         remaining = learned - science_output(current, theta_now, args)
         jac, _ = parameter_jacobian(current, theta_now, args)
         taken = {(t["component"], t["term"]) for t in added}
-        by_residual = _interleave(_rank(terms, tensors, remaining, jac, components, taken), n_candidates)
-        by_fit = _rank_by_fit(terms, tensors, science, added, theta_now, train_fit, scale, components, taken,
+        by_residual = _interleave(_rank(columns, remaining, jac, components, taken), n_candidates)
+        by_fit = _rank_by_fit(columns, science, current, added, theta_now, train_fit, scale, components, taken,
                               variables, n_states, param_names)[:n_candidates]
         ranked = _merge(by_residual, by_fit)
         if not ranked:
@@ -224,12 +227,13 @@ def _drop_dispensable(science, current, added, theta, errors, train_fit, val_fit
     for ``B^2``); it goes when the model without it, refitted, validates as well by the same test
     a new term must pass (the model with it is not better by ``min_gain`` and ``z``).
     """
+    original = read_signature(science)[1]
     while len(added) > 1:
         trials = []
         for i in range(len(added)):
             rest = added[:i] + added[i + 1:]
             reduced = _augment(science, rest, variables, n_states, param_names)
-            start = {k: v for k, v in theta.items() if k in read_signature(science)[1]}
+            start = {k: v for k, v in theta.items() if k in original}
             for k, t in enumerate(rest):  # the kept terms' latest values, under the reduced model's names
                 start[reduced.terms[k][2]] = theta[t["param"]]
                 start.update({glob: theta[t["shape_params"][loc]] for loc, glob in reduced.shape_names[k].items()})
