@@ -76,8 +76,8 @@ class SpikeGuard:
     Adam with a learning rate too large for the problem (a long rollout, a
     steep corner of the state space) can throw a fit out of a good basin in a
     few steps: the loss jumps by orders of magnitude and may become NaN (the
-    draining tank of ``benchmarks/bench_identification.py`` does so at
-    ``lr=1e-2`` and fits to the noise level at ``5e-3``).  Every ``every``
+    first fit of the draining tank in ``benchmarks/bench_identification.py``
+    diverged so at the default ``lr=1e-2`` before this guard).  Every ``every``
     healthy iterations the guard keeps a copy of the model and the optimiser.
     A loss that is not finite, or above ``factor`` times the median of the last
     ``every`` accepted losses, is a spike: the copy is restored and every
