@@ -347,3 +347,45 @@ def hybrid_states(science: nn.Module, residual: nn.Module, x0: torch.Tensor,
     return ode_states(science.func, science.names, thetas, [w[None] for w in weights],
                       [b[None] for b in biases], acts, x0[None],
                       None if u_fine is None else u_fine[None], n_steps, dt, n_substeps)[0]
+
+
+_ELEMENTWISE = {nn.Tanh: torch.tanh, nn.ReLU: torch.relu, nn.Sigmoid: torch.sigmoid,
+                nn.SiLU: nn.functional.silu, nn.GELU: nn.functional.gelu}
+
+
+def frozen_rhs(science: nn.Module, residual: nn.Module | None) -> Callable | None:
+    """``rhs(v, u)`` for integration without gradients (simulate, predict), or None if not served
+    (gradients on, the fast path disabled, or a science model without a shared theta).
+
+    Long free runs call the right-hand side tens of thousands of times; module dispatch and
+    re-deriving theta through its bounded map at every call cost more than the arithmetic
+    (about half of each call for the Silverbox model). Here theta is read once and the MLP is
+    a chain of ``addmm`` (other networks are called as modules). ``residual`` None: the science
+    part alone.
+    """
+    if (torch.is_grad_enabled() or not getattr(_STATE, "enabled", True)
+            or not (hasattr(science, "func") and hasattr(science, "values"))):
+        return None
+    theta = {k: v.detach() for k, v in science.values().items()}
+    func = science.func
+    if residual is None:
+        return lambda v, u: func(v, **theta) if u is None else func(v, u, **theta)
+    parts = mlp_parts(residual)
+    if parts is None:  # another network: called as a module, theta still read once
+        return lambda v, u: func(v, **theta) + residual(v) if u is None else func(v, u, **theta) + residual(v, u)
+    weights, biases = full_output(residual, *parts[:2])
+    weights_t = [w.detach().t().contiguous() for w in weights]
+    biases = [b.detach() for b in biases]
+    acts = [_ELEMENTWISE.get(type(a), a) for a in parts[2]]
+    out_shape = residual.out_shape
+
+    def rhs(v, u):
+        args = (v,) if u is None else (v, u)
+        h = torch.cat([a.reshape(len(v), -1) for a in args], dim=-1)
+        for i, (w, b) in enumerate(zip(weights_t, biases)):
+            h = torch.addmm(b, h, w)
+            if i < len(acts):
+                h = acts[i](h)
+        return func(*args, **theta) + h.reshape(len(v), *out_shape)
+
+    return rhs

@@ -245,6 +245,8 @@ class OdeStructure:
             # gradients (predict) the plain loop is faster, as nothing is kept for a backward
             return _fast.hybrid_states(model.science, model.residual, x0, u_fine, n_steps, dt,
                                        n_substeps)
+        if not getattr(model, "per_sample_theta", False):  # no gradients: theta read once (see _fast)
+            rhs = _fast.frozen_rhs(model.science, model.residual if use_residual else None) or rhs
         return integrate(rhs, x0, n_steps, dt, n_substeps=n_substeps, solver=self.solver,
                          u_fine=u_fine, solver_options=self.solver_options)
 

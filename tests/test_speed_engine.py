@@ -201,3 +201,49 @@ def test_stage_buffers_are_reused_within_a_fit_and_freed_after_it(monkeypatch):
     # after the first iteration every take is served from the pool
     assert len(taken) == 4 * 3 and len({id(b) for b in taken}) == 3
     assert not _kernels._POOL  # nothing held once the fit is over
+
+
+@pytest.mark.parametrize("activation", ["tanh", "softplus"])
+def test_simulation_without_gradients_same_as_modules(activation):
+    """simulate / predict read theta once and run the MLP as bare products (_fast.frozen_rhs):
+    the same states as the modules, with and without the network, bounded theta included."""
+    from sklearn_hybrid.diagnosis import MLPOn, free_run
+
+    rng = np.random.default_rng(1)
+    X = np.column_stack([rng.uniform(-1, 1, (12, 2)), rng.normal(size=(12, 4))])
+    y = rng.normal(size=(12, 3, 1))
+    est = HybridRegressor(science=forced_f, n_inputs=1, observed=[0], dt=0.2, max_iter=3, dtype="float64",
+                          residual=MLPOn([1], hidden=(8, 8), activation=activation, zero_init=False),
+                          theta_bounds={"k": (0.1, 5.0)}, random_state=0).fit(X, y)
+    u = rng.normal(size=40)
+    for use_residual in (True, False):
+        fast = free_run(est, [0.3, -0.2], u=u, use_residual=use_residual)
+        with _fast.disabled():
+            slow = free_run(est, [0.3, -0.2], u=u, use_residual=use_residual)
+        np.testing.assert_allclose(fast, slow, rtol=1e-12, atol=1e-12)
+    with _fast.disabled():
+        slow_predict = est.predict(X)
+    np.testing.assert_allclose(est.predict(X), slow_predict, rtol=1e-12, atol=1e-12)
+    with torch.no_grad():
+        assert _fast.frozen_rhs(est.model_.science, est.model_.residual) is not None
+    assert _fast.frozen_rhs(est.model_.science, est.model_.residual) is None  # gradients wanted
+
+
+def test_recipes_free_runs_of_several_records_as_one_batch():
+    """The recipes' scorers simulate records of different lengths as one padded batch: each run
+    equals the record simulated alone."""
+    from sklearn_hybrid.diagnosis import free_run
+    from sklearn_hybrid.recipes import _free_runs
+
+    rng = np.random.default_rng(2)
+    X = np.column_stack([rng.uniform(-1, 1, (12, 2)), rng.normal(size=(12, 4))])
+    inputs, x0s = [rng.normal(size=40), rng.normal(size=30)], [np.array([0.1, 0.2]), np.array([-0.3, 0.0])]
+    for interp, exact_until in (("linear", 30), ("cubic", 20)):  # a spline feels the padding at the end
+        est = HybridRegressor(science=forced_f, n_inputs=1, observed=[0], dt=0.2, max_iter=2, input_interp=interp,
+                              dtype="float64", random_state=0).fit(X, rng.normal(size=(12, 3, 1)))
+        runs = _free_runs(est, x0s, inputs, use_residual=True)
+        for run, x0, u in zip(runs, x0s, inputs):
+            assert run.shape == (len(u), 2)
+            alone = free_run(est, x0, u=u)[0]
+            np.testing.assert_allclose(run[:exact_until], alone[:exact_until], rtol=1e-9, atol=1e-9)
+            np.testing.assert_allclose(run, alone, rtol=0.05, atol=0.05)
