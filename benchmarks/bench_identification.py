@@ -136,14 +136,27 @@ def run_case(system: System, noise: float, seed: int, fast: bool, command: str) 
             "protocol": FAST if fast else PROTOCOL, "machine": machine_description()}
 
 
-def _commit() -> str:
-    """The last commit that changed the package (not the benchmark's own result commits)."""
+def _read_commit() -> str:
+    """The last commit that changed the package (not the benchmark's own result commits), with
+    ``+uncommitted`` when the package differs from it."""
+    root = Path(__file__).resolve().parents[1]  # a relative path would be read from benchmarks/
     try:
-        root = Path(__file__).resolve().parents[1]  # a relative path would be read from benchmarks/
-        return subprocess.run(["git", "log", "-1", "--format=%h", "--", str(root / "sklearn_hybrid")],
-                              capture_output=True, text=True, cwd=root).stdout.strip() or "unknown"
+        def git(*args):
+            return subprocess.run(["git", *args, "--", str(root / "sklearn_hybrid")], capture_output=True,
+                                  text=True, cwd=root).stdout.strip()
+        commit = git("log", "-1", "--format=%h") or "unknown"
+        return commit + ("+uncommitted" if git("status", "--porcelain") else "")
     except OSError:
         return "unknown"
+
+
+# Read once, when the package is imported: a commit made while a long run goes on is not the code
+# that run executes.
+_PACKAGE_COMMIT = _read_commit()
+
+
+def _commit() -> str:
+    return _PACKAGE_COMMIT
 
 
 def _fmt(v, digits=3) -> str:
