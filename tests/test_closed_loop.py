@@ -218,6 +218,29 @@ def test_science_fit_recovers_parameters(pendulum):
     assert fit.errors(damped, theta).mean() < 0.2 * fit.errors(pendulum_f, {"omega": 2 / 3}).mean()
 
 
+def test_science_fit_vectorised_jacobian_same_fit_and_fallback(pendulum, monkeypatch):
+    """The Jacobian of every perturbation in one vmapped simulation gives the fit the one-at-a-time
+    differences give; a science function vmap cannot run (``.item()``) takes the reference path."""
+    data, est = pendulum
+    fit = ScienceFit(est, data.X_train, data.y_train)
+    damped = augment_science(pendulum_f, [{"component": 1, "term": "v_dot", "coef": 0.0}], NAMES)
+    start = {"omega": 0.5, "c_v_dot": 0.0}
+    vectorised = fit.fit(damped, start)
+    with monkeypatch.context() as m:
+        m.setattr(ScienceFit, "_vmap_serves", lambda *args: False)
+        reference = fit.fit(damped, start)
+    for k in start:
+        assert vectorised[k] == pytest.approx(reference[k], rel=1e-6, abs=1e-9)
+
+    def scalar_omega(v, omega=0.5):  # .item() cannot be vmapped
+        return pendulum_f(v, omega=float(omega.item()) if torch.is_tensor(omega) else omega)
+
+    unpack = lambda x: {"omega": x[0]}  # noqa: E731
+    assert fit._vmap_serves(pendulum_f, np.array([0.6]), unpack)
+    assert not fit._vmap_serves(scalar_omega, np.array([0.6]), unpack)
+    assert fit.fit(scalar_omega, {"omega": 0.5})["omega"] == pytest.approx(fit.fit(pendulum_f, {"omega": 0.5})["omega"])
+
+
 def test_physics_terms_and_shape_parameters():
     values = np.random.default_rng(0).uniform(-2, 2, (100, 2))
     terms = {t.name: t for t in physics_terms(["x", "u"], values, units={"x": "m", "u": "V"})}

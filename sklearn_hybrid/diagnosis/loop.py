@@ -259,7 +259,10 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         ``report`` (markdown) and ``seconds``.
     """
     start = time.perf_counter()
-    log = print if verbose else (lambda *_: None)
+    def log(message: str) -> None:  # stage lines carry the elapsed time: the long stages say how long
+        if verbose:
+            print(message if message.startswith(("  ", "|")) or "\n" in message
+                  else f"[{time.perf_counter() - start:4.0f} s] {message}", flush=True)
     _check_options(validation_fraction, max_terms, n_candidates)
     if getattr(estimator, "theta_encoder", None) is not None:
         raise ValueError("close_the_loop does not support theta_encoder: its network-free refits judge each term "
@@ -313,6 +316,7 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
     remaining = learned - science_output(final, science_theta, args)
     unexplained = residual_profile(remaining, learned, values, variables, outputs, components)
 
+    log("scoring the first hybrid ...")
     rows = [{"stage": "before", "science": getattr(science, "__name__", "science"), "added": "",
              **evaluate(before, X, X_test, y_test, test_scorer, theta_true)}]
     after, augmented = None, (final if sel["added"] else None)
@@ -331,6 +335,7 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
             rows.append({"stage": "after", "science": augmented.__name__, "added": augmented.equation,
                          **evaluate(after, X, X_test, y_test, test_scorer, theta_true)})
     alone = _fixed_science(before, final, science_theta, X, y)
+    log("scoring the network-free model ...")
     rows.append({"stage": "science only", "science": getattr(final, "__name__", "science"),
                  "added": getattr(augmented, "equation", ""),
                  **evaluate(alone, X, X_test, y_test, test_scorer, theta_true)})
