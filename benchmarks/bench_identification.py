@@ -29,7 +29,6 @@ from __future__ import annotations
 import argparse
 import json
 import pickle
-import subprocess
 import sys
 import time
 import traceback
@@ -40,7 +39,7 @@ import numpy as np
 import torch
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import RESULTS, machine_description  # noqa: E402
+from _common import PACKAGE_COMMIT, RESULTS, machine_description  # noqa: E402
 from _identification_systems import SYSTEMS, System, call_science, simulate  # noqa: E402
 
 from sklearn_hybrid import HybridRegressor, pack_inputs  # noqa: E402
@@ -132,31 +131,10 @@ def run_case(system: System, noise: float, seed: int, fast: bool, command: str) 
             "n_added": len(added), "added": added, "science_theta": _floats(theta),
             "before_theta": _floats(res.before.theta_), "theta_true": system.theta_true,
             "noise_sigma": data["sigma"].tolist(), "seconds": float(res.seconds), "wall_seconds": wall,
-            "report": res.report, "first_fit_reused": reused, "package_commit": _commit(), "command": command,
+            "report": res.report, "first_fit_reused": reused, "package_commit": PACKAGE_COMMIT, "command": command,
             "protocol": FAST if fast else PROTOCOL, "machine": machine_description()}
 
 
-def _read_commit() -> str:
-    """The last commit that changed the package (not the benchmark's own result commits), with
-    ``+uncommitted`` when the package differs from it."""
-    root = Path(__file__).resolve().parents[1]  # a relative path would be read from benchmarks/
-    try:
-        def git(*args):
-            return subprocess.run(["git", *args, "--", str(root / "sklearn_hybrid")], capture_output=True,
-                                  text=True, cwd=root).stdout.strip()
-        commit = git("log", "-1", "--format=%h") or "unknown"
-        return commit + ("+uncommitted" if git("status", "--porcelain") else "")
-    except OSError:
-        return "unknown"
-
-
-# Read once, when the package is imported: a commit made while a long run goes on is not the code
-# that run executes.
-_PACKAGE_COMMIT = _read_commit()
-
-
-def _commit() -> str:
-    return _PACKAGE_COMMIT
 
 
 def _fmt(v, digits=3) -> str:
@@ -269,7 +247,7 @@ def main(argv=None) -> None:
         except Exception:  # a failure is a result: cached and shown in the table
             rec = {"system": name, "noise": noise, "seed": seed, "fast": args.fast, "identified": False,
                    "error": traceback.format_exc(), "wall_seconds": time.perf_counter() - start,
-                   "package_commit": _commit(), "command": command.strip(), "machine": machine_description()}
+                   "package_commit": PACKAGE_COMMIT, "command": command.strip(), "machine": machine_description()}
             print(rec["error"], flush=True)
         path.write_text(json.dumps(rec, indent=2, default=str))
         key = "rel_err" if "rel_err" in rec else "control_err"
