@@ -30,7 +30,8 @@ def _baselines() -> dict:
     tanks = {r["model"]: r for r in data["tanks"]}
     return {"silverbox": [(f"grey-box {m} ({i})", sb[(m, i)]) for m, i in
                           [("linear", "fft"), ("linear + cubic", "fft"), ("linear + cubic", "cubic"),
-                           ("linear + cubic", "cubic, 1 RK4 step/sample")] if (m, i) in sb],
+                           ("linear + cubic", "cubic, 1 RK4 step/sample"),
+                           ("linear + cubic + quadratic", "cubic, 1 RK4 step/sample")] if (m, i) in sb],
             "tanks": [(f"grey-box {m}", tanks[m]) for m in tanks]}
 
 

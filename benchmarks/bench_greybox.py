@@ -181,7 +181,8 @@ def main():
                ("linear + cubic", "linear", ("w2", "c", "b", "k3", "u0"), 4),
                ("linear + cubic", "zoh", ("w2", "c", "b", "k3", "u0"), 4),
                ("linear + cubic", "cubic", ("w2", "c", "b", "k3", "u0"), 1),
-               ("linear + cubic + quadratic", "fft", ("w2", "c", "b", "k3", "k2", "u0"), 4)]
+               ("linear + cubic + quadratic", "fft", ("w2", "c", "b", "k3", "k2", "u0"), 4),
+               ("linear + cubic + quadratic", "cubic", ("w2", "c", "b", "k3", "k2", "u0"), 1)]
     for model, interp, free, n_sub in configs:
         t = time.perf_counter()
         rmse, phys, nfev = _fit_silverbox(sb, interp, free, n_sub)
