@@ -82,7 +82,13 @@ NOTES = {"wind_tunnel": (
     "and r had not settled when the schedule ended: its end value grows with theta's "
     "learning-rate budget (0.545 / 0.579 at 1,500 / 3,000 iterations, see drift (lr) and "
     "`results/theta_convergence.md`). fsam's lower error here is a slow pull in the right "
-    "direction, not an identified r.")}
+    "direction, not an identified r."),
+    "pendulum_images": (
+    "omega (start 0.5, true 2/3) moves only with its own learning rate: at lr 1e-3 it ended at "
+    "0.50-0.52 (`results/tasks.md`), with lr_theta 1e-2 at 0.49-0.64 over the seeds and grid. "
+    "fsam's lead by val (0.056 vs 0.069) is smaller than the spread over the 3 seeds (sd 0.029); "
+    "its rho = 0.05 runs include a seed that ended at 0.49. No clear difference between the "
+    "methods at this budget (250 iterations, 200 training sequences of 32x32 frames).")}
 #: Paper, Table 1 and Table 2 (mean over 5 seeds; light tunnel: cosine similarity).
 PAPER = {
     "pendulum": {"erm": 19.9e-3, "p-reg": 2.55e-3, "f-reg": 0.37e-3, "sam": 4.00e-3,
