@@ -88,7 +88,17 @@ NOTES = {"wind_tunnel": (
     "0.50-0.52 (`results/tasks.md`), with lr_theta 1e-2 at 0.49-0.64 over the seeds and grid. "
     "fsam's lead by val (0.056 vs 0.069) is smaller than the spread over the 3 seeds (sd 0.029); "
     "its rho = 0.05 runs include a seed that ended at 0.49. No clear difference between the "
-    "methods at this budget (250 iterations, 200 training sequences of 32x32 frames).")}
+    "methods at this budget (250 iterations, 200 training sequences of 32x32 frames)."),
+    "reaction_diffusion": (
+    "a and b leave their start (0.01) within the 300 iterations for every method: a ends at "
+    "0.0008-0.0011 (true 0.001), b at 0.0063-0.0073 (true 0.005); the theta error is mostly b's "
+    "bias, which no rho reduces at this budget (10 training trajectories, 300 iterations, against "
+    "the paper's 100 and 20,000); drift (lr) 0.015-0.04: theta had settled."),
+    "light_tunnel": (
+    "with lr_theta 1e-2 theta moves (cosine similarity 0.85-0.93 at the end, 0.899 at the start) "
+    "but towards the reference with neither method; t_c changes sign in some runs, hence drift "
+    "(lr) above 1 there (a relative change of a value near zero). The SIMULATED stand-in, not "
+    "the measured chamber.")}
 #: Paper, Table 1 and Table 2 (mean over 5 seeds; light tunnel: cosine similarity).
 PAPER = {
     "pendulum": {"erm": 19.9e-3, "p-reg": 2.55e-3, "f-reg": 0.37e-3, "sam": 4.00e-3,
