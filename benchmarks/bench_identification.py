@@ -16,8 +16,9 @@ the truth, and ``|a| = sqrt(mean over test states of the sum over components of 
 
 Every finished case is cached as ``results/identification_runs/<system>_noise<level>_seed<seed>.json`` and
 skipped on a rerun (delete a file to run its case again; the first hybrid fit is kept in ``fits/`` beside
-them, outside git, and reused, so that a change of the selection is measured without refitting it); ``--fast`` (8 training trajectories, 40 iterations)
-only checks the plumbing, caches to ``identification_runs_fast/`` and is never rendered into the results.
+them, outside git, and reused, so that a change of the selection is measured without refitting it);
+``--fast`` (8 training trajectories, 40 iterations) only checks the plumbing, caches to
+``identification_runs_fast/`` and is never rendered into the results.
 
     python benchmarks/bench_identification.py                       # every case not cached yet, then the table
     python benchmarks/bench_identification.py --cases budworm --noise 0.05 --seeds 0 1
@@ -133,8 +134,6 @@ def run_case(system: System, noise: float, seed: int, fast: bool, command: str) 
             "noise_sigma": data["sigma"].tolist(), "seconds": float(res.seconds), "wall_seconds": wall,
             "report": res.report, "first_fit_reused": reused, "package_commit": PACKAGE_COMMIT, "command": command,
             "protocol": FAST if fast else PROTOCOL, "machine": machine_description()}
-
-
 
 
 def _fmt(v, digits=3) -> str:

@@ -337,8 +337,7 @@ def hybrid_states(science: nn.Module, residual: nn.Module, x0: torch.Tensor,
     values = science.values()
     if not _row_by_row(science.func, x0, u_fine, values):
         def rhs(v, u):
-            args = (v,) if u is None else (v, u)
-            return science(*args) + residual(*args)
+            return science(*_args(v, u)) + residual(*_args(v, u))
 
         return integrate(rhs, x0, n_steps, dt, n_substeps=n_substeps, u_fine=u_fine)
     weights, biases, acts = mlp_parts(residual)
@@ -369,10 +368,10 @@ def frozen_rhs(science: nn.Module, residual: nn.Module | None) -> Callable | Non
     theta = {k: v.detach() for k, v in science.values().items()}
     func = science.func
     if residual is None:
-        return lambda v, u: func(v, **theta) if u is None else func(v, u, **theta)
+        return lambda v, u: func(*_args(v, u), **theta)
     parts = mlp_parts(residual)
     if parts is None:  # another network: called as a module, theta still read once
-        return lambda v, u: func(v, **theta) + residual(v) if u is None else func(v, u, **theta) + residual(v, u)
+        return lambda v, u: func(*_args(v, u), **theta) + residual(*_args(v, u))
     weights, biases = full_output(residual, *parts[:2])
     weights_t = [w.detach().t().contiguous() for w in weights]
     biases = [b.detach() for b in biases]
@@ -380,7 +379,7 @@ def frozen_rhs(science: nn.Module, residual: nn.Module | None) -> Callable | Non
     out_shape = residual.out_shape
 
     def rhs(v, u):
-        args = (v,) if u is None else (v, u)
+        args = _args(v, u)
         h = torch.cat([a.reshape(len(v), -1) for a in args], dim=-1)
         for i, (w, b) in enumerate(zip(weights_t, biases)):
             h = torch.addmm(b, h, w)
@@ -389,3 +388,8 @@ def frozen_rhs(science: nn.Module, residual: nn.Module | None) -> Callable | Non
         return func(*args, **theta) + h.reshape(len(v), *out_shape)
 
     return rhs
+
+
+def _args(v, u):
+    """The right-hand side's inputs: the state, and the input of a forced system."""
+    return (v,) if u is None else (v, u)

@@ -52,10 +52,13 @@ class ScienceFit:
     def predict(self, science: Callable, theta: Mapping[str, Any]) -> np.ndarray:
         """Science-only prediction, flattened per sample: ``(n_samples, n_outputs)``."""
         values = {k: torch.as_tensor(np.asarray(v, dtype=float)) for k, v in theta.items()}
-        model = SimpleNamespace(science=lambda *args: science(*args, **values), residual=None, reduction=None)
         with torch.no_grad():
-            pred, _ = self.structure.forward(model, *self.inputs, use_residual=False)
-        return pred.reshape(len(self.y), -1).numpy()
+            return self._simulate(science, values).reshape(self.y.shape).numpy()
+
+    def _simulate(self, science: Callable, values: Mapping[str, torch.Tensor]) -> torch.Tensor:
+        """The structure's science-only forward pass with the parameters bound to ``values``."""
+        model = SimpleNamespace(science=lambda *args: science(*args, **values), residual=None, reduction=None)
+        return self.structure.forward(model, *self.inputs, use_residual=False)[0]
 
     def errors(self, science: Callable, theta: Mapping[str, Any]) -> np.ndarray:
         """Mean squared error of every sample (non-finite predictions count as infinite)."""
@@ -90,16 +93,17 @@ class ScienceFit:
 
         scale = 1.0 / math.sqrt(self.y.size)
 
+        def scaled(pred):  # residual vector(s) of predictions; non-finite values steer the search away
+            r = (pred - self.y).reshape(*pred.shape[:-2], -1) * scale
+            return np.nan_to_num(r, nan=1e3, posinf=1e3, neginf=-1e3)
+
         def residuals(x):
-            r = (self.predict(science, unpack(x)) - self.y).ravel() * scale
-            return np.nan_to_num(r, nan=1e3, posinf=1e3, neginf=-1e3)  # steers the search away
+            return scaled(self.predict(science, unpack(x)))
 
         def jacobian(x):  # forward differences as least_squares takes them, all in one simulation
             steps = np.sqrt(np.finfo(float).eps) * np.maximum(1.0, np.abs(x))
             steps = np.where(x + steps > high, -steps, steps)  # stay inside the bounds
-            points = np.vstack([x, x + np.diag(steps)])
-            r = (self._predict_many(science, points, unpack) - self.y).reshape(len(points), -1) * scale
-            r = np.nan_to_num(r, nan=1e3, posinf=1e3, neginf=-1e3)
+            r = scaled(self._predict_many(science, np.vstack([x, x + np.diag(steps)]), unpack))
             return ((r[1:] - r[0]) / steps[:, None]).T
 
         jac = jacobian if self._vmap_serves(science, x0, unpack) else "2-point"
@@ -111,13 +115,9 @@ class ScienceFit:
         """Science-only predictions at several parameter vectors, one vectorised simulation
         (``torch.func.vmap``): a small model's simulation costs its per-operation overhead, the
         same for one parameter vector as for ten."""
-        def one(vector):
-            values = unpack(vector)
-            model = SimpleNamespace(science=lambda *args: science(*args, **values), residual=None, reduction=None)
-            return self.structure.forward(model, *self.inputs, use_residual=False)[0]
-
         with torch.no_grad():
-            out = torch.func.vmap(one)(torch.as_tensor(points, dtype=torch.float64))
+            out = torch.func.vmap(lambda vector: self._simulate(science, unpack(vector)))(
+                torch.as_tensor(points, dtype=torch.float64))
         return out.reshape(len(points), *self.y.shape).numpy()
 
     def _vmap_serves(self, science: Callable, x0: np.ndarray, unpack: Callable) -> bool:
