@@ -31,7 +31,9 @@ def _baselines() -> dict:
     return {"silverbox": [(f"grey-box {m} ({i})", sb[(m, i)]) for m, i in
                           [("linear", "fft"), ("linear + cubic", "fft"), ("linear + cubic", "cubic"),
                            ("linear + cubic", "cubic, 1 RK4 step/sample"),
-                           ("linear + cubic + quadratic", "cubic, 1 RK4 step/sample")] if (m, i) in sb],
+                           ("linear + cubic + quadratic", "cubic, 1 RK4 step/sample"),
+                           ("linear + cubic + quadratic + cubic damping", "cubic, 1 RK4 step/sample"),
+                           ("linear + cubic + quadratic + quintic", "cubic, 1 RK4 step/sample")] if (m, i) in sb],
             "tanks": [(f"grey-box {m}", tanks[m]) for m in tanks]}
 
 
