@@ -14,8 +14,8 @@ from scipy.integrate import solve_ivp
 from sklearn_hybrid import HybridRegressor
 from sklearn_hybrid.datasets import make_duffing, make_pendulum
 from sklearn_hybrid.diagnosis import (CandidateLibrary, MLPOn, ResidualDiagnosis, ScienceFit, augment_science,
-                                      close_the_loop, evidence, fit_initial_state, free_run, physics_terms,
-                                      plot_unexplained, term_to_torch)
+                                      close_the_loop, critical_value, evidence, fit_initial_state, free_run,
+                                      physics_terms, plot_unexplained, term_to_torch)
 from sklearn_hybrid.models import duffing_f, pendulum_f
 
 NAMES = ["v", "v_dot"]
@@ -192,6 +192,18 @@ def test_evidence_separates_noise_from_a_real_gain():
     assert not evidence(noise[0], np.r_[noise[1][:-1], np.inf])["accepted"]
 
 
+def test_evidence_threshold_is_student_t_for_few_samples():
+    assert critical_value(3.0, 12) == pytest.approx(3.85, abs=0.01)
+    assert critical_value(3.0, 250) == pytest.approx(3.03, abs=0.01)
+    assert critical_value(3.0, 1) == np.inf
+    for n, accepted in ((12, False), (250, True)):  # the same z = 3.5: chance with 12 samples, not with 250
+        e = np.random.default_rng(1).standard_normal(n)
+        ratio = 3.5 / np.sqrt(n) + (e - e.mean()) / e.std(ddof=1)  # mean / standard error = 3.5 exactly
+        verdict = evidence(np.exp(ratio), np.ones(n))
+        assert verdict["z"] == pytest.approx(3.5) and verdict["gain"] > 0.05
+        assert verdict["accepted"] is accepted and verdict["threshold"] == critical_value(3.0, n)
+
+
 def test_exact_components_and_bad_options(pendulum):
     data, est = pendulum
     X, y = data.X_train[:12], data.y_train[:12]
@@ -347,7 +359,9 @@ def test_report_states_the_thresholds_used():
             "gain": 0.5, "z": 4.0, "accepted": True}
     text = format_table([{"stage": "before", "theta": {"k": 1.0}}], steps=[step], n_validation=5, z=2.5,
                         min_gain=0.1)
-    assert "at least 10 % and by more than 2.5 standard errors" in text and "x\\|x\\|" in text
+    threshold = critical_value(2.5, 5)  # Student's t for 5 validation samples at z = 2.5's tail
+    assert f"at least 10 % and by more than {threshold:.2f} standard errors" in text and "x\\|x\\|" in text
+    assert "tail of z = 2.5" in text
 
 
 def test_candidates_are_also_ranked_without_the_network(pendulum):

@@ -17,10 +17,12 @@ from typing import Any
 import numpy as np
 import torch
 from scipy.optimize import least_squares
+from scipy.stats import norm
+from scipy.stats import t as student_t
 
 from ..science import read_signature
 
-__all__ = ["ScienceFit", "evidence"]
+__all__ = ["ScienceFit", "evidence", "critical_value"]
 
 
 class ScienceFit:
@@ -138,30 +140,44 @@ def _side(bounds: Any, i: int, default: float) -> float:
     return float(bounds[i])
 
 
+def critical_value(z: float, n: int) -> float:
+    """What the mean log-ratio of ``n`` paired samples must exceed, in standard errors, for ``z``.
+
+    ``z`` is read as a normal quantile (3: a false acceptance once in ~740 candidates); since the
+    standard error is itself estimated from the ``n`` samples, the threshold is Student's t quantile
+    with ``n - 1`` degrees of freedom at the same tail probability (3.85 for 12 samples, 3.03 for
+    250). With a dozen validation trajectories the plain ``z`` accepted terms on chance alignments.
+    """
+    return float(student_t.ppf(norm.cdf(z), df=n - 1)) if n > 1 else math.inf
+
+
 def evidence(errors_before: np.ndarray, errors_after: np.ndarray, z: float = 3.0,
              min_gain: float = 0.05) -> dict[str, float | bool]:
     """Does a change lower the held-out error by more than the noise explains?
 
     Paired comparison of the per-sample validation errors on a log scale (a sample's error ratio
-    does not depend on how large its trajectory is): the mean log-ratio must exceed ``z``
-    standard errors of the mean -- the spread of the ratios across samples is what noise alone
-    would produce -- and the mean squared error must drop by at least ``min_gain`` (a real but
-    negligible gain is not worth a parameter).
+    does not depend on how large its trajectory is): the mean log-ratio must exceed
+    :func:`critical_value` ``(z, n)`` standard errors of the mean (``z`` read as a normal
+    quantile, the threshold Student's t for ``n`` samples) -- the spread of the ratios across
+    samples is what noise alone would produce -- and the mean squared error must drop by at least
+    ``min_gain`` (a real but negligible gain is not worth a parameter).
 
     Returns
     -------
     dict
         ``mse_before``, ``mse_after``, ``gain`` (relative drop of the mean squared error), ``z``
-        (mean log-ratio in standard errors) and ``accepted``.
+        (mean log-ratio in standard errors), ``threshold`` (what ``z`` had to exceed) and
+        ``accepted``.
     """
     before, after = np.asarray(errors_before, float), np.asarray(errors_after, float)
+    threshold = critical_value(z, len(before))
     if not np.all(np.isfinite(after)):
         return {"mse_before": float(before.mean()), "mse_after": float("inf"), "gain": -np.inf,
-                "z": -np.inf, "accepted": False}
+                "z": -np.inf, "threshold": threshold, "accepted": False}
     tiny = 1e-300
     ratio = np.log(np.maximum(before, tiny)) - np.log(np.maximum(after, tiny))
     se = ratio.std(ddof=1) / math.sqrt(len(ratio)) if len(ratio) > 1 else np.inf
     score = float(ratio.mean() / se) if se > 0 else (np.inf if ratio.mean() > 0 else 0.0)
     gain = float(1.0 - after.mean() / before.mean()) if before.mean() > 0 else 0.0
     return {"mse_before": float(before.mean()), "mse_after": float(after.mean()), "gain": gain, "z": score,
-            "accepted": bool(score > z and gain >= min_gain)}
+            "threshold": threshold, "accepted": bool(score > threshold and gain >= min_gain)}

@@ -197,7 +197,8 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
     3. The best-ranked few of each ranking are each added to the science model, refitted *without the network* by
        least squares on the training samples (shape parameters such as a knot or a width fitted
        too), and judged on the last ``validation_fraction`` of the samples: a term is kept only when
-       it lowers the held-out error by at least ``min_gain`` and by more than ``z`` standard errors.
+       it lowers the held-out error by at least ``min_gain`` and by more than ``z`` standard errors
+       (Student's t quantile at the tail probability of the normal ``z``: 3.85 for 12 samples).
        This repeats from the augmented model until no candidate passes, so the augmented science
        never validates worse than the original.
     4. The hybrid is refitted with the augmented science (``after``); the network-free model is
@@ -232,7 +233,8 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         At most this many terms added, and candidates taken from each ranking per step (up to
         twice as many refitted).
     z, min_gain : float, default=3.0 and 0.05
-        The evidence a term needs (see :func:`~sklearn_hybrid.diagnosis.evidence`).
+        The evidence a term needs (see :func:`~sklearn_hybrid.diagnosis.evidence`): ``z`` is a
+        normal quantile, turned into Student's t for the number of validation samples.
     param_names : dict of str to str, optional
         Names of the new coefficients by term, e.g. ``{"v_dot": "c_damping"}``.
     refit_params : dict, optional

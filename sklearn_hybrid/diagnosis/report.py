@@ -8,6 +8,7 @@ from typing import Any
 
 import numpy as np
 
+from .evidence import critical_value
 from .residual import _rms, science_sensitivities
 
 __all__ = ["prediction_metrics", "format_table", "residual_profile", "plot_unexplained"]
@@ -147,7 +148,8 @@ def format_table(rows: list[dict], added: Sequence[dict] = (), steps: Sequence[d
     if steps:
         lines += ["", f"Selection (science model refitted without the network, mean squared error on "
                       f"{n_validation} validation samples; a term is accepted when it lowers it by at "
-                      f"least {min_gain * 100:g} % and by more than {z:g} standard errors; a term the later "
+                      f"least {min_gain * 100:g} % and by more than {critical_value(z, n_validation or 0):.2f} standard "
+                      f"errors, Student's t for the tail of z = {z:g}; a term the later "
                       "ones make dispensable by that test is dropped):", "",
                   "| step | output | term | kind | validation MSE before | after | gain | z | accepted |",
                   "|---|---|---|---|---|---|---|---|---|"]
