@@ -383,7 +383,8 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
         model = setup.model
         model.eval()
         with torch_threads(self.n_threads):  # first: an error here must leave an earlier fit whole
-            std, cov, _ = theta_uncertainty(model, *(data or (setup.inputs, setup.y, None)))
+            std, cov, _ = theta_uncertainty(model, *(data or (setup.inputs, setup.y, None)),
+                                            chunk=setup.config.batch_size)
         self.model_, self.residual_ = model, model.residual
         self.theta_, self.history_ = model.science.as_dict(), history
         if model.encoder is not None:
@@ -428,10 +429,12 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
         model = self.model_
         dtype, device = self._fitted_dtype(), self.device_
         parts = []
+        # in chunks: memory then grows with the chunk, not with len(X); no larger than the
+        # training batch, which fitted in memory (a batch of 512 image sequences may not)
+        chunk = min(_PREDICT_CHUNK, getattr(self, "batch_size", None) or _PREDICT_CHUNK)
         with torch_threads(self.n_threads), torch.no_grad():
-            # in chunks: memory then grows with the chunk, not with len(X)
-            for start in range(0, max(len(X), 1), _PREDICT_CHUNK):
-                inputs = self._inputs(X[start:start + _PREDICT_CHUNK], dtype, device)
+            for start in range(0, max(len(X), 1), chunk):
+                inputs = self._inputs(X[start:start + chunk], dtype, device)
                 pred, extras = model(*inputs, use_residual=use_residual)
                 if not torch.isfinite(pred).all():
                     bad = (~torch.isfinite(pred.reshape(len(pred), -1)).all(dim=1)).nonzero()

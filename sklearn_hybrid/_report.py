@@ -26,13 +26,16 @@ import torch
 __all__ = ["theta_uncertainty", "format_report"]
 
 
-def _predict(model, inputs):
+def _predict(model, inputs, chunk=None):
+    """Flattened predictions, ``chunk`` samples per forward pass (all at once if None)."""
+    n = len(inputs[0])
+    chunk = chunk or n
     with torch.no_grad():
-        pred, _ = model(*inputs)
-    return pred.reshape(len(inputs[0]), -1).cpu().numpy()
+        parts = [model(*(t[start:start + chunk] for t in inputs))[0] for start in range(0, n, chunk)]
+    return torch.cat(parts).reshape(n, -1).cpu().numpy()
 
 
-def theta_uncertainty(model, inputs, y, sample_weight=None) -> tuple[dict, np.ndarray, list]:
+def theta_uncertainty(model, inputs, y, sample_weight=None, chunk=None) -> tuple[dict, np.ndarray, list]:
     """Standard errors and covariance of the free parameters of a fitted model.
 
     Parameters
@@ -45,6 +48,9 @@ def theta_uncertainty(model, inputs, y, sample_weight=None) -> tuple[dict, np.nd
         Their targets.
     sample_weight : Tensor of shape (n_samples,), optional
         The weights of the fit.
+    chunk : int, optional
+        Samples per forward pass (the fit's batch size: a batch that trained fits in memory;
+        a model of images over every training sample at once may not).
 
     Returns
     -------
@@ -68,7 +74,7 @@ def theta_uncertainty(model, inputs, y, sample_weight=None) -> tuple[dict, np.nd
     n = len(y)
     w = np.ones(n) if sample_weight is None else sample_weight.to(torch.float64).cpu().numpy()
     w = np.repeat(w / w.mean(), y.shape[1])  # one weight per output value, mean 1
-    base = _predict(model, inputs).ravel()
+    base = _predict(model, inputs, chunk).ravel()
     columns, labels, where = [], [], []
     for name in science.names:
         raw = science.raw[name]
@@ -82,7 +88,7 @@ def theta_uncertainty(model, inputs, y, sample_weight=None) -> tuple[dict, np.nd
             for step in (h, -h):
                 flat[k] = original + step
                 values.append(science.values()[name].detach().reshape(-1)[k].item())
-                preds.append(_predict(model, inputs).ravel())
+                preds.append(_predict(model, inputs, chunk).ravel())
             flat[k] = original
             columns.append((preds[0] - preds[1]) / (values[0] - values[1]))
             labels.append(name if raw.numel() == 1 and raw.dim() == 0 else f"{name}[{k}]")

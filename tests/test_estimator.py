@@ -318,3 +318,24 @@ def test_theta_drift_attribute_and_schedule_match_the_optimizer(pendulum):
         theta_drift(est.history_["theta"], cosine_lr(3e-2, 30, config)))
     assert set(est.theta_drift_) == {"omega"} and est.theta_drift_["omega"] > 0
     assert "theta drift" in est.fit_report()
+
+
+def test_predict_and_standard_errors_run_in_chunks_no_larger_than_the_training_batch():
+    # a model of image sequences over every training sample at once may not fit in memory where
+    # a training batch did (the paper-size pendulum images asked for 48 GB after training)
+    from sklearn_hybrid._report import theta_uncertainty
+
+    data = make_pendulum(10, 2, 2, random_state=0)
+    est = HybridRegressor(science=pendulum_f, dt=data.dt, batch_size=4, max_iter=3, random_state=0)
+    est.fit(data.X_train, data.y_train)
+    sizes = []
+    hook = est.model_.register_forward_pre_hook(lambda module, args: sizes.append(len(args[0])))
+    prediction = est.predict(data.X_train)
+    hook.remove()
+    assert max(sizes) == 4 and sum(sizes) == 10
+    whole_batch = est.set_params(batch_size=None).predict(data.X_train)  # one pass of all 10
+    np.testing.assert_allclose(prediction, whole_batch, rtol=1e-6, atol=1e-7)
+    inputs = est.model_.structure.tensors(est._structure_X(est._fitted_X(data.X_train)), torch.float32)
+    y = torch.as_tensor(data.y_train, dtype=torch.float32)
+    whole, chunked = (theta_uncertainty(est.model_, inputs, y, chunk=c)[0]["omega"] for c in (None, 3))
+    assert chunked == pytest.approx(whole, rel=1e-9) and np.isfinite(whole) and whole > 0
