@@ -339,3 +339,18 @@ def test_predict_and_standard_errors_run_in_chunks_no_larger_than_the_training_b
     y = torch.as_tensor(data.y_train, dtype=torch.float32)
     whole, chunked = (theta_uncertainty(est.model_, inputs, y, chunk=c)[0]["omega"] for c in (None, 3))
     assert chunked == pytest.approx(whole, rel=1e-9) and np.isfinite(whole) and whole > 0
+
+
+def test_standard_errors_take_smaller_chunks_when_memory_is_short(monkeypatch):
+    import sklearn_hybrid._report as report
+
+    data = make_pendulum(6, 2, 2, random_state=0)
+    est = HybridRegressor(science=pendulum_f, dt=data.dt, max_iter=2, random_state=0)
+    est.fit(data.X_train, data.y_train)
+    inputs = est.model_.structure.tensors(est._structure_X(est._fitted_X(data.X_train)), torch.float64)
+    model = est.model_.to(torch.float64)
+    assert report._chunk_that_fits(model, inputs, None) == 6  # plenty of memory: one pass
+    per_sample = report.fit_memory_bytes(model, inputs, 1)
+    monkeypatch.setattr(report, "available_memory_bytes", lambda device=None: 4 * per_sample)
+    assert report._chunk_that_fits(model, inputs, None) == 2  # half of what is free holds two samples
+    assert report._chunk_that_fits(model, inputs, 1) == 1
