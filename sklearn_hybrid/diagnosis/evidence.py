@@ -147,6 +147,18 @@ def critical_value(z: float, n: int) -> float:
     standard error is itself estimated from the ``n`` samples, the threshold is Student's t quantile
     with ``n - 1`` degrees of freedom at the same tail probability (3.85 for 12 samples, 3.03 for
     250). With a dozen validation trajectories the plain ``z`` accepted terms on chance alignments.
+
+    Parameters
+    ----------
+    z : float
+        The evidence asked for, as a quantile of the standard normal distribution.
+    n : int
+        Number of paired validation samples.
+
+    Returns
+    -------
+    float
+        The threshold in standard errors (infinite for fewer than two samples).
     """
     return float(student_t.ppf(norm.cdf(z), df=n - 1)) if n > 1 else math.inf
 
