@@ -224,7 +224,9 @@ class HybridRegressorCV(RegressorMixin, BaseEstimator):
         together = (len(setups) if self.estimator.theta_encoder is None
                     else min(self._n_groups(), len(setups)))
         with torch_threads(self.estimator.n_threads):
-            check_fit_memory(setups[0], n_models=together)
+            samples_per_pass = check_fit_memory(setups[0], n_models=together)
+        for setup in setups:
+            setup.samples_per_pass = samples_per_pass
         history = self._train(setups, params)
         diverged = history["diverged_at"]
         if (diverged >= 0).all():

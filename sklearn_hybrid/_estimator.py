@@ -31,7 +31,6 @@ __all__ = ["HybridRegressor"]
 
 _DTYPES = {"float32": torch.float32, "float64": torch.float64}
 _SEEDED_INIT = threading.Lock()  # torch's global generator is shared by all threads
-_PREDICT_CHUNK = 512  # samples per forward pass in predict
 
 
 class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
@@ -295,7 +294,7 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
         """
         setup = self._setup_fit(X, y)
         with torch_threads(self.n_threads):
-            check_fit_memory(setup)
+            setup.samples_per_pass = check_fit_memory(setup)
         weight = _check_sample_weight(sample_weight, len(setup.y), setup.y.dtype, setup.y.device)
         inputs, y_t, validation = _holdout(setup, weight, self.validation_fraction)
         weight = validation.pop("train_weight")
@@ -384,7 +383,7 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
         model.eval()
         with torch_threads(self.n_threads):  # first: an error here must leave an earlier fit whole
             std, cov, _ = theta_uncertainty(model, *(data or (setup.inputs, setup.y, None)),
-                                            chunk=setup.config.batch_size)
+                                            chunk=setup.samples_per_pass)
         self.model_, self.residual_ = model, model.residual
         self.theta_, self.history_ = model.science.as_dict(), history
         if model.encoder is not None:
@@ -394,6 +393,7 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
         self.theta_std_, self.theta_cov_ = std, cov
         self.y_shape_, self.x_shape_ = setup.y_shape, setup.x_shape
         self.device_ = setup.y.device
+        self._samples_per_pass = setup.samples_per_pass  # what the fit's memory allows, for predict
         self.n_iter_ = len(history["loss"])
         self.stopped_early_ = self.n_iter_ < self.max_iter
         config = setup.config
@@ -429,9 +429,9 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
         model = self.model_
         dtype, device = self._fitted_dtype(), self.device_
         parts = []
-        # in chunks: memory then grows with the chunk, not with len(X); no larger than the
-        # training batch, which fitted in memory (a batch of 512 image sequences may not)
-        chunk = min(_PREDICT_CHUNK, getattr(self, "batch_size", None) or _PREDICT_CHUNK)
+        # in chunks decided at fit from its memory: memory then grows with the chunk, not with
+        # len(X) (512 image sequences at once may not fit; 512 pendulum states do)
+        chunk = self._samples_per_pass
         with torch_threads(self.n_threads), torch.no_grad():
             for start in range(0, max(len(X), 1), chunk):
                 inputs = self._inputs(X[start:start + chunk], dtype, device)

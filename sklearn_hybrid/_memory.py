@@ -21,6 +21,9 @@ _GB = 1024 ** 3
 #: pendulum task (500 and 100 trajectories x 200 steps, fast RK4 path, peak resident memory
 #: less the ~0.6 GB of the interpreter and libraries): 2.1 and 2.2.
 _PEAK_OVER_SAVED = 2.2
+#: Most samples per forward pass without gradients: beyond this a pass of a small model is no
+#: faster per sample, and memory grows with it.
+PASS_SIZE_MAX = 512
 
 
 def fit_memory_bytes(model, inputs: tuple[torch.Tensor, ...], n_batch: int) -> int:
@@ -75,7 +78,7 @@ def _advice(setup, per_sample: float, budget: float) -> str:
             "or narrow the network.")
 
 
-def check_fit_memory(setup, n_models: int = 1) -> None:
+def check_fit_memory(setup, n_models: int = 1) -> int:
     """Raise a MemoryError that says what to change if a fit cannot fit in memory.
 
     Parameters
@@ -86,13 +89,24 @@ def check_fit_memory(setup, n_models: int = 1) -> None:
     n_models : int, default=1
         How many such models train at once (the stacked members of a sweep):
         measured once, counted that many times.
+
+    Returns
+    -------
+    samples_per_pass : int
+        Samples per forward pass without gradients after the fit (``predict``
+        and the float64 pass of theta's standard errors): as many as half the
+        free memory holds at the training bytes per sample in float64, at most
+        ``PASS_SIZE_MAX``.  A training pass bounds one without gradients, so
+        this never asks for more than training did; decided here, once, from
+        the same measurement.
     """
     available = available_memory_bytes(setup.y.device)
     if available is None:
-        return
+        return PASS_SIZE_MAX
     n = len(setup.y)
     n_batch = min(setup.config.batch_size or n, n)
-    needed = n_models * fit_memory_bytes(setup.model, setup.inputs, n_batch)
+    per_sample = max(fit_memory_bytes(setup.model, setup.inputs, 1), 1)
+    needed = n_models * per_sample * n_batch
     if needed > 0.8 * available:
         models = "" if n_models == 1 else f"{n_models} models trained together, "
         raise MemoryError(
@@ -101,6 +115,8 @@ def check_fit_memory(setup, n_models: int = 1) -> None:
             f"the {available / _GB:.1f} GB available on {setup.y.device}. "
             + _advice(setup, needed / n_batch, 0.5 * available)
         )
+    in_float64 = per_sample * 8 / setup.y.element_size()
+    return max(1, min(PASS_SIZE_MAX, int(0.5 * available / in_float64)))
 
 
 @contextmanager

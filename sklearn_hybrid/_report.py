@@ -23,7 +23,6 @@ import copy
 import numpy as np
 import torch
 
-from ._memory import available_memory_bytes, fit_memory_bytes
 
 __all__ = ["theta_uncertainty", "format_report"]
 
@@ -35,19 +34,6 @@ def _predict(model, inputs, chunk=None):
     with torch.no_grad():
         parts = [model(*(t[start:start + chunk] for t in inputs))[0] for start in range(0, n, chunk)]
     return torch.cat(parts).reshape(n, -1).cpu().numpy()
-
-
-def _chunk_that_fits(model, inputs, chunk):
-    """At most ``chunk`` samples per pass, and no more than half the free memory holds: the
-    float64 copy needs twice the fit's bytes per sample (a training pass's estimated peak bounds a
-    pass without gradients)."""
-    n = len(inputs[0])
-    chunk = min(chunk or n, n)
-    free = available_memory_bytes(inputs[0].device)
-    if free is None:
-        return chunk
-    per_sample = max(fit_memory_bytes(model, inputs, 1), 1)
-    return max(1, min(chunk, int(0.5 * free / per_sample)))
 
 
 def theta_uncertainty(model, inputs, y, sample_weight=None, chunk=None) -> tuple[dict, np.ndarray, list]:
@@ -64,9 +50,9 @@ def theta_uncertainty(model, inputs, y, sample_weight=None, chunk=None) -> tuple
     sample_weight : Tensor of shape (n_samples,), optional
         The weights of the fit.
     chunk : int, optional
-        Samples per forward pass at most (the fit's batch size); fewer where half the free
-        memory holds fewer in float64 (a model of image sequences over every training sample at
-        once may not fit in memory).
+        Samples per forward pass (all at once if None); a fit passes the number that half the
+        free memory holds in float64 (``check_fit_memory``): a model of image sequences over
+        every training sample at once may not fit in memory.
 
     Returns
     -------
@@ -85,7 +71,6 @@ def theta_uncertainty(model, inputs, y, sample_weight=None, chunk=None) -> tuple
         return std, np.zeros((0, 0)), []
     model = copy.deepcopy(model).to(torch.float64).eval()
     inputs = tuple(t.to(torch.float64) for t in inputs)
-    chunk = _chunk_that_fits(model, inputs, chunk)
     science = model.science
     y = y.reshape(len(y), -1).to(torch.float64).cpu().numpy()
     n = len(y)

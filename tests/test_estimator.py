@@ -320,37 +320,30 @@ def test_theta_drift_attribute_and_schedule_match_the_optimizer(pendulum):
     assert "theta drift" in est.fit_report()
 
 
-def test_predict_and_standard_errors_run_in_chunks_no_larger_than_the_training_batch():
-    # a model of image sequences over every training sample at once may not fit in memory where
-    # a training batch did (the paper-size pendulum images asked for 48 GB after training)
+def test_passes_after_fit_take_what_the_fits_memory_allows(monkeypatch):
+    # the paper-size pendulum images asked for 48 GB after training (standard errors over all
+    # 200 sequences at once in float64): predict and the standard errors now run in passes of
+    # the size the fit's own memory estimate allows, decided once at fit
+    import sklearn_hybrid._memory as memory
     from sklearn_hybrid._report import theta_uncertainty
 
     data = make_pendulum(10, 2, 2, random_state=0)
     est = HybridRegressor(science=pendulum_f, dt=data.dt, batch_size=4, max_iter=3, random_state=0)
+    assert est.fit(data.X_train, data.y_train)._samples_per_pass == memory.PASS_SIZE_MAX  # plenty
+    whole, whole_std = est.predict(data.X_train), est.theta_std_["omega"]
+    # 1 kB per training sample in float32, 2 kB in float64; half of 8 kB holds two samples
+    monkeypatch.setattr(memory, "fit_memory_bytes", lambda model, inputs, n_batch: 1000 * n_batch)
+    monkeypatch.setattr(memory, "available_memory_bytes", lambda device=None: 8000)
     est.fit(data.X_train, data.y_train)
+    assert est._samples_per_pass == 2
     sizes = []
     hook = est.model_.register_forward_pre_hook(lambda module, args: sizes.append(len(args[0])))
     prediction = est.predict(data.X_train)
     hook.remove()
-    assert max(sizes) == 4 and sum(sizes) == 10
-    whole_batch = est.set_params(batch_size=None).predict(data.X_train)  # one pass of all 10
-    np.testing.assert_allclose(prediction, whole_batch, rtol=1e-6, atol=1e-7)
+    assert sizes == [2] * 5
+    np.testing.assert_allclose(prediction, whole, rtol=1e-6, atol=1e-7)
+    assert est.theta_std_["omega"] == pytest.approx(whole_std, rel=1e-6)  # in passes of 2
     inputs = est.model_.structure.tensors(est._structure_X(est._fitted_X(data.X_train)), torch.float32)
     y = torch.as_tensor(data.y_train, dtype=torch.float32)
-    whole, chunked = (theta_uncertainty(est.model_, inputs, y, chunk=c)[0]["omega"] for c in (None, 3))
-    assert chunked == pytest.approx(whole, rel=1e-9) and np.isfinite(whole) and whole > 0
-
-
-def test_standard_errors_take_smaller_chunks_when_memory_is_short(monkeypatch):
-    import sklearn_hybrid._report as report
-
-    data = make_pendulum(6, 2, 2, random_state=0)
-    est = HybridRegressor(science=pendulum_f, dt=data.dt, max_iter=2, random_state=0)
-    est.fit(data.X_train, data.y_train)
-    inputs = est.model_.structure.tensors(est._structure_X(est._fitted_X(data.X_train)), torch.float64)
-    model = est.model_.to(torch.float64)
-    assert report._chunk_that_fits(model, inputs, None) == 6  # plenty of memory: one pass
-    per_sample = report.fit_memory_bytes(model, inputs, 1)
-    monkeypatch.setattr(report, "available_memory_bytes", lambda device=None: 4 * per_sample)
-    assert report._chunk_that_fits(model, inputs, None) == 2  # half of what is free holds two samples
-    assert report._chunk_that_fits(model, inputs, 1) == 1
+    one, chunked = (theta_uncertainty(est.model_, inputs, y, chunk=c)[0]["omega"] for c in (None, 3))
+    assert chunked == pytest.approx(one, rel=1e-9) and np.isfinite(one) and one > 0

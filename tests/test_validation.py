@@ -206,13 +206,11 @@ def test_dtype_changed_after_fit_predicts_with_the_fitted_model(data):
 
 
 def test_predict_in_chunks_equals_one_pass(data, monkeypatch):
-    from sklearn_hybrid import _estimator
-
     est = fit(data)
     X = np.random.default_rng(1).uniform(-1, 1, (7, 2))
     whole = est.predict(X)
     trace = est.residual_trace(X)
-    monkeypatch.setattr(_estimator, "_PREDICT_CHUNK", 3)
+    monkeypatch.setattr(est, "_samples_per_pass", 3)
     np.testing.assert_allclose(est.predict(X), whole, rtol=1e-6, atol=1e-7)
     for key in ("points", "residual"):
         np.testing.assert_allclose(est.residual_trace(X)[key], trace[key], rtol=1e-6, atol=1e-7)
