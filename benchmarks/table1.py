@@ -91,7 +91,11 @@ NOTES = {"wind_tunnel": (
     "learning-rate budget (0.545 / 0.579 at 1,500 / 3,000 iterations, see drift (lr) and "
     "`results/theta_convergence.md`). fsam's lower error here is a slow pull in the right "
     "direction, not an identified r. The science model alone (science-only) ends at r = 0.811 "
-    "(error 0.061): without a network the stand-in's data do pull r towards 0.75."),
+    "(error 0.061): without a network the stand-in's data do pull r towards 0.75. All seven "
+    "methods: f-reg (lam 1e-3) is the best no-oracle choice, 0.058: it keeps the network's output "
+    "near the science model's, so r follows the science model alone (0.81, validation RMSE 0.84 "
+    "against erm's 0.40 and science-only's 4.5); sam, fsam and ordinary fsam end alike (0.232), "
+    "asam and p-reg near erm (0.244 / 0.245)."),
     "pendulum_images": (
     "omega (start 0.5, true 2/3) moves only with its own learning rate: at lr 1e-3 it ended at "
     "0.50-0.52 (`results/tasks.md`), with lr_theta 1e-2 at 0.49-0.64 over the seeds and grid. "
