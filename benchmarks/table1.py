@@ -64,7 +64,7 @@ from sklearn_hybrid import HybridRegressor
 from sklearn_hybrid import datasets as ds
 from sklearn_hybrid import models
 from sklearn_hybrid.diagnosis import ZeroResidual
-from sklearn_hybrid.engine import train
+from sklearn_hybrid.engine import DivergenceError, train
 
 CACHE = RESULTS / "table1_runs"
 SMOKE_CACHE = Path(tempfile.gettempdir()) / "sklearn_hybrid_table1_smoke"  # never committed
@@ -111,7 +111,11 @@ NOTES = {"wind_tunnel": (
     "biases b by itself; on these rough fields each missing reaction term correlates with its "
     "field's Laplacian (|r| up to 0.6-0.7, `results/why_reaction_diffusion.md`), and a CNN can "
     "represent a five-point Laplacian exactly: b and the network's share are hard to separate "
-    "from 10 trajectories of 5 steps, and perturbing phi does not change that at this budget."),
+    "from 10 trajectories of 5 steps, and perturbing phi does not change that at this budget. "
+    "All seven methods: p-reg (lam 1e-2) is the best no-oracle choice, 0.00075 (paper 7.2e-05); sam and "
+    "fsam end alike (0.0010), asam and erm 0.00098; f-reg 0.0031 and fsam-all 0.0023, worse than erm; "
+    "fsam-all at rho 0.2 diverged for every seed (perturbing theta by rho = 0.2 takes the diffusion "
+    "coefficients, of order 1e-3, far outside their range)."),
     "light_tunnel": (
     "with lr_theta 1e-2 theta moves (cosine similarity 0.85-0.93 at the end, 0.899 at the start) "
     "but towards the reference with neither method; t_c changes sign in some runs, hence drift "
@@ -296,7 +300,12 @@ def run(task, budget, method, hyper, seed, device="cpu"):
     if "tol" in HybridRegressor().get_params():  # the paper's protocol: no early stopping
         params["tol"] = None
     start = time.perf_counter()
-    est = HybridRegressor(**params).fit(d.X_train, d.y_train)
+    try:
+        est = HybridRegressor(**params).fit(d.X_train, d.y_train)
+    except DivergenceError as exc:  # a result too: this configuration cannot be chosen
+        return _save(path, {"task": task, "method": method, "seed": seed, "hyper": hyper, "protocol": budget,
+                            "diverged": str(exc)[:300], "seconds": time.perf_counter() - start,
+                            "device": device, "source": spec.source})
     seconds = time.perf_counter() - start
     errors = _theta_errors(est.history_["theta"], spec.theta, cosine)
     record = {"task": task, "method": method, "seed": seed, "hyper": hyper, "protocol": budget,
@@ -310,6 +319,10 @@ def run(task, budget, method, hyper, seed, device="cpu"):
               **({"drift_lr": max(est.theta_drift_.values()), "lr_theta": est.lr_theta}
                  if hasattr(est, "theta_drift_") else {}),
               "device": str(est.device_), "source": spec.source}
+    return _save(path, record)
+
+
+def _save(path: Path, record: dict) -> dict:
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_suffix(".part")
     tmp.write_text(json.dumps(record, indent=1))
@@ -341,13 +354,27 @@ def _fmt(mean, sd, cosine):
     return f"{_value(mean, cosine)} ± {sd:.2g}"
 
 
+def _diverged(runs: list[dict]) -> list[str]:
+    """The grid values with a diverged seed, and those seeds."""
+    seeds = {}
+    for r in runs:
+        if "diverged" in r:
+            seeds.setdefault(", ".join(f"{k}={v}" for k, v in r["hyper"].items()), []).append(r["seed"])
+    return [f"{hyper} (seeds {sorted(s)})" for hyper, s in sorted(seeds.items())]
+
+
 def summarise(runs: list[dict]) -> list[dict]:
     """One row per (protocol, task, method): the oracle and the no-oracle selection."""
     groups = {}
     for r in runs:
         groups.setdefault((r["protocol"], r["task"], r["method"]), []).append(r)
     rows = []
-    for (protocol, task, method), members in sorted(groups.items()):
+    for (protocol, task, method), all_members in sorted(groups.items()):
+        # a grid value with a diverged seed is out of both selections (its mean is undefined)
+        failed = {json.dumps(r["hyper"], sort_keys=True) for r in all_members if "diverged" in r}
+        members = [r for r in all_members if json.dumps(r["hyper"], sort_keys=True) not in failed]
+        if not members:
+            continue
         by_hyper = {}
         for r in members:
             by_hyper.setdefault(json.dumps(r["hyper"], sort_keys=True), []).append(r)
@@ -375,7 +402,8 @@ def summarise(runs: list[dict]) -> list[dict]:
             "chosen_y": _stats([r["y_error_test"] for r in by_hyper[chosen]]),
             "rule_hyper": json.loads(ruled),
             "rule": _stats([r["theta_error_end"] for r in by_hyper[ruled]]),
-            "seconds": float(np.mean([r["seconds"] for r in members]))})
+            "seconds": float(np.mean([r["seconds"] for r in members])),
+            "diverged": _diverged(all_members)})
     return rows
 
 
@@ -423,6 +451,8 @@ def render(rows: list[dict]) -> str:
                     for k, name in (("chosen", "val"), ("rule", "1.1 x val"))]
             verdicts.append(f"- {protocol}, {task}: fsam {'; '.join(said)}.")
     missing = [f"- {task}, {method}: not run, {why}." for (task, method), why in UNSUPPORTED.items()]
+    missing += [f"- {r['protocol']}, {r['task']}, {r['method']}: diverged (nan loss) at {'; '.join(r['diverged'])}; "
+                "left out of both selections." for r in rows if r.get("diverged")]
     notes = [f"- {task}: {note}" for task, note in NOTES.items()
              if any(r["task"] == task for r in rows)]
     return "\n".join(lines + ["", *verdicts, "", *notes, "", *missing])
