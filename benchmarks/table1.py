@@ -114,8 +114,8 @@ NOTES = {"wind_tunnel": (
     "from 10 trajectories of 5 steps, and perturbing phi does not change that at this budget. "
     "All seven methods: p-reg (lam 1e-2) is the best no-oracle choice, 0.00075 (paper 7.2e-05); sam and "
     "fsam end alike (0.0010), asam and erm 0.00098; f-reg 0.0031 and fsam-all 0.0023, worse than erm; "
-    "fsam-all at rho 0.2 diverged for every seed (perturbing theta by rho = 0.2 takes the diffusion "
-    "coefficients, of order 1e-3, far outside their range)."),
+    "fsam-all at rho 0.2 diverged for every seed (nan loss), where fsam, which perturbs phi only, "
+    "ran at rho 0.2 for every seed."),
     "light_tunnel": (
     "with lr_theta 1e-2 theta moves (cosine similarity 0.85-0.93 at the end, 0.899 at the start) "
     "but towards the reference with neither method; t_c changes sign in some runs, hence drift "
