@@ -151,8 +151,10 @@ class EstimatorExtras:
             initial state ``(n_steps + 1, n_inputs)`` or ``(n_steps + 1,)``.
         dt : float, optional
             Time between outputs (default: the ``dt`` of the fit).
-        use_residual : bool, default=True
-            False simulates the science part alone.
+        use_residual : bool or array-like of bool of shape (n,), default=True
+            False simulates the science part alone; one flag per initial state
+            simulates hybrid and science-only runs in one batch (a long free
+            run costs its number of steps, nearly whatever the batch).
 
         Returns
         -------
@@ -183,6 +185,13 @@ class EstimatorExtras:
         n_sub = max(1, math.ceil(s.n_substeps * dt / s.dt - 1e-9))
         u, n_steps = self._check_inputs(s, u, n_steps, len(x0), single)
         dtype, device = self._fitted_dtype(), self.device_
+        if not isinstance(use_residual, (bool, np.bool_)):
+            flags = np.asarray(use_residual)
+            if flags.dtype != bool or flags.shape != (len(x0),):
+                raise ValueError(f"use_residual must be a bool or {len(x0)} bools, one per initial state; "
+                                 f"got {flags.dtype} values of shape {flags.shape}.")
+            use_residual = (bool(flags[0]) if flags.all() or not flags.any() else
+                            torch.as_tensor(flags, dtype=dtype, device=device).reshape(-1, *[1] * len(state_shape)))
         with torch_threads(self.n_threads), torch.no_grad():
             x = torch.as_tensor(x0, dtype=dtype, device=device)
             u_fine = None if u is None else torch.as_tensor(

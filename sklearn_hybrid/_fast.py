@@ -352,7 +352,8 @@ _ELEMENTWISE = {nn.Tanh: torch.tanh, nn.ReLU: torch.relu, nn.Sigmoid: torch.sigm
                 nn.SiLU: nn.functional.silu, nn.GELU: nn.functional.gelu}
 
 
-def frozen_rhs(science: nn.Module, residual: nn.Module | None) -> Callable | None:
+def frozen_rhs(science: nn.Module, residual: nn.Module | None,
+               mask: torch.Tensor | None = None) -> Callable | None:
     """``rhs(v, u)`` for integration without gradients (simulate, predict), or None if not served
     (gradients on, the fast path disabled, or a science model without a shared theta).
 
@@ -360,7 +361,7 @@ def frozen_rhs(science: nn.Module, residual: nn.Module | None) -> Callable | Non
     re-deriving theta through its bounded map at every call cost more than the arithmetic
     (about half of each call for the Silverbox model). Here theta is read once and the MLP is
     a chain of ``addmm`` (other networks are called as modules). ``residual`` None: the science
-    part alone.
+    part alone; ``mask``: the network's output times it (per sample: 1 hybrid, 0 science alone).
     """
     if (torch.is_grad_enabled() or not getattr(_STATE, "enabled", True)
             or not (hasattr(science, "func") and hasattr(science, "values"))):
@@ -371,6 +372,8 @@ def frozen_rhs(science: nn.Module, residual: nn.Module | None) -> Callable | Non
         return lambda v, u: func(*_args(v, u), **theta)
     parts = mlp_parts(residual)
     if parts is None:  # another network: called as a module, theta still read once
+        if mask is not None:
+            return lambda v, u: func(*_args(v, u), **theta) + mask * residual(*_args(v, u))
         return lambda v, u: func(*_args(v, u), **theta) + residual(*_args(v, u))
     weights, biases = full_output(residual, *parts[:2])
     weights_t = [w.detach().t().contiguous() for w in weights]
@@ -385,7 +388,8 @@ def frozen_rhs(science: nn.Module, residual: nn.Module | None) -> Callable | Non
             h = torch.addmm(b, h, w)
             if i < len(acts):
                 h = acts[i](h)
-        return func(*args, **theta) + h.reshape(len(v), *out_shape)
+        h = h.reshape(len(v), *out_shape)
+        return func(*args, **theta) + (h if mask is None else mask * h)
 
     return rhs
 

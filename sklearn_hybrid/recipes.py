@@ -99,13 +99,14 @@ def silverbox_case(fast: bool = False, method: str = "erm", max_iter: int | None
     def scorer(fitted):
         ys = {name: data.y[sl][:n_test] / s for name, sl in records.items()}
         us = {name: data.u[sl][:n_test] / s for name, sl in records.items()}
+        # (use_residual, record) pairs; all their free runs in one batch: a run costs its steps
+        runs = [(m, r) for m in ((False, True) if _has_network(fitted) else (False,)) for r in records]
+        x0 = [fit_initial_state(fitted, ys[r][3:n0], np.array([ys[r][3], estimate_derivative(
+            ys[r][:7], method="central")[3]]), u_head=us[r][3:n0], observed=[0], use_residual=m) for m, r in runs]
+        simulated = _free_runs(fitted, x0, [us[r][3:] for _, r in runs], np.array([m for m, _ in runs]))
         sims = {}  # use_residual -> {record: simulated y from sample 3 on}
-        for use_residual in (False, True) if _has_network(fitted) else (False,):
-            x0 = [fit_initial_state(fitted, ys[r][3:n0], np.array([ys[r][3], estimate_derivative(
-                ys[r][:7], method="central")[3]]), u_head=us[r][3:n0], observed=[0], use_residual=use_residual)
-                  for r in records]
-            runs = _free_runs(fitted, x0, [us[r][3:] for r in records], use_residual)
-            sims[use_residual] = {r: run[:, 0] for r, run in zip(records, runs)}
+        for (m, r), run in zip(runs, simulated):
+            sims.setdefault(m, {})[r] = run[:, 0]
         sims.setdefault(True, sims[False])  # no network: the hybrid is its science part
         out = {}
         for name, sl in records.items():

@@ -231,22 +231,27 @@ class OdeStructure:
         n_steps = self.n_steps if n_steps is None else n_steps
         dt = self.dt if dt is None else dt
         n_substeps = self.n_substeps if n_substeps is None else n_substeps
+        # a tensor: the network's share per sample (1 hybrid, 0 science alone), one batch for both
+        mask = use_residual if torch.is_tensor(use_residual) else None
+        use_residual = bool(use_residual) if mask is None else True
 
         def rhs(v, u):
             args = self._args(v, u)
             if not use_residual:
                 return model.science(*args)
-            return model.science(*args) + model.residual(*args)
+            g = model.residual(*args)
+            return model.science(*args) + (g if mask is None else mask * g)
 
         # the fast RK4 assumes one theta shared by every sample (not so with a theta encoder)
-        if (use_residual and torch.is_grad_enabled() and not getattr(model, "per_sample_theta", False)
+        if (use_residual and mask is None and torch.is_grad_enabled()
+                and not getattr(model, "per_sample_theta", False)
                 and _fast.supports(model.residual, self.state_shape, self.solver)):
             # same RK4, gradients without per-stage autograd overhead (see _fast); without
             # gradients (predict) the plain loop is faster, as nothing is kept for a backward
             return _fast.hybrid_states(model.science, model.residual, x0, u_fine, n_steps, dt,
                                        n_substeps)
         if not getattr(model, "per_sample_theta", False):  # no gradients: theta read once (see _fast)
-            rhs = _fast.frozen_rhs(model.science, model.residual if use_residual else None) or rhs
+            rhs = _fast.frozen_rhs(model.science, model.residual if use_residual else None, mask) or rhs
         return integrate(rhs, x0, n_steps, dt, n_substeps=n_substeps, solver=self.solver,
                          u_fine=u_fine, solver_options=self.solver_options)
 

@@ -385,6 +385,36 @@ def test_candidates_are_also_ranked_without_the_network(pendulum):
     assert sel["theta"]["c_v_dot"] == pytest.approx(-0.5, rel=0.1)
 
 
+def test_screening_refits_use_evenly_spaced_training_samples_and_the_kept_term_all_of_them(pendulum, monkeypatch):
+    """Candidates are screened on a subsample (speed); the accepted term is refitted on every sample."""
+    from sklearn_hybrid.diagnosis import stepwise
+    from sklearn_hybrid.diagnosis.residual import science_output
+
+    data, est = pendulum
+    fit = ScienceFit(est, data.X_train, data.y_train)
+    n = len(fit.y)
+    sizes = []
+    original = ScienceFit.fit
+
+    def recording(self, science, theta, extra_bounds=None, max_nfev=100):
+        sizes.append((len(self.y), max_nfev))
+        return original(self, science, theta, extra_bounds, max_nfev)
+
+    monkeypatch.setattr(ScienceFit, "fit", recording)
+    monkeypatch.setattr(stepwise, "_SCREENING_SAMPLES", 10)
+    states = data.X_train
+    learned = science_output(pendulum_f, {"omega": 2 / 3}, [states])
+    learned[:, 1] -= 0.5 * states[:, 1]
+    sel = stepwise.forward_selection(pendulum_f, {"omega": 0.6}, fit, np.arange(n - 12), np.arange(n - 12, n),
+                                     physics_terms(NAMES, states), NAMES, 2, [states], learned, [1], max_terms=1)
+    screens = [size for size, nfev in sizes if nfev == stepwise._SCREENING_NFEV]
+    assert screens and set(screens) == {10}
+    assert (n - 12, 100) in sizes  # the science alone and the kept term: every training sample
+    assert [t["term"] for t in sel["added"]] == ["v_dot"]
+    assert sel["theta"]["c_v_dot"] == pytest.approx(-0.5, rel=0.1)
+    assert stepwise._evenly_spaced(np.arange(5, 105), 10)[[0, -1]].tolist() == [5, 104]
+
+
 def test_a_term_made_dispensable_by_a_later_one_is_dropped(pendulum):
     """Drag v_dot|v_dot| stands in for linear damping until v_dot itself is in; then it goes."""
     from sklearn_hybrid.diagnosis.stepwise import _augment, _drop_dispensable, _with_fitted

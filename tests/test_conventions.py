@@ -161,6 +161,15 @@ def test_simulate_forced_system():
         est.simulate(x0, 5)
     with pytest.raises(ValueError, match="disagrees"):
         est.simulate(x0, 3, u=u_long)
+    # one flag per initial state: hybrid and science-only runs in one batch
+    flags = np.array([True, False] * 3)
+    mixed = est.simulate(x0, u=u_long, use_residual=flags)
+    np.testing.assert_allclose(mixed[flags], est.simulate(x0[flags], u=u_long[flags]), rtol=1e-5, atol=1e-6)
+    np.testing.assert_allclose(mixed[~flags], est.simulate(x0[~flags], u=u_long[~flags], use_residual=False),
+                               rtol=1e-5, atol=1e-6)
+    for bad in (np.array([True, False]), np.ones(6)):
+        with pytest.raises(ValueError, match="use_residual must be a bool or 6 bools"):
+            est.simulate(x0, u=u_long, use_residual=bad)
 
 
 def test_simulate_needs_an_ode():

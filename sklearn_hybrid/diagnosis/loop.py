@@ -97,7 +97,7 @@ class ZeroResidual:
 
 
 def free_run(estimator: Any, x0: np.ndarray, u: np.ndarray | None = None, n_steps: int | None = None,
-             use_residual: bool = True) -> np.ndarray:
+             use_residual: bool | np.ndarray = True) -> np.ndarray:
     """Simulate a fitted hybrid ODE from ``x0`` over any number of output steps.
 
     A shorthand of :meth:`HybridRegressor.simulate <sklearn_hybrid.HybridRegressor.simulate>`
@@ -112,8 +112,8 @@ def free_run(estimator: Any, x0: np.ndarray, u: np.ndarray | None = None, n_step
         Inputs on the output grid (forced systems); fixes ``n_steps``.
     n_steps : int, optional
         Number of outputs (autonomous systems).
-    use_residual : bool, default=True
-        False simulates the science part alone.
+    use_residual : bool or array of bool of shape (n,), default=True
+        False simulates the science part alone; one flag per initial state mixes both in one batch.
 
     Returns
     -------
@@ -195,8 +195,8 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
        much of the network-free model's training error each would remove (the hybrid may have
        traded the effect between theta and the network).
     3. The best-ranked few of each ranking are each added to the science model, refitted *without the network* by
-       least squares on the training samples (shape parameters such as a knot or a width fitted
-       too), and judged on the last ``validation_fraction`` of the samples: a term is kept only when
+       least squares on the training samples (at most 256 of them, evenly spaced, for this
+       screening; shape parameters such as a knot or a width fitted too), and judged on the last ``validation_fraction`` of the samples: a term is kept only when
        it lowers the held-out error by at least ``min_gain`` and by more than ``z`` standard errors
        (Student's t quantile at the tail probability of the normal ``z``: 3.85 for 12 samples).
        This repeats from the augmented model until no candidate passes, so the augmented science
