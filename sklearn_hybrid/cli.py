@@ -44,6 +44,9 @@ def _parser() -> argparse.ArgumentParser:
     loop.add_argument("--fast", action="store_true", help="tiny data and few iterations: checks the pipeline only")
     loop.add_argument("--seed", type=int, default=0)
     loop.add_argument("--json", default=None, help="also write the before/after table to this JSON file")
+    loop.add_argument("--n-jobs", type=int, default=2,
+                      help="processes; with 2 (default) a second one scores the models on the test records "
+                           "while the first selects terms and refits (1: one process)")
     loop.add_argument("--quiet", action="store_true", help="print the table only (no progress bars)")
     loop.add_argument("--data-home", default=None,
                       help="folder of the measured data (default: $SKLEARN_HYBRID_DATA, else ~/sklearn_hybrid_data)")
@@ -95,7 +98,8 @@ def _run(args) -> int:
     options = {} if args.data_home is None or args.dataset in ("pendulum", "duffing") else \
         {"data_home": args.data_home}
     out = run_case(args.dataset, fast=args.fast, method=args.method, max_iter=args.max_iter,
-                   random_state=args.seed, verbose=not args.quiet, progress=not args.quiet, **options)
+                   random_state=args.seed, verbose=not args.quiet, progress=not args.quiet,
+                   n_jobs=args.n_jobs, **options)
     print(out.case.description)
     if args.quiet:
         print(out.report)

@@ -437,3 +437,21 @@ def test_a_term_made_dispensable_by_a_later_one_is_dropped(pendulum):
     assert [t["term"] for t in kept] == ["v_dot"] and [s["term"] for s in steps] == ["v_dot|v_dot|"]
     assert steps[0]["dropped"] and theta[kept[0]["param"]] == pytest.approx(-0.5, rel=0.1)
     assert set(theta) == set(inspect.signature(current).parameters) - {"v"}
+
+
+def test_scoring_in_a_worker_process_gives_the_same_table(pendulum):
+    """n_jobs=2 scores in a second process (a closure scorer and the augmented science are pickled
+    there): the table is the one of a single process."""
+    data, est = pendulum
+    X_test = data.X_test
+
+    def scorer(fitted):  # a closure over the test data, as the measured-data recipes write them
+        return {"test_mse": float(np.mean((fitted.predict(X_test) - data.y_test) ** 2))}
+
+    runs = [close_the_loop(est, data.X_train, data.y_train, state_names=NAMES, refit_params={"max_iter": 20},
+                           test_scorer=scorer, n_jobs=n_jobs) for n_jobs in (1, 2)]
+    assert [t["term"] for t in runs[1].added] == [t["term"] for t in runs[0].added] == ["v_dot"]
+    for one, two in zip(*(run.table for run in runs)):
+        assert one["stage"] == two["stage"]
+        assert two["test_mse"] == pytest.approx(one["test_mse"], rel=1e-6)
+        assert two["theta"] == pytest.approx(one["theta"], rel=1e-6)

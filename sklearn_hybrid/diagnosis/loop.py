@@ -24,7 +24,7 @@ from torch import nn
 from ..engine import DivergenceError
 from ..residual import MLP, MaskedMLP
 from ..science import read_signature
-from .report import evaluate, format_table, residual_profile
+from .report import Scoring, format_table, residual_profile
 from .evidence import ScienceFit
 from .residual import _names, parameter_jacobian, science_output
 from .stepwise import forward_selection
@@ -184,7 +184,8 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
                    validation_fraction: float = 0.25, max_terms: int = 4, n_candidates: int = 4,
                    z: float = 3.0, min_gain: float = 0.05, param_names: Mapping[str, str] | None = None,
                    refit_params: Mapping[str, Any] | None = None, theta_true: Mapping[str, Any] | None = None,
-                   test_scorer: Callable | None = None, random_state: Any = 0, verbose: bool = False) -> Bunch:
+                   test_scorer: Callable | None = None, n_jobs: int | None = None, random_state: Any = 0,
+                   verbose: bool = False) -> Bunch:
     """Fit, find the residual, add the missing terms that held-out data support, refit, compare.
 
     1. The hybrid model is fitted (unless it already is). With exact components (below) and the
@@ -243,6 +244,11 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         Known parameter values for the theta error (max relative error).
     test_scorer : callable, optional
         ``test_scorer(estimator) -> dict`` of named metrics, used instead of the default metrics.
+    n_jobs : int or None, default=None
+        Processes that score the models (joblib's convention: None is 1, -1 all cores). With 2,
+        the first hybrid is scored in a second process while the terms are selected, and the
+        network-free model while the hybrid is refitted: with free runs of long test records
+        (Silverbox), that is most of the scoring time.
     random_state : int, default=0
         Seeds the subsampling of visited states.
     verbose : bool, default=False
@@ -299,48 +305,53 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
     if terms is None:
         terms = physics_terms(variables, values, units, term_kinds, user_terms, positive)
 
-    fit = ScienceFit(before, X, y)
-    n = len(fit.y)
-    n_val = int(np.clip(round(validation_fraction * n), 2, n - 2))
-    log(f"selecting terms ({len(terms)} candidates on {len(components)} component(s), "
-        f"{n_val} validation samples) ...")
-    sel = forward_selection(science, before.theta_, fit, np.arange(n - n_val), np.arange(n - n_val, n), terms,
-                            variables, n_states, args, learned, components, max_terms=max_terms,
-                            n_candidates=n_candidates, z=z, min_gain=min_gain, param_names=param_names, log=log)
-    final = sel["science"]
-    bounds = {g: t["bounds"][loc][1] for t in sel["added"] for loc, g in t["shape_params"].items()}
-    science_theta = fit.fit(final, sel["theta"], bounds)  # every sample, now that the terms are chosen
-    added = [{**t, "output": outputs[t["component"]], "coef": float(science_theta[t["param"]]),
-              "shape": {loc: float(science_theta[g]) for loc, g in t["shape_params"].items()}}
-             for t in sel["added"]]
-    for s in sel["steps"]:
-        s["output"] = outputs[s["component"]]
-    remaining = learned - science_output(final, science_theta, args)
-    unexplained = residual_profile(remaining, learned, values, variables, outputs, components)
+    with Scoring(n_jobs, X, X_test, y_test, test_scorer, theta_true) as scoring:
+        log("scoring the first hybrid ..." if scoring.executor is None else
+            "scoring the first hybrid in a worker process ...")
+        before_row = scoring.submit(before)
+        fit = ScienceFit(before, X, y)
+        n = len(fit.y)
+        n_val = int(np.clip(round(validation_fraction * n), 2, n - 2))
+        log(f"selecting terms ({len(terms)} candidates on {len(components)} component(s), "
+            f"{n_val} validation samples) ...")
+        sel = forward_selection(science, before.theta_, fit, np.arange(n - n_val), np.arange(n - n_val, n), terms,
+                                variables, n_states, args, learned, components, max_terms=max_terms,
+                                n_candidates=n_candidates, z=z, min_gain=min_gain, param_names=param_names, log=log)
+        final = sel["science"]
+        bounds = {g: t["bounds"][loc][1] for t in sel["added"] for loc, g in t["shape_params"].items()}
+        science_theta = fit.fit(final, sel["theta"], bounds)  # every sample, now that the terms are chosen
+        added = [{**t, "output": outputs[t["component"]], "coef": float(science_theta[t["param"]]),
+                  "shape": {loc: float(science_theta[g]) for loc, g in t["shape_params"].items()}}
+                 for t in sel["added"]]
+        for s in sel["steps"]:
+            s["output"] = outputs[s["component"]]
+        remaining = learned - science_output(final, science_theta, args)
+        unexplained = residual_profile(remaining, learned, values, variables, outputs, components)
 
-    log("scoring the first hybrid ...")
-    rows = [{"stage": "before", "science": getattr(science, "__name__", "science"), "added": "",
-             **evaluate(before, X, X_test, y_test, test_scorer, theta_true)}]
-    after, augmented = None, (final if sel["added"] else None)
-    if augmented is not None:
-        # theta starts from the network-free refit; the network starts afresh, since the first
-        # fit's network already carries the effect and erm has no reason to hand it to the term
-        after = clone(before).set_params(science=augmented, theta_init=_inside(science_theta, before.theta_bounds),
-                                         **dict(refit_params or {}))
-        log(f"refitting the hybrid with {augmented.__name__}: {augmented.equation}")
-        try:
-            after.fit(X, y)
-        except DivergenceError as exc:  # reported, not raised: the selection itself stays useful
-            rows.append({"stage": "after", "theta": {}, "failed": f"refit diverged: {exc}"})
-            after = None
-        else:
-            rows.append({"stage": "after", "science": augmented.__name__, "added": augmented.equation,
-                         **evaluate(after, X, X_test, y_test, test_scorer, theta_true)})
-    alone = _fixed_science(before, final, science_theta, X, y)
-    log("scoring the network-free model ...")
-    rows.append({"stage": "science only", "science": getattr(final, "__name__", "science"),
-                 "added": getattr(augmented, "equation", ""),
-                 **evaluate(alone, X, X_test, y_test, test_scorer, theta_true)})
+        alone = _fixed_science(before, final, science_theta, X, y)
+        log("scoring the network-free model ..." if scoring.executor is None else
+            "scoring the network-free model in a worker process ...")
+        alone_row = scoring.submit(alone)  # with a worker, scored during the refit
+        rows = [{"stage": "before", "science": getattr(science, "__name__", "science"), "added": "",
+                 **before_row()}]
+        after, augmented = None, (final if sel["added"] else None)
+        if augmented is not None:
+            # theta starts from the network-free refit; the network starts afresh, since the first
+            # fit's network already carries the effect and erm has no reason to hand it to the term
+            after = clone(before).set_params(science=augmented, theta_init=_inside(science_theta, before.theta_bounds),
+                                             **dict(refit_params or {}))
+            log(f"refitting the hybrid with {augmented.__name__}: {augmented.equation}")
+            try:
+                after.fit(X, y)
+            except DivergenceError as exc:  # reported, not raised: the selection itself stays useful
+                rows.append({"stage": "after", "theta": {}, "failed": f"refit diverged: {exc}"})
+                after = None
+            else:
+                log("scoring the refitted hybrid ...")
+                rows.append({"stage": "after", "science": augmented.__name__, "added": augmented.equation,
+                             **scoring.submit(after)()})
+        rows.append({"stage": "science only", "science": getattr(final, "__name__", "science"),
+                     "added": getattr(augmented, "equation", ""), **alone_row()})
     report = format_table(rows, added, sel["steps"], unexplained, n_val, z=z, min_gain=min_gain)
     log(report)
     return Bunch(before=before, after=after, science=augmented, science_theta=science_theta, science_only=alone,

@@ -7,6 +7,10 @@ from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
+import torch
+from joblib import effective_n_jobs
+from joblib.externals.loky import get_reusable_executor
+from threadpoolctl import threadpool_limits
 
 from .evidence import critical_value
 from .residual import _rms, science_sensitivities
@@ -59,6 +63,45 @@ def evaluate(est, X, X_test, y_test, test_scorer, theta_true) -> dict:
                                               / np.maximum(np.abs(v), 1e-12)))
                               for k, v in theta_true.items() if k in est.theta_}
     return row
+
+
+def _one_thread() -> None:
+    """Worker set-up: one torch and one BLAS thread, so that idle threads spinning in a worker
+    do not take the core the caller's process works on (tiny models gain nothing from more)."""
+    torch.set_num_threads(1)
+    threadpool_limits(1)
+
+
+class Scoring:
+    """Score models with :func:`evaluate`, here or, with ``n_jobs`` > 1, in worker processes.
+
+    Free runs of long test records are sequential in time and cost per-operation overhead on
+    one core; in a worker they overlap with the selection and the refit that go on here.
+    ``submit(est)`` returns a function that gives the row when it is needed. Use it as a context
+    manager: with workers, this process keeps to one BLAS thread inside it.
+    """
+
+    def __init__(self, n_jobs: int | None, *args: Any):
+        self.args = args
+        n_workers = effective_n_jobs(n_jobs) - 1
+        # loky (joblib's process pool) pickles closures such as a recipe's scorer or an augmented science
+        self.executor = (get_reusable_executor(max_workers=n_workers, initializer=_one_thread)
+                         if n_workers > 0 else None)
+
+    def __enter__(self):
+        # with workers, the caller too keeps to one BLAS thread: a second one would spin on a worker's core
+        self._limits = threadpool_limits(1) if self.executor is not None else None
+        return self
+
+    def __exit__(self, *exc):
+        if self._limits is not None:
+            self._limits.restore_original_limits()
+
+    def submit(self, est: Any):
+        if self.executor is None:
+            row = evaluate(est, *self.args)
+            return lambda: row
+        return self.executor.submit(evaluate, est, *self.args).result
 
 
 def residual_profile(remaining: np.ndarray, learned: np.ndarray, values: np.ndarray, variables: Sequence[str],
