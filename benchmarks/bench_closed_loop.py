@@ -6,7 +6,7 @@ undeclared), Cascaded tanks (Torricelli, overflow undeclared), the real pendulum
 undeclared) tasks. Measured cases are scored by free runs of their test records; the grey-box
 baselines of ``bench_greybox.py`` (results/greybox.json, run it first) are quoted beside them.
 
-Usage: python benchmarks/bench_closed_loop.py [--cases silverbox tanks ...] [--method erm] [--fast]
+Usage: python benchmarks/bench_closed_loop.py [--cases silverbox tanks ...] [--method erm] [--fast] [--n-jobs 2]
 """
 
 from __future__ import annotations
@@ -37,14 +37,16 @@ def _baselines() -> dict:
             "tanks": [(f"grey-box {m}", tanks[m]) for m in tanks]}
 
 
-def _markdown(results: dict, baselines: dict, method: str) -> str:
+def _markdown(results: dict, baselines: dict, method: str, n_jobs: int) -> str:
     md = [f"# Closing the loop (method={method!r}): residual -> missing term -> refit", "",
           "Rows: *before* = hybrid with the given science model; *after* = hybrid refitted with the terms "
           "the diagnosis added; *science only* = the augmented science model refitted without a network. "
           "`*_science_only_*` columns simulate the science part of each row alone; `network_share` = "
           "RMS(hybrid - science-only prediction) / RMS(hybrid prediction) on the test record; "
           "`network_share_rhs` = max over components of RMS(g) / RMS(f + g) on the training states. "
-          "Timings are wall-clock on a 2-core machine that other jobs shared during the run.", ""]
+          f"Timings are wall-clock with n_jobs={n_jobs} (with 2, a second process scores the models on the "
+          "test records while the first selects terms and refits); command: "
+          f"`python benchmarks/bench_closed_loop.py --n-jobs {n_jobs}`.", ""]
     for name, r in results.items():
         md += [f"## {name}", "", r["description"], "", r["report"], "",
                f"Fit + diagnosis + refit + evaluation: {r['seconds']:.0f} s.", ""]
@@ -66,12 +68,13 @@ def main():
     parser.add_argument("--cases", nargs="*", default=list(CASES), choices=list(CASES))
     parser.add_argument("--method", default="erm")
     parser.add_argument("--fast", action="store_true")
+    parser.add_argument("--n-jobs", type=int, default=2, help="processes per case (a second one scores)")
     args = parser.parse_args()
     torch.set_num_threads(1)
     results = {}
     for name in args.cases:
         start = time.perf_counter()
-        out = run_case(name, fast=args.fast, method=args.method, verbose=False)
+        out = run_case(name, fast=args.fast, method=args.method, n_jobs=args.n_jobs, verbose=False)
         added = [{k: t[k] for k in ("output", "term", "kind", "coef", "param")} for t in out.added]
         steps = [{k: v for k, v in s.items() if k != "function"} for s in out.steps]
         results[name] = {"description": out.case.description, "table": out.table, "added": added,
@@ -79,8 +82,9 @@ def main():
         print(f"== {name} ({results[name]['seconds']:.0f} s)\n{out.report}\n", flush=True)
     suffix = "_fast" if args.fast else ""
     tag = "" if set(args.cases) == set(CASES) else "_" + "_".join(c.replace("-", "") for c in args.cases)
-    path = write_results(f"closed_loop{tag}{suffix}", {"method": args.method, "cases": results},
-                         _markdown(results, _baselines(), args.method))
+    path = write_results(f"closed_loop{tag}{suffix}", {"method": args.method, "n_jobs": args.n_jobs,
+                                                       "cases": results},
+                         _markdown(results, _baselines(), args.method, args.n_jobs))
     print(path.read_text())
 
 
