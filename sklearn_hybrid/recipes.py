@@ -139,7 +139,7 @@ def silverbox_case(fast: bool = False, method: str = "erm", max_iter: int | None
 
 # ------------------------------------------------------------------------------ Cascaded tanks
 def tanks_case(fast: bool = False, method: str = "erm", max_iter: int | None = None, data_home: Any = None,
-               random_state: int = 0) -> Bunch:
+               random_state: int = 0, window: int = 64, stride: int = 32) -> Bunch:
     """Cascaded tanks: Torricelli science model, overflow undeclared; validation free run."""
     data = fetch_cascaded_tanks(data_home)
     y, u = data.y_est, data.u_est
@@ -149,7 +149,7 @@ def tanks_case(fast: bool = False, method: str = "erm", max_iter: int | None = N
     x1 = (np.sqrt(np.clip(y, 0, None)) + dy / 4.0).clip(0, None) ** 2
     # Windows of 64 samples (a full 1024-sample simulation per iteration is ~20x slower); the last
     # sample is left out (stop), as in the published runs.
-    train = make_windows(y, u, length=64, stride=128 if fast else 32, stop=len(y) - 1,
+    train = make_windows(y, u, length=window, stride=4 * stride if fast else stride, stop=len(y) - 1,
                          states=np.column_stack([x1, y]))
     # Time unit 25 samples: rates, parameters and new-term coefficients of order 0.1-10 for Adam.
     est = HybridRegressor(science=tanks_f, observed=[1], n_inputs=1, input_interp="linear", dt=0.04,
