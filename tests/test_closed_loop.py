@@ -377,7 +377,7 @@ def test_candidates_are_also_ranked_without_the_network(pendulum):
     learned = science_output(pendulum_f, {"omega": 2 / 3}, [states])
     learned[:, 1] += 0.3 * states[:, 0] ** 3
     n = len(fit.y)
-    sel = forward_selection(pendulum_f, {"omega": 0.6}, fit, np.arange(n - 12), np.arange(n - 12, n),
+    sel = forward_selection(pendulum_f, {"omega": 0.6}, fit, [(np.arange(n - 12), np.arange(n - 12, n))],
                             physics_terms(NAMES, states), NAMES, 2, [states], learned, [1], max_terms=1)
     tried = {(s["ranked_by"], s["term"]) for s in sel["steps"]}
     assert ("residual", "v^3") in tried and ("fit", "v_dot") in tried
@@ -405,7 +405,7 @@ def test_screening_refits_use_evenly_spaced_training_samples_and_the_kept_term_a
     states = data.X_train
     learned = science_output(pendulum_f, {"omega": 2 / 3}, [states])
     learned[:, 1] -= 0.5 * states[:, 1]
-    sel = stepwise.forward_selection(pendulum_f, {"omega": 0.6}, fit, np.arange(n - 12), np.arange(n - 12, n),
+    sel = stepwise.forward_selection(pendulum_f, {"omega": 0.6}, fit, [(np.arange(n - 12), np.arange(n - 12, n))],
                                      physics_terms(NAMES, states), NAMES, 2, [states], learned, [1], max_terms=1)
     screens = [size for size, nfev in sizes if nfev == stepwise._SCREENING_NFEV]
     assert screens and set(screens) == {10}
@@ -417,23 +417,23 @@ def test_screening_refits_use_evenly_spaced_training_samples_and_the_kept_term_a
 
 def test_a_term_made_dispensable_by_a_later_one_is_dropped(pendulum):
     """Drag v_dot|v_dot| stands in for linear damping until v_dot itself is in; then it goes."""
-    from sklearn_hybrid.diagnosis.stepwise import _augment, _drop_dispensable, _with_fitted
+    from sklearn_hybrid.diagnosis.stepwise import _augment, _drop_dispensable, _Judge, _with_fitted
 
     data, est = pendulum
     fit = ScienceFit(est, data.X_train, data.y_train)
     n = len(fit.y)
-    train, val = fit.subset(np.arange(n - 12)), fit.subset(np.arange(n - 12, n))
+    judge = _Judge(fit, [(np.arange(n - 12), np.arange(n - 12, n))])
     terms = physics_terms(NAMES, data.X_train)
     placed = [{"component": 1, "term": t.name, "kind": t.kind, "unit": t.unit, "function": t.func, "shape": {},
                "bounds": t.shape, "coef": 0.0, "gain": 0.0} for t in terms if t.name in ("v_dot|v_dot|", "v_dot")]
     assert [p["term"] for p in placed] == ["v_dot", "v_dot|v_dot|"]
     placed = placed[::-1]  # the stand-in first
     full = _augment(pendulum_f, placed, NAMES, 2, None)
-    theta = train.fit(full, {"omega": 0.6})
+    theta = judge.fit(full, {"omega": 0.6})
     added = [_with_fitted(p, full, theta, k) for k, p in enumerate(placed)]
     steps = []
-    current, kept, theta, errors = _drop_dispensable(pendulum_f, full, added, theta, val.errors(full, theta), train,
-                                                     val, NAMES, 2, None, 3.0, 0.05, steps, lambda s: None)
+    current, kept, theta, errors = _drop_dispensable(pendulum_f, full, added, theta, judge.errors(full, theta),
+                                                     judge, NAMES, 2, None, 3.0, 0.05, steps, lambda s: None)
     assert [t["term"] for t in kept] == ["v_dot"] and [s["term"] for s in steps] == ["v_dot|v_dot|"]
     assert steps[0]["dropped"] and theta[kept[0]["param"]] == pytest.approx(-0.5, rel=0.1)
     assert set(theta) == set(inspect.signature(current).parameters) - {"v"}
@@ -455,3 +455,17 @@ def test_scoring_in_a_worker_process_gives_the_same_table(pendulum):
         assert one["stage"] == two["stage"]
         assert two["test_mse"] == pytest.approx(one["test_mse"], rel=1e-6)
         assert two["theta"] == pytest.approx(one["theta"], rel=1e-6)
+
+
+def test_cross_validated_evidence_judges_every_sample(pendulum):
+    """cv=K: each contiguous block is predicted by a refit without it; the damping is still the one
+    term, judged on every sample, and the report says how."""
+    data, est = pendulum
+    out = close_the_loop(est, data.X_train, data.y_train, state_names=NAMES, cv=4, refit_params={"max_iter": 5})
+    assert [t["term"] for t in out.added] == ["v_dot"]
+    assert f"all {len(data.y_train)} samples in 4 contiguous blocks" in out.report
+    assert out.science_theta["c_v_dot"] == pytest.approx(-0.5, rel=0.1)
+    with pytest.raises(ValueError, match="cv must be None or an integer"):
+        close_the_loop(est, data.X_train, data.y_train, cv=1)
+    with pytest.raises(ValueError, match="give at most"):
+        close_the_loop(est, data.X_train, data.y_train, cv=len(data.y_train))

@@ -64,7 +64,8 @@ class ScienceFit:
 
     def errors(self, science: Callable, theta: Mapping[str, Any]) -> np.ndarray:
         """Mean squared error of every sample (non-finite predictions count as infinite)."""
-        err = np.mean((self.predict(science, theta) - self.y) ** 2, axis=1)
+        with np.errstate(over="ignore", invalid="ignore"):  # a diverging candidate: counted, not warned
+            err = np.mean((self.predict(science, theta) - self.y) ** 2, axis=1)
         return np.where(np.isfinite(err), err, np.inf)
 
     def fit(self, science: Callable, theta: Mapping[str, Any],

@@ -181,7 +181,8 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
                    units: Mapping[str, str] | None = None, exact: str | Sequence[Any] | None = "auto",
                    terms: Sequence[Term] | None = None, term_kinds: Sequence[str] | None = None,
                    user_terms: Mapping[str, Callable] | None = None, positive: Sequence[str] = (),
-                   validation_fraction: float = 0.25, max_terms: int = 4, n_candidates: int = 4,
+                   validation_fraction: float = 0.25, cv: int | None = None, max_terms: int = 4,
+                   n_candidates: int = 4,
                    z: float = 3.0, min_gain: float = 0.05, param_names: Mapping[str, str] | None = None,
                    refit_params: Mapping[str, Any] | None = None, theta_true: Mapping[str, Any] | None = None,
                    test_scorer: Callable | None = None, n_jobs: int | None = None, random_state: Any = 0,
@@ -230,6 +231,11 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         dict of variables), variables that are never negative.
     validation_fraction : float, default=0.25
         Share of the samples (the last ones) that judge each term.
+    cv : int, optional
+        Instead of one split, ``cv`` contiguous blocks of samples: each block is predicted by the
+        refit on the other samples, so every sample judges each term (one refit per block and
+        candidate). For a single short record, where the last quarter is a few windows of one
+        regime. Overlapping windows at a block's edges share samples with its neighbours.
     max_terms, n_candidates : int, default=4
         At most this many terms added, and candidates taken from each ranking per step (up to
         twice as many refitted).
@@ -271,7 +277,7 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         if verbose:
             print(message if message.startswith(("  ", "|")) or "\n" in message
                   else f"[{time.perf_counter() - start:4.0f} s] {message}", flush=True)
-    _check_options(validation_fraction, max_terms, n_candidates)
+    _check_options(validation_fraction, max_terms, n_candidates, cv, len(y))
     if getattr(estimator, "theta_encoder", None) is not None:
         raise ValueError("close_the_loop does not support theta_encoder: its network-free refits judge each term "
                          "with one theta shared by every sample. Close the loop on a model with a shared theta.")
@@ -311,10 +317,15 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         before_row = scoring.submit(before)
         fit = ScienceFit(before, X, y)
         n = len(fit.y)
-        n_val = int(np.clip(round(validation_fraction * n), 2, n - 2))
+        if cv is None:
+            n_val = int(np.clip(round(validation_fraction * n), 2, n - 2))
+            splits = [(np.arange(n - n_val), np.arange(n - n_val, n))]
+        else:
+            n_val = n
+            splits = [(np.setdiff1d(np.arange(n), block), block) for block in np.array_split(np.arange(n), cv)]
         log(f"selecting terms ({len(terms)} candidates on {len(components)} component(s), "
-            f"{n_val} validation samples) ...")
-        sel = forward_selection(science, before.theta_, fit, np.arange(n - n_val), np.arange(n - n_val, n), terms,
+            f"{n_val} validation samples{'' if cv is None else f' in {cv} blocks'}) ...")
+        sel = forward_selection(science, before.theta_, fit, splits, terms,
                                 variables, n_states, args, learned, components, max_terms=max_terms,
                                 n_candidates=n_candidates, z=z, min_gain=min_gain, param_names=param_names, log=log)
         final = sel["science"]
@@ -352,7 +363,7 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
                              **scoring.submit(after)()})
         rows.append({"stage": "science only", "science": getattr(final, "__name__", "science"),
                      "added": getattr(augmented, "equation", ""), **alone_row()})
-    report = format_table(rows, added, sel["steps"], unexplained, n_val, z=z, min_gain=min_gain)
+    report = format_table(rows, added, sel["steps"], unexplained, n_val, z=z, min_gain=min_gain, cv=cv)
     log(report)
     return Bunch(before=before, after=after, science=augmented, science_theta=science_theta, science_only=alone,
                  added=added, steps=sel["steps"], exact=[] if uncertain is None else
@@ -363,9 +374,14 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
 _MAX_POINTS = 5000  # visited states used to rank candidates: plenty for a handful of columns
 
 
-def _check_options(validation_fraction, max_terms, n_candidates):
+def _check_options(validation_fraction, max_terms, n_candidates, cv, n_samples):
     if not (isinstance(validation_fraction, (int, float)) and 0 < validation_fraction < 1):
         raise ValueError(f"validation_fraction must be in (0, 1), got {validation_fraction!r}.")
+    if cv is not None and (isinstance(cv, bool) or not isinstance(cv, (int, np.integer)) or cv < 2):
+        raise ValueError(f"cv must be None or an integer of at least 2, got {cv!r}.")
+    if cv is not None and cv > n_samples // 2:
+        raise ValueError(f"cv={cv} blocks of {n_samples} samples: give at most {n_samples // 2} "
+                         "(two samples a block at least).")
     for name, value in (("max_terms", max_terms), ("n_candidates", n_candidates)):
         if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
             raise ValueError(f"{name} must be a positive integer, got {value!r}.")

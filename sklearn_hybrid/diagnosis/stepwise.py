@@ -143,8 +143,41 @@ _SCREENING_NFEV = 40
 _SCREENING_SAMPLES = 256
 
 
-def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceFit, train: np.ndarray,
-                      validation: np.ndarray, terms: Sequence[Term], variables: Sequence[str], n_states: int,
+class _Judge:
+    """Held-out errors of science models: one split (fitted on the training rows, errors of the
+    validation rows) or contiguous folds (each block's errors from a fit on the other rows, so that
+    every sample judges: the evidence a single short record can give).
+
+    ``fit`` gives the parameters a step continues from (on the training rows, or on every row with
+    folds); ``errors`` the per-sample held-out errors, in the same sample order for every model.
+    ``screening``: at most ``_SCREENING_SAMPLES`` evenly spaced fitting rows and ``_SCREENING_NFEV``.
+    """
+
+    def __init__(self, fit: ScienceFit, splits: Sequence[tuple[np.ndarray, np.ndarray]]):
+        rows = splits[0][0] if len(splits) == 1 else np.arange(len(fit.y))
+        self.train, self.screen = fit.subset(rows), fit.subset(_evenly_spaced(rows, _SCREENING_SAMPLES))
+        self.folds = [(fit.subset(tr), fit.subset(_evenly_spaced(tr, _SCREENING_SAMPLES)), fit.subset(te))
+                      for tr, te in splits]
+        self.n_validation = sum(len(te) for _, te in splits)
+
+    def fit(self, science, start, bounds=None, screening=False) -> dict:
+        return _fit_on(self.screen if screening else self.train, science, start, bounds, screening)
+
+    def errors(self, science, theta, bounds=None, screening=False) -> np.ndarray:
+        if len(self.folds) == 1:  # the validation rows were not fitted: no refit needed
+            return self.folds[0][2].errors(science, theta)
+        return np.concatenate([test.errors(science, _fit_on(screen if screening else train, science, theta,
+                                                            bounds, screening))
+                               for train, screen, test in self.folds])
+
+
+def _fit_on(fit: ScienceFit, science, start, bounds, screening) -> dict:
+    return fit.fit(science, start, bounds, max_nfev=_SCREENING_NFEV) if screening else fit.fit(science, start, bounds)
+
+
+def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceFit,
+                      splits: Sequence[tuple[np.ndarray, np.ndarray]], terms: Sequence[Term],
+                      variables: Sequence[str], n_states: int,
                       args: Sequence[np.ndarray], learned: np.ndarray, components: Sequence[int], *,
                       max_terms: int = 4, n_candidates: int = 4, z: float = 3.0, min_gain: float = 0.05,
                       param_names: Mapping[str, str] | None = None, log: Callable[[str], None] = lambda s: None
@@ -158,7 +191,10 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
     theta : dict
         Starting values of its parameters (the hybrid fit's ``theta_``).
     fit : ScienceFit
-        Network-free simulation over every sample; ``train`` and ``validation`` index it.
+        Network-free simulation over every sample.
+    splits : list of (train, validation) row-index pairs
+        One pair: fitted on ``train``, judged on ``validation``. Several (contiguous blocks as
+        validation, the other rows as train): every sample judges, by a fit without its block.
     terms : list of Term
         The candidates.
     variables : list of str
@@ -184,10 +220,9 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
     tensors = {name: torch.as_tensor(np.asarray(col, dtype=float))
                for name, col in zip(variables, np.hstack([np.asarray(a).reshape(len(a), -1) for a in args]).T)}
     columns = _term_columns(terms, tensors)
-    train_fit, val_fit = fit.subset(train), fit.subset(validation)
-    screen_fit = fit.subset(_evenly_spaced(train, _SCREENING_SAMPLES))
-    current, theta_now = science, train_fit.fit(science, theta)
-    errors = base_errors = val_fit.errors(science, theta_now)
+    judge = _Judge(fit, splits)
+    current, theta_now = science, judge.fit(science, theta)
+    errors = base_errors = judge.errors(science, theta_now)
     scale = np.sqrt(np.mean(np.asarray(learned, dtype=float) ** 2, axis=0))
     log(f"science refitted alone: validation MSE {errors.mean():.4g}")
     added: list[dict] = []
@@ -197,7 +232,7 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
         jac, _ = parameter_jacobian(current, theta_now, args)
         taken = {(t["component"], t["term"]) for t in added}
         by_residual = _interleave(_rank(columns, remaining, jac, components, taken), n_candidates)
-        by_fit = _rank_by_fit(columns, science, current, added, theta_now, screen_fit, scale, components, taken,
+        by_fit = _rank_by_fit(columns, science, current, added, theta_now, judge.screen, scale, components, taken,
                               variables, n_states, param_names)[:n_candidates]
         ranked = _merge(by_residual, by_fit)
         if not ranked:
@@ -208,9 +243,9 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
             candidate_science = _augment(science, placed, variables, n_states, param_names)
             start = {**theta_now, **_initial_values(candidate_science, placed)}
             try:
-                fitted = screen_fit.fit(candidate_science, start, _shape_bounds(candidate_science, placed),
-                                        max_nfev=_SCREENING_NFEV)
-                cand_errors = val_fit.errors(candidate_science, fitted)
+                bounds = _shape_bounds(candidate_science, placed)
+                fitted = judge.fit(candidate_science, start, bounds, screening=True)
+                cand_errors = judge.errors(candidate_science, fitted, bounds, screening=True)
             except (RuntimeError, ValueError, FloatingPointError) as exc:  # a term that breaks the simulation
                 steps.append({"step": len(added) + 1, **_public(cand), "failed": repr(exc), "accepted": False})
                 continue
@@ -224,19 +259,20 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
             break
         cand, theta_now, _, errors, current, index = best
         # the screen may have stopped early: converge, so that the next step's gains are the terms'
-        theta_now = train_fit.fit(current, theta_now, _shape_bounds(current, [*added, cand]))
-        errors = val_fit.errors(current, theta_now)
+        bounds = _shape_bounds(current, [*added, cand])
+        theta_now = judge.fit(current, theta_now, bounds)
+        errors = judge.errors(current, theta_now, bounds)
         steps[index]["accepted"] = True
         added.append(_with_fitted(cand, current, theta_now, len(added)))
         log(f"  accepted {cand['term']} on component {cand['component']}")
         current, added, theta_now, errors = _drop_dispensable(
-            science, current, added, theta_now, errors, train_fit, val_fit, variables, n_states, param_names,
+            science, current, added, theta_now, errors, judge, variables, n_states, param_names,
             z, min_gain, steps, log)
     return {"science": current, "theta": theta_now, "added": added, "steps": steps,
             "base_errors": base_errors, "errors": errors, "seconds": time.perf_counter() - start_time}
 
 
-def _drop_dispensable(science, current, added, theta, errors, train_fit, val_fit, variables, n_states,
+def _drop_dispensable(science, current, added, theta, errors, judge, variables, n_states,
                       param_names, z, min_gain, steps, log):
     """Backward steps: drop a term that the terms accepted after it have made dispensable.
 
@@ -255,8 +291,9 @@ def _drop_dispensable(science, current, added, theta, errors, train_fit, val_fit
                 start[reduced.terms[k][2]] = theta[t["param"]]
                 start.update({glob: theta[t["shape_params"][loc]] for loc, glob in reduced.shape_names[k].items()})
             try:
-                fitted = train_fit.fit(reduced, start, _shape_bounds(reduced, rest))
-                reduced_errors = val_fit.errors(reduced, fitted)
+                bounds = _shape_bounds(reduced, rest)
+                fitted = judge.fit(reduced, start, bounds)
+                reduced_errors = judge.errors(reduced, fitted, bounds)
             except (RuntimeError, ValueError, FloatingPointError):
                 continue
             if not evidence(reduced_errors, errors, z=z, min_gain=min_gain)["accepted"]:
