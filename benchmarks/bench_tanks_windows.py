@@ -7,7 +7,7 @@ t statistic. For each (window, stride) this records the number of validation win
 threshold, the best candidates by gain with their z, the terms added and the free-run RMSE of
 the validation record (before / after / science only).
 
-Usage: python benchmarks/bench_tanks_windows.py [--settings 64/32 128/16 256/16]
+Usage: python benchmarks/bench_tanks_windows.py [--settings 64/32 128/16 256/16 64/64/4 128/32/4]
 (data: $SKLEARN_HYBRID_DATA or --data-home)
 """
 
@@ -20,16 +20,19 @@ import time
 import torch
 
 from _common import RESULTS, write_results
-from sklearn_hybrid.recipes import run_case
+from sklearn_hybrid.diagnosis import close_the_loop
+from sklearn_hybrid.recipes import tanks_case
 
 
-def _run(window: int, stride: int, data_home) -> dict:
+def _run(window: int, stride: int, cv: int | None, data_home) -> dict:
+    case = tanks_case(window=window, stride=stride, data_home=data_home)
     start = time.perf_counter()
-    out = run_case("tanks", n_jobs=1, window=window, stride=stride, data_home=data_home)
+    out = close_the_loop(case.estimator, case.X, case.y, state_names=case.state_names,
+                         input_names=case.input_names, units=case.units, test_scorer=case.test_scorer, cv=cv)
     first = [s for s in out.steps if s.get("step") == 1 and "gain" in s]
     best = sorted(first, key=lambda s: -s["gain"])[:3]
     rows = {r["stage"]: r for r in out.table}
-    return {"window": window, "stride": stride, "n_windows": len(out.case.y),
+    return {"window": window, "stride": stride, "cv": cv, "n_windows": len(case.y),
             "threshold": first[0]["threshold"] if first else None,
             "best_first_step": [{k: s[k] for k in ("output", "term", "gain", "z")} for s in best],
             "added": [f"{t['term']} [{t['output']}]" for t in out.added],
@@ -40,15 +43,16 @@ def _run(window: int, stride: int, data_home) -> dict:
 def _markdown(runs: list[dict]) -> str:
     md = ["# Cascaded tanks: the closed loop's evidence against the window length", "",
           "`python benchmarks/bench_tanks_windows.py` (one process, one torch thread; another benchmark shared "
-          "the machine's second core). Each row: `run_case('tanks', window=..., stride=...)`; the last quarter "
-          "of the windows judge each term; *threshold* is the t quantile a term's z must exceed (and a gain of "
+          "the machine's second core). Each row: `close_the_loop` on `tanks_case(window=..., stride=...)`; the last quarter "
+          "of the windows judge each term (*last quarter*), or, with K blocks, every window, predicted by a "
+          "refit without its block (`close_the_loop(..., cv=K)`); *threshold* is the t quantile a term's z must exceed (and a gain of "
           "at least 5 %); with a stride below the window length the windows overlap, their errors are "
           "correlated and z overstates the evidence. Validation RMSE (V) of free runs of the validation record: hybrid before, hybrid "
           "after (when a term was added), augmented science alone. Grey-box references "
           "(`results/greybox.md`): plain Torricelli 0.683, + overflow 0.536, + overflow + sensor offset + "
           "free tank-2 level 0.360.", "",
-          "| window / stride | windows (a quarter validate) | threshold | best first-step candidates: gain (z) | added | "
-          "validation before | after | science only | s |", "|---|---|---|---|---|---|---|---|---|"]
+          "| window / stride | judged on | windows | threshold | best first-step candidates: gain (z) | added | "
+          "validation before | after | science only | s |", "|---|---|---|---|---|---|---|---|---|---|"]
     for r in runs:
         best = "; ".join(f"{b['term']} on {b['output']}: {b['gain']:.0%} ({b['z']:.1f})"
                          for b in r["best_first_step"]).replace("|", "\\|")
@@ -59,7 +63,8 @@ def _markdown(runs: list[dict]) -> str:
 
         added = ", ".join(r["added"]).replace("|", "\\|") or "nothing"
         thr = "-" if r["threshold"] is None else f"{r['threshold']:.2f}"
-        md.append(f"| {r['window']} / {r['stride']} | {r['n_windows']} | {thr} | {best} | "
+        split = "last quarter" if r.get("cv") is None else f"{r['cv']} blocks"
+        md.append(f"| {r['window']} / {r['stride']} | {split} | {r['n_windows']} | {thr} | {best} | "
                   f"{added} | {fmt(v.get('before'))} | {fmt(v.get('after'))} | "
                   f"{fmt(v.get('science only'))} | {r['seconds']:.0f} |")
     return "\n".join(md)
@@ -67,7 +72,8 @@ def _markdown(runs: list[dict]) -> str:
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--settings", nargs="+", default=["64/32", "128/16", "256/16"])
+    parser.add_argument("--settings", nargs="+", default=["64/32", "128/16", "256/16", "64/64/4", "128/32/4"],
+                        help="window/stride, or window/stride/K for K-fold blocked cross-validated evidence")
     parser.add_argument("--data-home", default=None)
     parser.add_argument("--render", action="store_true", help="only rewrite the table from results/tanks_windows.json")
     args = parser.parse_args()
@@ -79,8 +85,8 @@ def main():
     torch.set_num_threads(1)
     runs = []
     for setting in args.settings:
-        window, stride = (int(v) for v in setting.split("/"))
-        runs.append(_run(window, stride, args.data_home))
+        window, stride, *cv = (int(v) for v in setting.split("/"))
+        runs.append(_run(window, stride, cv[0] if cv else None, args.data_home))
         print(runs[-1], flush=True)
     path = write_results("tanks_windows", {"runs": runs}, _markdown(runs))
     print(path.read_text())
