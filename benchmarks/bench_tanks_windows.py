@@ -41,7 +41,7 @@ def _run(window: int, stride: int, cv: int | None, data_home) -> dict:
 
 
 def _markdown(runs: list[dict]) -> str:
-    md = ["# Cascaded tanks: the closed loop's evidence against the window length", "",
+    md = ["# Cascaded tanks: the closed loop's evidence against the window length and the kind of held-out judgement", "",
           "`python benchmarks/bench_tanks_windows.py` (one process, one torch thread; another benchmark shared "
           "the machine's second core). Each row: `close_the_loop` on `tanks_case(window=..., stride=...)`; the last quarter "
           "of the windows judge each term (*last quarter*), or, with K blocks, every window, predicted by a "
