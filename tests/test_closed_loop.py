@@ -469,3 +469,18 @@ def test_cross_validated_evidence_judges_every_sample(pendulum):
         close_the_loop(est, data.X_train, data.y_train, cv=1)
     with pytest.raises(ValueError, match="give at most"):
         close_the_loop(est, data.X_train, data.y_train, cv=len(data.y_train))
+
+
+def test_scoring_workers_leave_joblib_parallel_working(pendulum):
+    """The scoring pool is close_the_loop's own: joblib's shared loky executor still works after it
+    (a shared one, changed by close_the_loop, broke a later GridSearchCV(n_jobs=2))."""
+    from joblib import Parallel, delayed
+
+    from sklearn_hybrid.diagnosis.report import Scoring
+
+    data, est = pendulum
+    with Scoring(2, data.X_train, data.X_test, data.y_test, None, None) as scoring:
+        row = scoring.submit(est)()
+    assert row["rmse"] == pytest.approx(Scoring(1, data.X_train, data.X_test, data.y_test, None, None)
+                                        .submit(est)()["rmse"], rel=1e-6)
+    assert Parallel(n_jobs=2)(delayed(abs)(-i) for i in range(3)) == [0, 1, 2]

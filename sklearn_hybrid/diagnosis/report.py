@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 import torch
 from joblib import effective_n_jobs
-from joblib.externals.loky import get_reusable_executor
+from joblib.externals.loky import ProcessPoolExecutor
 from threadpoolctl import threadpool_limits
 
 from .evidence import critical_value
@@ -84,8 +84,9 @@ class Scoring:
     def __init__(self, n_jobs: int | None, *args: Any):
         self.args = args
         n_workers = effective_n_jobs(n_jobs) - 1
-        # loky (joblib's process pool) pickles closures such as a recipe's scorer or an augmented science
-        self.executor = (get_reusable_executor(max_workers=n_workers, initializer=_one_thread)
+        # loky's pool (joblib's) pickles closures such as a recipe's scorer or an augmented science; a
+        # pool of its own, not joblib's shared one, which a later joblib.Parallel would find changed
+        self.executor = (ProcessPoolExecutor(max_workers=n_workers, initializer=_one_thread)
                          if n_workers > 0 else None)
 
     def __enter__(self):
@@ -96,6 +97,9 @@ class Scoring:
     def __exit__(self, *exc):
         if self._limits is not None:
             self._limits.restore_original_limits()
+        if self.executor is not None:
+            # after an error nobody reads the pending scores: stop the workers instead of waiting
+            self.executor.shutdown(wait=True, kill_workers=exc[0] is not None)
 
     def submit(self, est: Any):
         if self.executor is None:
