@@ -11,7 +11,8 @@ model's residual by sparse regression on a :class:`CandidateLibrary` (an explora
 from .augment import augment_science, parameter_name, term_to_torch
 from .evidence import ScienceFit, critical_value, evidence
 from .library import CandidateLibrary
-from .loop import MLPOn, ZeroResidual, close_the_loop, fit_initial_state, free_run
+from .loop import MLPOn, ZeroResidual, close_the_loop
+from .records import fit_initial_state, free_run
 from .report import format_table, plot_unexplained, prediction_metrics
 from .residual import ResidualDiagnosis, science_sensitivities
 from .sparse import SparseTermRegression
