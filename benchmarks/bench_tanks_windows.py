@@ -15,35 +15,30 @@ from __future__ import annotations
 
 import argparse
 import json
-import time
 
 import torch
 
 from _common import RESULTS, write_results
-from sklearn_hybrid.diagnosis import close_the_loop
-from sklearn_hybrid.recipes import tanks_case
+from sklearn_hybrid.recipes import run_case
 
 
 def _run(window: int, stride: int, cv: int | None, data_home) -> dict:
-    case = tanks_case(window=window, stride=stride, data_home=data_home)
-    start = time.perf_counter()
-    out = close_the_loop(case.estimator, case.X, case.y, state_names=case.state_names,
-                         input_names=case.input_names, units=case.units, test_scorer=case.test_scorer, cv=cv)
+    out = run_case("tanks", cv=cv, window=window, stride=stride, data_home=data_home)
     first = [s for s in out.steps if s.get("step") == 1 and "gain" in s]
     best = sorted(first, key=lambda s: -s["gain"])[:3]
     rows = {r["stage"]: r for r in out.table}
-    return {"window": window, "stride": stride, "cv": cv, "n_windows": len(case.y),
+    return {"window": window, "stride": stride, "cv": cv, "n_windows": len(out.case.y),
             "threshold": first[0]["threshold"] if first else None,
             "best_first_step": [{k: s[k] for k in ("output", "term", "gain", "z")} for s in best],
             "added": [f"{t['term']} [{t['output']}]" for t in out.added],
             "validation_rmse": {k: r.get("validation_rmse") for k, r in rows.items()},
-            "seconds": time.perf_counter() - start}
+            "seconds": out.seconds}
 
 
 def _markdown(runs: list[dict]) -> str:
     md = ["# Cascaded tanks: the closed loop's evidence against the window length and the kind of held-out judgement", "",
           "`python benchmarks/bench_tanks_windows.py` (one process, one torch thread; another benchmark shared "
-          "the machine's second core). Each row: `close_the_loop` on `tanks_case(window=..., stride=...)`; the last quarter "
+          "the machine's second core). Each row: `run_case('tanks', cv=..., window=..., stride=...)`; the last quarter "
           "of the windows judge each term (*last quarter*), or, with K blocks, every window, predicted by a "
           "refit without its block (`close_the_loop(..., cv=K)`); *threshold* is the t quantile a term's z must exceed (and a gain of "
           "at least 5 %); with a stride below the window length the windows overlap, their errors are "

@@ -365,6 +365,11 @@ def _diverged(runs: list[dict]) -> list[str]:
     return [f"{hyper} (seeds {sorted(s)})" for hyper, s in sorted(seeds.items())]
 
 
+def _hyper_key(run: dict) -> str:
+    """A run's grid value as a hashable key (the same for equal dicts in any key order)."""
+    return json.dumps(run["hyper"], sort_keys=True)
+
+
 def summarise(runs: list[dict]) -> list[dict]:
     """One row per (protocol, task, method): the oracle and the no-oracle selection."""
     groups = {}
@@ -374,20 +379,20 @@ def summarise(runs: list[dict]) -> list[dict]:
     for (protocol, task, method), all_members in sorted(groups.items()):
         # a grid still being run is not a selection over the grid: listed as partial, not shown
         seeds = {r["seed"] for r in all_members}
-        done = {(json.dumps(r["hyper"], sort_keys=True), r["seed"]) for r in all_members}
+        done = {(_hyper_key(r), r["seed"]) for r in all_members}
         expected = len(GRIDS.get(method, [{}])) * len(seeds)
         if len(done) < expected:
             rows.append({"protocol": protocol, "task": task, "method": method,
                          "partial": f"{len(done)} of {expected} runs cached"})
             continue
         # a grid value with a diverged seed is out of both selections (its mean is undefined)
-        failed = {json.dumps(r["hyper"], sort_keys=True) for r in all_members if "diverged" in r}
-        members = [r for r in all_members if json.dumps(r["hyper"], sort_keys=True) not in failed]
+        failed = {_hyper_key(r) for r in all_members if "diverged" in r}
+        members = [r for r in all_members if _hyper_key(r) not in failed]
         if not members:
             continue
         by_hyper = {}
         for r in members:
-            by_hyper.setdefault(json.dumps(r["hyper"], sort_keys=True), []).append(r)
+            by_hyper.setdefault(_hyper_key(r), []).append(r)
         mean = {h: {k: np.mean([r[k] for r in rs]) for k in ("theta_error_best", "val_error")}
                 for h, rs in by_hyper.items()}
         oracle = min(mean, key=lambda h: mean[h]["theta_error_best"])

@@ -158,7 +158,6 @@ class _Judge:
         self.train, self.screen = fit.subset(rows), fit.subset(_evenly_spaced(rows, _SCREENING_SAMPLES))
         self.folds = [(fit.subset(tr), fit.subset(_evenly_spaced(tr, _SCREENING_SAMPLES)), fit.subset(te))
                       for tr, te in splits]
-        self.n_validation = sum(len(te) for _, te in splits)
 
     def fit(self, science, start, bounds=None, screening=False) -> dict:
         return _fit_on(self.screen if screening else self.train, science, start, bounds, screening)
