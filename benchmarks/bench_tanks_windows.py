@@ -18,21 +18,23 @@ import json
 
 import torch
 
-from _common import RESULTS, write_results
+from _common import PACKAGE_COMMIT, RESULTS, write_results
 from sklearn_hybrid.recipes import run_case
 
 
-def _run(window: int, stride: int, cv: int | None, data_home) -> dict:
-    out = run_case("tanks", cv=cv, window=window, stride=stride, data_home=data_home)
+def _run(window: int, stride: int, cv: int | None, fitted_states: bool, data_home) -> dict:
+    out = run_case("tanks", cv=cv, fit_initial_states=fitted_states, window=window, stride=stride,
+                   data_home=data_home)
     first = [s for s in out.steps if s.get("step") == 1 and "gain" in s]
     best = sorted(first, key=lambda s: -s["gain"])[:3]
     rows = {r["stage"]: r for r in out.table}
-    return {"window": window, "stride": stride, "cv": cv, "n_windows": len(out.case.y),
+    return {"window": window, "stride": stride, "cv": cv, "fit_initial_states": fitted_states,
+            "n_windows": len(out.case.y),
             "threshold": first[0]["threshold"] if first else None,
             "best_first_step": [{k: s[k] for k in ("output", "term", "gain", "z")} for s in best],
             "added": [f"{t['term']} [{t['output']}]" for t in out.added],
             "validation_rmse": {k: r.get("validation_rmse") for k, r in rows.items()},
-            "seconds": out.seconds}
+            "seconds": out.seconds, "package_commit": PACKAGE_COMMIT}
 
 
 def _markdown(runs: list[dict]) -> str:
@@ -45,9 +47,12 @@ def _markdown(runs: list[dict]) -> str:
           "correlated and z overstates the evidence. Validation RMSE (V) of free runs of the validation record: hybrid before, hybrid "
           "after (when a term was added), augmented science alone. Grey-box references "
           "(`results/greybox.md`): plain Torricelli 0.683, + overflow 0.536, + overflow + sensor offset + "
-          "free tank-2 level 0.360.", "",
-          "| window / stride | judged on | windows | threshold | best first-step candidates: gain (z) | added | "
-          "validation before | after | science only | s |", "|---|---|---|---|---|---|---|---|---|---|"]
+          "free tank-2 level 0.360. *initial x1*: the unobserved upper-tank level at each window's start, "
+          "estimated from the lower tank's balance (the recipe) or fitted per window with the network-free "
+          "refits (`fit_initial_states=True`; the hybrid refit then starts from the fitted levels).", "",
+          "| window / stride | judged on | initial x1 | windows | threshold | best first-step candidates: gain (z) | "
+          "added | validation before | after | science only | s | package commit |",
+          "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in runs:
         best = "; ".join(f"{b['term']} on {b['output']}: {b['gain']:.0%} ({b['z']:.1f})"
                          for b in r["best_first_step"]).replace("|", "\\|")
@@ -59,16 +64,24 @@ def _markdown(runs: list[dict]) -> str:
         added = ", ".join(r["added"]).replace("|", "\\|") or "nothing"
         thr = "-" if r["threshold"] is None else f"{r['threshold']:.2f}"
         split = "last quarter" if r.get("cv") is None else f"{r['cv']} blocks"
-        md.append(f"| {r['window']} / {r['stride']} | {split} | {r['n_windows']} | {thr} | {best} | "
+        x1 = "fitted" if r.get("fit_initial_states") else "balance"
+        md.append(f"| {r['window']} / {r['stride']} | {split} | {x1} | {r['n_windows']} | {thr} | {best} | "
                   f"{added} | {fmt(v.get('before'))} | {fmt(v.get('after'))} | "
-                  f"{fmt(v.get('science only'))} | {r['seconds']:.0f} |")
+                  f"{fmt(v.get('science only'))} | {r['seconds']:.0f} | {r.get('package_commit', '3b80ab2')} |")
     return "\n".join(md)
+
+
+def _key(run: dict) -> tuple:
+    return run["window"], run["stride"], run.get("cv"), bool(run.get("fit_initial_states"))
 
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--settings", nargs="+", default=["64/32", "128/16", "256/16", "64/64/4", "128/32/4"],
-                        help="window/stride, or window/stride/K for K-fold blocked cross-validated evidence")
+                        help="window/stride, or window/stride/K for K-fold blocked cross-validated evidence; "
+                             "a trailing /f fits the windows' initial upper-tank levels (close_the_loop's "
+                             "fit_initial_states) instead of estimating them from the lower tank's balance. "
+                             "Runs of other settings already in results/tanks_windows.json are kept.")
     parser.add_argument("--data-home", default=None)
     parser.add_argument("--render", action="store_true", help="only rewrite the table from results/tanks_windows.json")
     args = parser.parse_args()
@@ -78,11 +91,15 @@ def main():
         (RESULTS / "tanks_windows.md").write_text(_markdown(runs) + text[text.index("\n\nMachine:"):])
         return
     torch.set_num_threads(1)
-    runs = []
+    path = RESULTS / "tanks_windows.json"
+    runs = json.loads(path.read_text())["runs"] if path.exists() else []
     for setting in args.settings:
-        window, stride, *cv = (int(v) for v in setting.split("/"))
-        runs.append(_run(window, stride, cv[0] if cv else None, args.data_home))
-        print(runs[-1], flush=True)
+        parts = setting.split("/")
+        fitted = parts[-1] == "f"
+        window, stride, *cv = (int(v) for v in parts[:len(parts) - fitted])
+        run = _run(window, stride, cv[0] if cv else None, fitted, args.data_home)
+        runs = [r for r in runs if _key(r) != _key(run)] + [run]
+        print(run, flush=True)
     path = write_results("tanks_windows", {"runs": runs}, _markdown(runs))
     print(path.read_text())
 

@@ -264,7 +264,7 @@ def _announced(scorer: Callable | None) -> Callable | None:
 
 def run_case(name: str, fast: bool = False, method: str = "erm", max_iter: int | None = None,
              verbose: bool = False, progress: bool = False, n_jobs: int | None = None, cv: int | None = None,
-             **options) -> Bunch:
+             fit_initial_states: bool = False, **options) -> Bunch:
     """Run :func:`~sklearn_hybrid.diagnosis.close_the_loop` on a named case; return its result plus ``case``.
 
     Parameters
@@ -279,6 +279,9 @@ def run_case(name: str, fast: bool = False, method: str = "erm", max_iter: int |
         Show every fit's progress bar (the estimators' ``verbose``) and time the free-run scoring.
     n_jobs, cv : int or None, default=None
         Processes that score the models, and blocks of cross-validated evidence (see
+        :func:`~sklearn_hybrid.diagnosis.close_the_loop`).
+    fit_initial_states : bool, default=False
+        The network-free refits fit the unobserved initial states of every window (see
         :func:`~sklearn_hybrid.diagnosis.close_the_loop`).
     **options
         Further keyword arguments of the case function (``data_home``, ``random_state``).
@@ -298,6 +301,7 @@ def run_case(name: str, fast: bool = False, method: str = "erm", max_iter: int |
     out = close_the_loop(case.estimator, case.X, case.y, case.get("X_test"), case.get("y_test"),
                          state_names=case.state_names, input_names=case.input_names, units=case.units,
                          positive=case.get("positive", ()), param_names=case.param_names,
-                         theta_true=case.get("theta_true"), test_scorer=scorer, n_jobs=n_jobs, cv=cv, verbose=verbose)
+                         theta_true=case.get("theta_true"), test_scorer=scorer, n_jobs=n_jobs, cv=cv,
+                         fit_initial_states=fit_initial_states, verbose=verbose)
     out["case"] = case
     return out

@@ -15,7 +15,7 @@ from sklearn_hybrid import HybridRegressor
 from sklearn_hybrid.datasets import make_duffing, make_pendulum
 from sklearn_hybrid.diagnosis import (CandidateLibrary, MLPOn, ResidualDiagnosis, ScienceFit, augment_science,
                                       close_the_loop, critical_value, evidence, fit_initial_state, free_run,
-                                      physics_terms, plot_unexplained, term_to_torch)
+                                      physics_terms, plot_unexplained, term_to_torch, ZeroResidual)
 from sklearn_hybrid.models import duffing_f, pendulum_f
 
 NAMES = ["v", "v_dot"]
@@ -484,3 +484,48 @@ def test_scoring_workers_leave_joblib_parallel_working(pendulum):
     assert row["rmse"] == pytest.approx(Scoring(1, data.X_train, data.X_test, data.y_test, None, None)
                                         .submit(est)()["rmse"], rel=1e-6)
     assert Parallel(n_jobs=2)(delayed(abs)(-i) for i in range(3)) == [0, 1, 2]
+
+
+def test_science_fit_fits_unobserved_initial_states():
+    """Windows whose unobserved velocity in X is wrong (zero): a fit of the parameters alone is
+    biased; with fit_initial_states the velocities are fitted per window and theta is recovered."""
+    data = make_pendulum(30, 5, 5, dt=0.1, n_steps=10, random_state=1)
+    X_wrong, y = data.X_train.copy(), data.y_train[..., :1]  # the angle alone is measured
+    X_wrong[:, 1] = 0.0
+    est = HybridRegressor(science=pendulum_f, dt=0.1, n_substeps=1, observed=[0], residual=ZeroResidual(),
+                          method="erm", max_iter=1).fit(X_wrong, y)
+    damped = augment_science(pendulum_f, [{"component": 1, "term": "v_dot", "coef": 0.0}], NAMES)
+    start = {"omega": 0.5, "c_v_dot": 0.0}
+    naive = ScienceFit(est, X_wrong, y).fit(damped, start)
+    fit = ScienceFit(est, X_wrong, y, fit_initial_states=True)
+    fitted = fit.fit(damped, start)
+    assert fitted["omega"] == pytest.approx(2 / 3, rel=0.02) and fitted["c_v_dot"] == pytest.approx(-0.5, rel=0.05)
+    assert abs(naive["omega"] - 2 / 3) > 5 * abs(fitted["omega"] - 2 / 3)
+    np.testing.assert_allclose(fit.initial_states[:, 1], data.X_train[:, 1], atol=0.1)
+    np.testing.assert_array_equal(fit.initial_states[:, 0], X_wrong[:, 0])  # observed states are kept
+    # judged samples get their states fitted too, from X, whatever was fitted before
+    held_out = ScienceFit(est, X_wrong, y, fit_initial_states=True).subset(np.arange(10))
+    assert held_out.errors(damped, fitted).mean() < 0.05 * ScienceFit(est, X_wrong, y).subset(
+        np.arange(10)).errors(damped, fitted).mean()
+    with pytest.raises(ValueError, match="fit_initial_states needs structure='ode'"):
+        ScienceFit(_fit(pendulum_f, data.X_train, data.y_train, dt=0.1, max_iter=1, lr=1e-2),
+                   data.X_train, data.y_train, fit_initial_states=True)
+
+
+def test_close_the_loop_fits_unobserved_initial_states():
+    """With fit_initial_states the loop still names the damping from the angle alone, when X holds
+    velocities that are all wrong; the user's X is left as it was; a fully observed model is refused."""
+    data = make_pendulum(40, 5, 5, dt=0.1, n_steps=10, random_state=2)
+    X_wrong, y = data.X_train.copy(), data.y_train[..., :1]
+    X_wrong[:, 1] = 0.0
+    X_given = X_wrong.copy()
+    est = HybridRegressor(science=pendulum_f, dt=0.1, n_substeps=1, observed=[0], method="erm", max_iter=30,
+                          lr=1e-2, residual=MLPOn([1], hidden=(16,)))
+    out = close_the_loop(est, X_wrong, y, state_names=NAMES, fit_initial_states=True, max_terms=1,
+                         term_kinds=["polynomial"], refit_params={"max_iter": 5})
+    np.testing.assert_array_equal(X_wrong, X_given)
+    assert [(t["output"], t["term"]) for t in out.added] == [("g[v_dot]", "v_dot")]
+    assert out.added[0]["coef"] == pytest.approx(-0.5, rel=0.1)
+    with pytest.raises(ValueError, match="fit_initial_states=True needs an estimator with structure='ode'"):
+        close_the_loop(HybridRegressor(science=pendulum_f, dt=0.1), data.X_train, data.y_train,
+                       fit_initial_states=True)

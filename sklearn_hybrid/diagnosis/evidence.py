@@ -34,21 +34,37 @@ class ScienceFit:
         Supplies the structure (ODE grid, observed components, inputs) and ``theta_bounds``.
     X, y : array-like
         Samples, as for the estimator's ``fit``.
+    fit_initial_states : bool, default=False
+        For a partially observed ODE: fit the initial values of the unobserved states of every
+        sample (window) too, instead of taking them from ``X``. An estimate of an unobserved
+        state made with the science model (a tank level from the balance of the next one) is
+        wrong exactly where the science misses something, and would count against the term that
+        mends it. :meth:`errors` then fits them on the judged samples too (they are states, not
+        parameters of the model being judged), and :attr:`initial_states` holds the last values.
     """
 
-    def __init__(self, estimator: Any, X: Any, y: Any) -> None:
+    def __init__(self, estimator: Any, X: Any, y: Any, fit_initial_states: bool = False) -> None:
         X = estimator._fitted_X(X)
         self.structure = estimator.model_.structure
         self.bounds = dict(estimator.theta_bounds or {})
         with torch.no_grad():
             self.inputs = self.structure.tensors(estimator._structure_X(X), torch.float64)
         self.y = np.asarray(y, dtype=float).reshape(len(X), -1)
+        self.latent: list[int] = []
+        if fit_initial_states:
+            observed = getattr(self.structure, "observed", None)
+            if estimator.structure != "ode" or observed is None or len(self.structure.state_shape) != 1:
+                raise ValueError("fit_initial_states needs structure='ode' with a state vector and `observed` "
+                                 "naming the measured components: only unobserved initial states are fitted.")
+            self.latent = [j for j in range(self.structure.state_shape[0]) if j not in observed]
+        self.initial_states = self.inputs[0].numpy().copy()
 
     def subset(self, rows: np.ndarray) -> "ScienceFit":
         """The same fit restricted to some samples (a train / validation split)."""
         out = object.__new__(ScienceFit)
-        out.structure, out.bounds, out.y = self.structure, self.bounds, self.y[rows]
+        out.structure, out.bounds, out.y, out.latent = self.structure, self.bounds, self.y[rows], self.latent
         out.inputs = tuple(t[torch.as_tensor(rows)] for t in self.inputs)
+        out.initial_states = self.initial_states[rows].copy()
         return out
 
     def predict(self, science: Callable, theta: Mapping[str, Any]) -> np.ndarray:
@@ -57,16 +73,62 @@ class ScienceFit:
         with torch.no_grad():
             return self._simulate(science, values).reshape(self.y.shape).numpy()
 
-    def _simulate(self, science: Callable, values: Mapping[str, torch.Tensor]) -> torch.Tensor:
+    def _simulate(self, science: Callable, values: Mapping[str, torch.Tensor],
+                  initial_states: np.ndarray | None = None) -> torch.Tensor:
         """The structure's science-only forward pass with the parameters bound to ``values``."""
         model = SimpleNamespace(science=lambda *args: science(*args, **values), residual=None, reduction=None)
-        return self.structure.forward(model, *self.inputs, use_residual=False)[0]
+        x0 = self.initial_states if initial_states is None else initial_states
+        inputs = (torch.as_tensor(x0, dtype=torch.float64),) + tuple(self.inputs[1:])
+        return self.structure.forward(model, *inputs, use_residual=False)[0]
 
     def errors(self, science: Callable, theta: Mapping[str, Any]) -> np.ndarray:
         """Mean squared error of every sample (non-finite predictions count as infinite)."""
+        if self.latent:
+            self.initial_states = self.inputs[0].numpy().copy()  # every model judged from the same start
+            self.fit_initial_states(science, theta)
         with np.errstate(over="ignore", invalid="ignore"):  # a diverging candidate: counted, not warned
             err = np.mean((self.predict(science, theta) - self.y) ** 2, axis=1)
         return np.where(np.isfinite(err), err, np.inf)
+
+    def fit_initial_states(self, science: Callable, theta: Mapping[str, Any], n_iter: int = 20) -> None:
+        """Fit the unobserved initial states of every sample at fixed ``theta`` (``initial_states``).
+
+        Each sample's states move only its own trajectory, so one batched Gauss-Newton step
+        (Levenberg-damped, kept per sample only where it lowers that sample's error) serves all
+        samples at the cost of ``1 + n_latent`` simulations.
+        """
+        values = {k: torch.as_tensor(np.asarray(v, dtype=float)) for k, v in theta.items()}
+
+        def residuals(x0):
+            with torch.no_grad(), np.errstate(all="ignore"):
+                r = self._simulate(science, values, x0).reshape(self.y.shape).numpy() - self.y
+            return np.nan_to_num(r, nan=1e3, posinf=1e3, neginf=-1e3)
+
+        x0, damping = self.initial_states.copy(), np.full(len(self.y), 1e-3)
+        r = residuals(x0)
+        cost = np.sum(r**2, axis=1)
+        for _ in range(n_iter):
+            jac = np.empty((len(self.latent), *r.shape))
+            for a, j in enumerate(self.latent):
+                step = 1e-6 * np.maximum(1.0, np.abs(x0[:, j]))
+                moved = x0.copy()
+                moved[:, j] += step
+                jac[a] = (residuals(moved) - r) / step[:, None]
+            jtj = np.einsum("ans,bns->nab", jac, jac)
+            jtr = np.einsum("ans,ns->na", jac, r)
+            diagonal = np.arange(len(self.latent))
+            jtj[:, diagonal, diagonal] *= 1.0 + damping[:, None]  # Marquardt: each state damped by its curvature
+            jtj[:, diagonal, diagonal] += 1e-12
+            trial = x0.copy()
+            trial[:, self.latent] -= np.linalg.solve(jtj, jtr[..., None])[..., 0]
+            r_trial = residuals(trial)
+            cost_trial = np.sum(r_trial**2, axis=1)
+            better = cost_trial < cost
+            x0[better], r[better], cost[better] = trial[better], r_trial[better], cost_trial[better]
+            damping = np.where(better, damping / 3, damping * 4)
+            if np.all(~better):
+                break
+        self.initial_states = x0
 
     def fit(self, science: Callable, theta: Mapping[str, Any],
             extra_bounds: Mapping[str, tuple[float, float]] | None = None, max_nfev: int = 100) -> dict:
@@ -110,9 +172,48 @@ class ScienceFit:
             return ((r[1:] - r[0]) / steps[:, None]).T
 
         jac = jacobian if self._vmap_serves(science, x0, unpack) else "2-point"
+        n_params, problem = len(x0), (residuals, jac, x0, low, high)
+        if self.latent:  # states fitted jointly: alternating with the parameters stalls where they trade
+            problem = self._with_states(*problem)
         with np.errstate(all="ignore"):  # trial steps may overflow; they are rejected, not used
-            result = least_squares(residuals, x0, jac=jac, bounds=(low, high), x_scale="jac", max_nfev=max_nfev)
-        return {k: (float(v) if v.ndim == 0 else v) for k, v in unpack(result.x).items()}
+            x = least_squares(problem[0], problem[2], jac=problem[1], bounds=problem[3:], x_scale="jac",
+                              max_nfev=max_nfev).x
+        if self.latent:
+            problem[0](x)  # leaves the fitted states in initial_states
+        return {k: (float(v) if v.ndim == 0 else v) for k, v in unpack(x[:n_params]).items()}
+
+    def _with_states(self, residuals, jac, x0, low, high):
+        """Residuals and Jacobian of (parameters, unobserved initial states of every sample), from the
+        states in ``X`` (so that no candidate starts from another candidate's states). A sample's
+        states move only its own residuals: their columns cost one simulation per state component."""
+        p, n, k, m = len(x0), len(self.y), len(self.latent), self.y.shape[1]
+        given = self.inputs[0].numpy().copy()
+
+        def place(z):
+            self.initial_states = given.copy()
+            self.initial_states[:, self.latent] = z[p:].reshape(n, k)
+
+        def joint_residuals(z):
+            place(z)
+            return residuals(z[:p])
+
+        def joint_jacobian(z):
+            place(z)
+            r = residuals(z[:p])
+            J = np.zeros((n * m, p + n * k))
+            J[:, :p] = jac(z[:p]) if callable(jac) else _forward_differences(residuals, z[:p], r, high[:p])
+            rows, base = np.arange(n * m), self.initial_states.copy()
+            for a, j in enumerate(self.latent):
+                step = 1e-6 * np.maximum(1.0, np.abs(base[:, j]))
+                self.initial_states = base.copy()
+                self.initial_states[:, j] += step
+                J[rows, p + np.repeat(np.arange(n) * k + a, m)] = (residuals(z[:p]) - r) / np.repeat(step, m)
+            self.initial_states = base
+            return J
+
+        start = np.concatenate([x0, given[:, self.latent].ravel()])
+        return (joint_residuals, joint_jacobian, start, np.concatenate([low, np.full(n * k, -np.inf)]),
+                np.concatenate([high, np.full(n * k, np.inf)]))
 
     def _predict_many(self, science: Callable, points: np.ndarray, unpack: Callable) -> np.ndarray:
         """Science-only predictions at several parameter vectors, one vectorised simulation
@@ -133,6 +234,12 @@ class ScienceFit:
         except Exception:  # noqa: BLE001 -- any failure means: take the reference path
             return False
         return bool(np.allclose(many[0], alone, rtol=1e-9, atol=1e-12, equal_nan=True))
+
+
+def _forward_differences(residuals, x, r, high):
+    steps = np.sqrt(np.finfo(float).eps) * np.maximum(1.0, np.abs(x))
+    steps = np.where(x + steps > high, -steps, steps)
+    return np.column_stack([(residuals(x + step * np.eye(len(x))[i]) - r) / step for i, step in enumerate(steps)])
 
 
 def _side(bounds: Any, i: int, default: float) -> float:

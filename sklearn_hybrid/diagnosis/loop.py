@@ -98,7 +98,8 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
                    units: Mapping[str, str] | None = None, exact: str | Sequence[Any] | None = "auto",
                    terms: Sequence[Term] | None = None, term_kinds: Sequence[str] | None = None,
                    user_terms: Mapping[str, Callable] | None = None, positive: Sequence[str] = (),
-                   validation_fraction: float = 0.25, cv: int | None = None, max_terms: int = 4,
+                   validation_fraction: float = 0.25, cv: int | None = None, fit_initial_states: bool = False,
+                   max_terms: int = 4,
                    n_candidates: int = 4,
                    z: float = 3.0, min_gain: float = 0.05, param_names: Mapping[str, str] | None = None,
                    refit_params: Mapping[str, Any] | None = None, theta_true: Mapping[str, Any] | None = None,
@@ -153,6 +154,11 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         refit on the other samples, so every sample judges each term (one refit per block and
         candidate). For a single short record, where the last quarter is a few windows of one
         regime. Overlapping windows at a block's edges share samples with its neighbours.
+    fit_initial_states : bool, default=False
+        For an ODE whose ``observed`` leaves states unmeasured: the network-free refits fit the
+        initial unobserved states of every sample too (see :class:`ScienceFit`), and the hybrid is
+        refitted from the states the final one found. Use it when ``X`` holds estimates of those
+        states made with the science model, which are wrong where the science misses an effect.
     max_terms, n_candidates : int, default=4
         At most this many terms added, and candidates taken from each ranking per step (up to
         twice as many refitted).
@@ -195,6 +201,9 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
             print(message if message.startswith(("  ", "|")) or "\n" in message
                   else f"[{time.perf_counter() - start:4.0f} s] {message}", flush=True)
     _check_options(validation_fraction, max_terms, n_candidates, cv, len(y))
+    if fit_initial_states and (estimator.structure != "ode" or estimator.observed is None):
+        raise ValueError("fit_initial_states=True needs an estimator with structure='ode' and observed=[...] "
+                         "leaving some states unmeasured: only their initial values are fitted.")
     if getattr(estimator, "theta_encoder", None) is not None:
         raise ValueError("close_the_loop does not support theta_encoder: its network-free refits judge each term "
                          "with one theta shared by every sample. Close the loop on a model with a shared theta.")
@@ -232,7 +241,7 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         log("scoring the first hybrid ..." if scoring.executor is None else
             "scoring the first hybrid in a worker process ...")
         before_row = scoring.submit(before)
-        fit = ScienceFit(before, X, y)
+        fit = ScienceFit(before, X, y, fit_initial_states)
         n = len(fit.y)
         if cv is None:
             n_val = int(np.clip(round(validation_fraction * n), 2, n - 2))
@@ -256,6 +265,9 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         remaining = learned - science_output(final, science_theta, args)
         unexplained = residual_profile(remaining, learned, values, variables, outputs, components)
 
+        if fit_initial_states:  # the hybrid refit starts every sample from the states fitted with the final model
+            X = np.array(X, dtype=float)
+            X[:, :fit.initial_states.shape[1]] = fit.initial_states
         alone = _fixed_science(before, final, science_theta, X, y)
         log("scoring the network-free model ..." if scoring.executor is None else
             "scoring the network-free model in a worker process ...")
