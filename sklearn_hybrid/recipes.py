@@ -133,6 +133,9 @@ def silverbox_case(fast: bool = False, method: str = "erm", max_iter: int | None
                  state_names=["y", "y_dot"], input_names=["u"],
                  units={"y": "100 mV", "y_dot": "100 mV/sample", "u": "100 mV"},
                  library=CandidateLibrary(degree=3, include_bias=True), param_names={},
+                 # the windows' initial velocities are central differences of noisy samples: fitted
+                 # with the network-free refits, the arrow error drops from 0.354 to 0.329 mV
+                 fit_initial_states=True,
                  description="Silverbox (measured): y'' = b(u - u0) - k y - c y'; cubic stiffness undeclared. "
                              "y, u in 0.1 V, time in samples; RMSE in mV on free runs of the test records.")
 
@@ -264,7 +267,7 @@ def _announced(scorer: Callable | None) -> Callable | None:
 
 def run_case(name: str, fast: bool = False, method: str = "erm", max_iter: int | None = None,
              verbose: bool = False, progress: bool = False, n_jobs: int | None = None, cv: int | None = None,
-             fit_initial_states: bool = False, **options) -> Bunch:
+             fit_initial_states: bool | None = None, **options) -> Bunch:
     """Run :func:`~sklearn_hybrid.diagnosis.close_the_loop` on a named case; return its result plus ``case``.
 
     Parameters
@@ -280,9 +283,9 @@ def run_case(name: str, fast: bool = False, method: str = "erm", max_iter: int |
     n_jobs, cv : int or None, default=None
         Processes that score the models, and blocks of cross-validated evidence (see
         :func:`~sklearn_hybrid.diagnosis.close_the_loop`).
-    fit_initial_states : bool, default=False
+    fit_initial_states : bool, optional
         The network-free refits fit the unobserved initial states of every window (see
-        :func:`~sklearn_hybrid.diagnosis.close_the_loop`).
+        :func:`~sklearn_hybrid.diagnosis.close_the_loop`); default: the case's choice.
     **options
         Further keyword arguments of the case function (``data_home``, ``random_state``).
 
@@ -302,6 +305,7 @@ def run_case(name: str, fast: bool = False, method: str = "erm", max_iter: int |
                          state_names=case.state_names, input_names=case.input_names, units=case.units,
                          positive=case.get("positive", ()), param_names=case.param_names,
                          theta_true=case.get("theta_true"), test_scorer=scorer, n_jobs=n_jobs, cv=cv,
-                         fit_initial_states=fit_initial_states, verbose=verbose)
+                         fit_initial_states=case.get("fit_initial_states", False) if fit_initial_states is None
+                         else fit_initial_states, verbose=verbose)
     out["case"] = case
     return out

@@ -396,9 +396,9 @@ def test_screening_refits_use_evenly_spaced_training_samples_and_the_kept_term_a
     sizes = []
     original = ScienceFit.fit
 
-    def recording(self, science, theta, extra_bounds=None, max_nfev=100):
+    def recording(self, science, theta, extra_bounds=None, max_nfev=100, fit_states=True):
         sizes.append((len(self.y), max_nfev))
-        return original(self, science, theta, extra_bounds, max_nfev)
+        return original(self, science, theta, extra_bounds, max_nfev, fit_states)
 
     monkeypatch.setattr(ScienceFit, "fit", recording)
     monkeypatch.setattr(stepwise, "_SCREENING_SAMPLES", 10)
@@ -507,6 +507,13 @@ def test_science_fit_fits_unobserved_initial_states():
     held_out = ScienceFit(est, X_wrong, y, fit_initial_states=True).subset(np.arange(10))
     assert held_out.errors(damped, fitted).mean() < 0.05 * ScienceFit(est, X_wrong, y).subset(
         np.arange(10)).errors(damped, fitted).mean()
+    # settle: later fits start from the states of a given model; a screening fit holds them there
+    screen = ScienceFit(est, X_wrong, y, fit_initial_states=True)
+    screen.settle(damped, fitted)
+    np.testing.assert_allclose(screen.anchor[:, 1], data.X_train[:, 1], atol=0.1)
+    screened = screen.fit(damped, start, fit_states=False)
+    np.testing.assert_array_equal(screen.initial_states, screen.anchor)
+    assert screened["omega"] == pytest.approx(2 / 3, rel=0.02)
     with pytest.raises(ValueError, match="fit_initial_states needs structure='ode'"):
         ScienceFit(_fit(pendulum_f, data.X_train, data.y_train, dt=0.1, max_iter=1, lr=1e-2),
                    data.X_train, data.y_train, fit_initial_states=True)

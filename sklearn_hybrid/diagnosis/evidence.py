@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 import torch
+from scipy import sparse
 from scipy.optimize import least_squares
 from scipy.stats import norm
 from scipy.stats import t as student_t
@@ -58,13 +59,14 @@ class ScienceFit:
                                  "naming the measured components: only unobserved initial states are fitted.")
             self.latent = [j for j in range(self.structure.state_shape[0]) if j not in observed]
         self.initial_states = self.inputs[0].numpy().copy()
+        self.anchor = self.initial_states.copy()  # where every fit of the states starts
 
     def subset(self, rows: np.ndarray) -> "ScienceFit":
         """The same fit restricted to some samples (a train / validation split)."""
         out = object.__new__(ScienceFit)
         out.structure, out.bounds, out.y, out.latent = self.structure, self.bounds, self.y[rows], self.latent
         out.inputs = tuple(t[torch.as_tensor(rows)] for t in self.inputs)
-        out.initial_states = self.initial_states[rows].copy()
+        out.initial_states, out.anchor = self.initial_states[rows].copy(), self.anchor[rows].copy()
         return out
 
     def predict(self, science: Callable, theta: Mapping[str, Any]) -> np.ndarray:
@@ -84,11 +86,20 @@ class ScienceFit:
     def errors(self, science: Callable, theta: Mapping[str, Any]) -> np.ndarray:
         """Mean squared error of every sample (non-finite predictions count as infinite)."""
         if self.latent:
-            self.initial_states = self.inputs[0].numpy().copy()  # every model judged from the same start
+            self.initial_states = self.anchor.copy()  # every model judged from the same start
             self.fit_initial_states(science, theta)
         with np.errstate(over="ignore", invalid="ignore"):  # a diverging candidate: counted, not warned
             err = np.mean((self.predict(science, theta) - self.y) ** 2, axis=1)
         return np.where(np.isfinite(err), err, np.inf)
+
+    def settle(self, science: Callable, theta: Mapping[str, Any]) -> None:
+        """Start later fits of the states from those that fit ``science`` at ``theta`` (the model a
+        selection step continues from), instead of from ``X``: every candidate of a step starts
+        from the same states, and closer to its own than ``X`` is."""
+        if self.latent:
+            self.initial_states = self.anchor.copy()
+            self.fit_initial_states(science, theta)
+            self.anchor = self.initial_states.copy()
 
     def fit_initial_states(self, science: Callable, theta: Mapping[str, Any], n_iter: int = 20) -> None:
         """Fit the unobserved initial states of every sample at fixed ``theta`` (``initial_states``).
@@ -124,16 +135,20 @@ class ScienceFit:
             r_trial = residuals(trial)
             cost_trial = np.sum(r_trial**2, axis=1)
             better = cost_trial < cost
+            settled = np.all(cost - np.where(better, cost_trial, cost) <= 1e-6 * cost)  # errors to 6 digits
             x0[better], r[better], cost[better] = trial[better], r_trial[better], cost_trial[better]
             damping = np.where(better, damping / 3, damping * 4)
-            if np.all(~better):
+            if settled:  # no sample's error moves any more
                 break
         self.initial_states = x0
 
     def fit(self, science: Callable, theta: Mapping[str, Any],
-            extra_bounds: Mapping[str, tuple[float, float]] | None = None, max_nfev: int = 100) -> dict:
+            extra_bounds: Mapping[str, tuple[float, float]] | None = None, max_nfev: int = 100,
+            fit_states: bool = True) -> dict:
         """Least-squares parameters of ``science``, started from ``theta`` (its defaults elsewhere).
 
+        With fitted initial states, ``fit_states=False`` holds them at ``anchor`` (a screening fit:
+        a third of the time, and the states of the model a step continues from are close).
         Returns the fitted parameter dict (scalars as float, vectors as arrays).
         """
         _, defaults = read_signature(science)
@@ -173,21 +188,23 @@ class ScienceFit:
 
         jac = jacobian if self._vmap_serves(science, x0, unpack) else "2-point"
         n_params, problem = len(x0), (residuals, jac, x0, low, high)
-        if self.latent:  # states fitted jointly: alternating with the parameters stalls where they trade
+        self.initial_states = self.anchor.copy()
+        if self.latent and fit_states:  # jointly: alternating with the parameters stalls where they trade
             problem = self._with_states(*problem)
         with np.errstate(all="ignore"):  # trial steps may overflow; they are rejected, not used
             x = least_squares(problem[0], problem[2], jac=problem[1], bounds=problem[3:], x_scale="jac",
                               max_nfev=max_nfev).x
-        if self.latent:
+        if self.latent and fit_states:
             problem[0](x)  # leaves the fitted states in initial_states
         return {k: (float(v) if v.ndim == 0 else v) for k, v in unpack(x[:n_params]).items()}
 
     def _with_states(self, residuals, jac, x0, low, high):
         """Residuals and Jacobian of (parameters, unobserved initial states of every sample), from the
-        states in ``X`` (so that no candidate starts from another candidate's states). A sample's
-        states move only its own residuals: their columns cost one simulation per state component."""
+        ``anchor`` states (``X``'s, or those :meth:`settle` left), so that no candidate starts from
+        another candidate's states. A sample's states move only its own residuals: their columns
+        cost one simulation per state component."""
         p, n, k, m = len(x0), len(self.y), len(self.latent), self.y.shape[1]
-        given = self.inputs[0].numpy().copy()
+        given = self.anchor.copy()
 
         def place(z):
             self.initial_states = given.copy()
@@ -197,19 +214,20 @@ class ScienceFit:
             place(z)
             return residuals(z[:p])
 
-        def joint_jacobian(z):
+        def joint_jacobian(z):  # sparse: a state's column is nonzero on its own sample's rows only
             place(z)
             r = residuals(z[:p])
-            J = np.zeros((n * m, p + n * k))
-            J[:, :p] = jac(z[:p]) if callable(jac) else _forward_differences(residuals, z[:p], r, high[:p])
-            rows, base = np.arange(n * m), self.initial_states.copy()
+            dense = jac(z[:p]) if callable(jac) else _forward_differences(residuals, z[:p], r, high[:p])
+            rows, base, blocks = np.arange(n * m), self.initial_states.copy(), []
             for a, j in enumerate(self.latent):
                 step = 1e-6 * np.maximum(1.0, np.abs(base[:, j]))
                 self.initial_states = base.copy()
                 self.initial_states[:, j] += step
-                J[rows, p + np.repeat(np.arange(n) * k + a, m)] = (residuals(z[:p]) - r) / np.repeat(step, m)
+                values = ((residuals(z[:p]) - r) / np.repeat(step, m)).ravel()
+                blocks.append(sparse.coo_matrix((values, (rows, np.repeat(np.arange(n) * k + a, m))),
+                                                shape=(n * m, n * k)))
             self.initial_states = base
-            return J
+            return sparse.hstack([sparse.csr_matrix(dense), sum(blocks).tocsr()]).tocsr()
 
         start = np.concatenate([x0, given[:, self.latent].ravel()])
         return (joint_residuals, joint_jacobian, start, np.concatenate([low, np.full(n * k, -np.inf)]),

@@ -150,7 +150,8 @@ class _Judge:
 
     ``fit`` gives the parameters a step continues from (on the training rows, or on every row with
     folds); ``errors`` the per-sample held-out errors, in the same sample order for every model.
-    ``screening``: at most ``_SCREENING_SAMPLES`` evenly spaced fitting rows and ``_SCREENING_NFEV``.
+    ``screening``: at most ``_SCREENING_SAMPLES`` evenly spaced fitting rows and ``_SCREENING_NFEV``,
+    and fitted initial states held where :meth:`settle` left them.
     """
 
     def __init__(self, fit: ScienceFit, splits: Sequence[tuple[np.ndarray, np.ndarray]]):
@@ -158,6 +159,11 @@ class _Judge:
         self.train, self.screen = fit.subset(rows), fit.subset(_evenly_spaced(rows, _SCREENING_SAMPLES))
         self.folds = [(fit.subset(tr), fit.subset(_evenly_spaced(tr, _SCREENING_SAMPLES)), fit.subset(te))
                       for tr, te in splits]
+
+    def settle(self, science, theta) -> None:
+        """With fitted initial states: later fits start from the states that fit this model."""
+        for part in [self.train, self.screen, *(f for fold in self.folds for f in fold)]:
+            part.settle(science, theta)
 
     def fit(self, science, start, bounds=None, screening=False) -> dict:
         return _fit_on(self.screen if screening else self.train, science, start, bounds, screening)
@@ -171,7 +177,9 @@ class _Judge:
 
 
 def _fit_on(fit: ScienceFit, science, start, bounds, screening) -> dict:
-    return fit.fit(science, start, bounds, max_nfev=_SCREENING_NFEV) if screening else fit.fit(science, start, bounds)
+    if screening:  # fewer evaluations, and fitted initial states held where the current model put them
+        return fit.fit(science, start, bounds, max_nfev=_SCREENING_NFEV, fit_states=False)
+    return fit.fit(science, start, bounds)
 
 
 def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceFit,
@@ -221,6 +229,7 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
     columns = _term_columns(terms, tensors)
     judge = _Judge(fit, splits)
     current, theta_now = science, judge.fit(science, theta)
+    judge.settle(science, theta_now)
     errors = base_errors = judge.errors(science, theta_now)
     scale = np.sqrt(np.mean(np.asarray(learned, dtype=float) ** 2, axis=0))
     log(f"science refitted alone: validation MSE {errors.mean():.4g}")
@@ -267,6 +276,7 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
         current, added, theta_now, errors = _drop_dispensable(
             science, current, added, theta_now, errors, judge, variables, n_states, param_names,
             z, min_gain, steps, log)
+        judge.settle(current, theta_now)
     return {"science": current, "theta": theta_now, "added": added, "steps": steps,
             "base_errors": base_errors, "errors": errors, "seconds": time.perf_counter() - start_time}
 
