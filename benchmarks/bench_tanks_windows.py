@@ -71,8 +71,9 @@ def _markdown(runs: list[dict]) -> str:
     return "\n".join(md)
 
 
-def _key(run: dict) -> tuple:
-    return run["window"], run["stride"], run.get("cv"), bool(run.get("fit_initial_states"))
+def _key(run: dict) -> tuple:  # a rerun replaces a run of the same setting and package commit only
+    return (run["window"], run["stride"], run.get("cv"), bool(run.get("fit_initial_states")),
+            run.get("package_commit", "3b80ab2"))
 
 
 def main():
@@ -81,7 +82,8 @@ def main():
                         help="window/stride, or window/stride/K for K-fold blocked cross-validated evidence; "
                              "a trailing /f fits the windows' initial upper-tank levels (close_the_loop's "
                              "fit_initial_states) instead of estimating them from the lower tank's balance. "
-                             "Runs of other settings already in results/tanks_windows.json are kept.")
+                             "Runs of other settings or package commits already in results/tanks_windows.json "
+                             "are kept.")
     parser.add_argument("--data-home", default=None)
     parser.add_argument("--render", action="store_true", help="only rewrite the table from results/tanks_windows.json")
     args = parser.parse_args()
