@@ -41,7 +41,7 @@ class ScienceFit:
         state made with the science model (a tank level from the balance of the next one) is
         wrong exactly where the science misses something, and would count against the term that
         mends it. :meth:`errors` then fits them on the judged samples too (they are states, not
-        parameters of the model being judged), and :attr:`initial_states` holds the last values.
+        parameters of the model being judged), and ``initial_states`` holds the last values.
     """
 
     def __init__(self, estimator: Any, X: Any, y: Any, fit_initial_states: bool = False) -> None:
