@@ -85,8 +85,7 @@ class ScienceFit:
 
     def errors(self, science: Callable, theta: Mapping[str, Any]) -> np.ndarray:
         """Mean squared error of every sample (non-finite predictions count as infinite)."""
-        if self.latent:
-            self.initial_states = self.anchor.copy()  # every model judged from the same start
+        if self.latent:  # every model judged from the same start, the anchor
             self.fit_initial_states(science, theta)
         with np.errstate(over="ignore", invalid="ignore"):  # a diverging candidate: counted, not warned
             err = np.mean((self.predict(science, theta) - self.y) ** 2, axis=1)
@@ -97,12 +96,12 @@ class ScienceFit:
         selection step continues from), instead of from ``X``: every candidate of a step starts
         from the same states, and closer to its own than ``X`` is."""
         if self.latent:
-            self.initial_states = self.anchor.copy()
             self.fit_initial_states(science, theta)
             self.anchor = self.initial_states.copy()
 
     def fit_initial_states(self, science: Callable, theta: Mapping[str, Any], n_iter: int = 20) -> None:
-        """Fit the unobserved initial states of every sample at fixed ``theta`` (``initial_states``).
+        """Fit the unobserved initial states of every sample at fixed ``theta``, from ``anchor``
+        (the result in ``initial_states``).
 
         Each sample's states move only its own trajectory, so one batched Gauss-Newton step
         (Levenberg-damped, kept per sample only where it lowers that sample's error) serves all
@@ -115,16 +114,11 @@ class ScienceFit:
                 r = self._simulate(science, values, x0).reshape(self.y.shape).numpy() - self.y
             return np.nan_to_num(r, nan=1e3, posinf=1e3, neginf=-1e3)
 
-        x0, damping = self.initial_states.copy(), np.full(len(self.y), 1e-3)
+        x0, damping = self.anchor.copy(), np.full(len(self.y), 1e-3)
         r = residuals(x0)
         cost = np.sum(r**2, axis=1)
         for _ in range(n_iter):
-            jac = np.empty((len(self.latent), *r.shape))
-            for a, j in enumerate(self.latent):
-                step = 1e-6 * np.maximum(1.0, np.abs(x0[:, j]))
-                moved = x0.copy()
-                moved[:, j] += step
-                jac[a] = (residuals(moved) - r) / step[:, None]
+            jac = self._state_derivatives(residuals, x0, r)
             jtj = np.einsum("ans,bns->nab", jac, jac)
             jtr = np.einsum("ans,ns->na", jac, r)
             diagonal = np.arange(len(self.latent))
@@ -181,8 +175,7 @@ class ScienceFit:
             return scaled(self.predict(science, unpack(x)))
 
         def jacobian(x):  # forward differences as least_squares takes them, all in one simulation
-            steps = np.sqrt(np.finfo(float).eps) * np.maximum(1.0, np.abs(x))
-            steps = np.where(x + steps > high, -steps, steps)  # stay inside the bounds
+            steps = _difference_steps(x, high)
             r = scaled(self._predict_many(science, np.vstack([x, x + np.diag(steps)]), unpack))
             return ((r[1:] - r[0]) / steps[:, None]).T
 
@@ -218,20 +211,33 @@ class ScienceFit:
             place(z)
             r = residuals(z[:p])
             dense = jac(z[:p]) if callable(jac) else _forward_differences(residuals, z[:p], r, high[:p])
-            rows, base, blocks = np.arange(n * m), self.initial_states.copy(), []
-            for a, j in enumerate(self.latent):
-                step = 1e-6 * np.maximum(1.0, np.abs(base[:, j]))
-                self.initial_states = base.copy()
-                self.initial_states[:, j] += step
-                values = ((residuals(z[:p]) - r) / np.repeat(step, m)).ravel()
-                blocks.append(sparse.coo_matrix((values, (rows, np.repeat(np.arange(n) * k + a, m))),
-                                                shape=(n * m, n * k)))
+            base = self.initial_states
+
+            def at(states):  # the scaled residuals, per sample, from other initial states
+                self.initial_states = states
+                return residuals(z[:p]).reshape(n, m)
+
+            derivatives = self._state_derivatives(at, base, r.reshape(n, m))
             self.initial_states = base
+            rows = np.arange(n * m)
+            blocks = [sparse.coo_matrix((derivatives[a].ravel(), (rows, np.repeat(np.arange(n) * k + a, m))),
+                                        shape=(n * m, n * k)) for a in range(k)]
             return sparse.hstack([sparse.csr_matrix(dense), sum(blocks).tocsr()]).tocsr()
 
         start = np.concatenate([x0, given[:, self.latent].ravel()])
         return (joint_residuals, joint_jacobian, start, np.concatenate([low, np.full(n * k, -np.inf)]),
                 np.concatenate([high, np.full(n * k, np.inf)]))
+
+    def _state_derivatives(self, residuals: Callable, x0: np.ndarray, r: np.ndarray) -> np.ndarray:
+        """Forward differences of every sample's residuals ``r`` (n, m) by each of its own unobserved
+        initial states: ``(n_latent, n, m)``, one simulation of all samples per state component."""
+        out = np.empty((len(self.latent), *r.shape))
+        for a, j in enumerate(self.latent):
+            step = 1e-6 * np.maximum(1.0, np.abs(x0[:, j]))
+            moved = x0.copy()
+            moved[:, j] += step
+            out[a] = (residuals(moved) - r) / step[:, None]
+        return out
 
     def _predict_many(self, science: Callable, points: np.ndarray, unpack: Callable) -> np.ndarray:
         """Science-only predictions at several parameter vectors, one vectorised simulation
@@ -254,9 +260,14 @@ class ScienceFit:
         return bool(np.allclose(many[0], alone, rtol=1e-9, atol=1e-12, equal_nan=True))
 
 
-def _forward_differences(residuals, x, r, high):
+def _difference_steps(x: np.ndarray, high: np.ndarray) -> np.ndarray:
+    """Forward-difference steps as least_squares takes them, turned back inside the upper bounds."""
     steps = np.sqrt(np.finfo(float).eps) * np.maximum(1.0, np.abs(x))
-    steps = np.where(x + steps > high, -steps, steps)
+    return np.where(x + steps > high, -steps, steps)
+
+
+def _forward_differences(residuals, x, r, high):
+    steps = _difference_steps(x, high)
     return np.column_stack([(residuals(x + step * np.eye(len(x))[i]) - r) / step for i, step in enumerate(steps)])
 
 
