@@ -67,13 +67,13 @@ def _markdown(runs: list[dict]) -> str:
         x1 = "fitted" if r.get("fit_initial_states") else "balance"
         md.append(f"| {r['window']} / {r['stride']} | {split} | {x1} | {r['n_windows']} | {thr} | {best} | "
                   f"{added} | {fmt(v.get('before'))} | {fmt(v.get('after'))} | "
-                  f"{fmt(v.get('science only'))} | {r['seconds']:.0f} | {r.get('package_commit', '3b80ab2')} |")
+                  f"{fmt(v.get('science only'))} | {r['seconds']:.0f} | {r['package_commit']} |")
     return "\n".join(md)
 
 
 def _key(run: dict) -> tuple:  # a rerun replaces a run of the same setting and package commit only
     return (run["window"], run["stride"], run.get("cv"), bool(run.get("fit_initial_states")),
-            run.get("package_commit", "3b80ab2"))
+            run["package_commit"])
 
 
 def main():
