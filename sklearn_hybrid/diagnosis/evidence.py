@@ -94,7 +94,16 @@ class ScienceFit:
     def settle(self, science: Callable, theta: Mapping[str, Any]) -> None:
         """Start later fits of the states from those that fit ``science`` at ``theta`` (the model a
         selection step continues from), instead of from ``X``: every candidate of a step starts
-        from the same states, and closer to its own than ``X`` is."""
+        from the same states, and closer to its own than ``X`` is. Does nothing without
+        ``fit_initial_states``.
+
+        Parameters
+        ----------
+        science : callable
+            The science function.
+        theta : dict
+            Its parameter values.
+        """
         if self.latent:
             self.fit_initial_states(science, theta)
             self.anchor = self.initial_states.copy()
@@ -106,6 +115,15 @@ class ScienceFit:
         Each sample's states move only its own trajectory, so one batched Gauss-Newton step
         (Levenberg-damped, kept per sample only where it lowers that sample's error) serves all
         samples at the cost of ``1 + n_latent`` simulations.
+
+        Parameters
+        ----------
+        science : callable
+            The science function.
+        theta : dict
+            Its parameter values, held fixed.
+        n_iter : int, default=20
+            Most Gauss-Newton steps (fewer once no sample's error moves in its 6th digit).
         """
         values = {k: torch.as_tensor(np.asarray(v, dtype=float)) for k, v in theta.items()}
 
