@@ -160,9 +160,10 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         refitted from the states the final one found. Use it when ``X`` holds estimates of those
         states (from the data's differences, or made with the science model, which are wrong
         where the science misses an effect). It costs: every refit fits one more value per sample
-        and unobserved state. Silverbox: 217 s against 146 s, and a better model; the real
-        pendulum free swing, whose candidates carry widths and knots: stopped unfinished after
-        19 CPU-minutes, against 73 s without.
+        and unobserved state. Silverbox: 217 s against 146 s, and a better model
+        (``benchmarks/results/closed_loop.md``); on the real pendulum free swing, whose candidates
+        carry widths and knots, a run was stopped unfinished after many times the case's time
+        without it, so its recipe leaves it off.
     max_terms, n_candidates : int, default=4
         At most this many terms added, and candidates taken from each ranking per step (up to
         twice as many refitted).
