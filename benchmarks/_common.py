@@ -32,8 +32,38 @@ def _read_package_commit() -> str:
 PACKAGE_COMMIT = _read_package_commit()
 
 
+def reference_seconds() -> float:
+    """Seconds a fixed small workload takes here: 1000 Adam steps of a 32x32 MLP, one torch thread.
+
+    Machines of the same kind differ in speed by up to ~3x (the same closed-loop run took 217 s
+    one day and 78 s the next); this figure, beside a benchmark's timings, tells which it was.
+    Measured in a fresh ``torch.set_num_threads(1)`` state and restored afterwards.
+    """
+    import time
+
+    import torch
+
+    threads = torch.get_num_threads()
+    torch.set_num_threads(1)
+    try:
+        gen = torch.Generator().manual_seed(0)
+        x = torch.randn(512, 2, generator=gen, dtype=torch.float64)
+        net = torch.nn.Sequential(torch.nn.Linear(2, 32), torch.nn.Tanh(), torch.nn.Linear(32, 32),
+                                  torch.nn.Tanh(), torch.nn.Linear(32, 1)).double()
+        opt = torch.optim.Adam(net.parameters(), lr=1e-3)
+        start = time.perf_counter()
+        for _ in range(1000):
+            opt.zero_grad()
+            loss = (net(x) - x[:, :1] ** 3).pow(2).mean()
+            loss.backward()
+            opt.step()
+        return round(time.perf_counter() - start, 3)
+    finally:
+        torch.set_num_threads(threads)
+
+
 def machine_description() -> dict:
-    """CPU model, core count, memory and library versions of this machine."""
+    """CPU model, core count, memory, library versions and speed (:func:`reference_seconds`)."""
     import numpy
     import sklearn
     import torch
@@ -51,7 +81,7 @@ def machine_description() -> dict:
     return {"cpu": cpu, "cores": os.cpu_count(), "memory_gib": round(mem, 1),
             "python": platform.python_version(), "torch": torch.__version__,
             "torch_threads": torch.get_num_threads(), "numpy": numpy.__version__,
-            "scikit-learn": sklearn.__version__,
+            "scikit-learn": sklearn.__version__, "reference_s": reference_seconds(),
             "date": datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")}
 
 
