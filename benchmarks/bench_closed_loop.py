@@ -28,13 +28,14 @@ def _baselines() -> dict:
     data = json.loads(path.read_text())
     sb = {(r["model"], r["input"]): r for r in data["silverbox"]}
     tanks = {r["model"]: r for r in data["tanks"]}
+    swing = [(f"grey-box {r['model']}", r) for r in data.get("pendulum_freeswing", [])]
     return {"silverbox": [(f"grey-box {m} ({i})", sb[(m, i)]) for m, i in
                           [("linear", "fft"), ("linear + cubic", "fft"), ("linear + cubic", "cubic"),
                            ("linear + cubic", "cubic, 1 RK4 step/sample"),
                            ("linear + cubic + quadratic", "cubic, 1 RK4 step/sample"),
                            ("linear + cubic + quadratic + cubic damping", "cubic, 1 RK4 step/sample"),
                            ("linear + cubic + quadratic + quintic", "cubic, 1 RK4 step/sample")] if (m, i) in sb],
-            "tanks": [(f"grey-box {m}", tanks[m]) for m in tanks]}
+            "tanks": [(f"grey-box {m}", tanks[m]) for m in tanks], "pendulum-freeswing": swing}
 
 
 def _markdown(results: dict, baselines: dict, method: str, n_jobs: int) -> str:
@@ -59,6 +60,11 @@ def _markdown(results: dict, baselines: dict, method: str, n_jobs: int) -> str:
         if name == "tanks" and baselines.get("tanks"):
             md += ["Grey-box baselines (bench_greybox.py):", "", "| model | estimation | validation |", "|---|---|---|"]
             md += [f"| {label} | {b['estimation']:.3f} | {b['validation']:.3f} |" for label, b in baselines["tanks"]]
+            md.append("")
+        if name == "pendulum-freeswing" and baselines.get("pendulum-freeswing"):
+            md += ["Grey-box baselines (bench_greybox.py, textbook friction laws fitted to one free run of the "
+                   "first 3 s, RMSE mrad):", "", "| model | train | test |", "|---|---|---|"]
+            md += [f"| {label} | {b['train']:.3f} | {b['test']:.3f} |" for label, b in baselines["pendulum-freeswing"]]
             md.append("")
     return "\n".join(md)
 
