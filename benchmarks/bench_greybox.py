@@ -303,7 +303,8 @@ def main():
            + " | ".join(f"{r['params'][k]:.4g}" if k in SWING_MODELS[r['model']] else "-" for k in SWING_NAMES) + " |"
            for r in swing_rows]
     md += ["", f"Total time {time.perf_counter() - start:.0f} s (numba {numba.__version__})."]
-    print(write_results("greybox", {"silverbox": rows, "tanks": tank_rows, "pendulum_freeswing": swing_rows}, "\n".join(md)).read_text())
+    payload = {"silverbox": rows, "tanks": tank_rows, "pendulum_freeswing": swing_rows}
+    print(write_results("greybox", payload, "\n".join(md)).read_text())
 
 
 if __name__ == "__main__":
