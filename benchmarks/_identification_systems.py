@@ -52,6 +52,9 @@ class System:
         Forced systems: the input stays inside this interval (random sums of three sines).
     zero_components : list of int
         Components on which the missing effect is identically zero.
+    batch : int
+        1: the systems the benchmark was built with; 2: systems written on 2026-11-25, after the selection's
+        code was last changed, and added unchanged whatever they gave (see ``FRESH``).
     sign_of : int or None
         For an effect that jumps with the sign of one state (dry friction): that state's index.  Trajectories
         are then integrated piecewise between its zero crossings (no chattering of the step size), and a
@@ -74,6 +77,7 @@ class System:
     u_range: tuple | None = None
     zero_components: list = field(default_factory=list)
     sign_of: int | None = None
+    batch: int = 1
 
     @property
     def forced(self) -> bool:
@@ -254,7 +258,83 @@ SYSTEMS = [
            two_compartment_f, {"k12": 0.5, "k21": 0.3, "ke": 0.4}, None,
            ["c1", "c2"], {"c1": "mg/L", "c2": "mg/L", "u": "mg/L/h"}, 0.3, 30, (0.0, 0.0), (1.5, 1.5), (0.0, 1.5)),
 ]
-SYSTEMS = {s.name: s for s in SYSTEMS}
+
+
+# ------------------------------------------------------------------------------------------ batch 2 (fresh systems)
+# Written on 2026-11-25 as a probe of the closed loop on effects it had never met, after its selection code was
+# last changed (package commit d1e00a8); each was run once at noise 0.01 (five under shorter names, so on other
+# random draws) before it was added here, unchanged, failures included. allee_slow is a variant of allee written
+# after allee failed, to see whether its fast approach to the carrying capacity was the cause (it was not the
+# only one).
+def brusselator_f(v, a=1.2, b=1.4):
+    x = v[:, 0]
+    return torch.stack([a - (b + 1) * x, b * x], dim=-1)
+
+
+def actuator_f(v, u, k=1.2, c=0.3, b=0.8):
+    return torch.stack([v[:, 1], -k * v[:, 0] - c * v[:, 1] + b * u[:, 0]], dim=-1)
+
+
+def cooling_f(v, u, h=0.25, p=0.9):
+    return torch.stack([-h * v[:, 0] + p * u[:, 0]], dim=-1)
+
+
+def van_der_pol_f(v, mu=0.8, w2=1.3):
+    x, y = v[:, 0], v[:, 1]
+    return torch.stack([y, mu * (1 - x ** 2) * y - w2 * x], dim=-1)
+
+
+def allee_logistic_f(v, r=0.7, K=1.6):
+    x = v[:, 0]
+    return torch.stack([r * x * (1 - x.clamp(min=0) / K)], dim=-1)
+
+
+def reversible_f(v, u, k=0.6, d=0.4):
+    A, B = v[:, 0], v[:, 1]
+    return torch.stack([-k * A + u[:, 0], k * A - d * B], dim=-1)
+
+
+def free_oscillator_f(v, k=2.5, c=0.15):
+    return torch.stack([v[:, 1], -k * v[:, 0] - c * v[:, 1]], dim=-1)
+
+
+FRESH = [
+    System("brusselator", "chemical", "polynomial (cubic, two components)", "autocatalysis +x^2 y, -x^2 y",
+           brusselator_f, {"a": 1.0, "b": 1.7},
+           lambda x, u: np.stack([x[:, 0] ** 2 * x[:, 1], -x[:, 0] ** 2 * x[:, 1]], 1),
+           ["x", "y"], {"x": "mol/L", "y": "mol/L"}, 0.3, 30, (0.3, 0.5), (2.0, 2.5), batch=2),
+    System("saturating_actuator", "oscillator", "input-dependent (saturating)", "actuator saturation tanh(u) - u",
+           actuator_f, {"k": 1.5, "c": 0.25, "b": 1.0},
+           lambda x, u: _on(1, 2, 1.0 * (np.tanh(u[:, 0]) - u[:, 0])),
+           ["x", "v"], {"x": "m", "v": "m/s", "u": "N/kg"}, 0.15, 30, (-1.0, -1.0), (1.0, 1.0), (-2.0, 2.0),
+           zero_components=[0], batch=2),
+    System("natural_convection", "thermal", "fractional power (5/4)", "natural convection -0.3 T^1.25",
+           cooling_f, {"h": 0.2, "p": 1.0}, lambda x, u: -0.3 * np.maximum(x, 0) ** 1.25,
+           ["T"], {"T": "10 K", "u": "kW"}, 0.3, 30, (0.2,), (3.0,), (0.0, 2.0), batch=2),
+    System("control_van_der_pol", "electrical", "control", "nothing (van der Pol)",
+           van_der_pol_f, {"mu": 1.0, "w2": 1.0}, None, ["x", "y"], {"x": "V", "y": "V/s"}, 0.2, 30,
+           (-2.0, -2.0), (2.0, 2.0), batch=2),
+    System("allee", "population", "polynomial (cubic, changes the growth's sign)",
+           "strong Allee effect: r x (1 - x/K)(x/0.3 - 2), r = 1",
+           allee_logistic_f, {"r": 1.0, "K": 2.0},
+           lambda x, u: 1.0 * x * (1 - x / 2.0) * (x / 0.3 - 1) - 1.0 * x * (1 - x / 2.0),
+           ["x"], {"x": "1"}, 0.2, 30, (0.35,), (2.5,), batch=2),
+    System("allee_slow", "population", "polynomial (cubic, changes the growth's sign)",
+           "strong Allee effect: r x (1 - x/K)(x/0.3 - 2), r = 0.3",
+           allee_logistic_f, {"r": 0.3, "K": 2.0},
+           lambda x, u: 0.3 * x * (1 - x / 2.0) * (x / 0.3 - 1) - 0.3 * x * (1 - x / 2.0),
+           ["x"], {"x": "1"}, 0.2, 30, (0.35,), (2.5,), batch=2),
+    System("reversible_reaction", "chemical", "linear (a missing reaction)", "back reaction B -> A: +0.4 B, -0.4 B",
+           reversible_f, {"k": 0.8, "d": 0.3},
+           lambda x, u: np.stack([0.4 * x[:, 1], -0.4 * x[:, 1]], 1),
+           ["A", "B"], {"A": "mol/L", "B": "mol/L", "u": "mol/L/h"}, 0.25, 30, (0.0, 0.0), (1.5, 1.5), (0.0, 1.2),
+           batch=2),
+    System("asymmetric_damping", "oscillator", "non-smooth (one-sided)", "damping in one direction -0.5 v max(0, v)",
+           free_oscillator_f, {"k": 2.0, "c": 0.1},
+           lambda x, u: _on(1, 2, -0.5 * x[:, 1] * np.maximum(0, x[:, 1])),
+           ["x", "v"], {"x": "m", "v": "m/s"}, 0.1, 40, (-1.5, -2.0), (1.5, 2.0), zero_components=[0], batch=2),
+]
+SYSTEMS = {s.name: s for s in SYSTEMS + FRESH}
 
 
 # ----------------------------------------------------------------------------------------------------- simulation
