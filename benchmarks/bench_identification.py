@@ -209,8 +209,8 @@ def render(records: list[dict]) -> str:
                "Written on 2026-11-25 to probe effects the loop had never met (package commit d1e00a8, the code "
                "batch 1's later cases ran); a probe ran each once at noise 0.01 (five of them under shorter names, "
                "so on other random draws) before the systems were added here unchanged, failures included. "
-               "`allee_slow` was written after `allee` failed, to see whether its fast approach to the carrying capacity was the "
-               "cause.", ""]
+               "`allee_slow` was written after `allee` failed, to see whether its fast approach to the carrying "
+               "capacity was the cause.", ""]
         md += _tables(batches[2])
     machines = sorted({f"{r['machine']['cpu']}, {r['machine']['cores']} cores, torch {r['machine']['torch']}"
                        for r in records if "machine" in r})
