@@ -364,6 +364,20 @@ def test_report_states_the_thresholds_used():
     assert "tail of z = 2.5" in text
 
 
+def test_report_writes_huge_losses_in_powers_of_ten():
+    # a screening refit whose simulations blew up multiplied the error by ~1.8e22: its gain was
+    # printed as -1823745583607992492752896.0%
+    from sklearn_hybrid.diagnosis import format_table
+
+    step = {"step": 1, "output": "g[x]", "term": "1", "kind": "polynomial", "mse_before": 0.04391,
+            "mse_after": 8.008e20, "gain": 1 - 8.008e20 / 0.04391, "z": -1.7, "accepted": False}
+    text = format_table([{"stage": "before", "theta": {"k": 1.0}}], steps=[step], n_validation=12)
+    assert "| -1.8e+24% |" in text and "1823745583607992492752896" not in text
+    for gain, shown in [(0.955, "95.5%"), (-13.1 / 100, "-13.1%"), (-98.0, "-9800.0%"), (-float("inf"), "-inf%")]:
+        text = format_table([{"stage": "before", "theta": {}}], steps=[{**step, "gain": gain}], n_validation=12)
+        assert f"| {shown} |" in text
+
+
 def test_candidates_are_also_ranked_without_the_network(pendulum):
     """A hybrid fit can trade the missing effect between theta and the network, so its residual may
     point at the wrong term; the network-free ranking (a score test on the training trajectories)

@@ -22,6 +22,15 @@ KIND_WORDS = {"polynomial": "polynomial", "drag": "drag (v|v|, |v|)", "dry_frict
               "exponential": "exponential", "saturation": "saturation (Michaelis-Menten)", "user": "user term"}
 
 
+def format_gain(gain: float) -> str:
+    """A relative drop of the validation error as a percentage; powers of ten once it is beyond -9,999 %.
+
+    A candidate whose refit drives some simulations to blow up can multiply the error by 1e20, and
+    ``-1823745583607992492752896.0%`` tells less than ``-1.8e+24%``.
+    """
+    return f"{gain:.1%}" if not np.isfinite(gain) or abs(gain) < 100 else f"{100 * gain:.2g}%"
+
+
 def prediction_metrics(y: np.ndarray, y_hybrid: np.ndarray, y_science: np.ndarray) -> dict[str, float]:
     """Test RMSE of the hybrid and of the science part alone, and the network's share of the prediction.
 
@@ -209,7 +218,7 @@ def format_table(rows: list[dict], added: Sequence[dict] = (), steps: Sequence[d
                 lines.append(f"| {s['step']} | {s['output']} | {s['term']} | {s['kind']} | | failed | | | no |")
                 continue
             lines.append(f"| {s['step']} | {s['output']} | {s['term']} | {s['kind']} | {s['mse_before']:.4g} | "
-                         f"{s['mse_after']:.4g} | {s['gain']:.1%} | {s['z']:.1f} | "
+                         f"{s['mse_after']:.4g} | {format_gain(s['gain'])} | {s['z']:.1f} | "
                          f"{'dropped' if s.get('dropped') else 'yes' if s['accepted'] else 'no'} |")
     lines.append("")
     if added:

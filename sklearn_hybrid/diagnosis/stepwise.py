@@ -25,6 +25,7 @@ import torch
 from ..science import read_signature
 from .augment import augment_science
 from .evidence import ScienceFit, evidence
+from .report import format_gain
 from .residual import finite_differences, parameter_jacobian, science_output
 from .terms import Term
 
@@ -260,7 +261,7 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
             verdict = evidence(errors, cand_errors, z=z, min_gain=min_gain)
             steps.append({"step": len(added) + 1, **_public(cand), **verdict, "accepted": False})
             log(f"  step {len(added) + 1}: {cand['term']} on component {cand['component']}: validation MSE "
-                f"{verdict['mse_after']:.4g} (gain {verdict['gain']:.1%}, z {verdict['z']:.1f})")
+                f"{verdict['mse_after']:.4g} (gain {format_gain(verdict['gain'])}, z {verdict['z']:.1f})")
             tried.append((cand, fitted, verdict, cand_errors, candidate_science, len(steps) - 1))
         best = _simplest_of_the_best(tried, min_gain)
         if best is None:
