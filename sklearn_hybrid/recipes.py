@@ -190,15 +190,20 @@ def tanks_case(fast: bool = False, method: str = "erm", max_iter: int | None = N
 
 # ------------------------------------------------------------------------------ Pendulum free swing
 def pendulum_freeswing_case(fast: bool = False, method: str = "erm", max_iter: int | None = None,
-                            data_home: Any = None, random_state: int = 0) -> Bunch:
-    """Real pendulum free swing: frictionless science model, friction undeclared."""
+                            data_home: Any = None, random_state: int = 0, window: int = 50,
+                            stride: int = 5) -> Bunch:
+    """Real pendulum free swing: frictionless science model, friction undeclared.
+
+    The 3 s of training hold five 50-sample windows side by side; the recipe's stride of 5 makes 50
+    overlapping ones, whose held-out errors are correlated (see ``benchmarks/bench_freeswing_windows.py``).
+    """
     full = load_pendulum_freeswing(data_home)
     # Velocity from a local cubic fit at full rate (1e-4 s) before decimating to 0.01 s.
     vel = estimate_derivative(full.angle_from_bottom, dt=full.dt, method="savgol", window_length=201, polyorder=3)
     angle, vel = full.angle_from_bottom[::100] / SWING_SCALE, vel[::100] / SWING_SCALE * 0.1
     # The swing dies out after ~6 s (600 samples): train on the first 3 s, free-run test on the next 3.5 s.
-    dt, window, n_train, n_test = 0.1, 50, 300, 350  # time unit 0.1 s: a sample is dt = 0.1 units
-    train = make_windows(angle, length=window, stride=50 if fast else 5, stop=n_train,
+    dt, n_train, n_test = 0.1, 300, 350  # time unit 0.1 s: a sample is dt = 0.1 units
+    train = make_windows(angle, length=window, stride=50 if fast else stride, stop=n_train,
                          states=np.column_stack([angle, vel]))
     est = HybridRegressor(science=swing_f, dt=dt, n_substeps=1, observed=[0],
                           residual=MLPOn([1], hidden=(32, 32)), method=method, rho=0.05, lr=1e-2,
