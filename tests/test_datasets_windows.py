@@ -141,3 +141,13 @@ def test_recipes_live_outside_the_diagnosis_package():
     assert not hasattr(diagnosis, "run_case")
     with pytest.raises(ModuleNotFoundError):
         importlib.import_module("sklearn_hybrid.diagnosis.cases")
+
+
+def test_freeswing_recipe_takes_window_and_stride(shared_data):
+    from sklearn_hybrid import recipes
+
+    default = recipes.pendulum_freeswing_case(data_home=shared_data)
+    side_by_side = recipes.pendulum_freeswing_case(data_home=shared_data, stride=50)
+    assert len(default.y) == 50 and len(side_by_side.y) == 5  # 3 s of 0.01 s samples, 50-sample windows
+    assert side_by_side.y.shape[1:] == default.y.shape[1:] == (50, 1)
+    np.testing.assert_array_equal(side_by_side.X, default.X[::10])  # the same windows, every tenth
