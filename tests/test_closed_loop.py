@@ -485,6 +485,54 @@ def test_cross_validated_evidence_judges_every_sample(pendulum):
         close_the_loop(est, data.X_train, data.y_train, cv=len(data.y_train))
 
 
+def test_held_out_splits_keep_groups_whole_and_match_the_ungrouped_split():
+    from sklearn_hybrid.diagnosis.evidence import held_out_splits
+
+    # without groups: the last quarter (or cv contiguous blocks) of the samples, as always
+    [(train, val)], codes = held_out_splits(10, 0.25, None)
+    assert codes is None and list(train) == list(range(8)) and list(val) == [8, 9]
+    folds, _ = held_out_splits(10, 0.25, 2)
+    assert [list(te) for _, te in folds] == [[0, 1, 2, 3, 4], [5, 6, 7, 8, 9]]
+    # groups, numbered in order of first appearance, stay on one side of every split
+    groups = np.array(["c", "c", "a", "a", "a", "b", "d", "d", "e", "e", "f", "f"])
+    [(train, val)], codes = held_out_splits(12, 0.25, None, groups)
+    assert list(codes) == [0, 0, 1, 1, 1, 2, 3, 3, 4, 4, 5, 5]
+    assert list(val) == [8, 9, 10, 11] and list(train) == list(range(8))  # 2 of 6 groups validate
+    for train, test in held_out_splits(12, 0.25, 3, groups)[0]:
+        assert not set(codes[train]) & set(codes[test]) and len(train) + len(test) == 12
+    with pytest.raises(ValueError, match="one label per sample"):
+        held_out_splits(12, 0.25, None, groups[:5])
+    with pytest.raises(ValueError, match="NaN"):
+        held_out_splits(3, 0.25, None, np.array([0.0, np.nan, 1.0]))
+
+
+def test_grouped_evidence_counts_each_group_once(pendulum):
+    """Groups of samples are judged by their mean error: the threshold is Student's t for the number of
+    groups, and the report says so; the damping still passes with 6 groups judged."""
+    from sklearn_hybrid.diagnosis import stepwise
+    from sklearn_hybrid.diagnosis.evidence import held_out_splits
+
+    data, est = pendulum
+    n = len(data.y_train)
+    groups = np.arange(n) // 2  # as if every two samples were overlapping windows of one stretch
+    out = close_the_loop(est, data.X_train, data.y_train, state_names=NAMES, groups=groups,
+                         refit_params={"max_iter": 5})
+    n_groups = round(0.25 * n / 2)
+    assert f"mean squared error on {n_groups} validation groups (a group's samples judged together" in out.report
+    assert f"{critical_value(3.0, n_groups):.2f} standard errors" in out.report
+    assert [t["term"] for t in out.added] == ["v_dot"]
+    # the judge's errors are the group means of the per-sample errors
+    splits, codes = held_out_splits(n, 0.25, None, groups)
+    fit = ScienceFit(est, data.X_train, data.y_train)
+    per_sample = stepwise._Judge(fit, splits).errors(pendulum_f, {"omega": 0.6})
+    per_group = stepwise._Judge(fit, splits, codes).errors(pendulum_f, {"omega": 0.6})
+    np.testing.assert_allclose(per_group, per_sample.reshape(-1, 2).mean(axis=1))
+    with pytest.raises(ValueError, match="3 groups: a split needs 4 at least"):
+        close_the_loop(est, data.X_train, data.y_train, groups=np.arange(n) * 3 // n)
+    with pytest.raises(ValueError, match="cv=4 blocks of 6 groups"):
+        close_the_loop(est, data.X_train, data.y_train, groups=np.arange(n) * 6 // n, cv=4)
+
+
 def test_scoring_workers_leave_joblib_parallel_working(pendulum):
     """The scoring pool is close_the_loop's own: joblib's shared loky executor still works after it
     (a shared one, changed by close_the_loop, broke a later GridSearchCV(n_jobs=2))."""

@@ -318,6 +318,47 @@ def critical_value(z: float, n: int) -> float:
     return float(student_t.ppf(norm.cdf(z), df=n - 1)) if n > 1 else math.inf
 
 
+def held_out_splits(n: int, validation_fraction: float, cv: int | None = None,
+                    groups: Any = None) -> tuple[list[tuple[np.ndarray, np.ndarray]], np.ndarray | None]:
+    """The (training rows, validation rows) pairs a selection is judged by.
+
+    Without ``cv``: the last ``validation_fraction`` of the samples validate (2 at least, and 2 left
+    to fit). With ``cv``: ``cv`` contiguous blocks, each validated by a fit on the other rows.
+    ``groups`` (one label per sample, e.g. the non-overlapping stretch of a record a window starts
+    in): samples that share a label are kept on one side of every split, and the selection compares
+    their mean error as one value -- overlapping windows of one record are nearly the same numbers,
+    and counted one by one they would overstate the evidence.
+
+    Returns
+    -------
+    splits : list of (ndarray, ndarray)
+    codes : ndarray of shape (n,) or None
+        Each sample's group, numbered in order of first appearance (None without ``groups``).
+    """
+    codes = np.arange(n) if groups is None else group_codes(groups, n)
+    m = int(codes.max()) + 1
+    if cv is None:
+        n_val = int(np.clip(round(validation_fraction * m), 2, m - 2))
+        blocks = [np.arange(m - n_val, m)]
+    else:
+        blocks = np.array_split(np.arange(m), cv)
+    splits = [(np.flatnonzero(~np.isin(codes, b)), np.flatnonzero(np.isin(codes, b))) for b in blocks]
+    return splits, (None if groups is None else codes)
+
+
+def group_codes(groups: Any, n: int) -> np.ndarray:
+    """Group labels as 0, 1, ... in order of first appearance; errors that name the problem."""
+    labels = np.asarray(groups)
+    if labels.shape != (n,):
+        raise ValueError(f"groups must hold one label per sample ({n}), got an array of shape {labels.shape}.")
+    if labels.dtype.kind in "fc" and not np.all(np.isfinite(labels)):
+        raise ValueError("groups contains NaN or infinite labels.")
+    _, first, inverse = np.unique(labels, return_index=True, return_inverse=True)
+    rank = np.empty(len(first), dtype=int)
+    rank[np.argsort(first)] = np.arange(len(first))
+    return rank[inverse.ravel()]
+
+
 def evidence(errors_before: np.ndarray, errors_after: np.ndarray, z: float = 3.0,
              min_gain: float = 0.05) -> dict[str, float | bool]:
     """Does a change lower the held-out error by more than the noise explains?

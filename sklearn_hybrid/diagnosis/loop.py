@@ -22,7 +22,7 @@ from ..engine import DivergenceError
 from ..residual import MLP, MaskedMLP
 from ..science import read_signature
 from .report import Scoring, format_table, residual_profile
-from .evidence import ScienceFit
+from .evidence import ScienceFit, group_codes, held_out_splits
 from .residual import _names, parameter_jacobian, science_output
 from .stepwise import forward_selection
 from .terms import Term, physics_terms
@@ -98,9 +98,8 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
                    units: Mapping[str, str] | None = None, exact: str | Sequence[Any] | None = "auto",
                    terms: Sequence[Term] | None = None, term_kinds: Sequence[str] | None = None,
                    user_terms: Mapping[str, Callable] | None = None, positive: Sequence[str] = (),
-                   validation_fraction: float = 0.25, cv: int | None = None, fit_initial_states: bool = False,
-                   max_terms: int = 4,
-                   n_candidates: int = 4,
+                   validation_fraction: float = 0.25, cv: int | None = None, groups: Any = None,
+                   fit_initial_states: bool = False, max_terms: int = 4, n_candidates: int = 4,
                    z: float = 3.0, min_gain: float = 0.05, param_names: Mapping[str, str] | None = None,
                    refit_params: Mapping[str, Any] | None = None, theta_true: Mapping[str, Any] | None = None,
                    test_scorer: Callable | None = None, n_jobs: int | None = None, random_state: Any = 0,
@@ -154,14 +153,21 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         refit on the other samples, so every sample judges each term (one refit per block and
         candidate). For a single short record, where the last quarter is a few windows of one
         regime. Overlapping windows at a block's edges share samples with its neighbours.
+    groups : array-like of shape (n_samples,), optional
+        A label per sample; samples that share one are judged together, as one mean error, and are
+        never split between fitting and validation (the split and the ``cv`` blocks cut between
+        groups, in order of first appearance). Windows cut from one record with a stride below
+        their length overlap, and their held-out errors are nearly the same numbers: counted one by
+        one they overstate the evidence. Label each by the non-overlapping stretch it starts in,
+        e.g. ``starts // length`` of :func:`~sklearn_hybrid.datasets.make_windows`.
     fit_initial_states : bool, default=False
         For an ODE whose ``observed`` leaves states unmeasured: the network-free refits fit the
         initial unobserved states of every sample too (see :class:`ScienceFit`), and the hybrid is
         refitted from the states the final one found. Use it when ``X`` holds estimates of those
         states (from the data's differences, or made with the science model, which are wrong
         where the science misses an effect). It costs: every refit fits one more value per sample
-        and unobserved state. Silverbox: 217 s against 146 s, and a better model
-        (``benchmarks/results/closed_loop.md``); on the real pendulum free swing, whose candidates
+        and unobserved state. Silverbox: 217 s against 146 s on one machine, and a better model
+        (``benchmarks/results/closed_loop.md``: 75 s with it on a faster machine); on the real pendulum free swing, whose candidates
         carry widths and knots, a run was stopped unfinished after many times the case's time
         without it, so its recipe leaves it off.
     max_terms, n_candidates : int, default=4
@@ -205,7 +211,8 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         if verbose:
             print(message if message.startswith(("  ", "|")) or "\n" in message
                   else f"[{time.perf_counter() - start:4.0f} s] {message}", flush=True)
-    _check_options(validation_fraction, max_terms, n_candidates, cv, len(y))
+    n_units = len(y) if groups is None else int(group_codes(groups, len(y)).max()) + 1
+    _check_options(validation_fraction, max_terms, n_candidates, cv, n_units, groups is not None)
     if fit_initial_states and (estimator.structure != "ode" or estimator.observed is None):
         raise ValueError("fit_initial_states=True needs an estimator with structure='ode' and observed=[...] "
                          "leaving some states unmeasured: only their initial values are fitted.")
@@ -247,18 +254,16 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
             "scoring the first hybrid in a worker process ...")
         before_row = scoring.submit(before)
         fit = ScienceFit(before, X, y, fit_initial_states)
-        n = len(fit.y)
-        if cv is None:
-            n_val = int(np.clip(round(validation_fraction * n), 2, n - 2))
-            splits = [(np.arange(n - n_val), np.arange(n - n_val, n))]
-        else:
-            n_val = n
-            splits = [(np.setdiff1d(np.arange(n), block), block) for block in np.array_split(np.arange(n), cv)]
+        splits, codes = held_out_splits(len(fit.y), validation_fraction, cv, groups)
+        judged = np.concatenate([te for _, te in splits])
+        n_val = len(judged) if codes is None else len(np.unique(codes[judged]))
+        unit = "samples" if codes is None else "groups"
         log(f"selecting terms ({len(terms)} candidates on {len(components)} component(s), "
-            f"{n_val} validation samples{'' if cv is None else f' in {cv} blocks'}) ...")
+            f"{n_val} validation {unit}{'' if cv is None else f' in {cv} blocks'}) ...")
         sel = forward_selection(science, before.theta_, fit, splits, terms,
                                 variables, n_states, args, learned, components, max_terms=max_terms,
-                                n_candidates=n_candidates, z=z, min_gain=min_gain, param_names=param_names, log=log)
+                                n_candidates=n_candidates, z=z, min_gain=min_gain, param_names=param_names,
+                                groups=codes, log=log)
         final = sel["science"]
         bounds = {g: t["bounds"][loc][1] for t in sel["added"] for loc, g in t["shape_params"].items()}
         science_theta = fit.fit(final, sel["theta"], bounds)  # every sample, now that the terms are chosen
@@ -297,7 +302,8 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
                              **scoring.submit(after)()})
         rows.append({"stage": "science only", "science": getattr(final, "__name__", "science"),
                      "added": getattr(augmented, "equation", ""), **alone_row()})
-    report = format_table(rows, added, sel["steps"], unexplained, n_val, z=z, min_gain=min_gain, cv=cv)
+    report = format_table(rows, added, sel["steps"], unexplained, n_val, z=z, min_gain=min_gain, cv=cv,
+                          unit=unit)
     log(report)
     return Bunch(before=before, after=after, science=augmented, science_theta=science_theta, science_only=alone,
                  added=added, steps=sel["steps"], exact=[] if uncertain is None else
@@ -308,14 +314,17 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
 _MAX_POINTS = 5000  # visited states used to rank candidates: plenty for a handful of columns
 
 
-def _check_options(validation_fraction, max_terms, n_candidates, cv, n_samples):
+def _check_options(validation_fraction, max_terms, n_candidates, cv, n_units, grouped):
+    unit = "groups" if grouped else "samples"
     if not (isinstance(validation_fraction, (int, float)) and 0 < validation_fraction < 1):
         raise ValueError(f"validation_fraction must be in (0, 1), got {validation_fraction!r}.")
     if cv is not None and (isinstance(cv, bool) or not isinstance(cv, (int, np.integer)) or cv < 2):
         raise ValueError(f"cv must be None or an integer of at least 2, got {cv!r}.")
-    if cv is not None and cv > n_samples // 2:
-        raise ValueError(f"cv={cv} blocks of {n_samples} samples: give at most {n_samples // 2} "
-                         "(two samples a block at least).")
+    if cv is not None and cv > n_units // 2:
+        raise ValueError(f"cv={cv} blocks of {n_units} {unit}: give at most {n_units // 2} "
+                         f"(two {unit} a block at least).")
+    if cv is None and n_units < 4:
+        raise ValueError(f"{n_units} {unit}: a split needs 4 at least (2 to fit, 2 to judge).")
     for name, value in (("max_terms", max_terms), ("n_candidates", n_candidates)):
         if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
             raise ValueError(f"{name} must be a positive integer, got {value!r}.")

@@ -181,11 +181,12 @@ def plot_unexplained(result: Any, axes: Any = None) -> np.ndarray:
 
 def format_table(rows: list[dict], added: Sequence[dict] = (), steps: Sequence[dict] = (),
                  unexplained: dict | None = None, n_validation: int | None = None, z: float = 3.0,
-                 min_gain: float = 0.05, cv: int | None = None) -> str:
+                 min_gain: float = 0.05, cv: int | None = None, unit: str = "samples") -> str:
     """Markdown report: the before/after table, the selection log, the terms added, what is left.
 
     ``z`` and ``min_gain`` are the evidence thresholds the selection used (stated in the report);
-    ``cv`` the number of contiguous blocks when every sample judged by a refit without its block.
+    ``cv`` the number of contiguous blocks when every sample judged by a refit without its block;
+    ``unit``: what ``n_validation`` counts ("groups" when samples were judged by groups).
     """
     skip = ("stage", "science", "added", "theta", "theta_error", "failed")
     metrics = list(dict.fromkeys(k for r in rows for k in r if k not in skip))
@@ -203,8 +204,10 @@ def format_table(rows: list[dict], added: Sequence[dict] = (), steps: Sequence[d
         if "failed" in r:
             lines.append(f"\nThe {r['stage']} fit failed: {r['failed']}\n")
     if steps:
-        judged = (f"{n_validation} validation samples" if cv is None else
-                  f"all {n_validation} samples in {cv} contiguous blocks, each predicted by a refit on the others")
+        judged = (f"{n_validation} validation {unit}" if cv is None else
+                  f"all {n_validation} {unit} in {cv} contiguous blocks, each predicted by a refit on the others")
+        if unit == "groups":
+            judged += " (a group's samples judged together, by their mean error)"
         lines += ["", f"Selection (science model refitted without the network, mean squared error on "
                       f"{judged}; a term is accepted when it lowers it by at "
                       f"least {min_gain * 100:g} % and by more than {critical_value(z, n_validation or 0):.2f} standard "

@@ -152,14 +152,19 @@ class _Judge:
     ``fit`` gives the parameters a step continues from (on the training rows, or on every row with
     folds); ``errors`` the per-sample held-out errors, in the same sample order for every model.
     ``screening``: at most ``_SCREENING_SAMPLES`` evenly spaced fitting rows and ``_SCREENING_NFEV``,
-    and fitted initial states held where :meth:`settle` left them.
+    and fitted initial states held where :meth:`settle` left them. ``groups`` (every row's group
+    code): ``errors`` gives one mean error per group instead of one per row.
     """
 
-    def __init__(self, fit: ScienceFit, splits: Sequence[tuple[np.ndarray, np.ndarray]]):
+    def __init__(self, fit: ScienceFit, splits: Sequence[tuple[np.ndarray, np.ndarray]],
+                 groups: np.ndarray | None = None):
         rows = splits[0][0] if len(splits) == 1 else np.arange(len(fit.y))
         self.train, self.screen = fit.subset(rows), fit.subset(_evenly_spaced(rows, _SCREENING_SAMPLES))
         self.folds = [(fit.subset(tr), fit.subset(_evenly_spaced(tr, _SCREENING_SAMPLES)), fit.subset(te))
                       for tr, te in splits]
+        # the judged rows' groups, in the order errors() returns them
+        self.judged_groups = None if groups is None else np.unique(
+            np.concatenate([groups[te] for _, te in splits]), return_inverse=True)[1]
 
     def settle(self, science, theta) -> None:
         """With fitted initial states: later fits start from the states that fit this model."""
@@ -171,10 +176,14 @@ class _Judge:
 
     def errors(self, science, theta, bounds=None, screening=False) -> np.ndarray:
         if len(self.folds) == 1:  # the validation rows were not fitted: no refit needed
-            return self.folds[0][2].errors(science, theta)
-        return np.concatenate([test.errors(science, _fit_on(screen if screening else train, science, theta,
-                                                            bounds, screening))
-                               for train, screen, test in self.folds])
+            errors = self.folds[0][2].errors(science, theta)
+        else:
+            errors = np.concatenate([test.errors(science, _fit_on(screen if screening else train, science,
+                                                                  theta, bounds, screening))
+                                     for train, screen, test in self.folds])
+        if self.judged_groups is None:
+            return errors
+        return np.bincount(self.judged_groups, weights=errors) / np.bincount(self.judged_groups)
 
 
 def _fit_on(fit: ScienceFit, science, start, bounds, screening) -> dict:
@@ -188,8 +197,8 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
                       variables: Sequence[str], n_states: int,
                       args: Sequence[np.ndarray], learned: np.ndarray, components: Sequence[int], *,
                       max_terms: int = 4, n_candidates: int = 4, z: float = 3.0, min_gain: float = 0.05,
-                      param_names: Mapping[str, str] | None = None, log: Callable[[str], None] = lambda s: None
-                      ) -> dict:
+                      param_names: Mapping[str, str] | None = None, groups: np.ndarray | None = None,
+                      log: Callable[[str], None] = lambda s: None) -> dict:
     """Add terms one at a time while a network-free refit validates better by more than the noise.
 
     Parameters
@@ -215,6 +224,9 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
         What the hybrid model learned there: science output plus network.
     components : list of int
         Outputs that may receive terms (the uncertain ones).
+    groups : ndarray of int, optional
+        Every sample's group, numbered from 0 (see ``evidence.held_out_splits``): the
+        evidence compares one mean error per judged group.
 
     Returns
     -------
@@ -228,7 +240,7 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
     tensors = {name: torch.as_tensor(np.asarray(col, dtype=float))
                for name, col in zip(variables, np.hstack([np.asarray(a).reshape(len(a), -1) for a in args]).T)}
     columns = _term_columns(terms, tensors)
-    judge = _Judge(fit, splits)
+    judge = _Judge(fit, splits, groups)
     current, theta_now = science, judge.fit(science, theta)
     judge.settle(science, theta_now)
     errors = base_errors = judge.errors(science, theta_now)
