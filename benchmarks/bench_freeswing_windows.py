@@ -5,10 +5,12 @@ that overlap ten-fold, so that the held-out errors of neighbouring windows are n
 numbers and a t statistic over them overstates the evidence (and judged windows share samples
 with training windows). Here the same case runs with other strides and with blocked
 cross-validated evidence (``cv=K``: every window judged by a refit without its block); with a
-stride of 50 the five windows share no sample. Each row: the first step's best candidates with
+stride of 50 the five windows share no sample. A trailing ``g`` judges the windows by groups
+(``run_case(grouped=True)``: the non-overlapping stretch each starts in; every overlapping window
+is fitted, each group's mean error counts once). Each row: the first step's best candidates with
 their gain and z, the threshold z had to exceed, the terms added and the free-run test RMSE.
 
-Usage: python benchmarks/bench_freeswing_windows.py [--settings 50/5 50/5/5 50/25/5 50/50/2]
+Usage: python benchmarks/bench_freeswing_windows.py [--settings 50/5 50/5/5 50/25/5 50/50/2 50/5/2g]
 (data: $SKLEARN_HYBRID_DATA or --data-home)
 """
 
@@ -22,12 +24,13 @@ from _common import PACKAGE_COMMIT, write_results
 from sklearn_hybrid.recipes import run_case
 
 
-def _run(window: int, stride: int, cv: int | None, data_home) -> dict:
-    out = run_case("pendulum-freeswing", cv=cv, window=window, stride=stride, data_home=data_home)
+def _run(window: int, stride: int, cv: int | None, grouped: bool, data_home) -> dict:
+    out = run_case("pendulum-freeswing", cv=cv, grouped=grouped, window=window, stride=stride,
+                   data_home=data_home)
     first = [s for s in out.steps if s.get("step") == 1 and "gain" in s]
     best = sorted(first, key=lambda s: -s["gain"])[:3]
     rows = {r["stage"]: r for r in out.table}
-    return {"window": window, "stride": stride, "cv": cv, "n_windows": len(out.case.y),
+    return {"window": window, "stride": stride, "cv": cv, "grouped": grouped, "n_windows": len(out.case.y),
             "threshold": first[0]["threshold"] if first else None,
             "best_first_step": [{k: s[k] for k in ("term", "gain", "z")} for s in best],
             "added": [f"{t['term']} [{t['output']}]" for t in out.added],
@@ -39,7 +42,8 @@ def _markdown(runs: list[dict]) -> str:
     md = ["# Real pendulum free swing: the friction's evidence against the overlap of the judged windows", "",
           "`run_case('pendulum-freeswing', window=..., stride=..., cv=...)`, one process, one torch thread. "
           "*judged on*: the last quarter of the windows (the recipe), or every window with K blocks "
-          "(`cv=K`). *overlap*: how many windows cover a sample (window / stride). Test: RMSE (mrad) of a free "
+          "(`cv=K`); *by group*: each non-overlapping stretch's windows judged together, by their mean error "
+          "(`grouped=True`). *overlap*: how many windows cover a sample (window / stride). Test: RMSE (mrad) of a free "
           "run over the 3.5 s after training; grey-box Coulomb friction (`results/greybox.md`) 3.754, "
           "frictionless 15.161.", "",
           "| window / stride | overlap | judged on | windows | threshold | best first-step candidates: gain (z) | "
@@ -52,6 +56,7 @@ def _markdown(runs: list[dict]) -> str:
             return "-" if x is None else f"{x:.3f}"
 
         split = "last quarter" if r["cv"] is None else f"{r['cv']} blocks"
+        split += ", by group" if r.get("grouped") else ""
         md.append(f"| {r['window']} / {r['stride']} | {r['window'] / r['stride']:g} | {split} | {r['n_windows']} | "
                   f"{r['threshold']:.2f} | {best.replace('|', chr(92) + '|')} | "
                   f"{', '.join(r['added']).replace('|', chr(92) + '|') or 'nothing'} | {fmt(t.get('before'))} | "
@@ -61,15 +66,17 @@ def _markdown(runs: list[dict]) -> str:
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--settings", nargs="+", default=["50/5", "50/5/5", "50/25/5", "50/50/2"],
-                        help="window/stride, or window/stride/K for K-fold blocked cross-validated evidence")
+    parser.add_argument("--settings", nargs="+", default=["50/5", "50/5/5", "50/25/5", "50/50/2", "50/5/2g"],
+                        help="window/stride, or window/stride/K for K-fold blocked cross-validated evidence; "
+                             "a trailing g judges by groups")
     parser.add_argument("--data-home", default=None)
     args = parser.parse_args()
     torch.set_num_threads(1)
     runs = []
     for setting in args.settings:
-        window, stride, *cv = (int(v) for v in setting.split("/"))
-        runs.append(_run(window, stride, cv[0] if cv else None, args.data_home))
+        grouped = setting.endswith("g")
+        window, stride, *cv = (int(v) for v in setting.rstrip("g").rstrip("/").split("/"))
+        runs.append(_run(window, stride, cv[0] if cv else None, grouped, args.data_home))
         print(runs[-1], flush=True)
     print(write_results("freeswing_windows", {"runs": runs}, _markdown(runs)).read_text())
 

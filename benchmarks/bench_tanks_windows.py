@@ -31,7 +31,7 @@ CAP = 9.9  # the lower tank's level sits at the top of its range (10 V) while it
 
 
 def _run(window: int, stride: int, cv: int | None, fitted_states: bool, data_home) -> dict:
-    out = run_case("tanks", cv=cv, fit_initial_states=fitted_states, window=window, stride=stride,
+    out = run_case("tanks", cv=cv, grouped=False, fit_initial_states=fitted_states, window=window, stride=stride,
                    data_home=data_home)
     first = [s for s in out.steps if s.get("step") == 1 and "gain" in s]
     best = sorted(first, key=lambda s: -s["gain"])[:3]
@@ -48,7 +48,8 @@ def _run(window: int, stride: int, cv: int | None, fitted_states: bool, data_hom
 def _markdown(runs: list[dict]) -> str:
     md = ["# Cascaded tanks: the closed loop's evidence against the window length and the kind of held-out judgement", "",
           "`python benchmarks/bench_tanks_windows.py` (one process, one torch thread; another benchmark shared "
-          "the machine's second core). Each row: `run_case('tanks', cv=..., window=..., stride=...)`; the last quarter "
+          "the machine's second core). Each row: `run_case('tanks', cv=..., grouped=False, window=..., "
+          "stride=...)`; the last quarter "
           "of the windows judge each term (*last quarter*), or, with K blocks, every window, predicted by a "
           "refit without its block (`close_the_loop(..., cv=K)`); *threshold* is the t quantile a term's z must exceed (and a gain of "
           "at least 5 %); with a stride below the window length the windows overlap, their errors are "

@@ -3,6 +3,7 @@
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 
 from sklearn_hybrid import __version__, cli
@@ -76,6 +77,30 @@ def test_run_case_progress_times_the_free_run_scoring(monkeypatch, capsys):
     assert out.table[0]["test_rmse"] == 0.0
     recipes.run_case("toy", fast=True, max_iter=2)
     assert "scoring" not in capsys.readouterr().out
+
+
+def test_run_case_takes_the_case_s_evidence_settings(monkeypatch):
+    """cv="auto" and grouped=None are the case's choice; an explicit value wins; a case of independent
+    trajectories has no groups to judge by."""
+    import sklearn_hybrid.recipes as recipes
+
+    seen = []
+    monkeypatch.setattr(recipes, "close_the_loop", lambda *a, **kw: seen.append(kw) or {})
+
+    def windowed(**kwargs):
+        case = recipes.synthetic_case("pendulum", **kwargs)
+        case.update(groups=np.arange(len(case.y)) // 2, grouped=True, cv=3)
+        return case
+
+    monkeypatch.setitem(recipes.CASES, "windowed", windowed)
+    recipes.run_case("windowed", fast=True, max_iter=1)
+    assert seen[-1]["cv"] == 3 and seen[-1]["groups"] is not None
+    recipes.run_case("windowed", fast=True, max_iter=1, cv=None, grouped=False)
+    assert seen[-1]["cv"] is None and seen[-1]["groups"] is None
+    recipes.run_case("pendulum", fast=True, max_iter=1)
+    assert seen[-1]["cv"] is None and seen[-1]["groups"] is None
+    with pytest.raises(ValueError, match="has no groups"):
+        recipes.run_case("pendulum", fast=True, max_iter=1, grouped=True)
 
 
 def test_loop_json_lists_the_added_terms(tmp_path, capsys):
