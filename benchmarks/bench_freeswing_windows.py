@@ -1,14 +1,15 @@
 """Real pendulum free swing: is the friction still named when the judged windows do not overlap?
 
 The recipe cuts the 3 s of training into 50-sample windows with a stride of 5 samples: 50 windows
-that overlap ten-fold (judged by groups since 2026-11-25, the last setting below), so that the held-out errors of neighbouring windows are nearly the same
-numbers and a t statistic over them overstates the evidence (and judged windows share samples
-with training windows). Here the same case runs with other strides and with blocked
-cross-validated evidence (``cv=K``: every window judged by a refit without its block); with a
-stride of 50 the five windows share no sample. A trailing ``g`` judges the windows by groups
-(``run_case(grouped=True)``: the non-overlapping stretch each starts in; every overlapping window
-is fitted, each group's mean error counts once). Each row: the first step's best candidates with
-their gain and z, the threshold z had to exceed, the terms added and the free-run test RMSE.
+that overlap ten-fold (judged by groups since 2026-11-25, the last setting below), so that the held-
+out errors of neighbouring windows are nearly the same numbers and a t statistic over them
+overstates the evidence (and judged windows share samples with training windows). Here the same case
+runs with other strides and with blocked cross-validated evidence (``cv=K``: every window judged by
+a refit without its block); with a stride of 50 the five windows share no sample. A trailing ``g``
+judges the windows by groups (``run_case(grouped=True)``: the non-overlapping stretch each starts
+in; every overlapping window is fitted, each group's mean error counts once). Each row: the first
+step's best candidates with their gain and z, the threshold z had to exceed, the terms added and the
+free-run test RMSE.
 
 Usage: python benchmarks/bench_freeswing_windows.py [--settings 50/5 50/5/5 50/25/5 50/50/2 50/5/2g]
 (data: $SKLEARN_HYBRID_DATA or --data-home)
@@ -41,10 +42,11 @@ def _run(window: int, stride: int, cv: int | None, grouped: bool, data_home) -> 
 def _markdown(runs: list[dict]) -> str:
     md = ["# Real pendulum free swing: the friction's evidence against the overlap of the judged windows", "",
           "`run_case('pendulum-freeswing', window=..., stride=..., cv=...)`, one process, one torch thread. "
-          "*judged on*: the last quarter of the windows (the recipe until 2026-11-25), or every window with K blocks "
-          "(`cv=K`); *by group*: each non-overlapping stretch's windows judged together, by their mean error "
-          "(`grouped=True`; the recipe now: 50 / 5, 2 blocks, by group). *overlap*: how many windows cover a sample (window / stride). Test: RMSE (mrad) of a free "
-          "run over the 3.5 s after training; grey-box Coulomb friction (`results/greybox.md`) 3.754, "
+          "*judged on*: the last quarter of the windows (the recipe until 2026-11-25), or every window with K "
+          "blocks (`cv=K`); *by group*: each non-overlapping stretch's windows judged together, by their mean "
+          "error (`grouped=True`; the recipe now: 50 / 5, 2 blocks, by group). *overlap*: how many windows cover "
+          "a sample (window / stride). Test: RMSE (mrad) of a free run over the 3.5 s after training; grey-box "
+          "Coulomb friction (`results/greybox.md`) 3.754, "
           "frictionless 15.161.", "",
           "| window / stride | overlap | judged on | windows | threshold | best first-step candidates: gain (z) | "
           "added | test before | after | science only | s |", "|---|---|---|---|---|---|---|---|---|---|---|"]
