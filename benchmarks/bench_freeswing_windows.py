@@ -1,8 +1,8 @@
 """Real pendulum free swing: is the friction still named when the judged windows do not overlap?
 
 The recipe cuts the 3 s of training into 50-sample windows with a stride of 5 samples: 50 windows
-that overlap ten-fold (judged by groups since 2026-11-25, the last setting below), so that the held-
-out errors of neighbouring windows are nearly the same numbers and a t statistic over them
+that overlap ten-fold (judged by groups since 2026-11-25, the last setting below), so that the
+held-out errors of neighbouring windows are nearly the same numbers and a t statistic over them
 overstates the evidence (and judged windows share samples with training windows). Here the same case
 runs with other strides and with blocked cross-validated evidence (``cv=K``: every window judged by
 a refit without its block); with a stride of 50 the five windows share no sample. A trailing ``g``
