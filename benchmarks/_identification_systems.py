@@ -53,8 +53,8 @@ class System:
     zero_components : list of int
         Components on which the missing effect is identically zero.
     batch : int
-        1: the systems the benchmark was built with; 2: systems written on 2026-11-25, after the selection's
-        code was last changed, and added unchanged whatever they gave (see ``FRESH``).
+        1: the systems the benchmark was built with; 2 and 3: systems written on 2026-11-25, after the
+        selection's code was last changed, and added unchanged whatever they gave (``FRESH``, ``FRESH_3``).
     sign_of : int or None
         For an effect that jumps with the sign of one state (dry friction): that state's index.  Trajectories
         are then integrated piecewise between its zero crossings (no chattering of the step size), and a
@@ -334,7 +334,62 @@ FRESH = [
            lambda x, u: _on(1, 2, -0.5 * x[:, 1] * np.maximum(0, x[:, 1])),
            ["x", "v"], {"x": "m", "v": "m/s"}, 0.1, 40, (-1.5, -2.0), (1.5, 2.0), zero_components=[0], batch=2),
 ]
-SYSTEMS = {s.name: s for s in SYSTEMS + FRESH}
+
+
+# ------------------------------------------------------------------------------------------ batch 3 (fresh systems)
+# Written on 2026-11-25, after batch 2's results and the groups option (which these cases do not use), without
+# changing the selection; run once each and added whatever they gave.
+def sir_incidence_f(v, beta=2.2, gamma=0.9):
+    S, I = v[:, 0], v[:, 1]
+    return torch.stack([-beta * S * I, beta * S * I - gamma * I], dim=-1)
+
+
+def linear_oscillator_f(v, k=1.8, c=0.15):
+    return torch.stack([v[:, 1], -k * v[:, 0] - c * v[:, 1]], dim=-1)
+
+
+def rlc_current_f(v, u, w2=1.5, r=0.25):
+    return torch.stack([v[:, 1], u[:, 0] - r * v[:, 1] - w2 * v[:, 0]], dim=-1)
+
+
+def exothermic_f(v, u, h=0.6, p=0.8):
+    return torch.stack([-h * (v[:, 0] - 1.0) + p * u[:, 0]], dim=-1)
+
+
+def exponential_growth_f(v, r=0.5):
+    return torch.stack([r * v[:, 0]], dim=-1)
+
+
+def damped_pendulum_f(v, w2=2.0, c=0.3):
+    return torch.stack([v[:, 1], -w2 * torch.sin(v[:, 0]) - c * v[:, 1]], dim=-1)
+
+
+FRESH_3 = [
+    System("saturating_incidence", "population", "rational (two states)",
+           "incidence saturating in I: beta S I / (1 + 2 I) - beta S I on S and I",
+           sir_incidence_f, {"beta": 2.5, "gamma": 1.0},
+           lambda x, u: (2.5 * x[:, 0] * x[:, 1] * (1 / (1 + 2 * x[:, 1]) - 1))[:, None] * np.array([[-1.0, 1.0]]),
+           ["S", "I"], {"S": "1", "I": "1"}, 0.25, 30, (0.5, 0.05), (1.0, 0.4), batch=3),
+    System("large_swing", "oscillator", "geometric (sin(x) for x)", "large-angle restoring force 2 (x - sin x)",
+           linear_oscillator_f, {"k": 2.0, "c": 0.1},
+           lambda x, u: _on(1, 2, 2.0 * (x[:, 0] - np.sin(x[:, 0]))),
+           ["x", "v"], {"x": "rad", "v": "rad/s"}, 0.15, 30, (-2.0, -1.0), (2.0, 1.0), zero_components=[0], batch=3),
+    System("quadratic_resistor", "electrical", "non-smooth (C1) on a current", "nonlinear resistor -0.4 i|i|",
+           rlc_current_f, {"w2": 1.2, "r": 0.2},
+           lambda x, u: _on(1, 2, -0.4 * x[:, 1] * np.abs(x[:, 1])),
+           ["q", "i"], {"q": "C", "i": "A", "u": "V/H"}, 0.15, 30, (-1.0, -1.5), (1.0, 1.5), (-1.5, 1.5),
+           zero_components=[0], batch=3),
+    System("exothermic_body", "thermal", "exponential of 1/T (Arrhenius)", "reaction heat 2 exp(-3 / T)",
+           exothermic_f, {"h": 0.8, "p": 0.5}, lambda x, u: 2.0 * np.exp(-3.0 / np.maximum(x, 0.2)),
+           ["T"], {"T": "300 K", "u": "kW"}, 0.25, 30, (0.8,), (2.0,), (0.0, 1.5), batch=3),
+    System("gompertz_growth", "population", "logarithmic", "Gompertz: 0.6 x log(2 / x) - 0.6 x",
+           exponential_growth_f, {"r": 0.6}, lambda x, u: 0.6 * x * np.log(2.0 / np.maximum(x, 1e-6)) - 0.6 * x,
+           ["x"], {"x": "1"}, 0.25, 30, (0.1,), (3.0,), batch=3),
+    System("control_damped_pendulum", "oscillator", "control", "nothing (damped pendulum)",
+           damped_pendulum_f, {"w2": 2.5, "c": 0.2}, None, ["x", "v"], {"x": "rad", "v": "rad/s"}, 0.15, 30,
+           (-2.0, -1.5), (2.0, 1.5), batch=3),
+]
+SYSTEMS = {s.name: s for s in SYSTEMS + FRESH + FRESH_3}
 
 
 # ----------------------------------------------------------------------------------------------------- simulation

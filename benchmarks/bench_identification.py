@@ -61,7 +61,10 @@ RUN_ORDER = ["drag_oscillator", "control_rlc", "budworm", "enzyme_reactor", "sat
              "harvested_predator_prey", "radiating_body",
              # batch 2 (fresh systems, see _identification_systems.FRESH)
              "brusselator", "control_van_der_pol", "saturating_actuator", "natural_convection", "allee",
-             "reversible_reaction", "asymmetric_damping", "allee_slow"]
+             "reversible_reaction", "asymmetric_damping", "allee_slow",
+             # batch 3 (_identification_systems.FRESH_3)
+             "saturating_incidence", "control_damped_pendulum", "large_swing", "quadratic_resistor",
+             "exothermic_body", "gompertz_growth"]
 
 
 def cache_dir(fast: bool) -> Path:
@@ -187,8 +190,8 @@ def render(records: list[dict]) -> str:
     """The markdown results: per-batch tables and summaries, the machines and commands."""
     order = {name: i for i, name in enumerate(SYSTEMS)}
     records = sorted(records, key=lambda r: (order.get(r["system"], 99), r["noise"], r["seed"]))
-    batches = {b: [r for r in records if SYSTEMS[r["system"]].batch == b] for b in (1, 2)}
-    n_systems = {b: sum(s.batch == b for s in SYSTEMS.values()) for b in (1, 2)}
+    batches = {b: [r for r in records if SYSTEMS[r["system"]].batch == b] for b in (1, 2, 3)}
+    n_systems = {b: sum(s.batch == b for s in SYSTEMS.values()) for b in (1, 2, 3)}
     md = ["# Identification benchmark: the closed loop on effects nobody tuned it to", "",
           "`benchmarks/bench_identification.py`. Each case: one system of `_identification_systems.py`, one noise "
           "level, one seed; data from scipy's `solve_ivp` of the true system (50 training trajectories, 20 "
@@ -200,8 +203,8 @@ def render(records: list[dict]) -> str:
           "`rel_err = |F - T| / |m|` (identified when <= 0.10), `leak = |F - T|` on the components where `m = 0`, "
           "over `|m|`; `before` = `rel_err` of `f` at the hybrid fit's theta. Controls (nothing missing): terms "
           "added (target: none) and `|F - T| / |T|`.", "",
-          f"Cases run: {len(batches[1])} of {n_systems[1] * len(NOISE_LEVELS)} in batch 1, {len(batches[2])} of "
-          f"{n_systems[2] * len(NOISE_LEVELS)} in batch 2 (seed 0, noise {NOISE_LEVELS}).", "",
+          "Cases run: " + ", ".join(f"{len(batches[b])} of {n_systems[b] * len(NOISE_LEVELS)} in batch {b}"
+                                    for b in batches) + f" (seed 0, noise {NOISE_LEVELS}).", "",
           "## Batch 1: the systems the benchmark was built with", ""]
     md += _tables(batches[1])
     if batches[2]:
@@ -212,6 +215,12 @@ def render(records: list[dict]) -> str:
                "`allee_slow` was written after `allee` failed, to see whether its fast approach to the carrying "
                "capacity was the cause.", ""]
         md += _tables(batches[2])
+    if batches[3]:
+        md += ["", "## Batch 3: more fresh systems, written after batch 2's results", "",
+               "Written on 2026-11-25 after batch 2 had run, with the selection unchanged (the `groups` option "
+               "added since is not used by these independent trajectories); each ran once here and is shown "
+               "whatever it gave.", ""]
+        md += _tables(batches[3])
     machines = sorted({f"{r['machine']['cpu']}, {r['machine']['cores']} cores, torch {r['machine']['torch']}"
                        for r in records if "machine" in r})
     md += ["", "## Machine and command", ""] + [f"- machine: {m}" for m in machines]
