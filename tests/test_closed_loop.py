@@ -429,6 +429,37 @@ def test_screening_refits_use_evenly_spaced_training_samples_and_the_kept_term_a
     assert stepwise._evenly_spaced(np.arange(5, 105), 10)[[0, -1]].tolist() == [5, 104]
 
 
+def test_a_term_the_converged_test_drops_at_once_is_not_proposed_again(pendulum, monkeypatch):
+    """Seen on a Gompertz growth system: the screening test accepted a term, the converged drop test removed
+    it at once, and the selection proposed it again, forever. Now it is set aside and the selection goes on."""
+    from sklearn_hybrid.diagnosis import stepwise
+    from sklearn_hybrid.diagnosis.residual import science_output
+
+    data, est = pendulum
+    fit = ScienceFit(est, data.X_train, data.y_train)
+    n = len(fit.y)
+    calls = []
+
+    def drop_the_newest(science, current, added, theta, errors, *args):
+        calls.append(added[-1]["term"])
+        if len(calls) > 10:
+            raise AssertionError(f"the selection keeps proposing the same terms: {calls}")
+        if added[-1]["term"] != "v_dot":  # the disagreeing test, for every term but the damping
+            return current, added, theta, errors
+        rest = added[:-1]
+        reduced = stepwise._augment(science, rest, NAMES, 2, None)
+        return reduced, rest, {k: v for k, v in theta.items() if k != added[-1]["param"]}, errors
+
+    monkeypatch.setattr(stepwise, "_drop_dispensable", drop_the_newest)
+    states = data.X_train
+    learned = science_output(pendulum_f, {"omega": 2 / 3}, [states])
+    learned[:, 1] -= 0.5 * states[:, 1]
+    sel = stepwise.forward_selection(pendulum_f, {"omega": 0.6}, fit, [(np.arange(n - 12), np.arange(n - 12, n))],
+                                     physics_terms(NAMES, states), NAMES, 2, [states], learned, [1], max_terms=2)
+    assert calls[0] == "v_dot" and calls.count("v_dot") == 1  # accepted, dropped, never proposed again
+    assert all(s["term"] != "v_dot" for s in sel["steps"][[s["term"] for s in sel["steps"]].index("v_dot") + 1:])
+
+
 def test_a_term_made_dispensable_by_a_later_one_is_dropped(pendulum):
     """Drag v_dot|v_dot| stands in for linear damping until v_dot itself is in; then it goes."""
     from sklearn_hybrid.diagnosis.stepwise import _augment, _drop_dispensable, _Judge, _with_fitted

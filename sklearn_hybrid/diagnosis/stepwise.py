@@ -247,11 +247,15 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
     scale = np.sqrt(np.mean(np.asarray(learned, dtype=float) ** 2, axis=0))
     log(f"science refitted alone: validation MSE {errors.mean():.4g}")
     added: list[dict] = []
+    # A term dropped by the converged test right after the screening test accepted it: not proposed
+    # again (the two tests disagree on it, and proposing it again would repeat the same step forever).
+    rejected: set[tuple] = set()
+    visited: set[frozenset] = {frozenset()}
     steps: list[dict] = []
     while len(added) < max_terms:
         remaining = learned - science_output(current, theta_now, args)
         jac, _ = parameter_jacobian(current, theta_now, args)
-        taken = {(t["component"], t["term"]) for t in added}
+        taken = {(t["component"], t["term"]) for t in added} | rejected
         by_residual = _interleave(_rank(columns, remaining, jac, components, taken), n_candidates)
         by_fit = _rank_by_fit(columns, science, current, added, theta_now, judge.screen, scale, components, taken,
                               variables, n_states, param_names)[:n_candidates]
@@ -289,6 +293,13 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
         current, added, theta_now, errors = _drop_dispensable(
             science, current, added, theta_now, errors, judge, variables, n_states, param_names,
             z, min_gain, steps, log)
+        model = frozenset((t["component"], t["term"]) for t in added)
+        if (cand["component"], cand["term"]) not in model:
+            rejected.add((cand["component"], cand["term"]))
+        elif model in visited:  # drops and additions that lead back to a model already left
+            log("  stopped: the selection came back to a model it had left")
+            break
+        visited.add(model)
         judge.settle(current, theta_now)
     return {"science": current, "theta": theta_now, "added": added, "steps": steps,
             "base_errors": base_errors, "errors": errors, "seconds": time.perf_counter() - start_time}
