@@ -219,8 +219,9 @@ def render(records: list[dict]) -> str:
         md += ["", "## Batch 3: more fresh systems, written after batch 2's results", "",
                "Written on 2026-11-25 after batch 2 had run, with the selection unchanged (the `groups` option "
                "added since is not used by these independent trajectories); each ran once here and is shown "
-               "whatever it gave. `gompertz_growth` at noise 0.01 was stopped unfinished after 26 minutes, "
-               "still refitting candidates (its noise-0.05 twin took 58 s); it has no row.", ""]
+               "whatever it gave. `gompertz_growth` at noise 0.01 first ran 26 minutes without finishing: the "
+               "selection looped, accepting a term that the drop test then removed, again and again. Its row is "
+               "the rerun after the fix (e94874a), which changes no other case.", ""]
         md += _tables(batches[3])
     machines = sorted({f"{r['machine']['cpu']}, {r['machine']['cores']} cores, torch {r['machine']['torch']}"
                        for r in records if "machine" in r})
