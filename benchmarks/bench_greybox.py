@@ -226,8 +226,9 @@ def _swing_data():
     return full.angle_from_bottom[::100], vel[::100], full.dt * 100
 
 
-def _fit_swing(free, n_train=300, n_test=350, n_sub=4):
-    angle, vel, dt = _swing_data()
+def _fit_swing(swing, free, n_train=300, n_test=350, n_sub=4):
+    """``swing``: the (angle, velocity, dt) of :func:`_swing_data`."""
+    angle, vel, dt = swing
     start = {"f0": 1.2, "c": 0.1, "mu": 0.01, "w": 0.1, "d": 0.1}
 
     def params(z):
@@ -277,9 +278,9 @@ def main():
         rmse, p = _fit_tanks(tanks, init, fixed, n_free)
         tank_rows.append({"model": model, **rmse, "params": p.tolist()})
         print(tank_rows[-1])
-    swing_rows = []
+    swing, swing_rows = _swing_data(), []
     for model, free in SWING_MODELS.items():
-        rmse, p = _fit_swing(free)
+        rmse, p = _fit_swing(swing, free)
         swing_rows.append({"model": model, **rmse, "params": p})
         print(swing_rows[-1])
     md = ["# Grey-box baselines (simulation-error minimisation, scipy least_squares TRF)", "",
