@@ -323,7 +323,8 @@ def held_out_splits(n: int, validation_fraction: float, cv: int | None = None,
     """The (training rows, validation rows) pairs a selection is judged by.
 
     Without ``cv``: the last ``validation_fraction`` of the samples validate (2 at least, and 2 left
-    to fit). With ``cv``: ``cv`` contiguous blocks, each validated by a fit on the other rows.
+    to fit; 4 samples at least). With ``cv``: ``cv`` contiguous blocks of 2 samples at least, each
+    validated by a fit on the other rows.
     ``groups`` (one label per sample, e.g. the non-overlapping stretch of a record a window starts
     in): samples that share a label are kept on one side of every split, and the selection compares
     their mean error as one value -- overlapping windows of one record are nearly the same numbers,
@@ -336,7 +337,11 @@ def held_out_splits(n: int, validation_fraction: float, cv: int | None = None,
         Each sample's group, numbered in order of first appearance (None without ``groups``).
     """
     codes = np.arange(n) if groups is None else group_codes(groups, n)
-    m = int(codes.max()) + 1
+    m, unit = int(codes.max()) + 1, "samples" if groups is None else "groups"
+    if cv is not None and cv > m // 2:
+        raise ValueError(f"cv={cv} blocks of {m} {unit}: give at most {m // 2} (two {unit} a block at least).")
+    if cv is None and m < 4:
+        raise ValueError(f"{m} {unit}: a split needs 4 at least (2 to fit, 2 to judge).")
     if cv is None:
         n_val = int(np.clip(round(validation_fraction * m), 2, m - 2))
         blocks = [np.arange(m - n_val, m)]

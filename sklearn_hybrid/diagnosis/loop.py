@@ -22,7 +22,7 @@ from ..engine import DivergenceError
 from ..residual import MLP, MaskedMLP
 from ..science import read_signature
 from .report import Scoring, format_table, residual_profile
-from .evidence import ScienceFit, group_codes, held_out_splits
+from .evidence import ScienceFit, held_out_splits
 from .residual import _names, parameter_jacobian, science_output
 from .stepwise import forward_selection
 from .terms import Term, physics_terms
@@ -211,8 +211,9 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         if verbose:
             print(message if message.startswith(("  ", "|")) or "\n" in message
                   else f"[{time.perf_counter() - start:4.0f} s] {message}", flush=True)
-    n_units = len(y) if groups is None else int(group_codes(groups, len(y)).max()) + 1
-    _check_options(validation_fraction, max_terms, n_candidates, cv, n_units, groups is not None)
+    _check_options(validation_fraction, max_terms, n_candidates, cv)
+    # the held-out split checks the groups and its own limits before anything is fitted
+    splits, codes = held_out_splits(len(y), validation_fraction, cv, groups)
     if fit_initial_states and (estimator.structure != "ode" or estimator.observed is None):
         raise ValueError("fit_initial_states=True needs an estimator with structure='ode' and observed=[...] "
                          "leaving some states unmeasured: only their initial values are fitted.")
@@ -254,7 +255,6 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
             "scoring the first hybrid in a worker process ...")
         before_row = scoring.submit(before)
         fit = ScienceFit(before, X, y, fit_initial_states)
-        splits, codes = held_out_splits(len(fit.y), validation_fraction, cv, groups)
         judged = np.concatenate([te for _, te in splits])
         n_val = len(judged) if codes is None else len(np.unique(codes[judged]))
         unit = "samples" if codes is None else "groups"
@@ -314,17 +314,11 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
 _MAX_POINTS = 5000  # visited states used to rank candidates: plenty for a handful of columns
 
 
-def _check_options(validation_fraction, max_terms, n_candidates, cv, n_units, grouped):
-    unit = "groups" if grouped else "samples"
+def _check_options(validation_fraction, max_terms, n_candidates, cv):
     if not (isinstance(validation_fraction, (int, float)) and 0 < validation_fraction < 1):
         raise ValueError(f"validation_fraction must be in (0, 1), got {validation_fraction!r}.")
     if cv is not None and (isinstance(cv, bool) or not isinstance(cv, (int, np.integer)) or cv < 2):
         raise ValueError(f"cv must be None or an integer of at least 2, got {cv!r}.")
-    if cv is not None and cv > n_units // 2:
-        raise ValueError(f"cv={cv} blocks of {n_units} {unit}: give at most {n_units // 2} "
-                         f"(two {unit} a block at least).")
-    if cv is None and n_units < 4:
-        raise ValueError(f"{n_units} {unit}: a split needs 4 at least (2 to fit, 2 to judge).")
     for name, value in (("max_terms", max_terms), ("n_candidates", n_candidates)):
         if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
             raise ValueError(f"{name} must be a positive integer, got {value!r}.")
