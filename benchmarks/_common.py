@@ -85,6 +85,16 @@ def machine_description() -> dict:
             "date": datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")}
 
 
+def selection_summary(out, fields: tuple = ("output", "term", "gain", "z")) -> dict:
+    """What a ``close_the_loop`` result's selection did: the threshold z had to exceed, the three
+    best first-step candidates by gain (``fields`` of each) and the terms added."""
+    first = [s for s in out.steps if s.get("step") == 1 and "gain" in s]
+    best = sorted(first, key=lambda s: -s["gain"])[:3]
+    return {"threshold": first[0]["threshold"] if first else None,
+            "best_first_step": [{k: s[k] for k in fields} for s in best],
+            "added": [f"{t['term']} [{t['output']}]" for t in out.added]}
+
+
 def write_results(name: str, payload: dict, markdown: str) -> Path:
     """Write ``results/<name>.json`` and ``results/<name>.md`` (with the machine description)."""
     RESULTS.mkdir(exist_ok=True)

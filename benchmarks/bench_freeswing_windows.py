@@ -21,20 +21,16 @@ import argparse
 
 import torch
 
-from _common import PACKAGE_COMMIT, write_results
+from _common import PACKAGE_COMMIT, selection_summary, write_results
 from sklearn_hybrid.recipes import run_case
 
 
 def _run(window: int, stride: int, cv: int | None, grouped: bool, data_home) -> dict:
     out = run_case("pendulum-freeswing", cv=cv, grouped=grouped, window=window, stride=stride,
                    data_home=data_home)
-    first = [s for s in out.steps if s.get("step") == 1 and "gain" in s]
-    best = sorted(first, key=lambda s: -s["gain"])[:3]
     rows = {r["stage"]: r for r in out.table}
     return {"window": window, "stride": stride, "cv": cv, "grouped": grouped, "n_windows": len(out.case.y),
-            "threshold": first[0]["threshold"] if first else None,
-            "best_first_step": [{k: s[k] for k in ("term", "gain", "z")} for s in best],
-            "added": [f"{t['term']} [{t['output']}]" for t in out.added],
+            **selection_summary(out, ("term", "gain", "z")),
             "test_rmse_mrad": {k: r.get("test_rmse_mrad") for k, r in rows.items()},
             "seconds": out.seconds, "package_commit": PACKAGE_COMMIT}
 

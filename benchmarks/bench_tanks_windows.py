@@ -22,7 +22,7 @@ import math
 import numpy as np
 import torch
 
-from _common import PACKAGE_COMMIT, RESULTS, write_results
+from _common import PACKAGE_COMMIT, RESULTS, selection_summary, write_results
 from sklearn_hybrid.datasets import fetch_cascaded_tanks, make_windows
 from sklearn_hybrid.diagnosis.evidence import critical_value
 from sklearn_hybrid.recipes import run_case
@@ -33,14 +33,9 @@ CAP = 9.9  # the lower tank's level sits at the top of its range (10 V) while it
 def _run(window: int, stride: int, cv: int | None, fitted_states: bool, data_home) -> dict:
     out = run_case("tanks", cv=cv, grouped=False, fit_initial_states=fitted_states, window=window, stride=stride,
                    data_home=data_home)
-    first = [s for s in out.steps if s.get("step") == 1 and "gain" in s]
-    best = sorted(first, key=lambda s: -s["gain"])[:3]
     rows = {r["stage"]: r for r in out.table}
     return {"window": window, "stride": stride, "cv": cv, "fit_initial_states": fitted_states,
-            "n_windows": len(out.case.y),
-            "threshold": first[0]["threshold"] if first else None,
-            "best_first_step": [{k: s[k] for k in ("output", "term", "gain", "z")} for s in best],
-            "added": [f"{t['term']} [{t['output']}]" for t in out.added],
+            "n_windows": len(out.case.y), **selection_summary(out),
             "validation_rmse": {k: r.get("validation_rmse") for k, r in rows.items()},
             "seconds": out.seconds, "package_commit": PACKAGE_COMMIT}
 
