@@ -54,6 +54,21 @@ PROTOCOL = {"n_train": 50, "n_test": 20, "estimator": "HybridRegressor(science=f
             "test_states": "every output of the noise-free test trajectories (initial states included)",
             "threshold": 0.10}
 FAST = {"n_train": 8, "n_test": 4, "max_iter": 40}
+# heading and preface of each batch's section in the results
+BATCHES = {
+    1: ("## Batch 1: the systems the benchmark was built with", ""),
+    2: ("## Batch 2: fresh systems, written after the selection's code was last changed",
+        "Written on 2026-11-25 to probe effects the loop had never met (package commit d1e00a8, the code batch 1's "
+        "later cases ran); a probe ran each once at noise 0.01 (five of them under shorter names, so on other random "
+        "draws) before the systems were added here unchanged, failures included. `allee_slow` was written after "
+        "`allee` failed, to see whether its fast approach to the carrying capacity was the cause."),
+    3: ("## Batch 3: more fresh systems, written after batch 2's results",
+        "Written on 2026-11-25 after batch 2 had run, with the selection unchanged (the `groups` option added since "
+        "is not used by these independent trajectories); each ran once here and is shown whatever it gave. "
+        "`gompertz_growth` at noise 0.01 first ran 26 minutes without finishing: the selection looped, accepting a "
+        "term that the drop test then removed, again and again. Its row is the rerun after the fix (e94874a), which "
+        "changes no other case."),
+}
 # Run order (the tables follow SYSTEMS): domains and controls interleaved, so that a partial run is a cross-section.
 RUN_ORDER = ["drag_oscillator", "control_rlc", "budworm", "enzyme_reactor", "saturating_heater", "diode_clamped_rc",
              "competition", "control_sir", "hardening_oscillator", "draining_tank", "consecutive_reactions",
@@ -190,8 +205,8 @@ def render(records: list[dict]) -> str:
     """The markdown results: per-batch tables and summaries, the machines and commands."""
     order = {name: i for i, name in enumerate(SYSTEMS)}
     records = sorted(records, key=lambda r: (order.get(r["system"], 99), r["noise"], r["seed"]))
-    batches = {b: [r for r in records if SYSTEMS[r["system"]].batch == b] for b in (1, 2, 3)}
-    n_systems = {b: sum(s.batch == b for s in SYSTEMS.values()) for b in (1, 2, 3)}
+    batches = {b: [r for r in records if SYSTEMS[r["system"]].batch == b] for b in BATCHES}
+    n_systems = {b: sum(s.batch == b for s in SYSTEMS.values()) for b in BATCHES}
     md = ["# Identification benchmark: the closed loop on effects nobody tuned it to", "",
           "`benchmarks/bench_identification.py`. Each case: one system of `_identification_systems.py`, one noise "
           "level, one seed; data from scipy's `solve_ivp` of the true system (50 training trajectories, 20 "
@@ -204,25 +219,10 @@ def render(records: list[dict]) -> str:
           "over `|m|`; `before` = `rel_err` of `f` at the hybrid fit's theta. Controls (nothing missing): terms "
           "added (target: none) and `|F - T| / |T|`.", "",
           "Cases run: " + ", ".join(f"{len(batches[b])} of {n_systems[b] * len(NOISE_LEVELS)} in batch {b}"
-                                    for b in batches) + f" (seed 0, noise {NOISE_LEVELS}).", "",
-          "## Batch 1: the systems the benchmark was built with", ""]
-    md += _tables(batches[1])
-    if batches[2]:
-        md += ["", "## Batch 2: fresh systems, written after the selection's code was last changed", "",
-               "Written on 2026-11-25 to probe effects the loop had never met (package commit d1e00a8, the code "
-               "batch 1's later cases ran); a probe ran each once at noise 0.01 (five of them under shorter names, "
-               "so on other random draws) before the systems were added here unchanged, failures included. "
-               "`allee_slow` was written after `allee` failed, to see whether its fast approach to the carrying "
-               "capacity was the cause.", ""]
-        md += _tables(batches[2])
-    if batches[3]:
-        md += ["", "## Batch 3: more fresh systems, written after batch 2's results", "",
-               "Written on 2026-11-25 after batch 2 had run, with the selection unchanged (the `groups` option "
-               "added since is not used by these independent trajectories); each ran once here and is shown "
-               "whatever it gave. `gompertz_growth` at noise 0.01 first ran 26 minutes without finishing: the "
-               "selection looped, accepting a term that the drop test then removed, again and again. Its row is "
-               "the rerun after the fix (e94874a), which changes no other case.", ""]
-        md += _tables(batches[3])
+                                    for b in batches) + f" (seed 0, noise {NOISE_LEVELS})."]
+    for batch, (heading, preface) in BATCHES.items():
+        if batches[batch]:
+            md += ["", heading, ""] + ([preface, ""] if preface else []) + _tables(batches[batch])
     machines = sorted({f"{r['machine']['cpu']}, {r['machine']['cores']} cores, torch {r['machine']['torch']}"
                        for r in records if "machine" in r})
     md += ["", "## Machine and command", ""] + [f"- machine: {m}" for m in machines]
