@@ -330,9 +330,21 @@ def held_out_splits(n: int, validation_fraction: float, cv: int | None = None,
     their mean error as one value -- overlapping windows of one record are nearly the same numbers,
     and counted one by one they would overstate the evidence.
 
+    Parameters
+    ----------
+    n : int
+        Number of samples.
+    validation_fraction : float
+        Share of the samples (or groups), the last ones, that validate when ``cv`` is None.
+    cv : int, optional
+        Number of contiguous blocks, each validated by a fit on the others.
+    groups : array-like of shape (n,), optional
+        A label per sample (see :func:`group_codes`).
+
     Returns
     -------
     splits : list of (ndarray, ndarray)
+        Training and validation row indices of each split.
     codes : ndarray of shape (n,) or None
         Each sample's group, numbered in order of first appearance (None without ``groups``).
     """
@@ -352,7 +364,24 @@ def held_out_splits(n: int, validation_fraction: float, cv: int | None = None,
 
 
 def group_codes(groups: Any, n: int) -> np.ndarray:
-    """Group labels as 0, 1, ... in order of first appearance; errors that name the problem."""
+    """Group labels as 0, 1, ... in order of first appearance.
+
+    Parameters
+    ----------
+    groups : array-like of shape (n,)
+        Any hashable labels (numbers or strings); NaN or infinite numbers are refused.
+    n : int
+        Number of samples the labels must cover.
+
+    Returns
+    -------
+    ndarray of int, shape (n,)
+
+    Raises
+    ------
+    ValueError
+        For a shape other than ``(n,)`` or non-finite labels.
+    """
     labels = np.asarray(groups)
     if labels.shape != (n,):
         raise ValueError(f"groups must hold one label per sample ({n}), got an array of shape {labels.shape}.")

@@ -27,6 +27,15 @@ def format_gain(gain: float) -> str:
 
     A candidate whose refit drives some simulations to blow up can multiply the error by 1e20, and
     ``-1823745583607992492752896.0%`` tells less than ``-1.8e+24%``.
+
+    Parameters
+    ----------
+    gain : float
+        Relative drop of the error (0.25 is 25 %; negative when the error grew).
+
+    Returns
+    -------
+    str
     """
     return f"{gain:.1%}" if not np.isfinite(gain) or abs(gain) < 100 else f"{100 * gain:.2g}%"
 
