@@ -68,6 +68,13 @@ BATCHES = {
         "`gompertz_growth` at noise 0.01 first ran 26 minutes without finishing: the selection looped, accepting a "
         "term that the drop test then removed, again and again. Its row is the rerun after the fix (e94874a), which "
         "changes no other case."),
+    4: ("## Batch 4: fresh systems, written in a later session",
+        "Written on 2026-11-25 in the session after batch 3, with the selection unchanged since (package commit "
+        "6002afd), committed before they ran; each ran once here and is shown whatever it gave. Kinds batches 1-3 "
+        "lack or hold once: a constant force, a constant harvest, a Hill function, predation that saturates, a "
+        "diode's exponential. `holling_predation`'s prey first grew without bound in the simulated data (satiated "
+        "predators cannot hold it), so before any fit its prey got a carrying capacity, in the science model and "
+        "the truth."),
 }
 # Run order (the tables follow SYSTEMS): domains and controls interleaved, so that a partial run is a cross-section.
 RUN_ORDER = ["drag_oscillator", "control_rlc", "budworm", "enzyme_reactor", "saturating_heater", "diode_clamped_rc",
@@ -79,7 +86,10 @@ RUN_ORDER = ["drag_oscillator", "control_rlc", "budworm", "enzyme_reactor", "sat
              "reversible_reaction", "asymmetric_damping", "allee_slow",
              # batch 3 (_identification_systems.FRESH_3)
              "saturating_incidence", "control_damped_pendulum", "large_swing", "quadratic_resistor",
-             "exothermic_body", "gompertz_growth"]
+             "exothermic_body", "gompertz_growth",
+             # batch 4 (_identification_systems.FRESH_4)
+             "holling_predation", "control_lotka_volterra", "harvested_logistic", "leaky_capacitor",
+             "hill_autoactivation", "control_expression", "hanging_spring", "fed_autocatalysis"]
 
 
 def cache_dir(fast: bool) -> Path:
