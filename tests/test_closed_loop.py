@@ -629,3 +629,58 @@ def test_close_the_loop_fits_unobserved_initial_states():
     with pytest.raises(ValueError, match="fit_initial_states=True needs an estimator with structure='ode'"):
         close_the_loop(HybridRegressor(science=pendulum_f, dt=0.1), data.X_train, data.y_train,
                        fit_initial_states=True)
+
+
+def _reaction_f(v, k1=0.4, k2=0.7):
+    A, B = v[:, 0], v[:, 1]
+    return torch.stack([-k1 * A, k1 * A - k2 * B], dim=-1)
+
+
+def test_a_flux_between_two_components_is_added_to_both_at_once():
+    """A + B -> 2B at rate 0.8 A B: alone on either balance the term explains little (the other stays
+    wrong); the group (the term on both, each with its own coefficient) explains it."""
+    from sklearn_hybrid.diagnosis import stepwise
+
+    rng = np.random.default_rng(0)
+    names, dt, n_steps = ["A", "B"], 0.25, 12
+
+    def truth(t, x):
+        flux = 0.8 * x[0] * x[1]
+        return [-0.5 * x[0] - flux, 0.5 * x[0] - 0.6 * x[1] + flux]
+
+    x0 = rng.uniform([0.3, 0.1], [1.5, 1.0], size=(40, 2))
+    t = dt * np.arange(n_steps + 1)
+    x = np.stack([solve_ivp(truth, (0, t[-1]), s, t_eval=t, rtol=1e-8).y.T for s in x0])
+    y = x[:, 1:] + 0.02 * rng.standard_normal(x[:, 1:].shape)
+    est = HybridRegressor(science=_reaction_f, dt=dt, method="erm", max_iter=2, random_state=0).fit(x0, y)
+    fit = ScienceFit(est, x0, y)
+    states = x.reshape(-1, 2)
+    learned = np.stack([truth(0, s) for s in states])
+    n = len(y)
+    sel = stepwise.forward_selection(_reaction_f, {"k1": 0.4, "k2": 0.7}, fit,
+                                     [(np.arange(n - 12), np.arange(n - 12, n))], physics_terms(names, states),
+                                     names, 2, [states], learned, [0, 1])
+    groups = [s for s in sel["steps"] if s["ranked_by"] == "group"]
+    assert groups and all(isinstance(s["component"], list) and len(s["component"]) > 1 for s in groups)
+    accepted = [s for s in sel["steps"] if s["accepted"]]
+    assert accepted[0]["ranked_by"] == "group" and accepted[0]["term"] == "A*B"
+    coefs = {(t["component"], t["term"]): t["coef"] for t in sel["added"]}
+    assert coefs == {(0, "A*B"): pytest.approx(-0.8, rel=0.05), (1, "A*B"): pytest.approx(0.8, rel=0.05)}
+    assert sel["theta"]["k1"] == pytest.approx(0.5, rel=0.05) and sel["theta"]["k2"] == pytest.approx(0.6, rel=0.05)
+    assert [s["step"] for s in sel["steps"]][-1] == 2  # steps count selection rounds, not terms
+
+
+def test_a_group_is_preferred_only_when_clearly_better_than_its_single_terms():
+    from sklearn_hybrid.diagnosis.stepwise import _groups, _simplest_of_the_best
+
+    single = {"component": 1, "term": "A*B", "kind": "polynomial", "shape": {}, "gain": 0.5, "coef": 1.0}
+    other = {**single, "component": 0, "coef": -1.0}
+    hinge = {**single, "term": "max(0, B - knot)", "kind": "hinge", "shape": {"knot": 0.3}}
+    group, = _groups([single, hinge, other])
+    assert group["component"] == [1, 0] and group["group"] == [single, other]
+
+    def tried(cand, mse):
+        return (cand, {}, {"accepted": True, "mse_after": mse}, None, None, 0)
+
+    assert _simplest_of_the_best([tried(single, 1.0), tried(group, 0.97)], 0.05)[0] is single
+    assert _simplest_of_the_best([tried(single, 1.0), tried(group, 0.5)], 0.05)[0] is group

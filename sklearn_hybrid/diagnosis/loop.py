@@ -270,8 +270,8 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         added = [{**t, "output": outputs[t["component"]], "coef": float(science_theta[t["param"]]),
                   "shape": {loc: float(science_theta[g]) for loc, g in t["shape_params"].items()}}
                  for t in sel["added"]]
-        for s in sel["steps"]:
-            s["output"] = outputs[s["component"]]
+        for s in sel["steps"]:  # a group's step stands on several components
+            s["output"] = ", ".join(outputs[j] for j in np.atleast_1d(s["component"]))
         remaining = learned - science_output(final, science_theta, args)
         unexplained = residual_profile(remaining, learned, values, variables, outputs, components)
 

@@ -5,8 +5,10 @@ beyond the current science model it explains on the visited states (fitted toget
 science parameters' sensitivities, which absorb mere parameter shifts), and by how much of the
 network-free model's training error its addition would remove (a score test on the trajectories,
 which does not trust the network to have learned the effect). The best few of each ranking are
-added to the science model one at a time, refitted without the network (:class:`ScienceFit`, on
-at most 256 evenly spaced training samples) and judged on validation samples (:func:`evidence`).
+added to the science model one at a time (and a term that ranks on several components also on all
+of them at once: a reaction's flux enters every balance it converts), refitted without the network
+(:class:`ScienceFit`, on at most 256 evenly spaced training samples) and judged on validation
+samples (:func:`evidence`).
 The best one that passes is refitted on every training sample and kept, and a term kept earlier
 that it makes dispensable (the model without it validates as well) is dropped; the next step
 starts from there. Selection stops when no candidate passes.
@@ -252,7 +254,9 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
     rejected: set[tuple] = set()
     visited: set[frozenset] = {frozenset()}
     steps: list[dict] = []
+    step = 0
     while len(added) < max_terms:
+        step += 1
         remaining = learned - science_output(current, theta_now, args)
         jac, _ = parameter_jacobian(current, theta_now, args)
         taken = {(t["component"], t["term"]) for t in added} | rejected
@@ -263,20 +267,21 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
         if not ranked:
             break
         tried = []
-        for cand in ranked:
-            placed = [*added, cand]
+        groups = [g for g in _groups(ranked) if len(added) + len(g["group"]) <= max_terms]
+        for cand in ranked + groups:
+            placed = [*added, *_entries(cand)]
             candidate_science = _augment(science, placed, variables, n_states, param_names)
-            start = {**theta_now, **_initial_values(candidate_science, placed)}
+            start = {**theta_now, **_initial_values(candidate_science, placed, len(_entries(cand)))}
             try:
                 bounds = _shape_bounds(candidate_science, placed)
                 fitted = judge.fit(candidate_science, start, bounds, screening=True)
                 cand_errors = judge.errors(candidate_science, fitted, bounds, screening=True)
             except (RuntimeError, ValueError, FloatingPointError) as exc:  # a term that breaks the simulation
-                steps.append({"step": len(added) + 1, **_public(cand), "failed": repr(exc), "accepted": False})
+                steps.append({"step": step, **_public(cand), "failed": repr(exc), "accepted": False})
                 continue
             verdict = evidence(errors, cand_errors, z=z, min_gain=min_gain)
-            steps.append({"step": len(added) + 1, **_public(cand), **verdict, "accepted": False})
-            log(f"  step {len(added) + 1}: {cand['term']} on component {cand['component']}: validation MSE "
+            steps.append({"step": step, **_public(cand), **verdict, "accepted": False})
+            log(f"  step {step}: {cand['term']} on {_where(cand)}: validation MSE "
                 f"{verdict['mse_after']:.4g} (gain {format_gain(verdict['gain'])}, z {verdict['z']:.1f})")
             tried.append((cand, fitted, verdict, cand_errors, candidate_science, len(steps) - 1))
         best = _simplest_of_the_best(tried, min_gain)
@@ -284,19 +289,19 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
             break
         cand, theta_now, _, errors, current, index = best
         # the screen may have stopped early: converge, so that the next step's gains are the terms'
-        bounds = _shape_bounds(current, [*added, cand])
+        bounds = _shape_bounds(current, [*added, *_entries(cand)])
         theta_now = judge.fit(current, theta_now, bounds)
         errors = judge.errors(current, theta_now, bounds)
         steps[index]["accepted"] = True
-        added.append(_with_fitted(cand, current, theta_now, len(added)))
-        log(f"  accepted {cand['term']} on component {cand['component']}")
+        added += [_with_fitted(entry, current, theta_now, len(added) + k) for k, entry in enumerate(_entries(cand))]
+        log(f"  accepted {cand['term']} on {_where(cand)}")
         current, added, theta_now, errors = _drop_dispensable(
             science, current, added, theta_now, errors, judge, variables, n_states, param_names,
             z, min_gain, steps, log)
         model = frozenset((t["component"], t["term"]) for t in added)
-        if (cand["component"], cand["term"]) not in model:
-            rejected.add((cand["component"], cand["term"]))
-        elif model in visited:  # drops and additions that lead back to a model already left
+        dropped_at_once = {(e["component"], e["term"]) for e in _entries(cand)} - model
+        rejected |= dropped_at_once
+        if not dropped_at_once and model in visited:  # drops and additions that lead back to a model already left
             log("  stopped: the selection came back to a model it had left")
             break
         visited.add(model)
@@ -365,6 +370,39 @@ def _interleave(ranked: list[dict], n: int) -> list[dict]:
     return out
 
 
+def _groups(ranked: list[dict]) -> list[dict]:
+    """One candidate per term that stands on two or more components among ``ranked``: the term on all of
+    them at once, each with its own coefficient.
+
+    A reaction's flux enters the balance of every species it converts (``-k A B`` on A, ``+k A B`` on
+    B); alone on either component the term explains little, since the other balance stays wrong, and
+    at high noise neither single passes although the pair explains nearly everything. Judged like any
+    candidate, and costing one parameter per component, a group wins only where it validates better
+    than each of its single terms by more than ``min_gain`` (see :func:`_simplest_of_the_best`).
+    """
+    by_term: dict[str, list[dict]] = {}
+    for cand in ranked:
+        by_term.setdefault(cand["term"], []).append(cand)
+    return [{**entries[0], "component": [e["component"] for e in entries], "group": entries,
+             "ranked_by": "group"} for entries in by_term.values() if len(entries) > 1]
+
+
+def _entries(cand: dict) -> list[dict]:
+    """The single terms a candidate places: its group's, or itself."""
+    return cand.get("group", [cand])
+
+
+def _where(cand: dict) -> str:
+    components = cand["component"]
+    return (f"components {', '.join(map(str, components))}" if isinstance(components, list)
+            else f"component {components}")
+
+
+def _n_parameters(cand: dict) -> int:
+    """Coefficients and shape parameters a candidate adds."""
+    return sum(1 + len(e["shape"]) for e in _entries(cand))
+
+
 def _merge(*rankings: list[dict]) -> list[dict]:
     """The candidates of several rankings, taken in turn, each (component, term) once."""
     out, seen = [], set()
@@ -391,7 +429,7 @@ def _simplest_of_the_best(tried: list, min_gain: float) -> tuple | None:
         return None
     best = min(passed, key=lambda t: t[2]["mse_after"])
     alike = [t for t in passed if t[2]["mse_after"] <= (1 + min_gain) * best[2]["mse_after"]]
-    return min(alike, key=lambda t: (len(t[0]["shape"]), t[0]["kind"] != "polynomial", t[2]["mse_after"]))
+    return min(alike, key=lambda t: (_n_parameters(t[0]), t[0]["kind"] != "polynomial", t[2]["mse_after"]))
 
 
 def _augment(science, placed, variables, n_states, param_names):
@@ -400,11 +438,12 @@ def _augment(science, placed, variables, n_states, param_names):
     return augment_science(science, terms, variables, n_states=n_states)
 
 
-def _initial_values(augmented, placed) -> dict:
-    """Starting values of the newest term's coefficient and shape parameters."""
-    component, term, coef_name = augmented.terms[-1]
-    out = {coef_name: placed[-1]["coef"]}
-    out.update({glob: placed[-1]["shape"][local] for local, glob in augmented.shape_names[-1].items()})
+def _initial_values(augmented, placed, newest: int = 1) -> dict:
+    """Starting values of the coefficients and shape parameters of the ``newest`` terms."""
+    out = {}
+    for i in range(len(placed) - newest, len(placed)):
+        out[augmented.terms[i][2]] = placed[i]["coef"]
+        out.update({glob: placed[i]["shape"][local] for local, glob in augmented.shape_names[i].items()})
     return out
 
 
