@@ -55,7 +55,7 @@ class System:
     batch : int
         1: the systems the benchmark was built with; 2 and 3: systems written on 2026-11-25, after the
         selection's code was last changed, and added unchanged whatever they gave (``FRESH``, ``FRESH_3``);
-        4: written in a later session (``FRESH_4``), likewise.
+        4 and 5: written in a later session (``FRESH_4``, ``FRESH_5``), likewise.
     sign_of : int or None
         For an effect that jumps with the sign of one state (dry friction): that state's index.  Trajectories
         are then integrated piecewise between its zero crossings (no chattering of the step size), and a
@@ -456,7 +456,69 @@ FRESH_4 = [
            expression_f, {"b": 1.0, "d": 0.5}, None, ["x"], {"x": "uM", "u": "uM/h"}, 0.3, 30, (0.0,), (3.0,),
            (0.0, 1.0), batch=4),
 ]
-SYSTEMS = {s.name: s for s in SYSTEMS + FRESH + FRESH_3 + FRESH_4}
+
+
+# ------------------------------------------------------------------------------------------ batch 5 (fresh systems)
+# Written on 2026-11-25 after the group candidates (package commit 328a5cb), before any of them ran, to test that
+# change on systems it was not made for: fluxes between compartments (the same term on two components, or two
+# different terms), alone and beside controls with several uncertain components; run once each.
+def sir_f(v, beta=1.8, gamma=0.6):
+    S, I = v[:, 0], v[:, 1]
+    return torch.stack([-beta * S * I, beta * S * I - gamma * I, gamma * I], dim=-1)
+
+
+def sirs_f(v, beta=1.8, gamma=0.6, omega=0.25):
+    S, I, R = v[:, 0], v[:, 1], v[:, 2]
+    return torch.stack([-beta * S * I + omega * R, beta * S * I - gamma * I, gamma * I - omega * R], dim=-1)
+
+
+def substrate_product_f(v, u, d=0.25, k=0.4):
+    S, P = v[:, 0], v[:, 1]
+    return torch.stack([u[:, 0] - d * S, -k * P], dim=-1)
+
+
+def two_bodies_f(v, u, h1=0.4, h2=0.25, p=0.8):
+    T1, T2 = v[:, 0], v[:, 1]
+    return torch.stack([-h1 * T1 + p * u[:, 0], -h2 * T2], dim=-1)
+
+
+def draining_f(v, u, a=0.5):
+    return torch.stack([u[:, 0] - a * v[:, 0].clamp(min=0).sqrt()], dim=-1)
+
+
+def chain_f(v, k1=0.7, k2=0.3):
+    A, B = v[:, 0], v[:, 1]
+    return torch.stack([-k1 * A, k1 * A - k2 * B, k2 * B], dim=-1)
+
+
+FRESH_5 = [
+    System("waning_immunity", "population", "linear flux (three components)", "waning immunity R -> S: +0.3 R, -0.3 R",
+           sir_f, {"beta": 2.0, "gamma": 0.5},
+           lambda x, u: (0.3 * x[:, 2])[:, None] * np.array([[1.0, 0.0, -1.0]]),
+           ["S", "I", "R"], {"S": "1", "I": "1", "R": "1"}, 0.3, 30, (0.4, 0.05, 0.0), (0.9, 0.3, 0.5),
+           zero_components=[1], batch=5),
+    System("enzymatic_conversion", "chemical", "rational flux (two components)",
+           "S -> P by an enzyme: -1.2 S / (0.6 + S), +1.2 S / (0.6 + S)",
+           substrate_product_f, {"d": 0.2, "k": 0.5},
+           lambda x, u: (1.2 * x[:, 0] / (0.6 + x[:, 0]))[:, None] * np.array([[-1.0, 1.0]]),
+           ["S", "P"], {"S": "mM", "P": "mM", "u": "mM/min"}, 0.25, 30, (0.0, 0.0), (2.0, 1.0), (0.0, 1.5),
+           batch=5),
+    System("conducting_bodies", "thermal", "linear coupling (two different terms)",
+           "conduction between two bodies: +0.35 (T2 - T1), +0.35 (T1 - T2)",
+           two_bodies_f, {"h1": 0.3, "h2": 0.2, "p": 1.0},
+           lambda x, u: np.stack([0.35 * (x[:, 1] - x[:, 0]), 0.35 * (x[:, 0] - x[:, 1])], 1),
+           ["T1", "T2"], {"T1": "K", "T2": "K", "u": "K/s"}, 0.25, 30, (0.0, 0.0), (2.0, 2.0), (0.0, 1.0), batch=5),
+    System("porous_tank", "hydraulic", "linear (a leak through the wall)", "seepage -0.15 h",
+           draining_f, {"a": 0.4}, lambda x, u: -0.15 * x,
+           ["h"], {"h": "m", "u": "m/s"}, 0.3, 30, (0.2,), (3.0,), (0.0, 1.0), batch=5),
+    System("control_sirs", "population", "control", "nothing (SIRS, three uncertain components)",
+           sirs_f, {"beta": 2.0, "gamma": 0.5, "omega": 0.3}, None, ["S", "I", "R"], {"S": "1", "I": "1", "R": "1"},
+           0.3, 30, (0.4, 0.05, 0.0), (0.9, 0.3, 0.5), batch=5),
+    System("control_reaction_chain", "chemical", "control", "nothing (A -> B -> C)",
+           chain_f, {"k1": 0.6, "k2": 0.4}, None, ["A", "B", "C"], {"A": "mol/L", "B": "mol/L", "C": "mol/L"},
+           0.3, 30, (0.5, 0.0, 0.0), (1.5, 0.5, 0.5), batch=5),
+]
+SYSTEMS = {s.name: s for s in SYSTEMS + FRESH + FRESH_3 + FRESH_4 + FRESH_5}
 
 
 # ----------------------------------------------------------------------------------------------------- simulation

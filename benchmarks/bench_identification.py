@@ -75,6 +75,11 @@ BATCHES = {
         "diode's exponential. `holling_predation`'s prey first grew without bound in the simulated data (satiated "
         "predators cannot hold it), so before any fit its prey got a carrying capacity, in the science model and "
         "the truth."),
+    5: ("## Batch 5: fresh systems, written after the group candidates",
+        "Written on 2026-11-25 after the group candidates (package commit 328a5cb; made for batch 4's "
+        "`fed_autocatalysis`), committed before they ran, to test that change on systems it was not made for: "
+        "fluxes between compartments (one term on two components, or two different terms), alone and beside "
+        "controls with several uncertain components; each ran once here and is shown whatever it gave."),
 }
 # Run order (the tables follow SYSTEMS): domains and controls interleaved, so that a partial run is a cross-section.
 RUN_ORDER = ["drag_oscillator", "control_rlc", "budworm", "enzyme_reactor", "saturating_heater", "diode_clamped_rc",
@@ -89,7 +94,10 @@ RUN_ORDER = ["drag_oscillator", "control_rlc", "budworm", "enzyme_reactor", "sat
              "exothermic_body", "gompertz_growth",
              # batch 4 (_identification_systems.FRESH_4)
              "holling_predation", "control_lotka_volterra", "harvested_logistic", "leaky_capacitor",
-             "hill_autoactivation", "control_expression", "hanging_spring", "fed_autocatalysis"]
+             "hill_autoactivation", "control_expression", "hanging_spring", "fed_autocatalysis",
+             # batch 5 (_identification_systems.FRESH_5)
+             "waning_immunity", "control_sirs", "enzymatic_conversion", "conducting_bodies", "control_reaction_chain",
+             "porous_tank"]
 
 
 def cache_dir(fast: bool) -> Path:
