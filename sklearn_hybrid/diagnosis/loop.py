@@ -113,9 +113,12 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
        by how much of the difference each explains on the uncertain components, and again by how
        much of the network-free model's training error each would remove (the hybrid may have
        traded the effect between theta and the network).
-    3. The best-ranked few of each ranking are each added to the science model, refitted *without the network* by
-       least squares on the training samples (at most 256 of them, evenly spaced, for this
-       screening; shape parameters such as a knot or a width fitted too), and judged on the last ``validation_fraction`` of the samples: a term is kept only when
+    3. The best-ranked few of each ranking are each added to the science model (a term among them on
+       several components also on all of them at once, one coefficient each: a flux between
+       compartments enters every balance it connects), refitted *without the network* by least
+       squares on the training samples (at most 256 of them, evenly spaced, for this screening;
+       shape parameters such as a knot or a width fitted too), and judged on the last
+       ``validation_fraction`` of the samples: a term is kept only when
        it lowers the held-out error by at least ``min_gain`` and by more than ``z`` standard errors
        (Student's t quantile at the tail probability of the normal ``z``: 3.85 for 12 samples).
        This repeats from the augmented model until no candidate passes, so the augmented science
