@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 import torch
 from scipy.integrate import solve_ivp
+from sklearn.base import clone
 
 from sklearn_hybrid import HybridRegressor
 from sklearn_hybrid.datasets import make_duffing, make_pendulum
@@ -684,3 +685,25 @@ def test_a_group_is_preferred_only_when_clearly_better_than_its_single_terms():
 
     assert _simplest_of_the_best([tried(single, 1.0), tried(group, 0.97)], 0.05)[0] is single
     assert _simplest_of_the_best([tried(single, 1.0), tried(group, 0.5)], 0.05)[0] is group
+
+
+def _decay_f(v, k=0.6):
+    return -k * v ** 1.5  # NaN below zero: the domain ends there
+
+
+def test_a_first_fit_the_default_network_s_random_start_breaks_is_refitted_from_the_science(capsys):
+    """States near zero, where the default network's random start pushes some below it: the first
+    integration is NaN. The loop then starts the network at zero (training starts from the science model)."""
+    from sklearn_hybrid.engine import DivergenceError
+
+    rng = np.random.default_rng(0)
+    x0, t = rng.uniform(0.1, 0.3, size=(20, 1)), 0.5 * np.arange(11)
+    x = np.stack([solve_ivp(lambda _, s: -0.8 * s ** 1.5, (0, t[-1]), s, t_eval=t, rtol=1e-8).y.T for s in x0])
+    est = HybridRegressor(science=_decay_f, dt=0.5, method="erm", max_iter=30, random_state=0)
+    with pytest.raises(DivergenceError, match="iteration 0"):
+        clone(est).fit(x0, x[:, 1:])
+    out = close_the_loop(est, x0, x[:, 1:], state_names=["x"], verbose=True)
+    assert "fitting it again with the network started at zero" in capsys.readouterr().out
+    assert isinstance(out.before.residual, MLPOn) and out.before.residual.components == [0]
+    assert est.residual == "mlp" and not hasattr(est, "model_")  # the user's estimator is left as it was
+    assert np.isfinite(out.science_theta["k"])

@@ -107,7 +107,9 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
     """Fit, find the residual, add the missing terms that held-out data support, refit, compare.
 
     1. The hybrid model is fitted (unless it already is). With exact components (below) and the
-       default network, the network acts only on the other components (:class:`MLPOn`).
+       default network, the network acts only on the other components (:class:`MLPOn`). Where the
+       default network's random start makes that fit diverge (it pushed a state out of the science
+       function's domain), it is fitted again with the network started at zero.
     2. What the hybrid learned along the visited states, science plus network, is compared with the
        science model; candidate terms (:func:`~sklearn_hybrid.diagnosis.physics_terms`) are ranked
        by how much of the difference each explains on the uncertain components, and again by how
@@ -229,10 +231,22 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         before = estimator
     except NotFittedError:
         before = clone(estimator)
-        if before.structure == "ode" and _is_default_network(before.residual) and uncertain is not None:
+        default_network = before.structure == "ode" and _is_default_network(before.residual)
+        if default_network and uncertain is not None:
             before.set_params(residual=MLPOn(uncertain))  # the network stays out of the exact equations
         log("fitting the hybrid model ...")
-        before.fit(X, y)
+        try:
+            before.fit(X, y)
+        except DivergenceError as exc:
+            if not default_network or uncertain is not None:
+                raise
+            # The default network starts at a random force; where it pushes a state out of the science
+            # function's domain (an infected share below zero makes S I grow without bound) the first
+            # integration already blows up. Started at zero, training starts from the science model.
+            log(f"the hybrid fit diverged ({str(exc).split('. ')[0]}); fitting it again with the network "
+                "started at zero (MLPOn over every component) ...")
+            before = clone(estimator).set_params(residual=MLPOn(list(range(_n_states(estimator, X, y)))))
+            before.fit(X, y)
     trace = before.residual_trace(X)
     points, inputs = trace["points"], trace["inputs"]
     keep = check_random_state(random_state).permutation(len(points))[:_MAX_POINTS]
@@ -338,7 +352,7 @@ def _uncertain_components(estimator, X, y, exact, state_names) -> list[int] | No
         return None
     X, y = np.asarray(X, dtype=float), np.asarray(y)
     n_inputs = estimator.n_inputs or 0
-    d = X.shape[1] - (y.shape[1] + 1) * n_inputs if n_inputs else int(np.prod(X.shape[1:]))
+    d = _n_states(estimator, X, y)
     if isinstance(exact, str):
         if exact != "auto":
             raise ValueError(f"exact must be 'auto', None or a list of state names or indices, got {exact!r}.")
@@ -365,6 +379,13 @@ def _uncertain_components(estimator, X, y, exact, state_names) -> list[int] | No
     if not uncertain:
         raise ValueError("Every component is exact: there is nothing for the network or the diagnosis to do.")
     return uncertain if fixed else None
+
+
+def _n_states(estimator, X, y) -> int:
+    """States of an ODE estimator's ``X``: its columns less the packed inputs (one per output time and 0)."""
+    X, y = np.asarray(X), np.asarray(y)
+    n_inputs = estimator.n_inputs or 0
+    return X.shape[1] - (y.shape[1] + 1) * n_inputs if n_inputs else int(np.prod(X.shape[1:]))
 
 
 def _inside(theta: dict, bounds: Mapping | None) -> dict:
