@@ -55,7 +55,7 @@ class System:
     batch : int
         1: the systems the benchmark was built with; 2 and 3: systems written on 2026-11-25, after the
         selection's code was last changed, and added unchanged whatever they gave (``FRESH``, ``FRESH_3``);
-        4 and 5: written in a later session (``FRESH_4``, ``FRESH_5``), likewise.
+        4 to 6: written in a later session (``FRESH_4`` to ``FRESH_6``), likewise.
     sign_of : int or None
         For an effect that jumps with the sign of one state (dry friction): that state's index.  Trajectories
         are then integrated piecewise between its zero crossings (no chattering of the step size), and a
@@ -518,7 +518,63 @@ FRESH_5 = [
            chain_f, {"k1": 0.6, "k2": 0.4}, None, ["A", "B", "C"], {"A": "mol/L", "B": "mol/L", "C": "mol/L"},
            0.3, 30, (0.5, 0.0, 0.0), (1.5, 0.5, 0.5), batch=5),
 ]
-SYSTEMS = {s.name: s for s in SYSTEMS + FRESH + FRESH_3 + FRESH_4 + FRESH_5}
+
+
+# ------------------------------------------------------------------------------------------ batch 6 (fresh systems)
+# Written on 2026-11-25 after the restart from zero (package commit c6fecb0; made for batch 5's SIR systems),
+# before any of them ran, to test the current selection once more on systems none of its changes were made for:
+# four states with two exact ones, a product with the input squared, a dose-dependent kill, and an effect outside
+# the term library (a magnet's pull); run once each.
+def two_pendula_f(v, w2=2.2, c=0.15):
+    a1, a2, o1, o2 = v[:, 0], v[:, 1], v[:, 2], v[:, 3]
+    return torch.stack([o1, o2, -w2 * torch.sin(a1) - c * o1, -w2 * torch.sin(a2) - c * o2], dim=-1)
+
+
+def coupled_pendula_f(v, w2=2.2, c=0.15, kappa=0.4):
+    a1, a2, o1, o2 = v[:, 0], v[:, 1], v[:, 2], v[:, 3]
+    return torch.stack([o1, o2, -w2 * torch.sin(a1) - c * o1 + kappa * (a2 - a1),
+                        -w2 * torch.sin(a2) - c * o2 + kappa * (a1 - a2)], dim=-1)
+
+
+def joule_heating_f(v, u, h=0.5, p=0.6):
+    return torch.stack([-h * v[:, 0] + p * u[:, 0] ** 2], dim=-1)
+
+
+def tumour_f(v, u, r=0.5, K=4.0):
+    N = v[:, 0]
+    return torch.stack([r * N * (1 - N.clamp(min=0) / K)], dim=-1)
+
+
+def magnet_oscillator_f(v, k=1.2, c=0.2):
+    return torch.stack([v[:, 1], -k * v[:, 0] - c * v[:, 1]], dim=-1)
+
+
+FRESH_6 = [
+    System("coupled_pendula", "oscillator", "linear coupling (four states, two exact)",
+           "a spring between two pendula: +0.3 (a2 - a1) on o1, +0.3 (a1 - a2) on o2",
+           two_pendula_f, {"w2": 2.0, "c": 0.1},
+           lambda x, u: np.stack([0 * x[:, 0], 0 * x[:, 0], 0.3 * (x[:, 1] - x[:, 0]), 0.3 * (x[:, 0] - x[:, 1])], 1),
+           ["a1", "a2", "o1", "o2"], {"a1": "rad", "a2": "rad", "o1": "rad/s", "o2": "rad/s"}, 0.15, 30,
+           (-1.0, -1.0, -0.5, -0.5), (1.0, 1.0, 0.5, 0.5), zero_components=[0, 1], batch=6),
+    System("joule_heating", "thermal", "input-dependent (state times input squared)",
+           "resistance rising with temperature: +0.4 T u^2",
+           joule_heating_f, {"h": 0.6, "p": 0.8}, lambda x, u: 0.4 * x * u ** 2,
+           ["T"], {"T": "10 K", "u": "A"}, 0.25, 30, (0.0,), (2.0,), (0.0, 1.2), batch=6),
+    System("dosed_tumour", "population", "input-dependent (dose times cells)", "drug kill -0.6 u N",
+           tumour_f, {"r": 0.6, "K": 3.0}, lambda x, u: -0.6 * u * x,
+           ["N"], {"N": "1e9 cells", "u": "mg/kg"}, 0.3, 30, (0.3,), (2.5,), (0.0, 1.0), batch=6),
+    System("magnet_pull", "oscillator", "rational, outside the term library", "a magnet's pull -0.4 x / (0.3 + x^2)",
+           magnet_oscillator_f, {"k": 1.5, "c": 0.15}, lambda x, u: _on(1, 2, -0.4 * x[:, 0] / (0.3 + x[:, 0] ** 2)),
+           ["x", "v"], {"x": "m", "v": "m/s"}, 0.15, 30, (-1.5, -1.0), (1.5, 1.0), zero_components=[0], batch=6),
+    System("control_coupled_pendula", "oscillator", "control", "nothing (coupled pendula, two uncertain components)",
+           coupled_pendula_f, {"w2": 2.0, "c": 0.1, "kappa": 0.3}, None, ["a1", "a2", "o1", "o2"],
+           {"a1": "rad", "a2": "rad", "o1": "rad/s", "o2": "rad/s"}, 0.15, 30, (-1.0, -1.0, -0.5, -0.5),
+           (1.0, 1.0, 0.5, 0.5), batch=6),
+    System("control_joule_heating", "thermal", "control", "nothing (heating by u^2, cooling)",
+           joule_heating_f, {"h": 0.6, "p": 0.8}, None, ["T"], {"T": "10 K", "u": "A"}, 0.25, 30, (0.0,), (2.0,),
+           (0.0, 1.2), batch=6),
+]
+SYSTEMS = {s.name: s for s in SYSTEMS + FRESH + FRESH_3 + FRESH_4 + FRESH_5 + FRESH_6}
 
 
 # ----------------------------------------------------------------------------------------------------- simulation

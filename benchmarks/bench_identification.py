@@ -90,6 +90,12 @@ BATCHES = {
         "of 4 controls; commit 129f1a7 holds those records). Since c6fecb0 close_the_loop fits such a first fit "
         "again with the network started at zero; the SIR rows below are that rerun (the other cases did not "
         "diverge, so the change does not touch them)."),
+    6: ("## Batch 6: fresh systems, written after the restart from zero",
+        "Written on 2026-11-25 after the restart from zero (package commit c6fecb0; made for batch 5's SIR "
+        "systems), committed before they ran, to test the current selection on systems none of its changes were "
+        "made for: four states with two exact ones, a state times the input squared, a dose-dependent kill, and an "
+        "effect outside the term library (a magnet's pull, x / (0.3 + x^2)); each ran once here and is shown "
+        "whatever it gave."),
 }
 # Run order (the tables follow SYSTEMS): domains and controls interleaved, so that a partial run is a cross-section.
 RUN_ORDER = ["drag_oscillator", "control_rlc", "budworm", "enzyme_reactor", "saturating_heater", "diode_clamped_rc",
@@ -107,7 +113,10 @@ RUN_ORDER = ["drag_oscillator", "control_rlc", "budworm", "enzyme_reactor", "sat
              "hill_autoactivation", "control_expression", "hanging_spring", "fed_autocatalysis",
              # batch 5 (_identification_systems.FRESH_5)
              "waning_immunity", "control_sirs", "enzymatic_conversion", "conducting_bodies", "control_reaction_chain",
-             "porous_tank"]
+             "porous_tank",
+             # batch 6 (_identification_systems.FRESH_6)
+             "coupled_pendula", "control_joule_heating", "joule_heating", "dosed_tumour", "control_coupled_pendula",
+             "magnet_pull"]
 
 
 def cache_dir(fast: bool) -> Path:
