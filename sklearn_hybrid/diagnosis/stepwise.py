@@ -267,8 +267,8 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
         if not ranked:
             break
         tried = []
-        groups = [g for g in _groups(ranked) if len(added) + len(g["group"]) <= max_terms]
-        for cand in ranked + groups:
+        together = [g for g in _groups(ranked) if len(added) + len(g["group"]) <= max_terms]
+        for cand in ranked + together:
             placed = [*added, *_entries(cand)]
             candidate_science = _augment(science, placed, variables, n_states, param_names)
             start = {**theta_now, **_initial_values(candidate_science, placed, len(_entries(cand)))}
