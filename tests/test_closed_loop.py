@@ -638,18 +638,18 @@ def _reaction_f(v, k1=0.4, k2=0.7):
 
 
 def test_a_flux_between_two_components_is_added_to_both_at_once():
-    """A + B -> 2B at rate 0.8 A B: alone on either balance the term explains little (the other stays
-    wrong); the group (the term on both, each with its own coefficient) explains it."""
+    """Dimerisation 2A -> B at rate 0.5 A^2 (-1.0 A^2 on A, +0.5 A^2 on B): alone on either balance
+    the term leaves the other wrong; the group (the term on both, one coefficient each) explains it."""
     from sklearn_hybrid.diagnosis import stepwise
 
     rng = np.random.default_rng(0)
     names, dt, n_steps = ["A", "B"], 0.25, 12
 
     def truth(t, x):
-        flux = 0.8 * x[0] * x[1]
-        return [-0.5 * x[0] - flux, 0.5 * x[0] - 0.6 * x[1] + flux]
+        flux = 0.5 * x[0] ** 2
+        return [-0.3 * x[0] - 2 * flux, 0.3 * x[0] - 0.9 * x[1] + flux]
 
-    x0 = rng.uniform([0.3, 0.1], [1.5, 1.0], size=(40, 2))
+    x0 = rng.uniform([0.5, 0.0], [2.0, 0.5], size=(40, 2))
     t = dt * np.arange(n_steps + 1)
     x = np.stack([solve_ivp(truth, (0, t[-1]), s, t_eval=t, rtol=1e-8).y.T for s in x0])
     y = x[:, 1:] + 0.02 * rng.standard_normal(x[:, 1:].shape)
@@ -664,10 +664,10 @@ def test_a_flux_between_two_components_is_added_to_both_at_once():
     groups = [s for s in sel["steps"] if s["ranked_by"] == "group"]
     assert groups and all(isinstance(s["component"], list) and len(s["component"]) > 1 for s in groups)
     accepted = [s for s in sel["steps"] if s["accepted"]]
-    assert accepted[0]["ranked_by"] == "group" and accepted[0]["term"] == "A*B"
+    assert accepted[0]["ranked_by"] == "group" and accepted[0]["term"] == "A^2"
     coefs = {(t["component"], t["term"]): t["coef"] for t in sel["added"]}
-    assert coefs == {(0, "A*B"): pytest.approx(-0.8, rel=0.05), (1, "A*B"): pytest.approx(0.8, rel=0.05)}
-    assert sel["theta"]["k1"] == pytest.approx(0.5, rel=0.05) and sel["theta"]["k2"] == pytest.approx(0.6, rel=0.05)
+    assert coefs == {(0, "A^2"): pytest.approx(-1.0, rel=0.05), (1, "A^2"): pytest.approx(0.5, rel=0.05)}
+    assert sel["theta"]["k1"] == pytest.approx(0.3, rel=0.05) and sel["theta"]["k2"] == pytest.approx(0.9, rel=0.05)
     assert [s["step"] for s in sel["steps"]][-1] == 2  # steps count selection rounds, not terms
 
 
