@@ -107,9 +107,8 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
     """Fit, find the residual, add the missing terms that held-out data support, refit, compare.
 
     1. The hybrid model is fitted (unless it already is). With exact components (below) and the
-       default network, the network acts only on the other components (:class:`MLPOn`). Where the
-       default network's random start makes that fit diverge (it pushed a state out of the science
-       function's domain), it is fitted again with the network started at zero.
+       default network, the network acts only on the other components; the default network is
+       started at zero (:class:`MLPOn`), so that training starts from the science model.
     2. What the hybrid learned along the visited states, science plus network, is compared with the
        science model; candidate terms (:func:`~sklearn_hybrid.diagnosis.physics_terms`) are ranked
        by how much of the difference each explains on the uncertain components, and again by how
@@ -231,22 +230,15 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         before = estimator
     except NotFittedError:
         before = clone(estimator)
-        default_network = before.structure == "ode" and _is_default_network(before.residual)
-        if default_network and uncertain is not None:
-            before.set_params(residual=MLPOn(uncertain))  # the network stays out of the exact equations
+        if before.structure == "ode" and _is_default_network(before.residual):
+            # The default network is started at zero, so training starts from the science model: a random
+            # start can push a state out of the science function's domain (an infected share below zero
+            # makes S I grow without bound) and must first be undone. It acts on the uncertain components
+            # only: the exact equations stay the science's.
+            components = uncertain if uncertain is not None else list(range(_n_states(estimator, X, y)))
+            before.set_params(residual=MLPOn(components))
         log("fitting the hybrid model ...")
-        try:
-            before.fit(X, y)
-        except DivergenceError as exc:
-            if not default_network or uncertain is not None:
-                raise
-            # The default network starts at a random force; where it pushes a state out of the science
-            # function's domain (an infected share below zero makes S I grow without bound) the first
-            # integration already blows up. Started at zero, training starts from the science model.
-            log(f"the hybrid fit diverged ({str(exc).split('. ')[0]}); fitting it again with the network "
-                "started at zero (MLPOn over every component) ...")
-            before = clone(estimator).set_params(residual=MLPOn(list(range(_n_states(estimator, X, y)))))
-            before.fit(X, y)
+        before.fit(X, y)
     trace = before.residual_trace(X)
     points, inputs = trace["points"], trace["inputs"]
     keep = check_random_state(random_state).permutation(len(points))[:_MAX_POINTS]
