@@ -408,7 +408,7 @@ def prey_limited_f(v, a=1.0, K=3.6, b=0.8, c=0.6, d=0.6):
     return torch.stack([a * x * (1 - x.clamp(min=0) / K) - b * x * y, c * x * y - d * y], dim=-1)
 
 
-def logistic_f(v, r=0.8, K=2.4):
+def capped_logistic_f(v, r=0.8, K=2.4):
     x = v[:, 0]
     return torch.stack([r * x * (1 - x.clamp(min=0) / K)], dim=-1)
 
@@ -433,7 +433,7 @@ FRESH_4 = [
            lambda x, u: (0.5 * x[:, 0] ** 2 * x[:, 1] / (1 + 0.5 * x[:, 0]))[:, None] * np.array([[1.0, -0.7]]),
            ["x", "y"], {"x": "1", "y": "1"}, 0.3, 30, (0.5, 0.3), (2.0, 1.5), batch=4),
     System("harvested_logistic", "population", "constant (a harvest)", "constant harvest -0.25",
-           logistic_f, {"r": 1.0, "K": 2.0}, lambda x, u: np.full_like(x, -0.25),
+           capped_logistic_f, {"r": 1.0, "K": 2.0}, lambda x, u: np.full_like(x, -0.25),
            ["x"], {"x": "1"}, 0.25, 30, (0.5,), (3.0,), batch=4),
     System("leaky_capacitor", "electrical", "exponential (diode leakage)", "diode leakage -0.02 (exp(v / 0.5) - 1)",
            leaky_rc_f, {"g": 0.5, "b": 1.2}, lambda x, u: -0.02 * (np.exp(x / 0.5) - 1),
@@ -462,7 +462,7 @@ FRESH_4 = [
 # Written on 2026-11-25 after the group candidates (package commit 328a5cb), before any of them ran, to test that
 # change on systems it was not made for: fluxes between compartments (the same term on two components, or two
 # different terms), alone and beside controls with several uncertain components; run once each.
-def sir_f(v, beta=1.8, gamma=0.6):
+def sir_closed_f(v, beta=1.8, gamma=0.6):
     S, I = v[:, 0], v[:, 1]
     return torch.stack([-beta * S * I, beta * S * I - gamma * I, gamma * I], dim=-1)
 
@@ -493,7 +493,7 @@ def chain_f(v, k1=0.7, k2=0.3):
 
 FRESH_5 = [
     System("waning_immunity", "population", "linear flux (three components)", "waning immunity R -> S: +0.3 R, -0.3 R",
-           sir_f, {"beta": 2.0, "gamma": 0.5},
+           sir_closed_f, {"beta": 2.0, "gamma": 0.5},
            lambda x, u: (0.3 * x[:, 2])[:, None] * np.array([[1.0, 0.0, -1.0]]),
            ["S", "I", "R"], {"S": "1", "I": "1", "R": "1"}, 0.3, 30, (0.4, 0.05, 0.0), (0.9, 0.3, 0.5),
            zero_components=[1], batch=5),
@@ -663,3 +663,10 @@ def simulate(system: System, n: int, seed: int, stream: int) -> tuple[np.ndarray
         if len(xs) == n:
             return np.array(xs), (np.array(us) if system.forced else None)
     raise RuntimeError(f"{system.name}: fewer than {n} trajectories in {100 * n} draws")
+
+# The first hybrid fits are cached by pickling, which stores a science function by its name in this module:
+# two functions of one name would load as the wrong one (or not pickle at all).
+for _system in SYSTEMS.values():
+    if globals().get(_system.science.__name__) is not _system.science:
+        raise RuntimeError(f"{_system.name}: its science function {_system.science.__name__} is not this module's "
+                           "object of that name; give each science function its own name.")
