@@ -55,7 +55,7 @@ class System:
     batch : int
         1: the systems the benchmark was built with; 2 and 3: systems written on 2026-11-25, after the
         selection's code was last changed, and added unchanged whatever they gave (``FRESH``, ``FRESH_3``);
-        4 to 6: written in a later session (``FRESH_4`` to ``FRESH_6``), likewise.
+        4 to 7: written in later sessions (``FRESH_4`` to ``FRESH_7``), likewise.
     sign_of : int or None
         For an effect that jumps with the sign of one state (dry friction): that state's index.  Trajectories
         are then integrated piecewise between its zero crossings (no chattering of the step size), and a
@@ -574,7 +574,61 @@ FRESH_6 = [
            joule_heating_f, {"h": 0.6, "p": 0.8}, None, ["T"], {"T": "10 K", "u": "A"}, 0.25, 30, (0.0,), (2.0,),
            (0.0, 1.2), batch=6),
 ]
-SYSTEMS = {s.name: s for s in SYSTEMS + FRESH + FRESH_3 + FRESH_4 + FRESH_5 + FRESH_6}
+
+
+# ------------------------------------------------------------------------------------------ batch 7 (fresh systems)
+# Written on 2026-11-25 after the loop's network was made to start at zero (package commit 86dae85), before any of
+# them ran, to test the current code on systems none of its changes were made for: a saturable elimination in one
+# of two compartments, light times the squared density, an outlet that opens above a level in the lower of two
+# tanks, cubic damping of a forced oscillator; run once each.
+def pk_two_compartment_f(v, u, k10=0.25, k12=0.25, k21=0.18):
+    C, P = v[:, 0], v[:, 1]
+    return torch.stack([u[:, 0] - (k10 + k12) * C + k21 * P, k12 * C - k21 * P], dim=-1)
+
+
+def algae_f(v, u, mu=1.0, d=0.3):
+    N = v[:, 0]
+    return torch.stack([mu * u[:, 0] * N - d * N], dim=-1)
+
+
+def cascade_tanks_f(v, u, a1=0.6, a2=0.5):
+    q1, q2 = v[:, 0].clamp(min=0).sqrt(), v[:, 1].clamp(min=0).sqrt()  # guard: a level is never negative
+    return torch.stack([u[:, 0] - a1 * q1, a1 * q1 - a2 * q2], dim=-1)
+
+
+def forced_oscillator_f(v, u, k=1.6, c=0.2, b=0.9):
+    return torch.stack([v[:, 1], -k * v[:, 0] - c * v[:, 1] + b * u[:, 0]], dim=-1)
+
+
+FRESH_7 = [
+    System("saturable_elimination", "pharmacokinetic", "rational (one of two compartments)",
+           "saturable elimination from the central compartment -0.5 C / (0.4 + C)",
+           pk_two_compartment_f, {"k10": 0.2, "k12": 0.3, "k21": 0.15},
+           lambda x, u: _on(0, 2, -0.5 * x[:, 0] / (0.4 + x[:, 0])),
+           ["C", "P"], {"C": "mg/L", "P": "mg/L", "u": "mg/L/h"}, 0.3, 30, (0.2, 0.0), (2.0, 1.0), (0.0, 1.0),
+           zero_components=[1], batch=7),
+    System("self_shading", "population", "input-dependent (light times density squared)",
+           "self-shading of an algal culture -0.3 u N^2",
+           algae_f, {"mu": 1.2, "d": 0.25}, lambda x, u: -0.3 * u * x ** 2,
+           ["N"], {"N": "g/L", "u": "1"}, 0.25, 30, (0.2,), (1.5,), (0.2, 1.0), batch=7),
+    System("valve_overflow", "hydraulic", "non-smooth (hinge on the lower of two tanks)",
+           "an outlet above 1 m in the lower tank -0.5 max(0, h2 - 1)",
+           cascade_tanks_f, {"a1": 0.5, "a2": 0.6}, lambda x, u: _on(1, 2, -0.5 * np.maximum(0.0, x[:, 1] - 1.0)),
+           ["h1", "h2"], {"h1": "m", "h2": "m", "u": "m/s"}, 0.4, 30, (0.2, 0.2), (2.5, 2.0), (0.2, 1.0),
+           zero_components=[0], batch=7),
+    System("cubic_damper", "oscillator", "polynomial (cubic in the velocity)", "cubic damping -0.4 v^3",
+           forced_oscillator_f, {"k": 2.0, "c": 0.15, "b": 1.0}, lambda x, u: _on(1, 2, -0.4 * x[:, 1] ** 3),
+           ["x", "v"], {"x": "m", "v": "m/s", "u": "N/kg"}, 0.15, 30, (-1.5, -1.5), (1.5, 1.5), (-1.0, 1.0),
+           zero_components=[0], batch=7),
+    System("control_pk", "pharmacokinetic", "control", "nothing (two compartments, linear)",
+           pk_two_compartment_f, {"k10": 0.2, "k12": 0.3, "k21": 0.15}, None,
+           ["C", "P"], {"C": "mg/L", "P": "mg/L", "u": "mg/L/h"}, 0.3, 30, (0.2, 0.0), (2.0, 1.0), (0.0, 1.0),
+           batch=7),
+    System("control_cascade_tanks", "hydraulic", "control", "nothing (two tanks, Torricelli outflows)",
+           cascade_tanks_f, {"a1": 0.5, "a2": 0.6}, None,
+           ["h1", "h2"], {"h1": "m", "h2": "m", "u": "m/s"}, 0.4, 30, (0.2, 0.2), (2.5, 2.0), (0.2, 1.0), batch=7),
+]
+SYSTEMS = {s.name: s for s in SYSTEMS + FRESH + FRESH_3 + FRESH_4 + FRESH_5 + FRESH_6 + FRESH_7}
 
 
 # ----------------------------------------------------------------------------------------------------- simulation
@@ -663,6 +717,7 @@ def simulate(system: System, n: int, seed: int, stream: int) -> tuple[np.ndarray
         if len(xs) == n:
             return np.array(xs), (np.array(us) if system.forced else None)
     raise RuntimeError(f"{system.name}: fewer than {n} trajectories in {100 * n} draws")
+
 
 # The first hybrid fits are cached by pickling, which stores a science function by its name in this module:
 # two functions of one name would load as the wrong one (or not pickle at all).
