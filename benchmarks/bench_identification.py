@@ -320,8 +320,8 @@ def render(records: list[dict]) -> str:
            "(B^2 instead of saturations), `radiating_body` 0.01 0.004 -> 0.004 (tanh(T/w) instead of sqrt|T| beside "
            "T^3), `saturating_incidence` 0.01 0.038 -> 0.070 and 0.05 0.038 -> **0.106** (S, exp and hinge terms "
            "instead of S*I^2 on both balances: no longer within 10 %), `holling_predation` 0.01 0.006 -> 0.009, "
-           "`hill_autoactivation` 0.01 0.002 -> 0.001. Before the change: 75 of 80 effects, 22 of 22 controls; "
-           "after: 74 of 80, 22 of 22."]
+           "`hill_autoactivation` 0.01 0.002 -> 0.001. Batches 1-6 before the change: 75 of 80 effects, 22 of 22 "
+           "controls; after: 74 of 80, 22 of 22. Batch 7 was written after the change."]
     return "\n".join(md) + "\n"
 
 
