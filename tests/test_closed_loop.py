@@ -707,3 +707,70 @@ def test_the_loop_starts_the_default_network_at_zero_where_a_random_start_breaks
     assert out.before.residual.zero_init
     assert est.residual == "mlp" and not hasattr(est, "model_")  # the user's estimator is left as it was
     assert np.isfinite(out.science_theta["k"])
+
+
+def _tank_f(v, k=1.0):
+    return -k * torch.sqrt(torch.clamp(v, min=1e-6))
+
+
+def _draining_tank(offset, seed=0):
+    """Readings of a draining tank (h' = -0.8 sqrt(h)) from a gauge whose zero is shifted by ``offset``."""
+    rng = np.random.default_rng(seed)
+    x0, t = rng.uniform(0.3, 2.0, size=(40, 1)), 0.2 * np.arange(11)
+    x = np.stack([solve_ivp(lambda _, s: -0.8 * np.sqrt(np.clip(s, 0, None)), (0, t[-1]), s, t_eval=t,
+                            rtol=1e-8).y.T for s in x0])
+    z = x + offset + 0.005 * rng.standard_normal(x.shape)
+    return z[:, 0], z[:, 1:]
+
+
+def test_a_declared_sensor_offset_is_judged_like_a_term_and_fitted():
+    """A level gauge reading 0.5 high: no polynomial term explains sqrt(h - 0.5) as well as the offset,
+    which the selection accepts and fits; on readings without an offset it adds nothing."""
+    X, y = _draining_tank(0.5)
+    X_given = X.copy()
+    est = HybridRegressor(science=_tank_f, dt=0.2, method="erm", max_iter=30, random_state=0)
+    options = dict(state_names=["h"], offsets=["h"], term_kinds=["polynomial"], max_terms=2,
+                   refit_params={"max_iter": 5})
+    out = close_the_loop(est, X, y, **options)
+    np.testing.assert_array_equal(X, X_given)
+    assert [(t["output"], t["term"], t["kind"]) for t in out.added] == [("h", "offset(h)", "offset")]
+    assert out.science_theta["offset_h"] == pytest.approx(0.5, abs=0.01)
+    assert out.science_theta["k"] == pytest.approx(0.8, rel=0.02)
+    assert "offset_h" in inspect.signature(out.science).parameters and "offset_h" in out.after.theta_
+    assert "h measured as h + offset_h" in out.science.equation
+    assert "Added a sensor offset: h is measured as h +0.50" in out.report
+    # screened beside the polynomial terms, and not again once accepted
+    assert [s["term"] for s in out.steps if s["step"] == 1][-1] == "offset(h)"
+    assert all(s["term"] != "offset(h)" for s in out.steps if s["step"] == 2)
+
+    control = close_the_loop(est, *_draining_tank(0.0), **options)
+    assert control.added == [] and control.science is None
+    assert any(s["term"] == "offset(h)" and not s["accepted"] for s in control.steps)
+
+
+def test_sensor_offsets_name_measured_states_only():
+    X, y = _draining_tank(0.5)
+    est = HybridRegressor(science=_tank_f, dt=0.2, method="erm", max_iter=1)
+    with pytest.raises(ValueError, match="offsets names unknown state 'x'"):
+        close_the_loop(est, X, y, state_names=["h"], offsets=["x"])
+    with pytest.raises(ValueError, match="offsets lists a state twice"):
+        close_the_loop(est, X, y, state_names=["h"], offsets=["h", 0])
+    data = make_pendulum(10, 2, 2, dt=0.1, n_steps=5, random_state=0)
+    partial = HybridRegressor(science=pendulum_f, dt=0.1, observed=[0], method="erm", max_iter=1)
+    with pytest.raises(ValueError, match=r"offsets names \['v_dot'\], not measured"):
+        close_the_loop(partial, data.X_train, data.y_train[..., :1], state_names=NAMES, offsets=["v_dot"])
+
+
+def test_augment_science_with_a_sensor_offset_shifts_the_state_every_part_sees():
+    offset = {"component": 0, "term": "offset(v)", "kind": "offset", "coef": 0.3}
+    f = augment_science(pendulum_f, [{"component": 1, "term": "v^2", "coef": 0.5}, offset], NAMES)
+    assert list(inspect.signature(f).parameters) == ["v", "omega", "c_v2", "offset_v"]
+    v = torch.tensor([[1.0, 2.0], [-0.5, 0.1]], dtype=torch.float64)
+    shifted = v - torch.tensor([0.3, 0.0], dtype=torch.float64)
+    expected = pendulum_f(shifted) + torch.stack([torch.zeros(2), 0.5 * shifted[:, 0] ** 2], -1)
+    torch.testing.assert_close(f(v), expected.to(torch.float64))
+    assert f.equation == "+ c_v2*v^2 [component 1] [v measured as v + offset_v]"
+    with pytest.raises(ValueError, match="two sensor offsets"):
+        augment_science(pendulum_f, [offset, offset], NAMES)
+    with pytest.raises(ValueError, match="needs a state index"):
+        augment_science(pendulum_f, [{**offset, "component": 2}], NAMES)

@@ -1,7 +1,9 @@
 """Turn terms found by the residual diagnosis into a new science function with new parameters.
 
 The new function calls the original one (with the original parameters) and adds, to the chosen
-output components, ``c * term`` with one new named parameter ``c`` per term. It has a proper
+output components, ``c * term`` with one new named parameter ``c`` per term; a sensor offset
+(kind ``"offset"``) instead evaluates the whole right-hand side at the measured state less a new
+parameter (the model's state is then the sensor's reading). It has a proper
 signature (``inspect.signature`` shows every parameter with its initial value as default), so
 :class:`~sklearn_hybrid.HybridRegressor` reads and estimates the old and the new parameters alike.
 """
@@ -112,7 +114,10 @@ def augment_science(science: Callable, terms: Sequence[Mapping[str, Any]], varia
         :attr:`ResidualDiagnosis.new_terms_`; an optional ``"param"`` names the parameter. A term
         may bring its own torch ``"function"`` ``f(d, **shape)`` (a :class:`~sklearn_hybrid.diagnosis.Term`)
         with initial ``"shape"`` values (each a new parameter named ``<shape>_<label>``), and a
-        ``"label"`` for the parameter names (default the term's name).
+        ``"label"`` for the parameter names (default the term's name). An entry of ``"kind"``
+        ``"offset"`` is a sensor offset on state ``"component"`` (a column of the first input): the
+        right-hand side, original and added terms alike, sees ``x[component] - offset``, with
+        ``"coef"`` the offset's initial value (parameter ``offset_<state>``).
     variable_names : list of str
         Names of the columns of the first input (the state or the features), then of the second
         input (the measured inputs of a forced ODE), if any.
@@ -149,12 +154,19 @@ def augment_science(science: Callable, terms: Sequence[Mapping[str, Any]], varia
     added, taken = [], list(values) + list(inputs)
     for t in terms:
         component, term = int(t["component"]), str(t["term"])
-        param = t.get("param") or parameter_name(t.get("label") or term, taken)
+        is_offset = t.get("kind") == "offset"
+        if is_offset and not 0 <= component < n_states:
+            raise ValueError(f"A sensor offset needs a state index in [0, {n_states}), got {component}.")
+        if is_offset and any(c == component and f is None for c, _, _, f, _ in added):
+            raise ValueError(f"State {variable_names[component]!r} has two sensor offsets; give it one.")
+        param = t.get("param") or (parameter_name(variable_names[component], taken, prefix="offset") if is_offset
+                                   else parameter_name(t.get("label") or term, taken))
         if param in taken or not param.isidentifier():
             raise ValueError(f"Parameter name {param!r} is taken or not a valid identifier.")
         taken.append(param)
         values[param] = float(t["coef"])
-        func = t.get("function") or term_to_torch(term, variable_names, term_functions)
+        # an offset has no function of its own: it shifts the state every other part sees
+        func = None if is_offset else (t.get("function") or term_to_torch(term, variable_names, term_functions))
         # a term's nonlinear (shape) parameters become parameters of the new function too
         shape = {}
         for local, value in dict(t.get("shape") or {}).items():
@@ -164,7 +176,8 @@ def augment_science(science: Callable, terms: Sequence[Mapping[str, Any]], varia
         added.append((component, term, param, func, shape))
 
     initial = dict(values)
-    touched = sorted({component for component, *_ in added})
+    touched = sorted({component for component, _, _, func, _ in added if func is not None})
+    offsets = {component: param for component, _, param, func, _ in added if func is None}
 
     # called at every RK4 stage of every simulation (hundreds of thousands of times in a
     # selection, per step of a free run), where each tensor operation costs its overhead: one
@@ -173,8 +186,23 @@ def augment_science(science: Callable, terms: Sequence[Mapping[str, Any]], varia
     # science function's own time)
     one_hot: dict[tuple, dict[int, torch.Tensor]] = {}
 
+    def rows(flat: torch.Tensor, components) -> dict[int, torch.Tensor]:
+        key = (flat.shape[1], flat.dtype, flat.device)
+        if key not in one_hot:
+            one_hot[key] = {}
+        cached = one_hot[key]
+        for j in components:
+            if j not in cached:
+                cached[j] = torch.eye(flat.shape[1], dtype=flat.dtype, device=flat.device)[j]
+        return {j: cached[j] for j in components}
+
     def augmented(*args, **params):
         params = {**initial, **params}
+        if offsets:  # the sensor reads state + offset: the model's equations see the reading less the offset
+            state = _flat(args[0])
+            for j, row in rows(state, offsets).items():
+                state = state - params[offsets[j]] * row
+            args = (state.reshape(args[0].shape), *args[1:])
         out = science(*args, **{k: params[k] for k in defaults})
         columns = list(_flat(args[0]).unbind(1))[:n_states]
         if len(args) > 1:
@@ -182,14 +210,12 @@ def augment_science(science: Callable, terms: Sequence[Mapping[str, Any]], varia
         d = dict(zip(variable_names, columns))
         extra = {}
         for component, _, param, func, shape in added:
+            if func is None:
+                continue
             value = params[param] * func(d, **{local: params[name] for local, name in shape.items()})
             extra[component] = value if component not in extra else extra[component] + value
         flat = _flat(out)
-        key = (flat.shape[1], flat.dtype, flat.device)
-        if key not in one_hot:
-            eye = torch.eye(flat.shape[1], dtype=flat.dtype, device=flat.device)
-            one_hot[key] = {j: eye[j] for j in touched}
-        for j, row in one_hot[key].items():
+        for j, row in rows(flat, touched).items():
             value = extra[j]
             flat = torch.addcmul(flat, value.unsqueeze(-1), row) if torch.is_tensor(value) else flat + value * row
         return flat if flat.shape == out.shape else flat.reshape(out.shape)
@@ -201,7 +227,11 @@ def augment_science(science: Callable, terms: Sequence[Mapping[str, Any]], varia
     augmented.__qualname__ = augmented.__name__
     augmented.terms = [(c, term, p) for c, term, p, _, _ in added]
     augmented.shape_names = [dict(shape) for *_, shape in added]  # per term: shape -> parameter name
-    augmented.equation = " ".join(f"+ {p}*{term} [component {c}]" for c, term, p in augmented.terms)
+    augmented.equation = " ".join(f"+ {p}*{term} [component {c}]" for c, term, p, func, _ in added
+                                  if func is not None)
+    augmented.equation += "".join(f" [{variable_names[c]} measured as {variable_names[c]} + {p}]"
+                                  for c, p in offsets.items())
+    augmented.equation = augmented.equation.strip()
     augmented.__doc__ = (f"{getattr(science, '__name__', 'science')} {augmented.equation}\n\n"
                          f"Original science function plus the terms found by the residual diagnosis.")
     return augmented

@@ -98,7 +98,8 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
                    units: Mapping[str, str] | None = None, exact: str | Sequence[Any] | None = "auto",
                    terms: Sequence[Term] | None = None, term_kinds: Sequence[str] | None = None,
                    user_terms: Mapping[str, Callable] | None = None, positive: Sequence[str] = (),
-                   validation_fraction: float = 0.25, cv: int | None = None, groups: Any = None,
+                   offsets: Sequence[Any] = (), validation_fraction: float = 0.25, cv: int | None = None,
+                   groups: Any = None,
                    fit_initial_states: bool = False, max_terms: int = 4, n_candidates: int = 4,
                    z: float = 3.0, min_gain: float = 0.05, param_names: Mapping[str, str] | None = None,
                    refit_params: Mapping[str, Any] | None = None, theta_true: Mapping[str, Any] | None = None,
@@ -150,6 +151,11 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
     term_kinds, user_terms, positive : optional
         Passed to :func:`physics_terms`: which kinds, your own terms by name (torch functions of a
         dict of variables), variables that are never negative.
+    offsets : list of str or int, optional
+        Measured states (or features) whose sensor may read with a constant offset, by name or
+        index: each is a candidate at every step, judged like a term. Accepted, the model's state is
+        the reading, and every equation sees the reading less the fitted offset. A level gauge with a
+        shifted zero changes a Torricelli outflow ``sqrt(x)`` in a way no added term can.
     validation_fraction : float, default=0.25
         Share of the samples (the last ones) that judge each term.
     cv : int, optional
@@ -225,6 +231,7 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         raise ValueError("close_the_loop does not support theta_encoder: its network-free refits judge each term "
                          "with one theta shared by every sample. Close the loop on a model with a shared theta.")
     uncertain = _uncertain_components(estimator, X, y, exact, state_names)
+    offsets = _offset_states(estimator, X, y, offsets, state_names)
     try:
         check_is_fitted(estimator, "model_")
         before = estimator
@@ -272,15 +279,19 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         sel = forward_selection(science, before.theta_, fit, splits, terms,
                                 variables, n_states, args, learned, components, max_terms=max_terms,
                                 n_candidates=n_candidates, z=z, min_gain=min_gain, param_names=param_names,
-                                groups=codes, log=log)
+                                groups=codes, offsets=offsets, log=log)
         final = sel["science"]
         bounds = {g: t["bounds"][loc][1] for t in sel["added"] for loc, g in t["shape_params"].items()}
         science_theta = fit.fit(final, sel["theta"], bounds)  # every sample, now that the terms are chosen
-        added = [{**t, "output": outputs[t["component"]], "coef": float(science_theta[t["param"]]),
+
+        def outputs_of(t):  # a sensor offset stands on a measured state, not on an equation
+            return states[t["component"]] if t["kind"] == "offset" else outputs[t["component"]]
+
+        added = [{**t, "output": outputs_of(t), "coef": float(science_theta[t["param"]]),
                   "shape": {loc: float(science_theta[g]) for loc, g in t["shape_params"].items()}}
                  for t in sel["added"]]
         for s in sel["steps"]:  # a group's step stands on several components
-            s["output"] = ", ".join(outputs[j] for j in np.atleast_1d(s["component"]))
+            s["output"] = ", ".join(outputs_of({**s, "component": j}) for j in np.atleast_1d(s["component"]))
         remaining = learned - science_output(final, science_theta, args)
         unexplained = residual_profile(remaining, learned, values, variables, outputs, components)
 
@@ -357,20 +368,40 @@ def _uncertain_components(estimator, X, y, exact, state_names) -> list[int] | No
             return None
         fixed = [j for j in range(jac.shape[1]) if not np.any(np.abs(jac[:, j, :]) > 1e-12)]
     else:
-        names = _names(state_names, d, "x", "state_names")
-        fixed = []
-        for item in exact:
-            if isinstance(item, str):
-                if item not in names:
-                    raise ValueError(f"exact names unknown state {item!r}; states are {names}.")
-                item = names.index(item)
-            if isinstance(item, bool) or not isinstance(item, (int, np.integer)) or not 0 <= item < d:
-                raise ValueError(f"exact component {item!r} is not a state index in [0, {d}).")
-            fixed.append(int(item))
+        fixed = _state_indices(exact, _names(state_names, d, "x", "state_names"), "exact")
     uncertain = [j for j in range(d) if j not in fixed]
     if not uncertain:
         raise ValueError("Every component is exact: there is nothing for the network or the diagnosis to do.")
     return uncertain if fixed else None
+
+
+def _offset_states(estimator, X, y, offsets, state_names) -> list[int]:
+    """Indices of the states named in ``offsets``; in an ODE only measured states can have a sensor offset."""
+    d = _n_states(estimator, X, y) if estimator.structure == "ode" else int(np.prod(np.shape(X)[1:]))
+    names = _names(state_names, d, "x", "state_names")
+    out = _state_indices([offsets] if isinstance(offsets, (str, int)) else offsets, names, "offsets")
+    unmeasured = [names[j] for j in out if estimator.structure == "ode" and estimator.observed is not None
+                  and j not in estimator.observed]
+    if unmeasured:
+        raise ValueError(f"offsets names {unmeasured}, not measured (observed={estimator.observed}): an offset "
+                         "on an unmeasured state only relabels its initial value.")
+    if len(set(out)) < len(out):
+        raise ValueError(f"offsets lists a state twice: {list(offsets)}.")
+    return out
+
+
+def _state_indices(items, names: list[str], option: str) -> list[int]:
+    """State names or indices given to ``option`` as indices, each checked."""
+    out = []
+    for item in items:
+        if isinstance(item, str):
+            if item not in names:
+                raise ValueError(f"{option} names unknown state {item!r}; states are {names}.")
+            item = names.index(item)
+        if isinstance(item, bool) or not isinstance(item, (int, np.integer)) or not 0 <= item < len(names):
+            raise ValueError(f"{option} entry {item!r} is not a state index in [0, {len(names)}).")
+        out.append(int(item))
+    return out
 
 
 def _n_states(estimator, X, y) -> int:

@@ -19,7 +19,8 @@ __all__ = ["prediction_metrics", "format_table", "residual_profile", "plot_unexp
 
 KIND_WORDS = {"polynomial": "polynomial", "drag": "drag (v|v|, |v|)", "dry_friction": "dry friction",
               "hinge": "hinge / stop / overflow", "sqrt": "square root (Torricelli)",
-              "exponential": "exponential", "saturation": "saturation (Michaelis-Menten)", "user": "user term"}
+              "exponential": "exponential", "saturation": "saturation (Michaelis-Menten)", "user": "user term",
+              "offset": "sensor offset"}
 
 
 def format_gain(gain: float) -> str:
@@ -235,6 +236,10 @@ def format_table(rows: list[dict], added: Sequence[dict] = (), steps: Sequence[d
     lines.append("")
     if added:
         for t in added:
+            if t["kind"] == "offset":
+                lines.append(f"Added a sensor offset: {t['output']} is measured as {t['output']} {t['coef']:+.4g} "
+                             f"(the equations see the reading less it; parameter {t['param']})")
+                continue
             shape = ", ".join(f"{k} = {v:.4g}" for k, v in t["shape"].items())
             lines.append(f"Added to {t['output']}: {t['coef']:+.4g} * {t['term']}"
                          + (f" with {shape}" if shape else "") + f" ({KIND_WORDS.get(t['kind'], t['kind'])}"

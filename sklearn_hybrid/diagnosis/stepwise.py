@@ -200,7 +200,7 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
                       args: Sequence[np.ndarray], learned: np.ndarray, components: Sequence[int], *,
                       max_terms: int = 4, n_candidates: int = 4, z: float = 3.0, min_gain: float = 0.05,
                       param_names: Mapping[str, str] | None = None, groups: np.ndarray | None = None,
-                      log: Callable[[str], None] = lambda s: None) -> dict:
+                      offsets: Sequence[int] = (), log: Callable[[str], None] = lambda s: None) -> dict:
     """Add terms one at a time while a network-free refit validates better by more than the noise.
 
     Parameters
@@ -229,6 +229,10 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
     groups : ndarray of int, optional
         Every sample's group, numbered from 0 (see ``evidence.held_out_splits``): the
         evidence compares one mean error per judged group.
+    offsets : list of int, optional
+        States whose sensor may read with a constant offset: each is a candidate at every step until
+        accepted (an offset changes every equation that reads the state, so no ranking of
+        right-hand-side columns can rank it), judged like a term.
 
     Returns
     -------
@@ -263,7 +267,8 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
         by_residual = _interleave(_rank(columns, remaining, jac, components, taken), n_candidates)
         by_fit = _rank_by_fit(columns, science, current, added, theta_now, judge.screen, scale, components, taken,
                               variables, n_states, param_names)[:n_candidates]
-        ranked = _merge(by_residual, by_fit)
+        ranked = _merge(by_residual, by_fit) + [_offset(k, variables) for k in offsets
+                                                 if (k, _offset(k, variables)["term"]) not in taken]
         if not ranked:
             break
         tried = []
@@ -394,6 +399,8 @@ def _entries(cand: dict) -> list[dict]:
 
 def _where(cand: dict) -> str:
     components = cand["component"]
+    if cand["kind"] == "offset":
+        return f"the sensor of state {components}"
     return (f"components {', '.join(map(str, components))}" if isinstance(components, list)
             else f"component {components}")
 
@@ -432,9 +439,16 @@ def _simplest_of_the_best(tried: list, min_gain: float) -> tuple | None:
     return min(alike, key=lambda t: (_n_parameters(t[0]), t[0]["kind"] != "polynomial", t[2]["mse_after"]))
 
 
+def _offset(state: int, variables: Sequence[str]) -> dict:
+    """The candidate "the sensor of this state reads with a constant offset", starting at zero."""
+    return {"component": state, "term": f"offset({variables[state]})", "kind": "offset", "unit": "",
+            "function": None, "shape": {}, "bounds": {}, "coef": 0.0, "gain": float("nan"), "ranked_by": "declared"}
+
+
 def _augment(science, placed, variables, n_states, param_names):
-    terms = [{"component": t["component"], "term": t["term"], "coef": t["coef"], "function": t["function"],
-              "shape": t["shape"], "param": (param_names or {}).get(t["term"])} for t in placed]
+    terms = [{"component": t["component"], "term": t["term"], "kind": t["kind"], "coef": t["coef"],
+              "function": t["function"], "shape": t["shape"], "param": (param_names or {}).get(t["term"])}
+             for t in placed]
     return augment_science(science, terms, variables, n_states=n_states)
 
 
