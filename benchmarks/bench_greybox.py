@@ -9,7 +9,8 @@ What an engineer would do without a neural network, reproduced here rather than 
   record is fitted with the parameters; each test record starts from the state fitted on its
   first 50 samples and the RMSE (mV) is taken on the rest. Plus the discrete ARX(2,2) least squares.
 * Cascaded tanks, Torricelli model plain and with overflow (tank 1 capped at x1max, a fraction k5
-  of its overflow into tank 2, tank 2 capped at 10); validation state fitted on yVal[:5].
+  of its overflow into tank 2, tank 2 capped at 10), each with and without a sensor offset
+  (y = x2 + offset, within +-2 V), and with tank 2's cap fitted too; validation state fitted on yVal[:5].
 * Real pendulum free swing, ``theta'' = -(2 pi f0)^2 sin(theta) - c theta' - mu tanh(theta'/w)
   - d theta'|theta'|`` with the textbook friction laws (viscous, Coulomb, quadratic drag) alone and
   combined, fitted to one free run over the first 3 s (initial state fitted too) and tested as the
@@ -157,23 +158,35 @@ def _tanks_sim(p, x0, u, n_sub):
     return out
 
 
-TANK_MODELS = {
-    "plain Torricelli": ((0.05, 0.05, 0.05), (-1.0, 1e9, 1e9, 0.0), 3),
-    "+ overflow": ((0.05, 0.05, 0.05, 0.5, 9.5), (10.0, 0.0), 5),
-    "+ overflow + sensor offset + free tank-2 level": ((0.05, 0.05, 0.05, 0.5, 9.5, 10.0, 0.0), (), 7),
+# p = (k1, k3, k4, k5, x1max, x2max, offset): every model starts from these values and frees
+# the parameters it names; k5 = -1 turns the overflow off, x2max = 1e9 removes tank 2's cap.
+_TANK_START = (0.05, 0.05, 0.05, -1.0, 1e9, 1e9, 0.0)
+_TANK_BOUNDS = {0: (0, 1), 1: (0, 1), 2: (0, 1), 3: (0, 1), 4: (5, 20), 5: (5, 20), 6: (-2, 2)}
+TANK_MODELS = {  # name -> ({index: start} overriding _TANK_START, free indices)
+    "plain Torricelli": ({}, (0, 1, 2)),
+    "+ sensor offset": ({}, (0, 1, 2, 6)),
+    "+ overflow": ({3: 0.5, 4: 9.5, 5: 10.0}, (0, 1, 2, 3, 4)),
+    "+ overflow + sensor offset": ({3: 0.5, 4: 9.5, 5: 10.0}, (0, 1, 2, 3, 4, 6)),
+    "+ overflow + sensor offset + free tank-2 level": ({3: 0.5, 4: 9.5, 5: 10.0}, (0, 1, 2, 3, 4, 5, 6)),
 }
 
 
-def _fit_tanks(data, start, fixed, n_free, n_sub=4):
+def _fit_tanks(data, start, free, n_sub=4):
+    p0 = np.array(_TANK_START, dtype=float)
+    p0[list(start)] = list(start.values())
+    free = list(free)
+
     def params(z):
-        return np.array(list(z[:n_free]) + list(fixed))
+        p = p0.copy()
+        p[free] = z[:len(free)]
+        return p
 
     def resid(z):
-        return _tanks_sim(params(z), z[n_free:], data.u_est, n_sub) - data.y_est
+        return _tanks_sim(params(z), z[len(free):], data.u_est, n_sub) - data.y_est
 
-    z0 = np.array(list(start) + [data.y_est[0], data.y_est[0]])
-    low = [0.0] * 3 + [0.0, 5.0, 5.0, -2.0][:n_free - 3] + [0.0, 0.0]
-    high = [1.0] * 3 + [1.0, 20.0, 20.0, 2.0][:n_free - 3] + [20.0, 20.0]
+    z0 = np.array(list(p0[free]) + [data.y_est[0], data.y_est[0]])
+    low = [_TANK_BOUNDS[i][0] for i in free] + [0.0, 0.0]
+    high = [_TANK_BOUNDS[i][1] for i in free] + [20.0, 20.0]
     res = least_squares(resid, z0, bounds=(low, high), method="trf", x_scale="jac")
     p = params(res.x)
     yv, uv = data.y_val, data.u_val
@@ -274,8 +287,8 @@ def main():
         print(rows[-1])
     tanks = fetch_cascaded_tanks()
     tank_rows = []
-    for model, (init, fixed, n_free) in TANK_MODELS.items():
-        rmse, p = _fit_tanks(tanks, init, fixed, n_free)
+    for model, (initial, free) in TANK_MODELS.items():
+        rmse, p = _fit_tanks(tanks, initial, free)
         tank_rows.append({"model": model, **rmse, "params": p.tolist()})
         print(tank_rows[-1])
     swing, swing_rows = _swing_data(), []
@@ -294,8 +307,14 @@ def main():
                   f"{r['test_arrow_full']:.3f} | {r['test_arrow_no_extrapolation']:.3f} | {ratio} | "
                   f"{p.get('u0_mV', float('nan')):.2f} |")
     md += ["", "## Cascaded tanks (RMSE in the units of y; validation state fitted on yVal[:5])", "",
-           "| model | estimation | validation |", "|---|---|---|"]
-    md += [f"| {r['model']} | {r['estimation']:.3f} | {r['validation']:.3f} |" for r in tank_rows]
+           "Fitted: k5 (the share of tank 1's overflow that falls into tank 2), x1max and x2max (the "
+           "levels where the tanks overflow; x2max fixed at 10 V unless freed) and the sensor offset "
+           "(y = x2 + offset, bounded to +-2 V); - where not in the model.", "",
+           "| model | estimation | validation | k5 | x1max (V) | x2max (V) | offset (V) |",
+           "|---|---|---|---|---|---|---|"]
+    for r, (_, free) in zip(tank_rows, TANK_MODELS.values()):
+        cells = [f"{r['params'][i]:.3g}" if i in free else "-" for i in (3, 4, 5, 6)]
+        md.append(f"| {r['model']} | {r['estimation']:.3f} | {r['validation']:.3f} | " + " | ".join(cells) + " |")
     md += ["", "## Real pendulum free swing (RMSE in mrad; trained on the first 3 s, free run over the next 3.5 s "
            "from the sampled angle and the smoothed-derivative velocity at 3 s)", "",
            "| model | train | test | f0 (Hz) | c (1/s) | mu (rad/s^2) | w (rad/s) | d (1/rad) |",
