@@ -36,6 +36,9 @@ def _run(window: int, stride: int, cv: int | None, fitted_states: bool, data_hom
     rows = {r["stage"]: r for r in out.table}
     return {"window": window, "stride": stride, "cv": cv, "fit_initial_states": fitted_states,
             "n_windows": len(out.case.y), **selection_summary(out),
+            # the recipe's declared sensor offset, judged at every step until accepted
+            "offset_steps": [{k: s[k] for k in ("step", "gain", "z", "accepted")} for s in out.steps
+                             if s.get("kind") == "offset" and "gain" in s],
             "validation_rmse": {k: r.get("validation_rmse") for k, r in rows.items()},
             "seconds": out.seconds, "package_commit": PACKAGE_COMMIT}
 
@@ -50,13 +53,15 @@ def _markdown(runs: list[dict]) -> str:
           "at least 5 %); with a stride below the window length the windows overlap, their errors are "
           "correlated and z overstates the evidence. Validation RMSE (V) of free runs of the validation record: hybrid before, hybrid "
           "after (when a term was added), augmented science alone. Grey-box references "
-          "(`results/greybox.md`): plain Torricelli 0.683, + overflow 0.536, + overflow + sensor offset + "
-          "free tank-2 level 0.360. *initial x1*: the unobserved upper-tank level at each window's start, "
+          "(`results/greybox.md`): plain Torricelli 0.683, + sensor offset 0.672, + overflow 0.536, + overflow + "
+          "sensor offset 0.472, + overflow + sensor offset + free tank-2 level 0.360. *offset(x2)*: the gain and z "
+          "of the level gauge's offset, a candidate at every step (`offsets=['x2']`, rows from 03c1325 on). "
+          "*initial x1*: the unobserved upper-tank level at each window's start, "
           "estimated from the lower tank's balance (the recipe) or fitted per window with the network-free "
           "refits (`fit_initial_states=True`; the hybrid refit then starts from the fitted levels).", "",
           "| window / stride | judged on | initial x1 | windows | threshold | best first-step candidates: gain (z) | "
-          "added | validation before | after | science only | s | package commit |",
-          "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+          "offset(x2) by step: gain (z) | added | validation before | after | science only | s | package commit |",
+          "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in runs:
         best = "; ".join(f"{b['term']} on {b['output']}: {b['gain']:.0%} ({b['z']:.1f})"
                          for b in r["best_first_step"]).replace("|", "\\|")
@@ -69,8 +74,9 @@ def _markdown(runs: list[dict]) -> str:
         thr = "-" if r["threshold"] is None else f"{r['threshold']:.2f}"
         split = "last quarter" if r.get("cv") is None else f"{r['cv']} blocks"
         x1 = "fitted" if r.get("fit_initial_states") else "balance"
+        offset = "; ".join(f"{o['step']}: {o['gain']:.0%} ({o['z']:.1f})" for o in r.get("offset_steps", [])) or "-"
         md.append(f"| {r['window']} / {r['stride']} | {split} | {x1} | {r['n_windows']} | {thr} | {best} | "
-                  f"{added} | {fmt(v.get('before'))} | {fmt(v.get('after'))} | "
+                  f"{offset} | {added} | {fmt(v.get('before'))} | {fmt(v.get('after'))} | "
                   f"{fmt(v.get('science only'))} | {r['seconds']:.0f} | {r['package_commit']} |")
     return "\n".join(md)
 
