@@ -55,11 +55,18 @@ class System:
     batch : int
         1: the systems the benchmark was built with; 2 and 3: systems written on 2026-11-25, after the
         selection's code was last changed, and added unchanged whatever they gave (``FRESH``, ``FRESH_3``);
-        4 to 7: written in later sessions (``FRESH_4`` to ``FRESH_7``), likewise.
+        4 to 8: written in later sessions (``FRESH_4`` to ``FRESH_8``), likewise.
     sign_of : int or None
         For an effect that jumps with the sign of one state (dry friction): that state's index.  Trajectories
         are then integrated piecewise between its zero crossings (no chattering of the step size), and a
         trajectory in which the mass would stick is redrawn, so the data are smooth between crossings.
+    sensor_offset : dict of int to float
+        A sensor that reads ``x[j] + offset``: the data (initial states and targets) are the readings. With
+        ``missing`` None the science model lacks only that; the effect it misses, seen from the readings ``z``, is
+        ``truth(z - offset) - f(z)``.
+    declared_offsets : list of str
+        States the user declares as possibly read with an offset (``close_the_loop(offsets=...)``); an offset
+        declared where there is none must stay out.
     """
 
     name: str
@@ -79,10 +86,24 @@ class System:
     zero_components: list = field(default_factory=list)
     sign_of: int | None = None
     batch: int = 1
+    sensor_offset: dict = field(default_factory=dict)
+    declared_offsets: list = field(default_factory=list)
 
     @property
     def forced(self) -> bool:
         return self.u_range is not None
+
+    @property
+    def is_control(self) -> bool:
+        """Nothing missing: the science model is the whole truth and every sensor reads true."""
+        return self.missing is None and not self.sensor_offset
+
+    def offset_vector(self, d: int) -> np.ndarray:
+        """What each of the ``d`` sensors adds to its state."""
+        out = np.zeros(d)
+        for j, value in self.sensor_offset.items():
+            out[j] = value
+        return out
 
     def truth(self, x: np.ndarray, u: np.ndarray | None) -> np.ndarray:
         """Right-hand side of the data-generating system at states ``x`` (n, d), inputs ``u`` (n, 1)."""
@@ -628,7 +649,78 @@ FRESH_7 = [
            cascade_tanks_f, {"a1": 0.5, "a2": 0.6}, None,
            ["h1", "h2"], {"h1": "m", "h2": "m", "u": "m/s"}, 0.4, 30, (0.2, 0.2), (2.5, 2.0), (0.2, 1.0), batch=7),
 ]
-SYSTEMS = {s.name: s for s in SYSTEMS + FRESH + FRESH_3 + FRESH_4 + FRESH_5 + FRESH_6 + FRESH_7}
+
+
+# ----------------------------------------------------------------------------- batch 8 (declared sensor offsets)
+# Written on 2026-11-25 with close_the_loop's declared sensor offsets (package commit 03c1325), before any of them
+# ran: a sensor that reads its state plus a constant (an angle encoder, a concentration probe, the gauge of the
+# upper of two tanks with both gauges declared, a thermometer), a declared offset where the science misses a term
+# instead (an outlet above a level, air drag), and two controls with offsets declared and nothing missing.
+def damped_pendulum_swing_f(v, w2=3.2, c=0.25):
+    return torch.stack([v[:, 1], -w2 * torch.sin(v[:, 0]) - c * v[:, 1]], dim=-1)
+
+
+def fed_substrate_f(v, u, vmax=0.8, km=0.4):
+    S = v[:, 0].clamp(min=0)  # guard: a concentration is never negative
+    return torch.stack([u[:, 0] - vmax * S / (km + S)], dim=-1)
+
+
+def two_gauge_tanks_f(v, u, a1=0.7, a2=0.45):
+    q1, q2 = v[:, 0].clamp(min=0).sqrt(), v[:, 1].clamp(min=0).sqrt()  # guard: a level is never negative
+    return torch.stack([u[:, 0] - a1 * q1, a1 * q1 - a2 * q2], dim=-1)
+
+
+def radiating_plate_f(v, u, h=0.3, s=0.4, p=0.8):
+    T = v[:, 0]
+    return torch.stack([p * u[:, 0] - h * (T - 0.5) - s * T ** 4], dim=-1)
+
+
+def outlet_tank_f(v, u, a=0.6, b=0.8):
+    return torch.stack([b * u[:, 0] - a * v[:, 0].clamp(min=0).sqrt()], dim=-1)
+
+
+FRESH_8 = [
+    System("encoder_offset", "oscillator", "sensor offset (angle encoder)",
+           "the angle encoder reads theta + 0.2 rad",
+           damped_pendulum_swing_f, {"w2": 4.0, "c": 0.3}, None,
+           ["theta", "omega"], {"theta": "rad", "omega": "rad/s"}, 0.1, 30, (-1.5, -1.0), (1.5, 1.0),
+           zero_components=[0], batch=8, sensor_offset={0: 0.2}, declared_offsets=["theta"]),
+    System("probe_offset", "chemical", "sensor offset (concentration probe)",
+           "the substrate probe reads S + 0.15 g/L (Michaelis-Menten uptake)",
+           fed_substrate_f, {"vmax": 1.0, "km": 0.3}, None,
+           ["S"], {"S": "g/L", "u": "g/L/h"}, 0.25, 30, (0.1,), (2.0,), (0.1, 0.8),
+           batch=8, sensor_offset={0: 0.15}, declared_offsets=["S"]),
+    System("upper_gauge_offset", "hydraulic", "sensor offset (one of two declared gauges)",
+           "the upper tank's gauge reads h1 - 0.3 m; the lower one's, declared too, reads true",
+           two_gauge_tanks_f, {"a1": 0.55, "a2": 0.6}, None,
+           ["h1", "h2"], {"h1": "m", "h2": "m", "u": "m/s"}, 0.4, 30, (0.5, 0.2), (2.5, 2.0), (0.2, 1.0),
+           batch=8, sensor_offset={0: -0.3}, declared_offsets=["h1", "h2"]),
+    System("thermometer_offset", "thermal", "sensor offset (thermometer, radiating body)",
+           "the thermometer reads T + 0.1",
+           radiating_plate_f, {"h": 0.4, "s": 0.3, "p": 1.0}, None,
+           ["T"], {"T": "300 K", "u": "1"}, 0.25, 30, (0.4,), (1.3,), (0.0, 1.0),
+           batch=8, sensor_offset={0: 0.1}, declared_offsets=["T"]),
+    System("declared_gauge_outlet", "hydraulic", "non-smooth, offset declared (none present)",
+           "an outlet above 1.2 m -0.4 max(0, h - 1.2); the gauge, declared, reads true",
+           outlet_tank_f, {"a": 0.5, "b": 1.0}, lambda x, u: -0.4 * np.maximum(0.0, x - 1.2),
+           ["h"], {"h": "m", "u": "m/s"}, 0.4, 30, (0.2,), (2.5,), (0.2, 1.2),
+           batch=8, declared_offsets=["h"]),
+    System("declared_encoder_drag", "oscillator", "drag, offset declared (none present)",
+           "air drag -0.25 omega|omega|; the encoder, declared, reads true",
+           damped_pendulum_swing_f, {"w2": 4.0, "c": 0.3},
+           lambda x, u: _on(1, 2, -0.25 * x[:, 1] * np.abs(x[:, 1])),
+           ["theta", "omega"], {"theta": "rad", "omega": "rad/s"}, 0.1, 30, (-1.5, -1.5), (1.5, 1.5),
+           zero_components=[0], batch=8, declared_offsets=["theta"]),
+    System("control_declared_probe", "chemical", "control", "nothing (Michaelis-Menten uptake; probe declared)",
+           fed_substrate_f, {"vmax": 1.0, "km": 0.3}, None,
+           ["S"], {"S": "g/L", "u": "g/L/h"}, 0.25, 30, (0.1,), (2.0,), (0.1, 0.8),
+           batch=8, declared_offsets=["S"]),
+    System("control_declared_gauges", "hydraulic", "control", "nothing (two tanks; both gauges declared)",
+           two_gauge_tanks_f, {"a1": 0.55, "a2": 0.6}, None,
+           ["h1", "h2"], {"h1": "m", "h2": "m", "u": "m/s"}, 0.4, 30, (0.5, 0.2), (2.5, 2.0), (0.2, 1.0),
+           batch=8, declared_offsets=["h1", "h2"]),
+]
+SYSTEMS = {s.name: s for s in SYSTEMS + FRESH + FRESH_3 + FRESH_4 + FRESH_5 + FRESH_6 + FRESH_7 + FRESH_8}
 
 
 # ----------------------------------------------------------------------------------------------------- simulation

@@ -108,6 +108,16 @@ BATCHES = {
         "saturable elimination in one of two compartments, light times the squared density, an outlet that opens "
         "above a level in the lower of two tanks, cubic damping of a forced oscillator, two controls; each ran "
         "once here and is shown whatever it gave."),
+    8: ("## Batch 8: declared sensor offsets",
+        "Written on 2026-11-25 with close_the_loop's declared sensor offsets (`offsets=[...]`, package commit "
+        "03c1325), committed before they ran; each ran once here and is shown whatever it gave. Every system "
+        "declares one or two sensors as possibly offset (`close_the_loop(..., offsets=system.declared_offsets)`; "
+        "the only change to the protocol). Four have a sensor that reads its state plus a constant (the data, "
+        "initial states and targets, are the readings) and a science model that lacks nothing else; their scores "
+        "are taken at the readings `z = x + offset`, the states the fitted models simulate: `T` is the true "
+        "right-hand side at `x`, `m = T - f(z, theta_true)`. Two declare an offset where the science misses a term "
+        "instead, and two controls declare offsets where nothing is missing. The fitted offset is shown beside "
+        "the term `offset(state)`."),
 }
 # Run order (the tables follow SYSTEMS): domains and controls interleaved, so that a partial run is a cross-section.
 RUN_ORDER = ["drag_oscillator", "control_rlc", "budworm", "enzyme_reactor", "saturating_heater", "diode_clamped_rc",
@@ -131,7 +141,10 @@ RUN_ORDER = ["drag_oscillator", "control_rlc", "budworm", "enzyme_reactor", "sat
              "magnet_pull",
              # batch 7 (_identification_systems.FRESH_7)
              "saturable_elimination", "control_pk", "self_shading", "valve_overflow", "control_cascade_tanks",
-             "cubic_damper"]
+             "cubic_damper",
+             # batch 8 (_identification_systems.FRESH_8: declared sensor offsets)
+             "encoder_offset", "control_declared_probe", "probe_offset", "declared_gauge_outlet", "upper_gauge_offset",
+             "control_declared_gauges", "thermometer_offset", "declared_encoder_drag"]
 
 
 def cache_dir(fast: bool) -> Path:
@@ -156,7 +169,7 @@ def make_data(system: System, noise: float, seed: int, fast: bool = False) -> di
     d = x.shape[-1]
     sigma = noise * x.reshape(-1, d).std(axis=0)
     eps = np.random.default_rng([zlib.crc32(system.name.encode()), seed, 2]).standard_normal(x.shape)
-    noisy = x + eps * sigma
+    noisy = x + eps * sigma + system.offset_vector(d)  # what the sensors read
     X = pack_inputs(noisy[:, 0], u) if system.forced else noisy[:, 0]
     return {"X": X, "y": noisy[:, 1:], "sigma": sigma,
             "x_test": x_test.reshape(-1, d), "u_test": None if u_test is None else u_test.reshape(-1, 1)}
@@ -164,12 +177,31 @@ def make_data(system: System, noise: float, seed: int, fast: bool = False) -> di
 
 def score(system: System, science, theta: dict, before_theta: dict, x: np.ndarray, u: np.ndarray | None) -> dict:
     """Function-space scores of the final science model ``science(theta)`` on the test states ``x`` (inputs ``u``)."""
+    if system.sensor_offset:
+        return _score_from_readings(system, science, theta, before_theta, x, u)
     F = call_science(system, science, x, u, theta)
     T = system.truth(x, u)
     B = call_science(system, system.science, x, u, before_theta)
     if system.missing is None:
         return {"control_err": _norm(F - T) / _norm(T), "before_control_err": _norm(B - T) / _norm(T)}
     m = system.missing(x, u)
+    scale = _norm(m)
+    zero = np.zeros(F.shape[1], dtype=bool)
+    zero[system.zero_components] = True
+    return {"rel_err": _norm(F - T) / scale, "before_err": _norm(B - T) / scale,
+            "leak": _norm((F - T)[:, zero]) / scale if zero.any() else None}
+
+
+def _score_from_readings(system: System, science, theta: dict, before_theta: dict, x: np.ndarray,
+                         u: np.ndarray | None) -> dict:
+    """``score`` where a sensor reads its state plus an offset: every model is evaluated at the readings
+    ``z = x + offset`` (the states the fitted models simulate); the truth there is the true right-hand side at
+    ``x``, and the missing effect is what the science model at the true parameters lacks at ``z``."""
+    z = x + system.offset_vector(x.shape[1])
+    F = call_science(system, science, z, u, theta)
+    T = system.truth(x, u)
+    m = T - call_science(system, system.science, z, u, system.theta_true)
+    B = call_science(system, system.science, z, u, before_theta)
     scale = _norm(m)
     zero = np.zeros(F.shape[1], dtype=bool)
     zero[system.zero_components] = True
@@ -192,7 +224,8 @@ def run_case(system: System, noise: float, seed: int, fast: bool, command: str) 
         est = pickle.loads(fit_path.read_bytes())
     start = time.perf_counter()
     res = close_the_loop(est, data["X"], data["y"], state_names=system.state_names,
-                         input_names=["u"] if system.forced else None, units=units)
+                         input_names=["u"] if system.forced else None, units=units,
+                         offsets=system.declared_offsets)
     wall = time.perf_counter() - start
     if not reused:
         fit_path.parent.mkdir(parents=True, exist_ok=True)
@@ -216,13 +249,14 @@ def _fmt(v, digits=3) -> str:
 def _terms(rec: dict) -> str:
     if "error" in rec:
         return "error: " + rec["error"].splitlines()[-1][:80]
-    return "; ".join(f"{a.get('term')} [{a.get('component')}]" for a in rec["added"]) or "nothing"
+    return "; ".join(f"{a.get('term')}" + (f" = {a['coef']:.3f}" if a.get("kind") == "offset" else "")
+                     + f" [{a.get('component')}]" for a in rec["added"]) or "nothing"
 
 
 def _tables(records: list[dict]) -> list[str]:
     """The missing-effects table, the controls table and their summary, for one batch of systems."""
-    effects = [r for r in records if SYSTEMS[r["system"]].missing is not None]
-    controls = [r for r in records if SYSTEMS[r["system"]].missing is None]
+    effects = [r for r in records if not SYSTEMS[r["system"]].is_control]
+    controls = [r for r in records if SYSTEMS[r["system"]].is_control]
     md = ["| system | missing effect | kind | noise | before | rel_err | leak | identified | terms added | s |",
           "|---|---|---|---|---|---|---|---|---|---|"]
     for r in effects:
@@ -272,8 +306,8 @@ def render(records: list[dict]) -> str:
           "added (target: none) and `|F - T| / |T|`.", "",
           "Cases run: " + ", ".join(f"{len(batches[b])} of {n_systems[b] * len(NOISE_LEVELS)} in batch {b}"
                                     for b in batches) + f" (seed 0, noise {NOISE_LEVELS})."]
-    effects = [r for r in records if SYSTEMS[r["system"]].missing is not None]
-    controls = [r for r in records if SYSTEMS[r["system"]].missing is None]
+    effects = [r for r in records if not SYSTEMS[r["system"]].is_control]
+    controls = [r for r in records if SYSTEMS[r["system"]].is_control]
     if effects:
         hit, clean = sum(bool(r.get("identified")) for r in effects), sum(r.get("n_added") == 0 for r in controls)
         md += ["", f"All batches, as the stored records stand: {hit} of {len(effects)} effects within 10 % "
