@@ -18,6 +18,8 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import sys
+import time
 
 import numpy as np
 import torch
@@ -40,7 +42,26 @@ def _run(window: int, stride: int, cv: int | None, fitted_states: bool, data_hom
             "offset_steps": [{k: s[k] for k in ("step", "gain", "z", "accepted")} for s in out.steps
                              if s.get("kind") == "offset" and "gain" in s],
             "validation_rmse": {k: r.get("validation_rmse") for k, r in rows.items()},
-            "seconds": out.seconds, "package_commit": PACKAGE_COMMIT}
+            "seconds": out.seconds, "package_commit": PACKAGE_COMMIT,
+            "command": "python " + " ".join(["benchmarks/bench_tanks_windows.py", *sys.argv[1:]]),
+            "date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())}
+
+
+# Runs stored before their records held the command and the date
+_EARLIER = {"3b80ab2": ("`python benchmarks/bench_tanks_windows.py`", "2026-11-24 20:37 UTC"),
+            "5cf8863": ("`python benchmarks/bench_tanks_windows.py --settings 64/32/f 128/16/f`",
+                        "2026-11-24 22:57 UTC, two other jobs on the 2 cores"),
+            "eb9feea": ("`python benchmarks/bench_tanks_windows.py --settings 128/16/f 128/32/f 128/64/f`",
+                        "2026-11-24 23:41 UTC, two other jobs on the 2 cores")}
+
+
+def _commands(runs: list[dict]) -> str:
+    """Each package commit's command and date, from the runs' records (or ``_EARLIER``)."""
+    seen = {}
+    for r in runs:
+        c = r["package_commit"]
+        seen.setdefault(c, (f"`{r['command']}`", r["date"]) if "command" in r else _EARLIER.get(c, ("?", "?")))
+    return "Rows by package commit: " + "; ".join(f"{c}: {cmd} ({date})" for c, (cmd, date) in seen.items()) + "."
 
 
 def _markdown(runs: list[dict]) -> str:
@@ -78,6 +99,7 @@ def _markdown(runs: list[dict]) -> str:
         md.append(f"| {r['window']} / {r['stride']} | {split} | {x1} | {r['n_windows']} | {thr} | {best} | "
                   f"{offset} | {added} | {fmt(v.get('before'))} | {fmt(v.get('after'))} | "
                   f"{fmt(v.get('science only'))} | {r['seconds']:.0f} | {r['package_commit']} |")
+    md += ["", _commands(runs)]
     return "\n".join(md)
 
 
