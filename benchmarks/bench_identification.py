@@ -117,7 +117,15 @@ BATCHES = {
         "are taken at the readings `z = x + offset`, the states the fitted models simulate: `T` is the true "
         "right-hand side at `x`, `m = T - f(z, theta_true)`. Two declare an offset where the science misses a term "
         "instead, and two controls declare offsets where nothing is missing. The fitted offset is shown beside "
-        "the term `offset(state)`."),
+        "the term `offset(state)`. Run once (at 03c1325): 11 of 12 effects within 10 %, 4 of 4 controls clean. "
+        "The offset was named and fitted where it bends the equations (the encoder's 0.199 / 0.196 of 0.2, the "
+        "upper gauge's -0.300 / -0.299 of -0.3); where its effect is close to a constant or a linear term, a term "
+        "as good and simpler by the selection's rule (a polynomial before any other kind) was taken instead: the "
+        "probe's constant (the offset also passed, gain 98 % / 61 %), the thermometer's T at 0.01, and nothing at "
+        "0.05, where the refitted parameters alone come within 2 %. No offset was added where none was present "
+        "(the lower gauge, the outlet and drag systems, the controls); with the outlet missing, the offset passed "
+        "the test at the first step (gain 81 %) but the hinge (0.01) or h^3 (0.05) validated better. "
+        "`declared_gauge_outlet` at 0.05 is the failure: h^3 for the hinge, rel_err 0.130."),
 }
 # Run order (the tables follow SYSTEMS): domains and controls interleaved, so that a partial run is a cross-section.
 RUN_ORDER = ["drag_oscillator", "control_rlc", "budworm", "enzyme_reactor", "saturating_heater", "diode_clamped_rc",
