@@ -267,8 +267,8 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
         by_residual = _interleave(_rank(columns, remaining, jac, components, taken), n_candidates)
         by_fit = _rank_by_fit(columns, science, current, added, theta_now, judge.screen, scale, components, taken,
                               variables, n_states, param_names)[:n_candidates]
-        ranked = _merge(by_residual, by_fit) + [_offset(k, variables) for k in offsets
-                                                 if (k, _offset(k, variables)["term"]) not in taken]
+        declared = [_offset(k, variables) for k in offsets]
+        ranked = _merge(by_residual, by_fit) + [c for c in declared if (c["component"], c["term"]) not in taken]
         if not ranked:
             break
         tried = []
