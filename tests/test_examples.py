@@ -15,7 +15,7 @@ TASKS = ["pendulum", "duffing", "reaction_diffusion", "pendulum_images", "wind_t
 
 
 def test_gallery_has_one_example_per_task():
-    found = sorted(p.parent.name for p in EXAMPLES.glob("*/plot_*.py"))
+    found = sorted({p.parent.name for p in EXAMPLES.glob("*/plot_*.py")})
     assert found == sorted(TASKS + ["closed_loop"])
     assert (EXAMPLES / "README.txt").is_file()
     assert all((EXAMPLES / t / "README.txt").is_file() for t in found)
@@ -34,6 +34,20 @@ def test_closed_loop_example_runs_in_fast_mode(monkeypatch, tmp_path, capsys, sh
     # fast mode checks the pipeline (fit, diagnosis, table); finding the cubic needs a full run
     assert "| before |" in out and ("Added to g[y_dot]" in out or "Nothing added" in out)
     assert n_figures >= 1
+
+
+def test_sensor_offset_example_finds_the_gauge_offset(monkeypatch, tmp_path, capsys):
+    """Simulated readings of a gauge 0.3 m high: the declared offset is accepted and fitted."""
+    monkeypatch.setenv("SKLEARN_HYBRID_FAST", "1")
+    monkeypatch.chdir(tmp_path)
+    try:
+        namespace = runpy.run_path(str(EXAMPLES / "closed_loop" / "plot_sensor_offset.py"), run_name="__main__")
+        n_figures = len(plt.get_fignums())
+    finally:
+        plt.close("all")
+    assert "Added a sensor offset: h is measured as h +" in capsys.readouterr().out
+    assert namespace["out"].science_theta["offset_h"] == pytest.approx(0.3, abs=0.01)
+    assert n_figures == 1
 
 
 @pytest.mark.parametrize("task", TASKS)
