@@ -729,7 +729,7 @@ def test_a_declared_sensor_offset_is_judged_like_a_term_and_fitted():
     X, y = _draining_tank(0.5)
     X_given = X.copy()
     est = HybridRegressor(science=_tank_f, dt=0.2, method="erm", max_iter=30, random_state=0)
-    options = dict(state_names=["h"], offsets=["h"], term_kinds=["polynomial"], max_terms=2,
+    options = dict(state_names=["h"], units={"h": "m"}, offsets=["h"], term_kinds=["polynomial"], max_terms=2,
                    refit_params={"max_iter": 5})
     out = close_the_loop(est, X, y, **options)
     np.testing.assert_array_equal(X, X_given)
@@ -738,7 +738,7 @@ def test_a_declared_sensor_offset_is_judged_like_a_term_and_fitted():
     assert out.science_theta["k"] == pytest.approx(0.8, rel=0.02)
     assert "offset_h" in inspect.signature(out.science).parameters and "offset_h" in out.after.theta_
     assert "h measured as h + offset_h" in out.science.equation
-    assert "Added a sensor offset: h is measured as h +0.50" in out.report
+    assert "Added a sensor offset: h is measured as h +0.50" in out.report and "m (the equations" in out.report
     # screened beside the polynomial terms, and not again once accepted
     assert [s["term"] for s in out.steps if s["step"] == 1][-1] == "offset(h)"
     assert all(s["term"] != "offset(h)" for s in out.steps if s["step"] == 2)

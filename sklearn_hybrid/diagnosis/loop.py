@@ -288,6 +288,7 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
             return states[t["component"]] if t["kind"] == "offset" else outputs[t["component"]]
 
         added = [{**t, "output": outputs_of(t), "coef": float(science_theta[t["param"]]),
+                  **({"unit": (units or {}).get(states[t["component"]], "")} if t["kind"] == "offset" else {}),
                   "shape": {loc: float(science_theta[g]) for loc, g in t["shape_params"].items()}}
                  for t in sel["added"]]
         for s in sel["steps"]:  # a group's step stands on several components

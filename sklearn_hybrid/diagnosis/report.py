@@ -237,8 +237,9 @@ def format_table(rows: list[dict], added: Sequence[dict] = (), steps: Sequence[d
     if added:
         for t in added:
             if t["kind"] == "offset":
-                lines.append(f"Added a sensor offset: {t['output']} is measured as {t['output']} {t['coef']:+.4g} "
-                             f"(the equations see the reading less it; parameter {t['param']})")
+                unit = f" {t['unit']}" if t.get("unit") else ""
+                lines.append(f"Added a sensor offset: {t['output']} is measured as {t['output']} "
+                             f"{t['coef']:+.4g}{unit} (the equations see the reading less it; parameter {t['param']})")
                 continue
             shape = ", ".join(f"{k} = {v:.4g}" for k, v in t["shape"].items())
             lines.append(f"Added to {t['output']}: {t['coef']:+.4g} * {t['term']}"
