@@ -40,6 +40,7 @@ def test_sensor_offset_example_finds_the_gauge_offset(monkeypatch, tmp_path, cap
     """Simulated readings of a gauge 0.3 m high: the declared offset is accepted and fitted."""
     monkeypatch.setenv("SKLEARN_HYBRID_FAST", "1")
     monkeypatch.chdir(tmp_path)
+    plt.close("all")  # figures other tests left open are not this example's
     try:
         namespace = runpy.run_path(str(EXAMPLES / "closed_loop" / "plot_sensor_offset.py"), run_name="__main__")
         n_figures = len(plt.get_fignums())
