@@ -774,3 +774,20 @@ def test_augment_science_with_a_sensor_offset_shifts_the_state_every_part_sees()
         augment_science(pendulum_f, [offset, offset], NAMES)
     with pytest.raises(ValueError, match="needs a state index"):
         augment_science(pendulum_f, [{**offset, "component": 2}], NAMES)
+
+
+def _root_law(x, a=1.0):
+    return a * torch.sqrt(torch.clamp(x[:, 0], min=1e-6))
+
+
+def test_a_sensor_offset_on_a_feature_of_a_static_model():
+    """y = 0.7 sqrt(x) with x read 0.25 high: the offset on the feature is found in an additive model too."""
+    rng = np.random.default_rng(0)
+    x = rng.uniform(0.3, 3, size=(200, 1))
+    y = 0.7 * np.sqrt(x[:, 0]) + 0.005 * rng.standard_normal(200)
+    est = HybridRegressor(science=_root_law, structure="additive", method="erm", max_iter=50, random_state=0)
+    out = close_the_loop(est, x + 0.25, y, state_names=["x"], offsets=["x"], term_kinds=["polynomial"],
+                         refit_params={"max_iter": 5})
+    assert [t["term"] for t in out.added] == ["offset(x)"]
+    assert out.science_theta["offset_x"] == pytest.approx(0.25, abs=0.01)
+    assert out.science_theta["a"] == pytest.approx(0.7, rel=0.01)
