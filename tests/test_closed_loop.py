@@ -169,6 +169,28 @@ def test_knot_of_a_hinge_is_fitted():
     assert torch.sqrt(torch.mean((added - truth) ** 2)) < 0.1 * torch.sqrt(torch.mean(truth**2))
 
 
+def _linear_law(x, a=1.0):
+    return a * x[:, :1]
+
+
+def test_the_models_the_loop_returns_can_be_saved():
+    """pickle (joblib.dump) of the refitted hybrid and of the network-free model, whose science is the
+    augmented function with a fitted hinge: it was a closure and could not be pickled. (The user's own
+    science function must be picklable, i.e. defined at module level, as for any estimator.)"""
+    import pickle
+
+    X, y = _static_data(lambda X: 0.8 * np.maximum(0.0, X[:, 1] - 0.35))
+    est = _static_estimator().set_params(science=_linear_law)
+    out = close_the_loop(est, X, y, state_names=["p", "q"], refit_params={"max_iter": 5})
+    assert out.added and out.science.shape_names[0]
+    for model in (out.after, out.science_only):
+        restored = pickle.loads(pickle.dumps(model))
+        np.testing.assert_array_equal(restored.predict(X[:20]), model.predict(X[:20]))
+        assert restored.theta_ == model.theta_
+    science = pickle.loads(pickle.dumps(out.science))
+    assert inspect.signature(science) == inspect.signature(out.science) and science.equation == out.science.equation
+
+
 def test_nothing_added_when_nothing_is_missing():
     X, y = _static_data(lambda X: 0.0 * X[:, 0])
     out = close_the_loop(_static_estimator(max_iter=150), X, y, X, y, state_names=["p", "q"])

@@ -8,7 +8,7 @@ model's residual by sparse regression on a :class:`CandidateLibrary` (an explora
 :func:`augment_science` adds chosen terms to a science function.
 """
 
-from .augment import augment_science, parameter_name, term_to_torch
+from .augment import AugmentedScience, augment_science, parameter_name, term_to_torch
 from .evidence import ScienceFit, critical_value, evidence
 from .library import CandidateLibrary
 from .loop import MLPOn, ZeroResidual, close_the_loop
@@ -19,6 +19,6 @@ from .sparse import SparseTermRegression
 from .terms import TERM_KINDS, Term, physics_terms
 
 __all__ = ["CandidateLibrary", "SparseTermRegression", "ResidualDiagnosis", "science_sensitivities",
-           "augment_science", "term_to_torch", "parameter_name", "close_the_loop", "free_run",
+           "augment_science", "AugmentedScience", "term_to_torch", "parameter_name", "close_the_loop", "free_run",
            "fit_initial_state", "MLPOn", "ZeroResidual", "prediction_metrics", "format_table",
            "plot_unexplained", "Term", "physics_terms", "TERM_KINDS", "ScienceFit", "evidence", "critical_value"]

@@ -5,7 +5,9 @@ output components, ``c * term`` with one new named parameter ``c`` per term; a s
 (kind ``"offset"``) instead evaluates the whole right-hand side at the measured state less a new
 parameter (the model's state is then the sensor's reading). It has a proper
 signature (``inspect.signature`` shows every parameter with its initial value as default), so
-:class:`~sklearn_hybrid.HybridRegressor` reads and estimates the old and the new parameters alike.
+:class:`~sklearn_hybrid.HybridRegressor` reads and estimates the old and the new parameters alike,
+and it pickles (an :class:`AugmentedScience` whose term functions are module-level functions
+bound with ``functools.partial``), so that a fitted estimator holding it can be saved.
 """
 
 from __future__ import annotations
@@ -13,16 +15,22 @@ from __future__ import annotations
 import inspect
 import re
 from collections.abc import Callable, Mapping, Sequence
+from functools import partial
 from typing import Any
 
 import numpy as np
 import torch
 
 from ..science import read_signature
+from .terms import _abs, _drag, constant, monomial
 
-__all__ = ["augment_science", "term_to_torch", "parameter_name"]
+__all__ = ["augment_science", "AugmentedScience", "term_to_torch", "parameter_name"]
 
 _FUNCS = {"sin": torch.sin, "cos": torch.cos, "sign": torch.sign}
+
+
+def _elementary(d, x, name):
+    return _FUNCS[name](d[x])
 
 
 def term_to_torch(term: str, variables: Sequence[str],
@@ -49,19 +57,16 @@ def term_to_torch(term: str, variables: Sequence[str],
         return term_functions[term]
     known = set(variables)
     if term == "1":
-        return lambda d: torch.ones_like(next(iter(d.values())))
+        return constant
     match = re.fullmatch(r"(sin|cos|sign)\((.+)\)", term)
     if match and match.group(2) in known:
-        func, var = _FUNCS[match.group(1)], match.group(2)
-        return lambda d: func(d[var])
+        return partial(_elementary, x=match.group(2), name=match.group(1))
     match = re.fullmatch(r"\|(.+)\|", term)
     if match and match.group(1) in known:
-        var = match.group(1)
-        return lambda d: torch.abs(d[var])
+        return partial(_abs, x=match.group(1))
     match = re.fullmatch(r"(.+)\|(.+)\|", term)
     if match and match.group(1) == match.group(2) and match.group(1) in known:
-        var = match.group(1)
-        return lambda d: d[var] * torch.abs(d[var])
+        return partial(_drag, x=match.group(1))
     factors = []
     for part in term.split("*"):
         name, _, power = part.partition("^")
@@ -70,14 +75,7 @@ def term_to_torch(term: str, variables: Sequence[str],
                 f"Cannot translate the term {term!r} into torch: give its torch version in "
                 f"term_functions={{{term!r}: lambda d: ...}} (d maps {list(variables)} to tensors).")
         factors.append((name, int(power) if power else 1))
-
-    def monomial(d):
-        out = d[factors[0][0]] ** factors[0][1]
-        for name, power in factors[1:]:
-            out = out * d[name] ** power
-        return out
-
-    return monomial
+    return partial(monomial, factors=tuple(factors))
 
 
 def _flat(x: torch.Tensor) -> torch.Tensor:
@@ -101,7 +99,8 @@ def parameter_name(term: str, taken: Sequence[str], suffix: str = "", prefix: st
 
 def augment_science(science: Callable, terms: Sequence[Mapping[str, Any]], variable_names: Sequence[str], *,
                     n_states: int | None = None, theta: Mapping[str, Any] | None = None,
-                    term_functions: Mapping[str, Callable] | None = None, name: str | None = None) -> Callable:
+                    term_functions: Mapping[str, Callable] | None = None,
+                    name: str | None = None) -> AugmentedScience:
     """Build ``science + sum_i c_i * term_i`` as a new science function with named parameters.
 
     Parameters
@@ -132,9 +131,10 @@ def augment_science(science: Callable, terms: Sequence[Mapping[str, Any]], varia
 
     Returns
     -------
-    callable
+    AugmentedScience
         The augmented science function; ``.terms`` lists ``(component, term, parameter)`` and
-        ``.equation`` reads the added part.
+        ``.equation`` reads the added part. It pickles when ``science`` and the term functions do
+        (module-level functions; the library's terms are).
     """
     inputs, defaults = read_signature(science)
     if len(inputs) not in (1, 2):
@@ -175,63 +175,73 @@ def augment_science(science: Callable, terms: Sequence[Mapping[str, Any]], varia
             values[shape[local]] = float(value)
         added.append((component, term, param, func, shape))
 
-    initial = dict(values)
-    touched = sorted({component for component, _, _, func, _ in added if func is not None})
-    offsets = {component: param for component, _, param, func, _ in added if func is None}
+    name = name or f"{getattr(science, '__name__', 'science')}_augmented"
+    return AugmentedScience(science, inputs, list(defaults), values, added, variable_names, n_states, name)
 
-    # called at every RK4 stage of every simulation (hundreds of thousands of times in a
-    # selection, per step of a free run), where each tensor operation costs its overhead: one
-    # unbind per input, no reshape of what is already flat, and each touched component added as
-    # its column times a constant one-hot row (indexing and stacking every column took 4x the
-    # science function's own time)
-    one_hot: dict[tuple, dict[int, torch.Tensor]] = {}
 
-    def rows(flat: torch.Tensor, components) -> dict[int, torch.Tensor]:
-        key = (flat.shape[1], flat.dtype, flat.device)
-        if key not in one_hot:
-            one_hot[key] = {}
-        cached = one_hot[key]
+class AugmentedScience:
+    """A science function plus named terms (and sensor offsets), made by :func:`augment_science`.
+
+    Called like the original, ``f(*inputs, **theta)``; ``inspect.signature`` lists the inputs, then
+    every parameter with its initial value. ``terms`` lists ``(component, term, parameter)``,
+    ``shape_names`` each term's shape parameters, ``equation`` reads what was added.
+    """
+
+    def __init__(self, science, inputs, original, values, added, variable_names, n_states, name):
+        self.science, self.original, self.initial = science, list(original), dict(values)
+        self.added, self.variable_names, self.n_states = list(added), list(variable_names), n_states
+        self.touched = sorted({component for component, _, _, func, _ in added if func is not None})
+        self.offsets = {component: param for component, _, param, func, _ in added if func is None}
+        # called at every RK4 stage of every simulation (hundreds of thousands of times in a
+        # selection, per step of a free run), where each tensor operation costs its overhead: one
+        # unbind per input, no reshape of what is already flat, and each touched component added as
+        # its column times a constant one-hot row (indexing and stacking every column took 4x the
+        # science function's own time)
+        self._one_hot: dict[tuple, dict[int, torch.Tensor]] = {}
+        params = [inspect.Parameter(n, inspect.Parameter.POSITIONAL_OR_KEYWORD) for n in inputs]
+        params += [inspect.Parameter(k, inspect.Parameter.POSITIONAL_OR_KEYWORD, default=v) for k, v in values.items()]
+        self.__signature__ = inspect.Signature(params)
+        self.__name__ = self.__qualname__ = name
+        self.terms = [(c, term, p) for c, term, p, _, _ in added]
+        self.shape_names = [dict(shape) for *_, shape in added]  # per term: shape -> parameter name
+        equation = " ".join(f"+ {p}*{term} [component {c}]" for c, term, p, func, _ in added if func is not None)
+        equation += "".join(f" [{variable_names[c]} measured as {variable_names[c]} + {p}]"
+                            for c, p in self.offsets.items())
+        self.equation = equation.strip()
+        self.__doc__ = (f"{getattr(science, '__name__', 'science')} {self.equation}\n\n"
+                        f"Original science function plus the terms found by the residual diagnosis.")
+
+    def __repr__(self) -> str:
+        return f"<science {self.__name__}: {getattr(self.science, '__name__', 'science')} {self.equation}>"
+
+    def _rows(self, flat: torch.Tensor, components) -> dict[int, torch.Tensor]:
+        """One-hot rows of ``flat``'s width for ``components``, made once per width, dtype and device."""
+        cached = self._one_hot.setdefault((flat.shape[1], flat.dtype, flat.device), {})
         for j in components:
             if j not in cached:
                 cached[j] = torch.eye(flat.shape[1], dtype=flat.dtype, device=flat.device)[j]
         return {j: cached[j] for j in components}
 
-    def augmented(*args, **params):
-        params = {**initial, **params}
-        if offsets:  # the sensor reads state + offset: the model's equations see the reading less the offset
+    def __call__(self, *args, **params):
+        params = {**self.initial, **params}
+        if self.offsets:  # the sensor reads state + offset: the model's equations see the reading less the offset
             state = _flat(args[0])
-            for j, row in rows(state, offsets).items():
-                state = state - params[offsets[j]] * row
+            for j, row in self._rows(state, self.offsets).items():
+                state = state - params[self.offsets[j]] * row
             args = (state.reshape(args[0].shape), *args[1:])
-        out = science(*args, **{k: params[k] for k in defaults})
-        columns = list(_flat(args[0]).unbind(1))[:n_states]
+        out = self.science(*args, **{k: params[k] for k in self.original})
+        columns = list(_flat(args[0]).unbind(1))[:self.n_states]
         if len(args) > 1:
-            columns += _flat(args[1]).unbind(1)[:len(variable_names) - n_states]
-        d = dict(zip(variable_names, columns))
+            columns += _flat(args[1]).unbind(1)[:len(self.variable_names) - self.n_states]
+        d = dict(zip(self.variable_names, columns))
         extra = {}
-        for component, _, param, func, shape in added:
+        for component, _, param, func, shape in self.added:
             if func is None:
                 continue
             value = params[param] * func(d, **{local: params[name] for local, name in shape.items()})
             extra[component] = value if component not in extra else extra[component] + value
         flat = _flat(out)
-        for j, row in rows(flat, touched).items():
+        for j, row in self._rows(flat, self.touched).items():
             value = extra[j]
             flat = torch.addcmul(flat, value.unsqueeze(-1), row) if torch.is_tensor(value) else flat + value * row
         return flat if flat.shape == out.shape else flat.reshape(out.shape)
-
-    params = [inspect.Parameter(n, inspect.Parameter.POSITIONAL_OR_KEYWORD) for n in inputs]
-    params += [inspect.Parameter(k, inspect.Parameter.POSITIONAL_OR_KEYWORD, default=v) for k, v in values.items()]
-    augmented.__signature__ = inspect.Signature(params)
-    augmented.__name__ = name or f"{getattr(science, '__name__', 'science')}_augmented"
-    augmented.__qualname__ = augmented.__name__
-    augmented.terms = [(c, term, p) for c, term, p, _, _ in added]
-    augmented.shape_names = [dict(shape) for *_, shape in added]  # per term: shape -> parameter name
-    augmented.equation = " ".join(f"+ {p}*{term} [component {c}]" for c, term, p, func, _ in added
-                                  if func is not None)
-    augmented.equation += "".join(f" [{variable_names[c]} measured as {variable_names[c]} + {p}]"
-                                  for c, p in offsets.items())
-    augmented.equation = augmented.equation.strip()
-    augmented.__doc__ = (f"{getattr(science, '__name__', 'science')} {augmented.equation}\n\n"
-                         f"Original science function plus the terms found by the residual diagnosis.")
-    return augmented

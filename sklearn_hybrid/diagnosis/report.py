@@ -220,8 +220,9 @@ def format_table(rows: list[dict], added: Sequence[dict] = (), steps: Sequence[d
             judged += " (a group's samples judged together, by their mean error)"
         lines += ["", f"Selection (science model refitted without the network, mean squared error on "
                       f"{judged}; a term is accepted when it lowers it by at "
-                      f"least {min_gain * 100:g} % and by more than {critical_value(z, n_validation or 0):.2f} standard "
-                      f"errors, Student's t for the tail of z = {z:g}; a term the later "
+                      f"least {min_gain * 100:g} % and by more than "
+                      f"{critical_value(z, n_validation or 0):.2f} standard errors, Student's t for the tail "
+                      f"of z = {z:g}; a term the later "
                       "ones make dispensable by that test is dropped):", "",
                   "| step | output | term | kind | validation MSE before | after | gain | z | accepted |",
                   "|---|---|---|---|---|---|---|---|---|"]

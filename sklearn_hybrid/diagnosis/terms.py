@@ -12,6 +12,7 @@ term.
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
+from functools import partial
 from itertools import combinations
 from typing import Any
 
@@ -64,6 +65,52 @@ def _power(unit: str, p: int) -> str:
     return "" if not unit else (unit if p == 1 else f"({unit})^{p}")
 
 
+# The term functions: module-level, bound to their variables with functools.partial, so that a
+# science model augmented with them can be pickled (joblib.dump of a fitted estimator).
+def constant(d):
+    return torch.ones_like(next(iter(d.values())))
+
+
+def monomial(d, factors):
+    """``prod(d[name] ** power for name, power in factors)``."""
+    out = d[factors[0][0]] ** factors[0][1]
+    for name, power in factors[1:]:
+        out = out * d[name] ** power
+    return out
+
+
+def _drag(d, x):
+    return d[x] * d[x].abs()
+
+
+def _abs(d, x):
+    return d[x].abs()
+
+
+def _dry_friction(d, x, w):
+    return torch.tanh(d[x] / w)
+
+
+def _hinge_above(d, x, knot):
+    return torch.relu(d[x] - knot)
+
+
+def _hinge_below(d, x, knot):
+    return torch.relu(knot - d[x])
+
+
+def _signed_sqrt(d, x):
+    return torch.sign(d[x]) * torch.sqrt(d[x].abs() + 1e-12)
+
+
+def _exponential(d, x, k):
+    return torch.exp(torch.clamp(k * d[x], max=50.0))
+
+
+def _saturation(d, x, K):
+    return d[x] / (K + d[x].abs())
+
+
 def physics_terms(variables: Sequence[str], values: np.ndarray, units: Mapping[str, str] | None = None,
                   kinds: Sequence[str] | None = None, user_terms: Mapping[str, Callable] | None = None,
                   positive: Sequence[str] = ()) -> list[Term]:
@@ -105,23 +152,22 @@ def physics_terms(variables: Sequence[str], values: np.ndarray, units: Mapping[s
         if not callable(func):
             raise TypeError(f"user term {name!r} is not callable.")
         if "user" in kinds:
-            terms.append(Term(name, lambda d, _f=func: _f(d), "user", unit=units.get(name, "")))
+            terms.append(Term(name, func, "user", unit=units.get(name, "")))
     return terms
 
 
 def _polynomials(variables: Sequence[str], units: Mapping[str, str]) -> list[Term]:
     """Constant, powers up to 3 and the products of two variables up to degree 3."""
-    terms = [Term("1", lambda d: torch.ones_like(next(iter(d.values()))), "polynomial")]
+    terms = [Term("1", constant, "polynomial")]
     for x in variables:
         for p in (1, 2, 3):
-            terms.append(Term(x if p == 1 else f"{x}^{p}", lambda d, x=x, p=p: d[x] ** p, "polynomial",
+            terms.append(Term(x if p == 1 else f"{x}^{p}", partial(monomial, factors=((x, p),)), "polynomial",
                               unit=_power(units.get(x, ""), p)))
     for x, z in combinations(variables, 2):
         for px, pz in ((1, 1), (2, 1), (1, 2)):
             name = "*".join(v if p == 1 else f"{v}^{p}" for v, p in ((x, px), (z, pz)))
             unit = "*".join(filter(None, (_power(units.get(x, ""), px), _power(units.get(z, ""), pz))))
-            terms.append(Term(name, lambda d, x=x, z=z, px=px, pz=pz: d[x] ** px * d[z] ** pz, "polynomial",
-                              unit=unit))
+            terms.append(Term(name, partial(monomial, factors=((x, px), (z, pz))), "polynomial", unit=unit))
     return terms
 
 
@@ -131,28 +177,28 @@ def _single_variable(x: str, col: np.ndarray, scale: float, unit: str, kinds: Se
     out = []
     wide = (1e-6 * scale, 1e3 * scale)
     if "drag" in kinds:
-        out.append(Term(f"{x}|{x}|", lambda d: d[x] * d[x].abs(), "drag", unit=_power(unit, 2)))
-        out.append(Term(f"|{x}|", lambda d: d[x].abs(), "drag", unit=unit))
+        out.append(Term(f"{x}|{x}|", partial(_drag, x=x), "drag", unit=_power(unit, 2)))
+        out.append(Term(f"|{x}|", partial(_abs, x=x), "drag", unit=unit))
     if "dry_friction" in kinds:  # sign(x) smoothed over a fitted width w (-> sign as w -> 0)
-        out.append(Term(f"tanh({x}/w)", lambda d, w: torch.tanh(d[x] / w), "dry_friction",
+        out.append(Term(f"tanh({x}/w)", partial(_dry_friction, x=x), "dry_friction",
                         {"w": ([0.01 * scale, 0.1 * scale, 0.5 * scale], wide)}))
     if "hinge" in kinds:  # a stop, an overflow, a dead zone: active beyond a fitted knot c
         knots = np.quantile(col, [0.1, 0.3, 0.5, 0.7, 0.9])
         bounds = (float(col.min()), float(col.max()))
         # the knot is not called c: c_<term> names every coefficient
-        out.append(Term(f"max(0, {x} - knot)", lambda d, knot: torch.relu(d[x] - knot), "hinge",
+        out.append(Term(f"max(0, {x} - knot)", partial(_hinge_above, x=x), "hinge",
                         {"knot": (knots[1:], bounds)}, unit=unit))
         if not (positive and bounds[0] >= 0 and knots[0] <= 0):
-            out.append(Term(f"max(0, knot - {x})", lambda d, knot: torch.relu(knot - d[x]), "hinge",
+            out.append(Term(f"max(0, knot - {x})", partial(_hinge_below, x=x), "hinge",
                             {"knot": (knots[:-1], bounds)}, unit=unit))
     if "sqrt" in kinds:  # Torricelli outflow, turbulent flow; signed so it stays odd
-        out.append(Term(f"sqrt|{x}|", lambda d: torch.sign(d[x]) * torch.sqrt(d[x].abs() + 1e-12), "sqrt",
+        out.append(Term(f"sqrt|{x}|", partial(_signed_sqrt, x=x), "sqrt",
                         unit=f"{unit}^(1/2)" if unit else ""))
     if "exponential" in kinds:  # Arrhenius-like activation, diode current, decay
         k = [s / scale for s in (-3.0, -1.0, 1.0, 3.0)]
-        out.append(Term(f"exp(k*{x})", lambda d, k: torch.exp(torch.clamp(k * d[x], max=50.0)), "exponential",
+        out.append(Term(f"exp(k*{x})", partial(_exponential, x=x), "exponential",
                         {"k": (k, (-20.0 / scale, 20.0 / scale))}))
     if "saturation" in kinds:  # Michaelis-Menten, Holling type II, a saturating actuator
-        out.append(Term(f"{x}/(K + |{x}|)", lambda d, K: d[x] / (K + d[x].abs()), "saturation",
+        out.append(Term(f"{x}/(K + |{x}|)", partial(_saturation, x=x), "saturation",
                         {"K": ([0.1 * scale, 0.5 * scale, 2.0 * scale], (1e-3 * scale, 1e3 * scale))}))
     return out
