@@ -1,7 +1,8 @@
 """Systems of the identification benchmark (``bench_identification.py``).
 
-Each :class:`System` is a science model ``f`` written as a user would write it (torch; keyword defaults are
-the user's initial guesses, 10-30 % off the truth), the true parameters, and the effect ``m`` the science model
+Each :class:`System` is a science model ``f`` written as a user would write it (torch; the user's initial
+guesses, 10-30 % off the truth, are its keyword defaults or, where one function serves several systems, the
+system's ``theta_guess``), the true parameters, and the effect ``m`` the science model
 lacks (numpy; ``None`` for the controls, whose science model is the whole truth).  The data are generated from
 ``f(theta_true) + m`` by :func:`simulate`, with scipy alone: nothing of ``sklearn_hybrid`` is used here.
 
@@ -67,6 +68,9 @@ class System:
     declared_offsets : list of str
         States the user declares as possibly read with an offset (``close_the_loop(offsets=...)``); an offset
         declared where there is none must stay out.
+    theta_guess : dict of str to float
+        The user's initial guesses, passed as ``theta_init``, where one science function serves several systems;
+        empty: the function's keyword defaults are the guesses.
     """
 
     name: str
@@ -88,6 +92,7 @@ class System:
     batch: int = 1
     sensor_offset: dict = field(default_factory=dict)
     declared_offsets: list = field(default_factory=list)
+    theta_guess: dict = field(default_factory=dict)
 
     @property
     def forced(self) -> bool:
@@ -122,7 +127,7 @@ def call_science(system: System, f: Callable, x: np.ndarray, u: np.ndarray | Non
 
 
 # ---------------------------------------------------------------------------------------------------- oscillators
-def drag_oscillator_f(v, k=3.3, c=0.25):
+def linear_oscillator_f(v, k=1.8, c=0.15):
     return torch.stack([v[:, 1], -k * v[:, 0] - c * v[:, 1]], dim=-1)
 
 
@@ -130,12 +135,8 @@ def coulomb_oscillator_f(v, u, k=1.8, c=0.18):
     return torch.stack([v[:, 1], -k * v[:, 0] - c * v[:, 1] + u[:, 0]], dim=-1)
 
 
-def hardening_oscillator_f(v, u, k=0.8, c=0.25, b=1.15):
+def forced_oscillator_f(v, u, k=1.6, c=0.2, b=0.9):
     return torch.stack([v[:, 1], -k * v[:, 0] - c * v[:, 1] + b * u[:, 0]], dim=-1)
-
-
-def end_stop_oscillator_f(v, k=1.2, c=0.08):
-    return torch.stack([v[:, 1], -k * v[:, 0] - c * v[:, 1]], dim=-1)
 
 
 def rlc_f(v, u, w2=2.4, r=0.32, g=0.85):
@@ -211,23 +212,25 @@ def _on(component: int, d: int, values: np.ndarray) -> np.ndarray:
 
 SYSTEMS = [
     System("drag_oscillator", "oscillator", "non-smooth (C1)", "quadratic drag -0.3 v|v|",
-           drag_oscillator_f, {"k": 4.0, "c": 0.2},
+           linear_oscillator_f, {"k": 4.0, "c": 0.2},
            lambda x, u: _on(1, 2, -0.3 * x[:, 1] * np.abs(x[:, 1])),
-           ["x", "v"], {"x": "m", "v": "m/s"}, 0.1, 30, (-1.5, -2.0), (1.5, 2.0), zero_components=[0]),
+           ["x", "v"], {"x": "m", "v": "m/s"}, 0.1, 30, (-1.5, -2.0), (1.5, 2.0), zero_components=[0],
+           theta_guess={"k": 3.3, "c": 0.25}),
     System("coulomb_oscillator", "oscillator", "non-smooth (jump)", "dry friction -0.35 sign(v)",
            coulomb_oscillator_f, {"k": 2.25, "c": 0.15},
            lambda x, u: _on(1, 2, -0.35 * np.sign(x[:, 1])),
            ["x", "v"], {"x": "m", "v": "m/s", "u": "N/kg"}, 0.1, 40, (-1.0, -1.0), (1.0, 1.0), (-1.5, 1.5),
            zero_components=[0], sign_of=1),
     System("hardening_oscillator", "oscillator", "polynomial", "hardening spring -0.5 x^3",
-           hardening_oscillator_f, {"k": 1.0, "c": 0.2, "b": 1.0},
+           forced_oscillator_f, {"k": 1.0, "c": 0.2, "b": 1.0},
            lambda x, u: _on(1, 2, -0.5 * x[:, 0] ** 3),
            ["x", "v"], {"x": "m", "v": "m/s", "u": "N/kg"}, 0.15, 30, (-1.5, -1.0), (1.5, 1.0), (-1.0, 1.0),
-           zero_components=[0]),
+           zero_components=[0], theta_guess={"k": 0.8, "c": 0.25, "b": 1.15}),
     System("end_stop_oscillator", "oscillator", "non-smooth (hinge)", "one-sided stop -4 max(0, x - 0.6)",
-           end_stop_oscillator_f, {"k": 1.0, "c": 0.1},
+           linear_oscillator_f, {"k": 1.0, "c": 0.1},
            lambda x, u: _on(1, 2, -4.0 * np.maximum(0.0, x[:, 0] - 0.6)),
-           ["x", "v"], {"x": "m", "v": "m/s"}, 0.15, 30, (-1.5, -1.5), (1.5, 1.5), zero_components=[0]),
+           ["x", "v"], {"x": "m", "v": "m/s"}, 0.15, 30, (-1.5, -1.5), (1.5, 1.5), zero_components=[0],
+           theta_guess={"k": 1.2, "c": 0.08}),
     System("harvested_predator_prey", "population", "rational (saturating)",
            "Michaelis-Menten harvest of the prey -0.25 x/(0.4 + x)",
            predator_prey_f, {"r": 1.2, "a": 1.5, "b": 1.0, "d": 0.35},
@@ -293,10 +296,6 @@ def brusselator_f(v, a=1.2, b=1.4):
     return torch.stack([a - (b + 1) * x, b * x], dim=-1)
 
 
-def actuator_f(v, u, k=1.2, c=0.3, b=0.8):
-    return torch.stack([v[:, 1], -k * v[:, 0] - c * v[:, 1] + b * u[:, 0]], dim=-1)
-
-
 def cooling_f(v, u, h=0.25, p=0.9):
     return torch.stack([-h * v[:, 0] + p * u[:, 0]], dim=-1)
 
@@ -306,7 +305,7 @@ def van_der_pol_f(v, mu=0.8, w2=1.3):
     return torch.stack([y, mu * (1 - x ** 2) * y - w2 * x], dim=-1)
 
 
-def allee_logistic_f(v, r=0.7, K=1.6):
+def capped_logistic_f(v, r=0.8, K=2.4):
     x = v[:, 0]
     return torch.stack([r * x * (1 - x.clamp(min=0) / K)], dim=-1)
 
@@ -316,20 +315,16 @@ def reversible_f(v, u, k=0.6, d=0.4):
     return torch.stack([-k * A + u[:, 0], k * A - d * B], dim=-1)
 
 
-def free_oscillator_f(v, k=2.5, c=0.15):
-    return torch.stack([v[:, 1], -k * v[:, 0] - c * v[:, 1]], dim=-1)
-
-
 FRESH = [
     System("brusselator", "chemical", "polynomial (cubic, two components)", "autocatalysis +x^2 y, -x^2 y",
            brusselator_f, {"a": 1.0, "b": 1.7},
            lambda x, u: np.stack([x[:, 0] ** 2 * x[:, 1], -x[:, 0] ** 2 * x[:, 1]], 1),
            ["x", "y"], {"x": "mol/L", "y": "mol/L"}, 0.3, 30, (0.3, 0.5), (2.0, 2.5), batch=2),
     System("saturating_actuator", "oscillator", "input-dependent (saturating)", "actuator saturation tanh(u) - u",
-           actuator_f, {"k": 1.5, "c": 0.25, "b": 1.0},
+           forced_oscillator_f, {"k": 1.5, "c": 0.25, "b": 1.0},
            lambda x, u: _on(1, 2, 1.0 * (np.tanh(u[:, 0]) - u[:, 0])),
            ["x", "v"], {"x": "m", "v": "m/s", "u": "N/kg"}, 0.15, 30, (-1.0, -1.0), (1.0, 1.0), (-2.0, 2.0),
-           zero_components=[0], batch=2),
+           zero_components=[0], batch=2, theta_guess={"k": 1.2, "c": 0.3, "b": 0.8}),
     System("natural_convection", "thermal", "fractional power (5/4)", "natural convection -0.3 T^1.25",
            cooling_f, {"h": 0.2, "p": 1.0}, lambda x, u: -0.3 * np.maximum(x, 0) ** 1.25,
            ["T"], {"T": "10 K", "u": "kW"}, 0.3, 30, (0.2,), (3.0,), (0.0, 2.0), batch=2),
@@ -338,23 +333,24 @@ FRESH = [
            (-2.0, -2.0), (2.0, 2.0), batch=2),
     System("allee", "population", "polynomial (cubic, changes the growth's sign)",
            "strong Allee effect: r x (1 - x/K)(x/0.3 - 2), r = 1",
-           allee_logistic_f, {"r": 1.0, "K": 2.0},
+           capped_logistic_f, {"r": 1.0, "K": 2.0},
            lambda x, u: 1.0 * x * (1 - x / 2.0) * (x / 0.3 - 1) - 1.0 * x * (1 - x / 2.0),
-           ["x"], {"x": "1"}, 0.2, 30, (0.35,), (2.5,), batch=2),
+           ["x"], {"x": "1"}, 0.2, 30, (0.35,), (2.5,), batch=2, theta_guess={"r": 0.7, "K": 1.6}),
     System("allee_slow", "population", "polynomial (cubic, changes the growth's sign)",
            "strong Allee effect: r x (1 - x/K)(x/0.3 - 2), r = 0.3",
-           allee_logistic_f, {"r": 0.3, "K": 2.0},
+           capped_logistic_f, {"r": 0.3, "K": 2.0},
            lambda x, u: 0.3 * x * (1 - x / 2.0) * (x / 0.3 - 1) - 0.3 * x * (1 - x / 2.0),
-           ["x"], {"x": "1"}, 0.2, 30, (0.35,), (2.5,), batch=2),
+           ["x"], {"x": "1"}, 0.2, 30, (0.35,), (2.5,), batch=2, theta_guess={"r": 0.7, "K": 1.6}),
     System("reversible_reaction", "chemical", "linear (a missing reaction)", "back reaction B -> A: +0.4 B, -0.4 B",
            reversible_f, {"k": 0.8, "d": 0.3},
            lambda x, u: np.stack([0.4 * x[:, 1], -0.4 * x[:, 1]], 1),
            ["A", "B"], {"A": "mol/L", "B": "mol/L", "u": "mol/L/h"}, 0.25, 30, (0.0, 0.0), (1.5, 1.5), (0.0, 1.2),
            batch=2),
     System("asymmetric_damping", "oscillator", "non-smooth (one-sided)", "damping in one direction -0.5 v max(0, v)",
-           free_oscillator_f, {"k": 2.0, "c": 0.1},
+           linear_oscillator_f, {"k": 2.0, "c": 0.1},
            lambda x, u: _on(1, 2, -0.5 * x[:, 1] * np.maximum(0, x[:, 1])),
-           ["x", "v"], {"x": "m", "v": "m/s"}, 0.1, 40, (-1.5, -2.0), (1.5, 2.0), zero_components=[0], batch=2),
+           ["x", "v"], {"x": "m", "v": "m/s"}, 0.1, 40, (-1.5, -2.0), (1.5, 2.0), zero_components=[0], batch=2,
+           theta_guess={"k": 2.5, "c": 0.15}),
 ]
 
 
@@ -364,10 +360,6 @@ FRESH = [
 def sir_incidence_f(v, beta=2.2, gamma=0.9):
     S, I = v[:, 0], v[:, 1]
     return torch.stack([-beta * S * I, beta * S * I - gamma * I], dim=-1)
-
-
-def linear_oscillator_f(v, k=1.8, c=0.15):
-    return torch.stack([v[:, 1], -k * v[:, 0] - c * v[:, 1]], dim=-1)
 
 
 def rlc_current_f(v, u, w2=1.5, r=0.25):
@@ -427,11 +419,6 @@ def lotka_volterra_f(v, a=1.0, b=0.8, c=0.6, d=0.6):
 def prey_limited_f(v, a=1.0, K=3.6, b=0.8, c=0.6, d=0.6):
     x, y = v[:, 0], v[:, 1]
     return torch.stack([a * x * (1 - x.clamp(min=0) / K) - b * x * y, c * x * y - d * y], dim=-1)
-
-
-def capped_logistic_f(v, r=0.8, K=2.4):
-    x = v[:, 0]
-    return torch.stack([r * x * (1 - x.clamp(min=0) / K)], dim=-1)
 
 
 def leaky_rc_f(v, u, g=0.4, b=1.0):
@@ -566,10 +553,6 @@ def tumour_f(v, u, r=0.5, K=4.0):
     return torch.stack([r * N * (1 - N.clamp(min=0) / K)], dim=-1)
 
 
-def magnet_oscillator_f(v, k=1.2, c=0.2):
-    return torch.stack([v[:, 1], -k * v[:, 0] - c * v[:, 1]], dim=-1)
-
-
 FRESH_6 = [
     System("coupled_pendula", "oscillator", "linear coupling (four states, two exact)",
            "a spring between two pendula: +0.3 (a2 - a1) on o1, +0.3 (a1 - a2) on o2",
@@ -585,8 +568,9 @@ FRESH_6 = [
            tumour_f, {"r": 0.6, "K": 3.0}, lambda x, u: -0.6 * u * x,
            ["N"], {"N": "1e9 cells", "u": "mg/kg"}, 0.3, 30, (0.3,), (2.5,), (0.0, 1.0), batch=6),
     System("magnet_pull", "oscillator", "rational, outside the term library", "a magnet's pull -0.4 x / (0.3 + x^2)",
-           magnet_oscillator_f, {"k": 1.5, "c": 0.15}, lambda x, u: _on(1, 2, -0.4 * x[:, 0] / (0.3 + x[:, 0] ** 2)),
-           ["x", "v"], {"x": "m", "v": "m/s"}, 0.15, 30, (-1.5, -1.0), (1.5, 1.0), zero_components=[0], batch=6),
+           linear_oscillator_f, {"k": 1.5, "c": 0.15}, lambda x, u: _on(1, 2, -0.4 * x[:, 0] / (0.3 + x[:, 0] ** 2)),
+           ["x", "v"], {"x": "m", "v": "m/s"}, 0.15, 30, (-1.5, -1.0), (1.5, 1.0), zero_components=[0], batch=6,
+           theta_guess={"k": 1.2, "c": 0.2}),
     System("control_coupled_pendula", "oscillator", "control", "nothing (coupled pendula, two uncertain components)",
            coupled_pendula_f, {"w2": 2.0, "c": 0.1, "kappa": 0.3}, None, ["a1", "a2", "o1", "o2"],
            {"a1": "rad", "a2": "rad", "o1": "rad/s", "o2": "rad/s"}, 0.15, 30, (-1.0, -1.0, -0.5, -0.5),
@@ -615,10 +599,6 @@ def algae_f(v, u, mu=1.0, d=0.3):
 def cascade_tanks_f(v, u, a1=0.6, a2=0.5):
     q1, q2 = v[:, 0].clamp(min=0).sqrt(), v[:, 1].clamp(min=0).sqrt()  # guard: a level is never negative
     return torch.stack([u[:, 0] - a1 * q1, a1 * q1 - a2 * q2], dim=-1)
-
-
-def forced_oscillator_f(v, u, k=1.6, c=0.2, b=0.9):
-    return torch.stack([v[:, 1], -k * v[:, 0] - c * v[:, 1] + b * u[:, 0]], dim=-1)
 
 
 FRESH_7 = [
@@ -656,18 +636,9 @@ FRESH_7 = [
 # ran: a sensor that reads its state plus a constant (an angle encoder, a concentration probe, the gauge of the
 # upper of two tanks with both gauges declared, a thermometer), a declared offset where the science misses a term
 # instead (an outlet above a level, air drag), and two controls with offsets declared and nothing missing.
-def damped_pendulum_swing_f(v, w2=3.2, c=0.25):
-    return torch.stack([v[:, 1], -w2 * torch.sin(v[:, 0]) - c * v[:, 1]], dim=-1)
-
-
 def fed_substrate_f(v, u, vmax=0.8, km=0.4):
     S = v[:, 0].clamp(min=0)  # guard: a concentration is never negative
     return torch.stack([u[:, 0] - vmax * S / (km + S)], dim=-1)
-
-
-def two_gauge_tanks_f(v, u, a1=0.7, a2=0.45):
-    q1, q2 = v[:, 0].clamp(min=0).sqrt(), v[:, 1].clamp(min=0).sqrt()  # guard: a level is never negative
-    return torch.stack([u[:, 0] - a1 * q1, a1 * q1 - a2 * q2], dim=-1)
 
 
 def radiating_plate_f(v, u, h=0.3, s=0.4, p=0.8):
@@ -682,9 +653,10 @@ def outlet_tank_f(v, u, a=0.6, b=0.8):
 FRESH_8 = [
     System("encoder_offset", "oscillator", "sensor offset (angle encoder)",
            "the angle encoder reads theta + 0.2 rad",
-           damped_pendulum_swing_f, {"w2": 4.0, "c": 0.3}, None,
+           damped_pendulum_f, {"w2": 4.0, "c": 0.3}, None,
            ["theta", "omega"], {"theta": "rad", "omega": "rad/s"}, 0.1, 30, (-1.5, -1.0), (1.5, 1.0),
-           zero_components=[0], batch=8, sensor_offset={0: 0.2}, declared_offsets=["theta"]),
+           zero_components=[0], batch=8, sensor_offset={0: 0.2}, declared_offsets=["theta"],
+           theta_guess={"w2": 3.2, "c": 0.25}),
     System("probe_offset", "chemical", "sensor offset (concentration probe)",
            "the substrate probe reads S + 0.15 g/L (Michaelis-Menten uptake)",
            fed_substrate_f, {"vmax": 1.0, "km": 0.3}, None,
@@ -692,9 +664,9 @@ FRESH_8 = [
            batch=8, sensor_offset={0: 0.15}, declared_offsets=["S"]),
     System("upper_gauge_offset", "hydraulic", "sensor offset (one of two declared gauges)",
            "the upper tank's gauge reads h1 - 0.3 m; the lower one's, declared too, reads true",
-           two_gauge_tanks_f, {"a1": 0.55, "a2": 0.6}, None,
+           cascade_tanks_f, {"a1": 0.55, "a2": 0.6}, None,
            ["h1", "h2"], {"h1": "m", "h2": "m", "u": "m/s"}, 0.4, 30, (0.5, 0.2), (2.5, 2.0), (0.2, 1.0),
-           batch=8, sensor_offset={0: -0.3}, declared_offsets=["h1", "h2"]),
+           batch=8, sensor_offset={0: -0.3}, declared_offsets=["h1", "h2"], theta_guess={"a1": 0.7, "a2": 0.45}),
     System("thermometer_offset", "thermal", "sensor offset (thermometer, radiating body)",
            "the thermometer reads T + 0.1",
            radiating_plate_f, {"h": 0.4, "s": 0.3, "p": 1.0}, None,
@@ -707,18 +679,18 @@ FRESH_8 = [
            batch=8, declared_offsets=["h"]),
     System("declared_encoder_drag", "oscillator", "drag, offset declared (none present)",
            "air drag -0.25 omega|omega|; the encoder, declared, reads true",
-           damped_pendulum_swing_f, {"w2": 4.0, "c": 0.3},
+           damped_pendulum_f, {"w2": 4.0, "c": 0.3},
            lambda x, u: _on(1, 2, -0.25 * x[:, 1] * np.abs(x[:, 1])),
            ["theta", "omega"], {"theta": "rad", "omega": "rad/s"}, 0.1, 30, (-1.5, -1.5), (1.5, 1.5),
-           zero_components=[0], batch=8, declared_offsets=["theta"]),
+           zero_components=[0], batch=8, declared_offsets=["theta"], theta_guess={"w2": 3.2, "c": 0.25}),
     System("control_declared_probe", "chemical", "control", "nothing (Michaelis-Menten uptake; probe declared)",
            fed_substrate_f, {"vmax": 1.0, "km": 0.3}, None,
            ["S"], {"S": "g/L", "u": "g/L/h"}, 0.25, 30, (0.1,), (2.0,), (0.1, 0.8),
            batch=8, declared_offsets=["S"]),
     System("control_declared_gauges", "hydraulic", "control", "nothing (two tanks; both gauges declared)",
-           two_gauge_tanks_f, {"a1": 0.55, "a2": 0.6}, None,
+           cascade_tanks_f, {"a1": 0.55, "a2": 0.6}, None,
            ["h1", "h2"], {"h1": "m", "h2": "m", "u": "m/s"}, 0.4, 30, (0.5, 0.2), (2.5, 2.0), (0.2, 1.0),
-           batch=8, declared_offsets=["h1", "h2"]),
+           batch=8, declared_offsets=["h1", "h2"], theta_guess={"a1": 0.7, "a2": 0.45}),
 ]
 SYSTEMS = {s.name: s for s in SYSTEMS + FRESH + FRESH_3 + FRESH_4 + FRESH_5 + FRESH_6 + FRESH_7 + FRESH_8}
 

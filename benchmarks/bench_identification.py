@@ -2,7 +2,8 @@
 
 Each case is one system of ``_identification_systems.py`` (written for this benchmark and kept out of the tests)
 at one noise level and seed, run as a new user would run it: ``close_the_loop(HybridRegressor(science=f, dt=dt,
-method="erm", n_inputs=0 or 1, random_state=seed), X, y, state_names=..., input_names=..., units=...)``.
+method="erm", n_inputs=0 or 1, theta_init=guesses, random_state=seed), X, y, state_names=..., input_names=...,
+units=...)``, where the guesses are the system's ``theta_guess`` (or None: the science function's defaults).
 The data come from scipy (``solve_ivp``, rtol 1e-9, atol 1e-11) of the true system, not from the package.
 
 Scoring is in function space, on the states visited by noise-free test trajectories (never by term names):
@@ -48,7 +49,8 @@ from sklearn_hybrid.diagnosis import close_the_loop  # noqa: E402
 
 NOISE_LEVELS = (0.01, 0.05)
 PROTOCOL = {"n_train": 50, "n_test": 20, "estimator": "HybridRegressor(science=f, dt=dt, method='erm', "
-            "n_inputs=0 or 1, random_state=seed), every other setting at its default",
+            "n_inputs=0 or 1, theta_init=the system's guesses or None, random_state=seed), every other setting "
+            "at its default",
             "noise": "Gaussian, level x the standard deviation of each state over the noise-free training states, "
                      "added to the initial states (X) and to y; inputs are exact",
             "test_states": "every output of the noise-free test trajectories (initial states included)",
@@ -222,7 +224,7 @@ def run_case(system: System, noise: float, seed: int, fast: bool, command: str) 
     data = make_data(system, noise, seed, fast)
     extra = {"max_iter": FAST["max_iter"]} if fast else {}
     est = HybridRegressor(science=system.science, dt=system.dt, method="erm", n_inputs=int(system.forced),
-                          random_state=seed, **extra)
+                          theta_init=dict(system.theta_guess) or None, random_state=seed, **extra)
     units = {k: v for k, v in system.units.items() if k != "u" or system.forced}
     # The first hybrid fit does not depend on the selection: kept (not committed) so that a change of the
     # selection can be measured again without it; the record says whether it was reused.
@@ -305,7 +307,8 @@ def render(records: list[dict]) -> str:
           "`benchmarks/bench_identification.py`. Each case: one system of `_identification_systems.py`, one noise "
           "level, one seed; data from scipy's `solve_ivp` of the true system (50 training trajectories, 20 "
           "noise-free test trajectories); `close_the_loop(HybridRegressor(science=f, dt=dt, method='erm', "
-          "n_inputs=..., random_state=seed), X, y, state_names=..., input_names=..., units=...)`. Noise: "
+          "n_inputs=..., theta_init=..., random_state=seed), X, y, state_names=..., input_names=..., units=...)` "
+          "(`theta_init`: the system's guesses where one science function serves several systems). Noise: "
           + PROTOCOL["noise"] + ".", "",
           "Scores in function space on the test states, `F` = final science model at `science_theta`, `T` = "
           "truth, `m` = missing effect, `|a|` = RMS over test states of the Euclidean norm over components: "
