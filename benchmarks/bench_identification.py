@@ -186,32 +186,20 @@ def make_data(system: System, noise: float, seed: int, fast: bool = False) -> di
 
 
 def score(system: System, science, theta: dict, before_theta: dict, x: np.ndarray, u: np.ndarray | None) -> dict:
-    """Function-space scores of the final science model ``science(theta)`` on the test states ``x`` (inputs ``u``)."""
-    if system.sensor_offset:
-        return _score_from_readings(system, science, theta, before_theta, x, u)
-    F = call_science(system, science, x, u, theta)
-    T = system.truth(x, u)
-    B = call_science(system, system.science, x, u, before_theta)
-    if system.missing is None:
-        return {"control_err": _norm(F - T) / _norm(T), "before_control_err": _norm(B - T) / _norm(T)}
-    m = system.missing(x, u)
-    scale = _norm(m)
-    zero = np.zeros(F.shape[1], dtype=bool)
-    zero[system.zero_components] = True
-    return {"rel_err": _norm(F - T) / scale, "before_err": _norm(B - T) / scale,
-            "leak": _norm((F - T)[:, zero]) / scale if zero.any() else None}
+    """Function-space scores of the final science model ``science(theta)`` on the test states ``x`` (inputs ``u``).
 
-
-def _score_from_readings(system: System, science, theta: dict, before_theta: dict, x: np.ndarray,
-                         u: np.ndarray | None) -> dict:
-    """``score`` where a sensor reads its state plus an offset: every model is evaluated at the readings
-    ``z = x + offset`` (the states the fitted models simulate); the truth there is the true right-hand side at
-    ``x``, and the missing effect is what the science model at the true parameters lacks at ``z``."""
-    z = x + system.offset_vector(x.shape[1])
+    Where a sensor reads its state plus an offset, every model is evaluated at the readings ``z = x + offset``
+    (the states the fitted models simulate); the truth there is the true right-hand side at ``x``, and the
+    missing effect is what the science model at the true parameters lacks at ``z``.
+    """
+    z = x + system.offset_vector(x.shape[1])  # z is x itself where every sensor reads true
     F = call_science(system, science, z, u, theta)
     T = system.truth(x, u)
-    m = T - call_science(system, system.science, z, u, system.theta_true)
     B = call_science(system, system.science, z, u, before_theta)
+    if system.is_control:
+        return {"control_err": _norm(F - T) / _norm(T), "before_control_err": _norm(B - T) / _norm(T)}
+    m = (T - call_science(system, system.science, z, u, system.theta_true) if system.sensor_offset
+         else system.missing(x, u))
     scale = _norm(m)
     zero = np.zeros(F.shape[1], dtype=bool)
     zero[system.zero_components] = True
