@@ -360,7 +360,9 @@ def render(records: list[dict]) -> str:
            "`theta_init` (`System.theta_guess`; 14 functions became 5, for 12 systems). The records were not re-run: "
            "for each of the 12 systems at noise 0.01 the data, and theta and the predictions after 30 iterations of "
            "the first fit, are identical to the previous module's, and `control_declared_gauges` and `allee` closed "
-           "end to end again reproduced their stored records exactly (`science_theta`, errors, terms)."]
+           "end to end again reproduced their stored records exactly (`science_theta`, errors, terms): "
+           "`python benchmarks/check_merged_science_functions.py --loops control_declared_gauges allee`, "
+           "`results/merged_science_functions.md`."]
     return "\n".join(md) + "\n"
 
 
