@@ -106,8 +106,9 @@ def read_csv_columns(
 ) -> dict[str, np.ndarray]:
     """Read named numeric columns of a comma-separated file with a one-line header.
 
-    Columns are located by name, not position; quotes around header names and a trailing comma
-    at the end of the lines (as in the Silverbox and Cascaded-tanks files) are tolerated.
+    Columns are located by name, not position; quotes around header names, a trailing comma
+    at the end of the lines (as in the Silverbox and Cascaded-tanks files) and comment lines
+    starting with ``#`` before the header (as in the hare-lynx file) are tolerated.
 
     Parameters
     ----------
@@ -124,12 +125,15 @@ def read_csv_columns(
         The columns as float64 arrays.
     """
     with open(path, newline="") as f:
-        header = [h.strip() for h in next(csv.reader(f))]
+        n_comments, line = 0, f.readline()
+        while line.lstrip().startswith("#"):
+            n_comments, line = n_comments + 1, f.readline()
+        header = [h.strip() for h in next(csv.reader([line]))]
     missing = [n for n in names if n not in header]
     if missing:
         raise ValueError(f"{path} has no column(s) {missing}; its header is {header}.")
     usecols = [header.index(n) for n in names]
-    data = np.loadtxt(path, delimiter=",", skiprows=1, usecols=usecols, ndmin=2,
+    data = np.loadtxt(path, delimiter=",", skiprows=n_comments + 1, usecols=usecols, ndmin=2,
                       max_rows=max_rows, dtype=np.float64)
     return {n: np.ascontiguousarray(data[:, i]) for i, n in enumerate(names)}
 

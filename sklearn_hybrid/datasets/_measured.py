@@ -1,9 +1,10 @@
-"""Loaders of measured system-identification benchmarks: Silverbox, Cascaded tanks, pendulum.
+"""Loaders of measured data: Silverbox, Cascaded tanks, a pendulum, Hudson's Bay hare and lynx pelts.
 
 The files are looked for in the data home (see :func:`get_data_home`) with the layout
-``silverbox/SNLS80mV.csv``, ``cascaded_tanks/dataBenchmark.csv`` and
-``pendulum_freeswing/SingleDataFreeSwing_1_Dt_0_0001.mat``. When missing they are downloaded
-from the MIT-licensed repositories that redistribute them and checked against their SHA-256.
+``silverbox/SNLS80mV.csv``, ``cascaded_tanks/dataBenchmark.csv``,
+``pendulum_freeswing/SingleDataFreeSwing_1_Dt_0_0001.mat`` and ``hare_lynx/hudson-bay-lynx-hare.csv``.
+When missing they are downloaded from the repositories that redistribute them and checked against
+their SHA-256.
 """
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ from sklearn.utils import Bunch
 
 from ._base import RemoteFile, fetch_file, read_csv_columns
 
-__all__ = ["fetch_cascaded_tanks", "fetch_silverbox", "load_pendulum_freeswing"]
+__all__ = ["fetch_cascaded_tanks", "fetch_silverbox", "load_hare_lynx", "load_pendulum_freeswing"]
 
 _RAW = "https://raw.githubusercontent.com"
 
@@ -44,6 +45,13 @@ PENDULUM_FREESWING = RemoteFile(
     mirrors=(f"{_RAW}/dynamicslab/MultiArm-Pendulum/8b6fb78203c6fed88d8a13a6dbd7929ddaeeec11/"
              "Datas/SinglePendulum/SingleDataFreeSwing_1_Dt_0_0001.mat",),
     checksum="5e6272350a91fb9fb99b6949bc49e3e63e21af977cc1f777310f5d8e9b0fc7e7",
+)
+HARE_LYNX = RemoteFile(
+    filename="hare_lynx/hudson-bay-lynx-hare.csv",
+    url=f"{_RAW}/stan-dev/example-models/3057930df98f3fe54ee32b1d6736a97ac0012ab6/"
+    "knitr/lotka-volterra/hudson-bay-lynx-hare.csv",
+    mirrors=(f"{_RAW}/stan-dev/example-models/master/knitr/lotka-volterra/hudson-bay-lynx-hare.csv",),
+    checksum="b9d7bab8be18fe3b67e32e55e9888ad1847ff29dbc0de566070d0ff969adf14d",
 )
 
 PENDULUM_DT = 1e-4  # s; sampling time given in the repository's DataExplanation.md
@@ -102,6 +110,17 @@ decays to rest in about 10 s through friction.
 angle_from_bottom = angle - rest_angle, where rest_angle is the median of the last 10 % of the
 record (the pendulum is at rest there). With ``decimate`` = k only every k-th sample is kept
 (plain subsampling; the signal is far below the Nyquist rate of 5 kHz).
+"""
+
+_HARE_LYNX_DESCR = """Hudson's Bay Company hare and lynx pelts, file hudson-bay-lynx-hare.csv
+=======================================================================
+Numbers of snowshoe hare and Canadian lynx pelts traded, in thousands, one count a year from 1900
+to 1920 (21 years): the classic test of the Lotka-Volterra predator-prey model, whose cycles of
+about ten years the counts follow. Pelts are a proxy for the populations (trapping effort varies).
+Source: Howard, "Modeling basics" (course notes, Texas A&M); copy in the BSD-licensed repository
+stan-dev/example-models (knitr/lotka-volterra), whose Lotka-Volterra case study fits these counts.
+
+year, hare, lynx : ndarray of shape (21,).
 """
 
 
@@ -198,3 +217,26 @@ def load_pendulum_freeswing(
     t, angle = t[::decimate].copy(), angle[::decimate].copy()
     return Bunch(t=t, angle=angle, dt=dt, rest_angle=rest, angle_from_bottom=angle - rest,
                  decimate=int(decimate), filename=str(path), DESCR=_PENDULUM_DESCR)
+
+
+def load_hare_lynx(
+    data_home: str | os.PathLike | None = None, download_if_missing: bool = True
+) -> Bunch:
+    """Load the Hudson's Bay Company hare and lynx pelt counts, 1900-1920.
+
+    Parameters
+    ----------
+    data_home : str or path-like, default=None
+        Data home folder, see :func:`get_data_home`.
+    download_if_missing : bool, default=True
+        Whether to download the file when it is not in the data home.
+
+    Returns
+    -------
+    data : Bunch
+        ``year``, ``hare``, ``lynx`` : ndarray of shape (21,), pelts in thousands; ``DESCR``.
+    """
+    path = fetch_file(HARE_LYNX, data_home, download_if_missing)
+    cols = read_csv_columns(path, ["Year", "Hare", "Lynx"])
+    return Bunch(year=cols["Year"], hare=cols["Hare"], lynx=cols["Lynx"], filename=str(path),
+                 DESCR=_HARE_LYNX_DESCR)
