@@ -4,7 +4,7 @@ These are worked examples, not library logic: each ``*_case`` function loads a d
 cuts training windows with :func:`~sklearn_hybrid.datasets.make_windows` (initial velocities from
 :func:`~sklearn_hybrid.datasets.estimate_derivative`) and returns a ``Bunch``
 with an unfitted ``estimator``, the training data ``X``, ``y``, a ``test_scorer`` (free-run
-simulation of the test records, RMSE in the data's units) and the names, units and library for
+simulation of the test records, RMSE in the data's units) and the names and units for
 :func:`~sklearn_hybrid.diagnosis.close_the_loop` (see :func:`run_case`; ``sklearn-hybrid loop NAME``
 runs one). Copy one to start a study of your own recordings. Conditioning: time is counted in
 samples (or tenths of a second) and the states are scaled to order one, so that the parameters
@@ -23,7 +23,7 @@ from sklearn.utils import Bunch
 from . import HybridRegressor
 from .datasets import (estimate_derivative, fetch_cascaded_tanks, fetch_silverbox, load_pendulum_freeswing,
                        make_duffing, make_pendulum, make_windows)
-from .diagnosis import (CandidateLibrary, MLPOn, ZeroResidual, close_the_loop, fit_initial_state, free_run,
+from .diagnosis import (MLPOn, ZeroResidual, close_the_loop, fit_initial_state, free_run,
                         prediction_metrics)
 from .models import duffing_f, pendulum_f
 
@@ -133,7 +133,7 @@ def silverbox_case(fast: bool = False, method: str = "erm", max_iter: int | None
                  groups=train.starts // window,  # the stretch of the record each window starts in
                  state_names=["y", "y_dot"], input_names=["u"],
                  units={"y": "100 mV", "y_dot": "100 mV/sample", "u": "100 mV"},
-                 library=CandidateLibrary(degree=3, include_bias=True), param_names={},
+                 param_names={},
                  # a DC bias of the measured voltage is screened beside the terms: with the cubic stiffness
                  # in, it bends the equation as y^2 does (benchmarks/results/closed_loop.md)
                  offsets=["y"],
@@ -179,8 +179,6 @@ def tanks_case(fast: bool = False, method: str = "erm", max_iter: int | None = N
                 out["network_share"] = m["network_share"]
         return out
 
-    terms = {"sqrt(x1)": lambda Z: np.sqrt(np.clip(Z["x1"], 0, None)),
-             "sqrt(x2)": lambda Z: np.sqrt(np.clip(Z["x2"], 0, None))}
     return Bunch(name="tanks", estimator=est, X=train.X, y=train.y, test_scorer=scorer,
                  # windows overlap: judged by the 64-sample stretch each starts in, every stretch in turn
                  groups=train.starts // window, grouped=True, cv=4,
@@ -188,11 +186,7 @@ def tanks_case(fast: bool = False, method: str = "erm", max_iter: int | None = N
                  # without an offset and 0.472 with one (benchmarks/results/greybox.md)
                  offsets=["x2"],
                  state_names=["x1", "x2"], input_names=["u"],
-                 units={"x1": "V", "x2": "V", "u": "V", "sqrt(x1)": "V^(1/2)", "sqrt(x2)": "V^(1/2)"},
-                 library=CandidateLibrary(degree=2, include_bias=True, custom_terms=terms),
-                 term_functions={"sqrt(x1)": lambda d: torch.sqrt(torch.clamp(d["x1"], min=1e-4)),
-                                 "sqrt(x2)": lambda d: torch.sqrt(torch.clamp(d["x2"], min=1e-4))},
-                 param_names={},
+                 units={"x1": "V", "x2": "V", "u": "V"}, param_names={},
                  description="Cascaded tanks (measured): Torricelli model, overflow undeclared; time unit 100 s; "
                              "RMSE in the units of y (V) on free runs (validation state fitted on y_val[:5]).")
 
@@ -233,7 +227,6 @@ def pendulum_freeswing_case(fast: bool = False, method: str = "erm", max_iter: i
                  groups=train.starts // window, grouped=True, cv=2,
                  state_names=["theta", "theta_dot"], input_names=None,
                  units={"theta": "0.1 rad", "theta_dot": "rad/s"},
-                 library=CandidateLibrary(degree=3, include_bias=False, nonsmooth=["theta_dot"]),
                  param_names={},
                  description="Real pendulum free swing (measured): frictionless pendulum, friction undeclared; "
                              "trained on the first 3 s, tested by a free run over the next 3.5 s (RMSE in mrad).")
@@ -258,7 +251,7 @@ def synthetic_case(task: str = "pendulum", fast: bool = False, method: str = "er
                           residual=MLPOn([1], hidden=(32, 32), zero_init=task != "duffing"))
     return Bunch(name=task, estimator=est, X=data.X_train, y=data.y_train, X_test=data.X_test, y_test=data.y_test,
                  state_names=["v", "v_dot"], input_names=None, units=None, theta_true=truth,
-                 library=CandidateLibrary(degree=3, include_bias=False), param_names={},
+                 param_names={},
                  description=f"Synthetic {task} ({data.DESCR.splitlines()[1].strip()}).")
 
 
