@@ -2,9 +2,10 @@
 
 Cases (``sklearn_hybrid.recipes``): Silverbox (linear science model, cubic stiffness
 undeclared), Cascaded tanks (Torricelli, overflow undeclared), the real pendulum free swing
-(friction undeclared), and the synthetic pendulum (damping undeclared) and Duffing (cubic term
-undeclared) tasks. Measured cases are scored by free runs of their test records; the grey-box
-baselines of ``bench_greybox.py`` (results/greybox.json, run it first) are quoted beside them.
+(friction undeclared), the Hudson's Bay hare and lynx pelts (Lotka-Volterra), and the synthetic
+pendulum (damping undeclared) and Duffing (cubic term undeclared) tasks. Measured cases are
+scored by free runs of their test records; the grey-box baselines of ``bench_greybox.py``
+(results/greybox.json, run it first) are quoted beside them.
 
 Usage: python benchmarks/bench_closed_loop.py [--cases silverbox tanks ...] [--method erm] [--fast] [--n-jobs 2]
 """
@@ -35,7 +36,8 @@ def _baselines() -> dict:
                            ("linear + cubic + quadratic", "cubic, 1 RK4 step/sample"),
                            ("linear + cubic + quadratic + cubic damping", "cubic, 1 RK4 step/sample"),
                            ("linear + cubic + quadratic + quintic", "cubic, 1 RK4 step/sample")] if (m, i) in sb],
-            "tanks": [(f"grey-box {m}", tanks[m]) for m in tanks], "pendulum-freeswing": swing}
+            "tanks": [(f"grey-box {m}", tanks[m]) for m in tanks], "pendulum-freeswing": swing,
+            "hare-lynx": [(f"grey-box {r['model']}", r) for r in data.get("hare_lynx", [])]}
 
 
 def _markdown(results: dict, baselines: dict, method: str, n_jobs: int) -> str:
@@ -65,6 +67,11 @@ def _markdown(results: dict, baselines: dict, method: str, n_jobs: int) -> str:
             md += ["Grey-box baselines (bench_greybox.py, textbook friction laws fitted to one free run of the "
                    "first 3 s, RMSE mrad):", "", "| model | train | test |", "|---|---|---|"]
             md += [f"| {label} | {b['train']:.3f} | {b['test']:.3f} |" for label, b in baselines["pendulum-freeswing"]]
+            md.append("")
+        if name == "hare-lynx" and baselines.get("hare-lynx"):
+            md += ["Grey-box baselines (bench_greybox.py, one free run fitted over 1900-1914, initial counts fitted "
+                   "too, RMSE in thousands of pelts):", "", "| model | train | test |", "|---|---|---|"]
+            md += [f"| {label} | {b['train']:.2f} | {b['test']:.2f} |" for label, b in baselines["hare-lynx"]]
             md.append("")
     return "\n".join(md)
 

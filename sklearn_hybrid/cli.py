@@ -26,7 +26,8 @@ from collections.abc import Sequence
 
 __all__ = ["main"]
 
-DATASETS = ("silverbox", "tanks", "pendulum-freeswing", "pendulum", "duffing")
+# the keys of recipes.CASES, written out so that ``--help`` need not import torch
+DATASETS = ("silverbox", "tanks", "pendulum-freeswing", "hare-lynx", "pendulum", "duffing")
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -37,8 +38,8 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument("--traceback", action="store_true", help="show the full error instead of one line")
     sub = parser.add_subparsers(dest="command", required=True)
     loop = sub.add_parser("loop", help="fit -> diagnose the residual -> add the missing terms -> refit -> compare")
-    loop.add_argument("dataset", choices=DATASETS, help="measured (silverbox, tanks, pendulum-freeswing) "
-                                                        "or synthetic (pendulum, duffing)")
+    loop.add_argument("dataset", choices=DATASETS, help="measured (silverbox, tanks, pendulum-freeswing, "
+                                                        "hare-lynx) or synthetic (pendulum, duffing)")
     loop.add_argument("--method", default="erm", choices=("erm", "p-reg", "f-reg", "sam", "asam", "fsam"))
     loop.add_argument("--max-iter", type=int, default=None, help="optimisation steps per fit (default per data set)")
     loop.add_argument("--fast", action="store_true", help="tiny data and few iterations: checks the pipeline only")

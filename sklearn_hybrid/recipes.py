@@ -21,14 +21,14 @@ import torch
 from sklearn.utils import Bunch
 
 from . import HybridRegressor
-from .datasets import (estimate_derivative, fetch_cascaded_tanks, fetch_silverbox, load_pendulum_freeswing,
-                       make_duffing, make_pendulum, make_windows)
+from .datasets import (estimate_derivative, fetch_cascaded_tanks, fetch_silverbox, load_hare_lynx,
+                       load_pendulum_freeswing, make_duffing, make_pendulum, make_windows)
 from .diagnosis import (MLPOn, ZeroResidual, close_the_loop, fit_initial_state, free_run,
                         prediction_metrics)
 from .models import duffing_f, pendulum_f
 
-__all__ = ["CASES", "run_case", "silverbox_case", "tanks_case", "pendulum_freeswing_case", "synthetic_case",
-           "silverbox_f", "tanks_f", "swing_f", "SILVERBOX_SCALE"]
+__all__ = ["CASES", "run_case", "silverbox_case", "tanks_case", "pendulum_freeswing_case", "hare_lynx_case",
+           "synthetic_case", "silverbox_f", "tanks_f", "swing_f", "predator_prey_f", "SILVERBOX_SCALE"]
 
 SILVERBOX_SCALE = 0.1  # V per model unit: y and u of order one
 SWING_SCALE = 0.1  # rad per model unit (angle), and 0.1 s per time unit
@@ -55,6 +55,12 @@ def swing_f(v, f0=1.0):
     """Frictionless pendulum, angle in units of 0.1 rad, time in units of 0.1 s, f0 in Hz."""
     w2 = (2 * np.pi * f0 * 0.1) ** 2
     return torch.stack([v[:, 1], -w2 * torch.sin(SWING_SCALE * v[:, 0]) / SWING_SCALE], dim=-1)
+
+
+def predator_prey_f(v, a=0.5, b=0.2, c=0.2, d=0.5):
+    """Lotka-Volterra: prey ``H' = a H - b H L``, predator ``L' = c H L - d L``; per year, counts in 10^4."""
+    H, L = v[:, 0], v[:, 1]
+    return torch.stack([a * H - b * H * L, c * H * L - d * L], dim=-1)
 
 
 def _has_network(fitted) -> bool:
@@ -232,6 +238,40 @@ def pendulum_freeswing_case(fast: bool = False, method: str = "erm", max_iter: i
                              "trained on the first 3 s, tested by a free run over the next 3.5 s (RMSE in mrad).")
 
 
+# ------------------------------------------------------------------------------ Hare and lynx
+def hare_lynx_case(fast: bool = False, method: str = "erm", max_iter: int | None = None, data_home: Any = None,
+                   random_state: int = 0) -> Bunch:
+    """Hudson's Bay hare and lynx pelts: Lotka-Volterra science model; free run over the last six years.
+
+    Fifteen yearly counts (1900-1914) train, as the 14 one-year steps between them; each step is a
+    sample of its own (consecutive steps share a count, not a trajectory), judged in 7 blocks.
+    From the 1914 counts the models run free to 1920. The one-year steps give the evidence 14
+    samples, but every step starts from a noisy count; the Lotka-Volterra model fitted to one free
+    run over the 15 years (``benchmarks/bench_greybox.py``) leaves no samples to judge a term by.
+    """
+    data = load_hare_lynx(data_home)
+    counts = np.column_stack([data.hare, data.lynx]) / 10.0  # 10^4 pelts: order one
+    n_train = 15
+    train = make_windows(counts, length=1, stop=n_train)
+    est = HybridRegressor(science=predator_prey_f, dt=1.0, n_substeps=4, residual=MLPOn([0, 1], hidden=(32, 32)),
+                          method=method, rho=0.05, lr=1e-2, max_iter=max_iter or (20 if fast else 500),
+                          theta_bounds={k: (0.0, 10.0) for k in "abcd"}, random_state=random_state)
+
+    def scorer(fitted):
+        test = counts[n_train:]
+        sims = {r: free_run(fitted, counts[n_train - 1], n_steps=len(test), use_residual=r)[0, 1:]
+                for r in (True, False)}
+        m = prediction_metrics(test, sims[True], sims[False])
+        return {"test_rmse_thousands": 10 * m["rmse"], "test_science_only_rmse_thousands":
+                10 * m["rmse_science_only"], "network_share": m["network_share"]}
+
+    return Bunch(name="hare-lynx", estimator=est, X=train.X, y=train.y, test_scorer=scorer, cv=7,
+                 state_names=["H", "L"], input_names=None, units={"H": "1e4 pelts", "L": "1e4 pelts"},
+                 param_names={},
+                 description="Hudson's Bay hare (H) and lynx (L) pelts (measured): Lotka-Volterra; trained on "
+                             "1900-1914, tested by a free run from 1914 to 1920 (RMSE in thousands of pelts).")
+
+
 # ------------------------------------------------------------------------------ synthetic
 def synthetic_case(task: str = "pendulum", fast: bool = False, method: str = "erm", max_iter: int | None = None,
                    random_state: int = 0) -> Bunch:
@@ -256,6 +296,7 @@ def synthetic_case(task: str = "pendulum", fast: bool = False, method: str = "er
 
 
 CASES = {"silverbox": silverbox_case, "tanks": tanks_case, "pendulum-freeswing": pendulum_freeswing_case,
+         "hare-lynx": hare_lynx_case,
          "pendulum": lambda **kw: synthetic_case("pendulum", **kw),
          "duffing": lambda **kw: synthetic_case("duffing", **kw)}
 

@@ -137,7 +137,10 @@ def test_recipes_live_outside_the_diagnosis_package():
     import sklearn_hybrid.diagnosis as diagnosis
     from sklearn_hybrid import recipes
 
-    assert set(recipes.CASES) == {"silverbox", "tanks", "pendulum-freeswing", "pendulum", "duffing"}
+    from sklearn_hybrid.cli import DATASETS
+
+    assert set(recipes.CASES) == {"silverbox", "tanks", "pendulum-freeswing", "hare-lynx", "pendulum", "duffing"}
+    assert set(DATASETS) == set(recipes.CASES)  # the command line offers every recipe
     assert not hasattr(diagnosis, "run_case")
     with pytest.raises(ModuleNotFoundError):
         importlib.import_module("sklearn_hybrid.diagnosis.cases")
@@ -151,3 +154,20 @@ def test_freeswing_recipe_takes_window_and_stride(shared_data):
     assert len(default.y) == 50 and len(side_by_side.y) == 5  # 3 s of 0.01 s samples, 50-sample windows
     assert side_by_side.y.shape[1:] == default.y.shape[1:] == (50, 1)
     np.testing.assert_array_equal(side_by_side.X, default.X[::10])  # the same windows, every tenth
+
+
+def test_hare_lynx_recipe_trains_on_one_year_steps_and_scores_the_last_six_years(shared_data):
+    from sklearn_hybrid import recipes
+    from sklearn_hybrid.datasets import load_hare_lynx
+
+    data = load_hare_lynx(shared_data)
+    counts = np.column_stack([data.hare, data.lynx]) / 10
+    case = recipes.hare_lynx_case(data_home=shared_data, fast=True)
+    assert case.X.shape == (14, 2) and case.y.shape == (14, 1, 2)  # 1900-1914: 14 steps of a year
+    np.testing.assert_array_equal(case.X, counts[:14])
+    np.testing.assert_array_equal(case.y[:, 0], counts[1:15])
+    out = recipes.run_case("hare-lynx", fast=True, max_iter=5, data_home=shared_data)
+    before = out.table[0]
+    assert before["stage"] == "before" and np.isfinite(before["test_rmse_thousands"])
+    assert before["test_rmse_thousands"] > 0 and set(before["theta"]) == {"a", "b", "c", "d"}
+    assert before["test_science_only_rmse_thousands"] > 0 and "Selection" in out.report
