@@ -358,7 +358,8 @@ def test_selection_judges_each_candidate_on_its_own_evidence():
     """The lowest held-out error without evidence must not hide a candidate that passed (the real
     pendulum's |theta_dot| at z 4.8 was dropped behind a hinge at z 2.9), and among those that
     passed and are within min_gain of the best, the simplest wins."""
-    from sklearn_hybrid.diagnosis.stepwise import _interleave, _simplest_of_the_best
+    from sklearn_hybrid.diagnosis.candidates import _interleave
+    from sklearn_hybrid.diagnosis.stepwise import _simplest_of_the_best
 
     def tried(term, kind, shape, mse, accepted):
         return ({"term": term, "kind": kind, "shape": shape}, {}, {"mse_after": mse, "accepted": accepted},
@@ -455,7 +456,7 @@ def test_screening_refits_use_evenly_spaced_training_samples_and_the_kept_term_a
 def test_a_term_the_converged_test_drops_at_once_is_not_proposed_again(pendulum, monkeypatch):
     """Seen on a Gompertz growth system: the screening test accepted a term, the converged drop test removed
     it at once, and the selection proposed it again, forever. Now it is set aside and the selection goes on."""
-    from sklearn_hybrid.diagnosis import stepwise
+    from sklearn_hybrid.diagnosis import candidates, stepwise
     from sklearn_hybrid.diagnosis.residual import science_output
 
     data, est = pendulum
@@ -470,7 +471,7 @@ def test_a_term_the_converged_test_drops_at_once_is_not_proposed_again(pendulum,
         if added[-1]["term"] != "v_dot":  # the disagreeing test, for every term but the damping
             return current, added, theta, errors
         rest = added[:-1]
-        reduced = stepwise._augment(science, rest, NAMES, 2, None)
+        reduced = candidates._augment(science, rest, NAMES, 2, None)
         return reduced, rest, {k: v for k, v in theta.items() if k != added[-1]["param"]}, errors
 
     monkeypatch.setattr(stepwise, "_drop_dispensable", drop_the_newest)
@@ -485,7 +486,8 @@ def test_a_term_the_converged_test_drops_at_once_is_not_proposed_again(pendulum,
 
 def test_a_term_made_dispensable_by_a_later_one_is_dropped(pendulum):
     """Drag v_dot|v_dot| stands in for linear damping until v_dot itself is in; then it goes."""
-    from sklearn_hybrid.diagnosis.stepwise import _augment, _drop_dispensable, _Judge, _with_fitted
+    from sklearn_hybrid.diagnosis.candidates import _augment, _with_fitted
+    from sklearn_hybrid.diagnosis.stepwise import _drop_dispensable, _Judge
 
     data, est = pendulum
     fit = ScienceFit(est, data.X_train, data.y_train)
@@ -694,7 +696,8 @@ def test_a_flux_between_two_components_is_added_to_both_at_once():
 
 
 def test_a_group_is_preferred_only_when_clearly_better_than_its_single_terms():
-    from sklearn_hybrid.diagnosis.stepwise import _groups, _simplest_of_the_best
+    from sklearn_hybrid.diagnosis.candidates import _groups
+    from sklearn_hybrid.diagnosis.stepwise import _simplest_of_the_best
 
     single = {"component": 1, "term": "A*B", "kind": "polynomial", "shape": {}, "gain": 0.5, "coef": 1.0}
     other = {**single, "component": 0, "coef": -1.0}

@@ -1,0 +1,228 @@
+"""Candidates of a selection step: the terms' columns, the two rankings, and how a candidate becomes a model.
+
+A candidate is a dict: the ``component`` (output index, or a list of them for a group) it is placed
+on, its ``term`` name, ``kind``, ``function``, starting ``shape`` and ``coef``. :func:`_rank` ranks
+them by the residual the network still carries, :func:`_rank_by_fit` by the network-free model's
+training error they would remove; :func:`_augment` turns the placed candidates into an augmented
+science function (:func:`~sklearn_hybrid.diagnosis.augment_science`) for
+:mod:`~sklearn_hybrid.diagnosis.stepwise` to refit and judge.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+from itertools import zip_longest
+from typing import Any
+
+import numpy as np
+import torch
+
+from .augment import augment_science
+from .evidence import ScienceFit
+from .residual import finite_differences
+from .terms import Term
+
+
+def _term_columns(terms: Sequence[Term], variables: dict[str, torch.Tensor]) -> list[tuple]:
+    """``(term, shape, values)`` of every term at every starting shape, on the visited states.
+
+    Finite and not identically zero only; the states do not change during the selection, so this is
+    computed once for both rankings and every step.
+    """
+    n = len(next(iter(variables.values())))
+    out = []
+    for term in terms:
+        for shape in term.grid():
+            with torch.no_grad():
+                col = term(variables, **{k: torch.tensor(v, dtype=torch.float64) for k, v in shape.items()})
+            col = np.broadcast_to(col.numpy(), (n,))
+            if np.all(np.isfinite(col)) and np.any(col):
+                out.append((term, shape, col))
+    return out
+
+
+def _rank(columns: list[tuple], remaining: np.ndarray, jac: np.ndarray, components: Sequence[int],
+          taken: set) -> list[dict]:
+    """Every (component, term) scored by the share of the remaining residual it explains.
+
+    The term is fitted together with the parameter sensitivities of its component, so a term that
+    only stands in for a parameter shift gains nothing.
+    """
+    total = float(sum(np.sum(remaining[:, j] ** 2) for j in components)) or 1.0
+    by_name: dict[str, list] = {}
+    for term, shape, col in columns:
+        by_name.setdefault(term.name, []).append((term, shape, col))
+    ranked = []
+    for j in components:
+        S = jac[:, j, :]
+        S = S[:, np.any(np.abs(S) > 0, axis=0)]
+        Q = np.linalg.qr(S)[0] if S.shape[1] else np.zeros((len(S), 0))
+        r = remaining[:, j] - Q @ (Q.T @ remaining[:, j])
+        for name, options in by_name.items():
+            if (j, name) in taken:
+                continue
+            best = None
+            for term, shape, col in options:
+                c = col - Q @ (Q.T @ col)
+                cc = float(c @ c)
+                if cc < 1e-3 * float(col @ col):  # within the parameters' span: a shift, not a term
+                    continue
+                gain = float(c @ r) ** 2 / cc
+                if best is None or gain > best["gain"]:
+                    best = {"component": j, "term": name, "kind": term.kind, "unit": term.unit,
+                            "function": term.func, "shape": shape, "bounds": term.shape,
+                            "coef": float(c @ r) / cc, "gain": gain / total}
+            if best is not None:
+                ranked.append(best)
+    return sorted(ranked, key=lambda t: -t["gain"])
+
+
+def _rank_by_fit(columns: list[tuple], science: Callable, current: Callable, added: list[dict],
+                 theta: Mapping[str, Any], fit: ScienceFit, scale: np.ndarray, components: Sequence[int],
+                 taken: set, names: Sequence[str], n_states: int,
+                 param_names: Mapping[str, str] | None) -> list[dict]:
+    """Every (component, term, shape) scored by the training error its addition removes, without the network.
+
+    A score test in trajectory space: the sensitivity of the network-free prediction to the new
+    term's coefficient (forward difference at 0), made orthogonal to the sensitivities of the
+    parameters already there, explains a share of the remaining training error. This does not rely
+    on the network having learned the missing effect well: where the hybrid fit traded the effect
+    between theta and the network, the ranking by its residual (:func:`_rank`) misleads.
+    ``current`` is ``science`` with the ``added`` terms.
+    """
+    base = fit.predict(current, theta).ravel()
+    r = fit.y.ravel() - base
+    J, _ = finite_differences(lambda values: fit.predict(current, values).ravel(), theta)
+    J = J[:, np.all(np.isfinite(J), axis=0)]
+    Q = np.linalg.qr(J)[0] if J.shape[1] else np.zeros((len(base), 0))
+    r = r - Q @ (Q.T @ r)
+    total = float(r @ r) or 1.0
+    best: dict[tuple, dict] = {}
+    for term, shape, values in columns:
+        size = float(np.sqrt(np.mean(values ** 2)))
+        if not np.isfinite(size) or size == 0:
+            continue
+        for j in components:
+            if (j, term.name) in taken:
+                continue
+            h = 1e-4 * scale[j] / size
+            cand = {"component": j, "term": term.name, "kind": term.kind, "unit": term.unit,
+                    "function": term.func, "shape": shape, "bounds": term.shape, "coef": h}
+            augmented = _augment(science, [*added, cand], names, n_states, param_names)
+            start = {**theta, **_initial_values(augmented, [*added, cand])}
+            with np.errstate(all="ignore"):
+                col = (fit.predict(augmented, start).ravel() - base) / h
+            if not np.all(np.isfinite(col)):
+                continue
+            c = col - Q @ (Q.T @ col)
+            cc = float(c @ c)
+            if cc < 1e-6 * float(col @ col) or cc == 0:  # within the parameters' span
+                continue
+            gain = float(c @ r) ** 2 / cc / total
+            if (j, term.name) not in best or gain > best[j, term.name]["gain"]:
+                best[j, term.name] = {**cand, "coef": float(c @ r) / cc, "gain": gain, "ranked_by": "fit"}
+    return sorted(best.values(), key=lambda t: -t["gain"])
+
+
+def _interleave(ranked: list[dict], n: int) -> list[dict]:
+    """The ``n`` best candidates, taken in turn from each component's own ranking.
+
+    Shares are compared within a component only: a large residual on one component (say the
+    observed tank) must not crowd out every candidate for another (the unobserved one).
+    """
+    by_component: dict[int, list[dict]] = {}
+    for cand in ranked:
+        by_component.setdefault(cand["component"], []).append(cand)
+    queues = sorted(by_component.values(), key=lambda q: -q[0]["gain"])
+    out = []
+    while len(out) < n and any(queues):
+        for queue in queues:
+            if queue and len(out) < n:
+                out.append(queue.pop(0))
+    return out
+
+
+def _groups(ranked: list[dict]) -> list[dict]:
+    """One candidate per term that stands on two or more components among ``ranked``: the term on all of
+    them at once, each with its own coefficient.
+
+    A reaction's flux enters the balance of every species it converts (``-k A B`` on A, ``+k A B`` on
+    B); alone on either component the term explains little, since the other balance stays wrong, and
+    at high noise neither single passes although the pair explains nearly everything. Judged like any
+    candidate, and costing one parameter per component, a group wins only where it validates better
+    than each of its single terms by more than ``min_gain`` (see :func:`_simplest_of_the_best`).
+    """
+    by_term: dict[str, list[dict]] = {}
+    for cand in ranked:
+        by_term.setdefault(cand["term"], []).append(cand)
+    return [{**entries[0], "component": [e["component"] for e in entries], "group": entries,
+             "ranked_by": "group"} for entries in by_term.values() if len(entries) > 1]
+
+
+def _entries(cand: dict) -> list[dict]:
+    """The single terms a candidate places: its group's, or itself."""
+    return cand.get("group", [cand])
+
+
+def _where(cand: dict) -> str:
+    components = cand["component"]
+    if cand["kind"] == "offset":
+        return f"the sensor of state {components}"
+    return (f"components {', '.join(map(str, components))}" if isinstance(components, list)
+            else f"component {components}")
+
+
+def _n_parameters(cand: dict) -> int:
+    """Coefficients and shape parameters a candidate adds."""
+    return sum(1 + len(e["shape"]) for e in _entries(cand))
+
+
+def _merge(*rankings: list[dict]) -> list[dict]:
+    """The candidates of several rankings, taken in turn, each (component, term) once."""
+    out, seen = [], set()
+    for group in zip_longest(*rankings):
+        for cand in group:
+            if cand is not None and (cand["component"], cand["term"]) not in seen:
+                seen.add((cand["component"], cand["term"]))
+                out.append(cand)
+    return out
+
+
+def _offset(state: int, variables: Sequence[str]) -> dict:
+    """The candidate "the sensor of this state reads with a constant offset", starting at zero."""
+    return {"component": state, "term": f"offset({variables[state]})", "kind": "offset", "unit": "",
+            "function": None, "shape": {}, "bounds": {}, "coef": 0.0, "gain": float("nan"), "ranked_by": "declared"}
+
+
+def _augment(science, placed, variables, n_states, param_names):
+    terms = [{"component": t["component"], "term": t["term"], "kind": t["kind"], "coef": t["coef"],
+              "function": t["function"], "shape": t["shape"], "param": (param_names or {}).get(t["term"])}
+             for t in placed]
+    return augment_science(science, terms, variables, n_states=n_states)
+
+
+def _initial_values(augmented, placed, newest: int = 1) -> dict:
+    """Starting values of the coefficients and shape parameters of the ``newest`` terms."""
+    out = {}
+    for i in range(len(placed) - newest, len(placed)):
+        out[augmented.terms[i][2]] = placed[i]["coef"]
+        out.update({glob: placed[i]["shape"][local] for local, glob in augmented.shape_names[i].items()})
+    return out
+
+
+def _shape_bounds(augmented, placed) -> dict:
+    return {glob: t["bounds"][local][1] for t, names in zip(placed, augmented.shape_names)
+            for local, glob in names.items()}
+
+
+def _with_fitted(cand, augmented, theta, i) -> dict:
+    """The accepted term with its fitted coefficient and shape values."""
+    _, _, coef_name = augmented.terms[i]
+    shape = {local: float(theta[glob]) for local, glob in augmented.shape_names[i].items()}
+    return {**cand, "coef": float(theta[coef_name]), "shape": shape, "param": coef_name,
+            "shape_params": dict(augmented.shape_names[i])}
+
+
+def _public(cand: dict) -> dict:
+    return {"ranked_by": cand.get("ranked_by", "residual"),
+            **{k: cand[k] for k in ("component", "term", "kind", "gain", "shape")}}
