@@ -56,7 +56,7 @@ class System:
     batch : int
         1: the systems the benchmark was built with; 2 and 3: systems written on 2026-11-25, after the
         selection's code was last changed, and added unchanged whatever they gave (``FRESH``, ``FRESH_3``);
-        4 to 8: written in later sessions (``FRESH_4`` to ``FRESH_8``), likewise.
+        4 to 9: written in later sessions (``FRESH_4`` to ``FRESH_9``), likewise.
     sign_of : int or None
         For an effect that jumps with the sign of one state (dry friction): that state's index.  Trajectories
         are then integrated piecewise between its zero crossings (no chattering of the step size), and a
@@ -692,7 +692,89 @@ FRESH_8 = [
            ["h1", "h2"], {"h1": "m", "h2": "m", "u": "m/s"}, 0.4, 30, (0.5, 0.2), (2.5, 2.0), (0.2, 1.0),
            batch=8, declared_offsets=["h1", "h2"], theta_guess={"a1": 0.7, "a2": 0.45}),
 ]
-SYSTEMS = {s.name: s for s in SYSTEMS + FRESH + FRESH_3 + FRESH_4 + FRESH_5 + FRESH_6 + FRESH_7 + FRESH_8}
+
+
+# ------------------------------------------------------------------------------------------ batch 9 (fresh systems)
+# Written on 2026-11-25 in the session after batch 8 (package commit 0736cbd, the selection unchanged since batch 8
+# ran), before any of them ran, from fields and forms the benchmark holds once or not at all: a coil whose
+# inductance saturates (input times the squared state, and its cube), a loss that opens above a temperature, prey in
+# a refuge (the predation term's product with a hinge: outside the term library), a spring with backlash (a clipped
+# state), a drug's saturating inhibition (rational in the input, science with no drug effect), a reaction inhibited
+# by its product (rational in a second state: outside the library); and two controls from models new here
+# (a chemostat with Monod growth, a FitzHugh-Nagumo neuron). Only their simulated data were looked at before the
+# commit (all trajectories finite and in range); each runs once and is shown whatever it gives.
+def coil_f(v, u, R=0.8, L=0.6):
+    return torch.stack([(u[:, 0] - R * v[:, 0]) / L], dim=-1)
+
+
+def heated_body_f(v, u, p=0.8, h=0.5):
+    return torch.stack([p * u[:, 0] - h * (v[:, 0] - 0.2)], dim=-1)
+
+
+def turnover_f(v, u, kin=1.2, kout=0.6):
+    return torch.stack([kin - kout * v[:, 0]], dim=-1)  # the drug (u) is given but its effect is not modelled
+
+
+def product_reaction_f(v, u, k=0.6, d=0.5):
+    A, B = v[:, 0], v[:, 1]
+    return torch.stack([u[:, 0] - k * A, k * A - d * B], dim=-1)
+
+
+def chemostat_f(v, u, mu=0.8, K=0.4, Y=0.6):
+    X, S = v[:, 0], v[:, 1].clamp(min=0)  # guard: a concentration is never negative
+    growth = mu * S / (K + S) * X
+    return torch.stack([growth - u[:, 0] * X, -growth / Y + u[:, 0] * (1.0 - S)], dim=-1)
+
+
+def fitzhugh_nagumo_f(v, u, eps=0.3, a=0.6, b=0.9):
+    V, W = v[:, 0], v[:, 1]
+    return torch.stack([V - V ** 3 / 3 - W + u[:, 0], eps * (V + a - b * W)], dim=-1)
+
+
+def _refuge(x, r=0.3):
+    """What predation on prey outside a refuge of r leaves of b x y: b y min(x, r), per unit of b."""
+    return np.minimum(x[:, 0], r) * x[:, 1]
+
+
+FRESH_9 = [
+    System("saturating_coil", "electrical", "input-dependent (input times state squared, and its cube)",
+           "inductance falling with the current: (u - R i) 0.5 i^2 / L, R = 1, L = 0.5",
+           coil_f, {"R": 1.0, "L": 0.5}, lambda x, u: (u - 1.0 * x) * 0.5 * x ** 2 / 0.5,
+           ["i"], {"i": "A", "u": "V"}, 0.1, 30, (-1.0,), (1.0,), (-1.0, 1.2), batch=9),
+    System("boiling_loss", "thermal", "non-smooth (hinge in the state)",
+           "a loss that opens above the boiling point -0.6 max(0, T - 1)",
+           heated_body_f, {"p": 1.0, "h": 0.4}, lambda x, u: -0.6 * np.maximum(0.0, x - 1.0),
+           ["T"], {"T": "100 K", "u": "1"}, 0.25, 30, (0.2,), (1.6,), (0.2, 1.0), batch=9),
+    System("prey_refuge", "population", "non-smooth product, outside the term library (two components)",
+           "prey in a refuge of 0.3 escape predation: +0.8 y min(x, 0.3) on x, -0.6 y min(x, 0.3) on y",
+           lotka_volterra_f, {"a": 1.0, "b": 0.8, "c": 0.6, "d": 0.7},
+           lambda x, u: np.stack([0.8 * _refuge(x), -0.6 * _refuge(x)], 1),
+           ["x", "y"], {"x": "1", "y": "1"}, 0.2, 30, (0.2, 0.2), (2.0, 1.5), batch=9,
+           theta_guess={"a": 0.8, "b": 0.6, "c": 0.5, "d": 0.6}),
+    System("backlash_spring", "oscillator", "non-smooth (a clipped state: two hinges)",
+           "a spring with backlash of 0.3: +2 clip(x, -0.3, 0.3) beside -2 x",
+           linear_oscillator_f, {"k": 2.0, "c": 0.2}, lambda x, u: _on(1, 2, 2.0 * np.clip(x[:, 0], -0.3, 0.3)),
+           ["x", "v"], {"x": "m", "v": "m/s"}, 0.1, 40, (-1.5, -1.5), (1.5, 1.5), zero_components=[0], batch=9,
+           theta_guess={"k": 2.5, "c": 0.15}),
+    System("drug_inhibition", "pharmacodynamic", "rational in the input (the science has no drug effect)",
+           "inhibition of the response's production by a drug: -1.0 u / (0.4 + u)",
+           turnover_f, {"kin": 1.0, "kout": 0.5}, lambda x, u: -1.0 * u / (0.4 + u),
+           ["E"], {"E": "1", "u": "mg/L"}, 0.25, 30, (0.5,), (2.5,), (0.0, 2.0), batch=9),
+    System("product_inhibition", "chemical", "rational in a second state, outside the term library (two components)",
+           "A -> B inhibited by B: +0.8 A 2B/(1 + 2B) on A, -0.8 A 2B/(1 + 2B) on B",
+           product_reaction_f, {"k": 0.8, "d": 0.4},
+           lambda x, u: np.stack([1, -1], 0) * (0.8 * x[:, :1] * 2 * x[:, 1:] / (1 + 2 * x[:, 1:])),
+           ["A", "B"], {"A": "mol/L", "B": "mol/L", "u": "mol/L/h"}, 0.25, 30, (0.0, 0.0), (1.5, 1.5), (0.0, 1.0),
+           batch=9),
+    System("control_chemostat", "bioprocess", "control", "nothing (chemostat, Monod growth)",
+           chemostat_f, {"mu": 1.0, "K": 0.3, "Y": 0.5}, None,
+           ["X", "S"], {"X": "g/L", "S": "g/L", "u": "1/h"}, 0.25, 30, (0.1, 0.1), (1.0, 1.0), (0.1, 0.6),
+           batch=9),
+    System("control_fitzhugh_nagumo", "electrical", "control", "nothing (FitzHugh-Nagumo neuron)",
+           fitzhugh_nagumo_f, {"eps": 0.25, "a": 0.7, "b": 0.8}, None,
+           ["V", "W"], {"V": "1", "W": "1", "u": "1"}, 0.2, 30, (-2.0, -1.0), (2.0, 1.5), (0.0, 0.8), batch=9),
+]
+SYSTEMS = {s.name: s for s in SYSTEMS + FRESH + FRESH_3 + FRESH_4 + FRESH_5 + FRESH_6 + FRESH_7 + FRESH_8 + FRESH_9}
 
 
 # ----------------------------------------------------------------------------------------------------- simulation

@@ -128,6 +128,15 @@ BATCHES = {
         "(the lower gauge, the outlet and drag systems, the controls); with the outlet missing, the offset passed "
         "the test at the first step (gain 81 %) but the hinge (0.01) or h^3 (0.05) validated better. "
         "`declared_gauge_outlet` at 0.05 is the failure: h^3 for the hinge, rel_err 0.130."),
+    9: ("## Batch 9: fresh systems, written in the session after batch 8",
+        "Written on 2026-11-25 in the session after batch 8, with the selection unchanged since batch 8 ran "
+        "(package commit 0736cbd), committed before they ran, from fields and forms the benchmark holds once or not "
+        "at all: a coil whose inductance falls with the current (the input times the squared state, and its cube), "
+        "a loss that opens above a temperature, prey in a refuge and a reaction inhibited by its product (both "
+        "outside the term library, on two components), a spring with backlash (a clipped state), a drug's "
+        "saturating inhibition where the science has no drug effect, and two controls from models new here (a "
+        "chemostat with Monod growth, a FitzHugh-Nagumo neuron). Only their simulated data were looked at before "
+        "the commit; each runs once and is shown whatever it gives."),
 }
 # Run order (the tables follow SYSTEMS): domains and controls interleaved, so that a partial run is a cross-section.
 RUN_ORDER = ["drag_oscillator", "control_rlc", "budworm", "enzyme_reactor", "saturating_heater", "diode_clamped_rc",
@@ -154,7 +163,10 @@ RUN_ORDER = ["drag_oscillator", "control_rlc", "budworm", "enzyme_reactor", "sat
              "cubic_damper",
              # batch 8 (_identification_systems.FRESH_8: declared sensor offsets)
              "encoder_offset", "control_declared_probe", "probe_offset", "declared_gauge_outlet", "upper_gauge_offset",
-             "control_declared_gauges", "thermometer_offset", "declared_encoder_drag"]
+             "control_declared_gauges", "thermometer_offset", "declared_encoder_drag",
+             # batch 9 (_identification_systems.FRESH_9)
+             "saturating_coil", "control_chemostat", "boiling_loss", "prey_refuge", "backlash_spring",
+             "control_fitzhugh_nagumo", "drug_inhibition", "product_inhibition"]
 
 
 def cache_dir(fast: bool) -> Path:
