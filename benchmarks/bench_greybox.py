@@ -35,7 +35,7 @@ from scipy.integrate import solve_ivp
 from scipy.optimize import least_squares
 
 from _common import write_results
-from sklearn_hybrid.datasets import (estimate_derivative, fetch_cascaded_tanks, fetch_silverbox, load_hare_lynx,
+from sklearn_hybrid.datasets import (estimate_derivative, fetch_cascaded_tanks, fetch_hare_lynx, fetch_silverbox,
                                     load_pendulum_freeswing)
 from sklearn_hybrid.integrate import upsample_inputs
 
@@ -285,7 +285,7 @@ def _predator_prey(p, x0, n_years):
 
 
 def _fit_hare_lynx(with_limit, n_train=15):
-    data = load_hare_lynx()
+    data = fetch_hare_lynx()
     counts = np.column_stack([data.hare, data.lynx])
     n_p = 5 if with_limit else 4
     # starts of the order of the recipe's guesses (per year, counts in thousands)

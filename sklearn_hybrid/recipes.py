@@ -21,7 +21,7 @@ import torch
 from sklearn.utils import Bunch
 
 from . import HybridRegressor
-from .datasets import (estimate_derivative, fetch_cascaded_tanks, fetch_silverbox, load_hare_lynx,
+from .datasets import (estimate_derivative, fetch_cascaded_tanks, fetch_hare_lynx, fetch_silverbox,
                        load_pendulum_freeswing, make_duffing, make_pendulum, make_windows)
 from .diagnosis import (MLPOn, ZeroResidual, close_the_loop, fit_initial_state, free_run,
                         prediction_metrics)
@@ -249,7 +249,7 @@ def hare_lynx_case(fast: bool = False, method: str = "erm", max_iter: int | None
     samples, but every step starts from a noisy count; the Lotka-Volterra model fitted to one free
     run over the 15 years (``benchmarks/bench_greybox.py``) leaves no samples to judge a term by.
     """
-    data = load_hare_lynx(data_home)
+    data = fetch_hare_lynx(data_home)
     counts = np.column_stack([data.hare, data.lynx]) / 10.0  # 10^4 pelts: order one
     n_train = 15
     train = make_windows(counts, length=1, stop=n_train)

@@ -10,11 +10,11 @@ import pytest
 
 from sklearn_hybrid.datasets import (
     fetch_cascaded_tanks,
+    fetch_hare_lynx,
     fetch_light_tunnel,
     fetch_silverbox,
     fetch_wind_tunnel,
     get_data_home,
-    load_hare_lynx,
     load_pendulum_freeswing,
     make_light_tunnel_simulated,
     make_wind_tunnel_simulated,
@@ -187,18 +187,18 @@ def test_hare_lynx_tiny_file_with_comment_lines(tmp_path, monkeypatch):
     f = home / "hare_lynx" / "hudson-bay-lynx-hare.csv"
     f.write_text("# counts\n# in thousands\nYear, Lynx, Hare\n1900, 4.0, 30.0\n1901, 6.1, 47.2\n")
     with pytest.raises(ChecksumError):  # not the published file
-        load_hare_lynx(home)
+        fetch_hare_lynx(home)
     monkeypatch.setattr(_measured, "HARE_LYNX", RemoteFile("hare_lynx/hudson-bay-lynx-hare.csv", "file:///x", _sha(f)))
-    d = load_hare_lynx(home)
+    d = fetch_hare_lynx(home)
     np.testing.assert_array_equal(d.year, [1900, 1901])
     np.testing.assert_array_equal(d.hare, [30.0, 47.2])  # columns by name, not position
     np.testing.assert_array_equal(d.lynx, [4.0, 6.1])
     with pytest.raises(FileNotFoundError, match="hare_lynx"):
-        load_hare_lynx(tmp_path / "empty", download_if_missing=False)
+        fetch_hare_lynx(tmp_path / "empty", download_if_missing=False)
 
 
 def test_hare_lynx_real(shared_data):
-    d = load_hare_lynx(shared_data)
+    d = fetch_hare_lynx(shared_data)
     assert d.year[0] == 1900 and d.year[-1] == 1920 and d.hare.shape == d.lynx.shape == (21,)
     assert (d.hare[3], d.lynx[4]) == (77.4, 59.4)  # the 1903 hare and 1904 lynx peaks
 

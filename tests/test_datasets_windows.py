@@ -158,9 +158,9 @@ def test_freeswing_recipe_takes_window_and_stride(shared_data):
 
 def test_hare_lynx_recipe_trains_on_one_year_steps_and_scores_the_last_six_years(shared_data):
     from sklearn_hybrid import recipes
-    from sklearn_hybrid.datasets import load_hare_lynx
+    from sklearn_hybrid.datasets import fetch_hare_lynx
 
-    data = load_hare_lynx(shared_data)
+    data = fetch_hare_lynx(shared_data)
     counts = np.column_stack([data.hare, data.lynx]) / 10
     case = recipes.hare_lynx_case(data_home=shared_data, fast=True)
     assert case.X.shape == (14, 2) and case.y.shape == (14, 1, 2)  # 1900-1914: 14 steps of a year

@@ -8,7 +8,7 @@ from ._causal_chamber import (
     make_light_tunnel_simulated,
     make_wind_tunnel_simulated,
 )
-from ._measured import fetch_cascaded_tanks, fetch_silverbox, load_hare_lynx, load_pendulum_freeswing
+from ._measured import fetch_cascaded_tanks, fetch_hare_lynx, fetch_silverbox, load_pendulum_freeswing
 from ._pendulum_images import make_pendulum_images, render_pendulum
 from ._synthetic import make_duffing, make_pendulum, make_reaction_diffusion
 from ._windows import estimate_derivative, make_windows
@@ -16,11 +16,11 @@ from ._windows import estimate_derivative, make_windows
 __all__ = [
     "estimate_derivative",
     "fetch_cascaded_tanks",
+    "fetch_hare_lynx",
     "fetch_light_tunnel",
     "fetch_silverbox",
     "fetch_wind_tunnel",
     "get_data_home",
-    "load_hare_lynx",
     "load_pendulum_freeswing",
     "make_light_tunnel_simulated",
     "make_wind_tunnel_simulated",

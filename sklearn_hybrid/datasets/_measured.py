@@ -16,7 +16,7 @@ from sklearn.utils import Bunch
 
 from ._base import RemoteFile, fetch_file, read_csv_columns
 
-__all__ = ["fetch_cascaded_tanks", "fetch_silverbox", "load_hare_lynx", "load_pendulum_freeswing"]
+__all__ = ["fetch_cascaded_tanks", "fetch_hare_lynx", "fetch_silverbox", "load_pendulum_freeswing"]
 
 _RAW = "https://raw.githubusercontent.com"
 
@@ -219,7 +219,7 @@ def load_pendulum_freeswing(
                  decimate=int(decimate), filename=str(path), DESCR=_PENDULUM_DESCR)
 
 
-def load_hare_lynx(
+def fetch_hare_lynx(
     data_home: str | os.PathLike | None = None, download_if_missing: bool = True
 ) -> Bunch:
     """Load the Hudson's Bay Company hare and lynx pelt counts, 1900-1920.
