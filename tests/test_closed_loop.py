@@ -235,6 +235,15 @@ def test_exact_components_and_bad_options(pendulum):
                        exact=["w"])
     with pytest.raises(ValueError, match="validation_fraction"):
         close_the_loop(est, X, y, validation_fraction=1.5)
+    with pytest.raises(ValueError, match="z must be a positive"):
+        close_the_loop(est, X, y, z=-1)
+    with pytest.raises(ValueError, match=r"min_gain must be in \[0, 1\)"):
+        close_the_loop(est, X, y, min_gain=2.0)
+    # a misspelt unit name is refused before any fit (it would lose its unit silently); a user term's is kept
+    unfitted = HybridRegressor(science=pendulum_f, dt=0.1, max_iter=2)
+    with pytest.raises(ValueError, match=r"units names \['vdot'\], neither a state, an input nor a user term"):
+        close_the_loop(unfitted, X, y, state_names=NAMES, units={"v": "rad", "vdot": "rad/s"})
+    assert not hasattr(unfitted, "model_")
     with pytest.raises(ValueError, match="Every component is exact"):
         close_the_loop(HybridRegressor(science=pendulum_f, dt=0.1, max_iter=2), X, y, exact=[0, 1])
     # "auto" on an unfitted estimator: the default network is kept out of the exact equation.
@@ -242,6 +251,17 @@ def test_exact_components_and_bad_options(pendulum):
                          state_names=NAMES, max_terms=1, n_candidates=1)
     assert out.exact == [0] and isinstance(out.before.residual, MLPOn) and out.before.residual.components == [1]
     assert all(s["component"] == 1 for s in out.steps)
+
+
+def test_a_user_term_is_named_with_its_unit(pendulum):
+    """Your own term by name, with its unit in ``units`` beside the states'."""
+    data, est = pendulum
+    out = close_the_loop(est, data.X_train, data.y_train, state_names=NAMES, term_kinds=["user"],
+                         user_terms={"friction": lambda d: d["v_dot"]},
+                         units={"v": "rad", "v_dot": "rad/s", "friction": "rad/s"}, max_terms=1)
+    assert [(t["term"], t["kind"], t["output"]) for t in out.added] == [("friction", "user", "g[v_dot]")]
+    assert out.science_theta["c_friction"] == pytest.approx(-0.5, rel=0.05)
+    assert "term in rad/s" in out.report
 
 
 def test_science_fit_recovers_parameters(pendulum):

@@ -21,9 +21,10 @@ from torch import nn
 from ..engine import DivergenceError
 from ..residual import MLP, MaskedMLP
 from ..science import read_signature
-from .report import Scoring, format_table, residual_profile
+from ._arguments import _check_options, _check_units, _n_states, _offset_states, _uncertain_components
 from .evidence import ScienceFit, held_out_splits
-from .residual import _names, parameter_jacobian, science_output
+from .report import Scoring, format_table, residual_profile
+from .residual import _names, science_output
 from .stepwise import forward_selection
 from .terms import Term, physics_terms
 
@@ -139,7 +140,8 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
     X_test, y_test : array-like, optional
         Test data for the default metrics (:func:`prediction_metrics`).
     state_names, input_names, units : optional
-        Names of the states (or features) and inputs, and their units (shown in the report).
+        Names of the states (or features) and inputs, and their units (shown in the report; also the
+        units of ``user_terms`` by their names).
     exact : "auto", list of str or int, or None, default="auto"
         Components of an ODE whose science equation is exact (kinematic identities such as
         ``d angle/dt = velocity``, conservation laws): no term is added there and the default
@@ -221,7 +223,7 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         if verbose:
             print(message if message.startswith(("  ", "|")) or "\n" in message
                   else f"[{time.perf_counter() - start:4.0f} s] {message}", flush=True)
-    _check_options(validation_fraction, max_terms, n_candidates, cv)
+    _check_options(validation_fraction, max_terms, n_candidates, cv, z, min_gain)
     # the held-out split checks the groups and its own limits before anything is fitted
     splits, codes = held_out_splits(len(y), validation_fraction, cv, groups)
     if fit_initial_states and (estimator.structure != "ode" or estimator.observed is None):
@@ -232,6 +234,7 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
                          "with one theta shared by every sample. Close the loop on a model with a shared theta.")
     uncertain = _uncertain_components(estimator, X, y, exact, state_names)
     offsets = _offset_states(estimator, X, y, offsets, state_names)
+    _check_units(estimator, X, y, units, state_names, input_names, user_terms)
     try:
         check_is_fitted(estimator, "model_")
         before = estimator
@@ -335,81 +338,9 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
 _MAX_POINTS = 5000  # visited states used to rank candidates: plenty for a handful of columns
 
 
-def _check_options(validation_fraction, max_terms, n_candidates, cv):
-    if not (isinstance(validation_fraction, (int, float)) and 0 < validation_fraction < 1):
-        raise ValueError(f"validation_fraction must be in (0, 1), got {validation_fraction!r}.")
-    if cv is not None and (isinstance(cv, bool) or not isinstance(cv, (int, np.integer)) or cv < 2):
-        raise ValueError(f"cv must be None or an integer of at least 2, got {cv!r}.")
-    for name, value in (("max_terms", max_terms), ("n_candidates", n_candidates)):
-        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
-            raise ValueError(f"{name} must be a positive integer, got {value!r}.")
-
-
 def _is_default_network(residual) -> bool:
     return residual == "mlp" or (isinstance(residual, Mapping) and residual.get("kind", "mlp") == "mlp"
                                  and set(residual) <= {"kind"})
-
-
-def _uncertain_components(estimator, X, y, exact, state_names) -> list[int] | None:
-    """Output components that may receive terms (None: all of them)."""
-    if exact is None or estimator.structure != "ode":
-        return None
-    X, y = np.asarray(X, dtype=float), np.asarray(y)
-    n_inputs = estimator.n_inputs or 0
-    d = _n_states(estimator, X, y)
-    if isinstance(exact, str):
-        if exact != "auto":
-            raise ValueError(f"exact must be 'auto', None or a list of state names or indices, got {exact!r}.")
-        theta = getattr(estimator, "theta_", None) or {**read_signature(estimator.science)[1],
-                                                       **dict(estimator.theta_init or {})}
-        sample = X[: min(len(X), 64)]
-        args = [sample[:, :d]] + ([sample[:, d:d + n_inputs]] if n_inputs else [])
-        jac, _ = parameter_jacobian(estimator.science, theta, args)
-        if jac.shape[-1] == 0:
-            return None
-        fixed = [j for j in range(jac.shape[1]) if not np.any(np.abs(jac[:, j, :]) > 1e-12)]
-    else:
-        fixed = _state_indices(exact, _names(state_names, d, "x", "state_names"), "exact")
-    uncertain = [j for j in range(d) if j not in fixed]
-    if not uncertain:
-        raise ValueError("Every component is exact: there is nothing for the network or the diagnosis to do.")
-    return uncertain if fixed else None
-
-
-def _offset_states(estimator, X, y, offsets, state_names) -> list[int]:
-    """Indices of the states named in ``offsets``; in an ODE only measured states can have a sensor offset."""
-    d = _n_states(estimator, X, y) if estimator.structure == "ode" else int(np.prod(np.shape(X)[1:]))
-    names = _names(state_names, d, "x", "state_names")
-    out = _state_indices([offsets] if isinstance(offsets, (str, int)) else offsets, names, "offsets")
-    unmeasured = [names[j] for j in out if estimator.structure == "ode" and estimator.observed is not None
-                  and j not in estimator.observed]
-    if unmeasured:
-        raise ValueError(f"offsets names {unmeasured}, not measured (observed={estimator.observed}): an offset "
-                         "on an unmeasured state only relabels its initial value.")
-    if len(set(out)) < len(out):
-        raise ValueError(f"offsets lists a state twice: {list(offsets)}.")
-    return out
-
-
-def _state_indices(items, names: list[str], option: str) -> list[int]:
-    """State names or indices given to ``option`` as indices, each checked."""
-    out = []
-    for item in items:
-        if isinstance(item, str):
-            if item not in names:
-                raise ValueError(f"{option} names unknown state {item!r}; states are {names}.")
-            item = names.index(item)
-        if isinstance(item, bool) or not isinstance(item, (int, np.integer)) or not 0 <= item < len(names):
-            raise ValueError(f"{option} entry {item!r} is not a state index in [0, {len(names)}).")
-        out.append(int(item))
-    return out
-
-
-def _n_states(estimator, X, y) -> int:
-    """States of an ODE estimator's ``X``: its columns less the packed inputs (one per output time and 0)."""
-    X, y = np.asarray(X), np.asarray(y)
-    n_inputs = estimator.n_inputs or 0
-    return X.shape[1] - (y.shape[1] + 1) * n_inputs if n_inputs else int(np.prod(X.shape[1:]))
 
 
 def _inside(theta: dict, bounds: Mapping | None) -> dict:
