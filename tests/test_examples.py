@@ -36,6 +36,22 @@ def test_closed_loop_example_runs_in_fast_mode(monkeypatch, tmp_path, capsys, sh
     assert n_figures >= 1
 
 
+def test_hare_lynx_example_runs_and_says_what_it_found(monkeypatch, tmp_path, capsys, shared_data):
+    """The measured pelt counts through the recipe: the report, the free runs and the unexplained part."""
+    monkeypatch.setenv("SKLEARN_HYBRID_FAST", "1")
+    monkeypatch.chdir(tmp_path)
+    plt.close("all")  # figures other tests left open are not this example's
+    try:
+        namespace = runpy.run_path(str(EXAMPLES / "closed_loop" / "plot_hare_lynx.py"), run_name="__main__")
+        n_figures = len(plt.get_fignums())
+    finally:
+        plt.close("all")
+    out = capsys.readouterr().out
+    assert "| before |" in out and ("Nothing added" in out or "Added to" in out)
+    assert {name: run.shape for name, run in namespace["runs"].items()} == {"hybrid": (7, 2), "science only": (7, 2)}
+    assert n_figures == 2
+
+
 def test_sensor_offset_example_finds_the_gauge_offset(monkeypatch, tmp_path, capsys):
     """Simulated readings of a gauge 0.3 m high: the declared offset is accepted and fitted."""
     monkeypatch.setenv("SKLEARN_HYBRID_FAST", "1")
@@ -92,3 +108,10 @@ def test_closed_loop_example_skips_with_a_note_without_data(monkeypatch, tmp_pat
         plt.close("all")
     out = capsys.readouterr().out
     assert "SKIPPED: the measured Silverbox records are not in" in out and "| before |" not in out
+    monkeypatch.setattr(datasets, "fetch_hare_lynx", missing)
+    try:
+        runpy.run_path(str(EXAMPLES / "closed_loop" / "plot_hare_lynx.py"), run_name="__main__")
+    finally:
+        plt.close("all")
+    out = capsys.readouterr().out
+    assert "SKIPPED: the pelt counts are not in" in out and "| before |" not in out
