@@ -2,7 +2,7 @@
 
 Backpropagating through ``n_steps * n_substeps * 4`` small network
 evaluations with autograd costs far more in per-operation overhead than in
-arithmetic (about 3x on one CPU core for the pendulum).  This module
+arithmetic (about 2.5x on one CPU core for the pendulum).  This module
 computes exactly the same gradient with a different schedule (the loops are
 in :mod:`sklearn_hybrid._kernels`):
 

@@ -4,7 +4,7 @@ Examples
 --------
 ::
 
-    sklearn-hybrid loop silverbox            # measured Silverbox, about 10 minutes on 2 cores
+    sklearn-hybrid loop silverbox            # measured Silverbox, under 2 minutes on 2 cores
     sklearn-hybrid loop pendulum --fast      # synthetic pendulum, seconds (pipeline check only)
     sklearn-hybrid loop tanks --method fsam --max-iter 500 --json tanks.json
     sklearn-hybrid loop silverbox --data-home /path/to/data   # measured files looked up there
