@@ -235,8 +235,9 @@ def test_exact_components_and_bad_options(pendulum):
                        exact=["w"])
     with pytest.raises(ValueError, match="validation_fraction"):
         close_the_loop(est, X, y, validation_fraction=1.5)
-    with pytest.raises(ValueError, match="z must be a positive"):
-        close_the_loop(est, X, y, z=-1)
+    for z in (-1, 0, float("nan"), True):
+        with pytest.raises(ValueError, match="z must be a positive"):
+            close_the_loop(est, X, y, z=z)
     with pytest.raises(ValueError, match=r"min_gain must be in \[0, 1\)"):
         close_the_loop(est, X, y, min_gain=2.0)
     # a misspelt unit name is refused before any fit (it would lose its unit silently); a user term's is kept

@@ -5,6 +5,8 @@ Each names the problem: an unknown state, an option out of range, a unit for a v
 
 from __future__ import annotations
 
+from numbers import Real
+
 import numpy as np
 
 from ..science import read_signature
@@ -14,9 +16,9 @@ from .residual import _names, parameter_jacobian
 def _check_options(validation_fraction, max_terms, n_candidates, cv, z, min_gain):
     if not (isinstance(validation_fraction, (int, float)) and 0 < validation_fraction < 1):
         raise ValueError(f"validation_fraction must be in (0, 1), got {validation_fraction!r}.")
-    if isinstance(z, bool) or not isinstance(z, (int, float)) or not 0 < z < np.inf:
+    if isinstance(z, bool) or not isinstance(z, Real) or not 0 < z < np.inf:
         raise ValueError(f"z must be a positive number of standard errors, got {z!r}.")
-    if isinstance(min_gain, bool) or not isinstance(min_gain, (int, float)) or not 0 <= min_gain < 1:
+    if isinstance(min_gain, bool) or not isinstance(min_gain, Real) or not 0 <= min_gain < 1:
         raise ValueError(f"min_gain must be in [0, 1) (a share of the held-out error), got {min_gain!r}.")
     if cv is not None and (isinstance(cv, bool) or not isinstance(cv, (int, np.integer)) or cv < 2):
         raise ValueError(f"cv must be None or an integer of at least 2, got {cv!r}.")
