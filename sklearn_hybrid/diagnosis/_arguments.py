@@ -14,7 +14,8 @@ from .residual import _names, parameter_jacobian
 
 
 def _check_options(validation_fraction, max_terms, n_candidates, cv, z, min_gain):
-    if not (isinstance(validation_fraction, (int, float)) and 0 < validation_fraction < 1):
+    fraction = validation_fraction
+    if isinstance(fraction, bool) or not isinstance(fraction, Real) or not 0 < fraction < 1:
         raise ValueError(f"validation_fraction must be in (0, 1), got {validation_fraction!r}.")
     if isinstance(z, bool) or not isinstance(z, Real) or not 0 < z < np.inf:
         raise ValueError(f"z must be a positive number of standard errors, got {z!r}.")
