@@ -14,6 +14,18 @@ TASKS = ["pendulum", "duffing", "reaction_diffusion", "pendulum_images", "wind_t
          "light_tunnel", "varying_theta"]
 
 
+def _run_example(path, monkeypatch, tmp_path):
+    """Run one example in fast mode from ``tmp_path``; its namespace and the figures it made."""
+    monkeypatch.setenv("SKLEARN_HYBRID_FAST", "1")
+    monkeypatch.chdir(tmp_path)
+    plt.close("all")  # figures other tests left open are not this example's
+    try:
+        namespace = runpy.run_path(str(EXAMPLES / path), run_name="__main__")
+        return namespace, len(plt.get_fignums())
+    finally:
+        plt.close("all")
+
+
 def test_gallery_has_one_example_per_task():
     found = sorted({p.parent.name for p in EXAMPLES.glob("*/plot_*.py")})
     assert found == sorted(TASKS + ["closed_loop"])
@@ -23,13 +35,7 @@ def test_gallery_has_one_example_per_task():
 
 def test_closed_loop_example_runs_in_fast_mode(monkeypatch, tmp_path, capsys, shared_data):
     """The Silverbox loop example on the measured data (found through the shared data home)."""
-    monkeypatch.setenv("SKLEARN_HYBRID_FAST", "1")
-    monkeypatch.chdir(tmp_path)
-    try:
-        runpy.run_path(str(EXAMPLES / "closed_loop" / "plot_silverbox_loop.py"), run_name="__main__")
-        n_figures = len(plt.get_fignums())
-    finally:
-        plt.close("all")
+    _, n_figures = _run_example("closed_loop/plot_silverbox_loop.py", monkeypatch, tmp_path)
     out = capsys.readouterr().out
     # fast mode checks the pipeline (fit, diagnosis, table); finding the cubic needs a full run
     assert "| before |" in out and ("Added to g[y_dot]" in out or "Nothing added" in out)
@@ -38,14 +44,7 @@ def test_closed_loop_example_runs_in_fast_mode(monkeypatch, tmp_path, capsys, sh
 
 def test_hare_lynx_example_runs_and_says_what_it_found(monkeypatch, tmp_path, capsys, shared_data):
     """The measured pelt counts through the recipe: the report, the free runs and the unexplained part."""
-    monkeypatch.setenv("SKLEARN_HYBRID_FAST", "1")
-    monkeypatch.chdir(tmp_path)
-    plt.close("all")  # figures other tests left open are not this example's
-    try:
-        namespace = runpy.run_path(str(EXAMPLES / "closed_loop" / "plot_hare_lynx.py"), run_name="__main__")
-        n_figures = len(plt.get_fignums())
-    finally:
-        plt.close("all")
+    namespace, n_figures = _run_example("closed_loop/plot_hare_lynx.py", monkeypatch, tmp_path)
     out = capsys.readouterr().out
     assert "| before |" in out and ("Nothing added" in out or "Added to" in out)
     assert {name: run.shape for name, run in namespace["runs"].items()} == {"hybrid": (7, 2), "science only": (7, 2)}
@@ -54,14 +53,7 @@ def test_hare_lynx_example_runs_and_says_what_it_found(monkeypatch, tmp_path, ca
 
 def test_sensor_offset_example_finds_the_gauge_offset(monkeypatch, tmp_path, capsys):
     """Simulated readings of a gauge 0.3 m high: the declared offset is accepted and fitted."""
-    monkeypatch.setenv("SKLEARN_HYBRID_FAST", "1")
-    monkeypatch.chdir(tmp_path)
-    plt.close("all")  # figures other tests left open are not this example's
-    try:
-        namespace = runpy.run_path(str(EXAMPLES / "closed_loop" / "plot_sensor_offset.py"), run_name="__main__")
-        n_figures = len(plt.get_fignums())
-    finally:
-        plt.close("all")
+    namespace, n_figures = _run_example("closed_loop/plot_sensor_offset.py", monkeypatch, tmp_path)
     assert "Added a sensor offset: h is measured as h +" in capsys.readouterr().out
     assert namespace["out"].science_theta["offset_h"] == pytest.approx(0.3, abs=0.01)
     assert n_figures == 1
@@ -69,14 +61,8 @@ def test_sensor_offset_example_finds_the_gauge_offset(monkeypatch, tmp_path, cap
 
 @pytest.mark.parametrize("task", TASKS)
 def test_example_runs_in_fast_mode(task, monkeypatch, tmp_path, capsys):
-    monkeypatch.setenv("SKLEARN_HYBRID_FAST", "1")
     monkeypatch.setenv("SKLEARN_HYBRID_DATA", str(tmp_path))  # no measured data: stand-ins
-    monkeypatch.chdir(tmp_path)
-    try:
-        namespace = runpy.run_path(str(EXAMPLES / task / f"plot_{task}.py"), run_name="__main__")
-        n_figures = len(plt.get_fignums())
-    finally:
-        plt.close("all")
+    namespace, n_figures = _run_example(f"{task}/plot_{task}.py", monkeypatch, tmp_path)
     out = capsys.readouterr().out
     estimators = namespace["estimators"]
     assert set(estimators) == {"erm", "fsam"}
@@ -99,19 +85,11 @@ def test_closed_loop_example_skips_with_a_note_without_data(monkeypatch, tmp_pat
         raise FileNotFoundError("silverbox/SNLS80mV.csv not found")
 
     monkeypatch.setattr(datasets, "fetch_silverbox", missing)
-    monkeypatch.setenv("SKLEARN_HYBRID_FAST", "1")
     monkeypatch.setenv("SKLEARN_HYBRID_DATA", str(tmp_path))
-    monkeypatch.chdir(tmp_path)
-    try:
-        runpy.run_path(str(EXAMPLES / "closed_loop" / "plot_silverbox_loop.py"), run_name="__main__")
-    finally:
-        plt.close("all")
+    _run_example("closed_loop/plot_silverbox_loop.py", monkeypatch, tmp_path)
     out = capsys.readouterr().out
     assert "SKIPPED: the measured Silverbox records are not in" in out and "| before |" not in out
     monkeypatch.setattr(datasets, "fetch_hare_lynx", missing)
-    try:
-        runpy.run_path(str(EXAMPLES / "closed_loop" / "plot_hare_lynx.py"), run_name="__main__")
-    finally:
-        plt.close("all")
+    _run_example("closed_loop/plot_hare_lynx.py", monkeypatch, tmp_path)
     out = capsys.readouterr().out
     assert "SKIPPED: the pelt counts are not in" in out and "| before |" not in out
