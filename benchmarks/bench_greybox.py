@@ -284,9 +284,8 @@ def _predator_prey(p, x0, n_years):
     return sol.y.T if sol.success else np.full((n_years, 2), 1e6)
 
 
-def _fit_hare_lynx(with_limit, n_train=15):
-    data = fetch_hare_lynx()
-    counts = np.column_stack([data.hare, data.lynx])
+def _fit_hare_lynx(counts, with_limit, n_train=15):
+    """``counts``: (hare, lynx) per year from 1900, in thousands."""
     n_p = 5 if with_limit else 4
     # starts of the order of the recipe's guesses (per year, counts in thousands)
     z0 = np.array([0.5, 0.02, 0.02, 0.5, 0.005][:n_p] + list(counts[0]))
@@ -368,7 +367,9 @@ def main():
     md += [f"| {r['model']} | {r['train']:.3f} | {r['test']:.3f} | "
            + " | ".join(f"{r['params'][k]:.4g}" if k in SWING_MODELS[r['model']] else "-" for k in SWING_NAMES) + " |"
            for r in swing_rows]
-    lv_rows = [{"model": model, **_fit_hare_lynx(limit)} for model, limit in
+    pelts = fetch_hare_lynx()
+    counts = np.column_stack([pelts.hare, pelts.lynx])
+    lv_rows = [{"model": model, **_fit_hare_lynx(counts, limit)} for model, limit in
                (("Lotka-Volterra", False), ("Lotka-Volterra + prey self-limitation", True))]
     md += ["", "## Hudson's Bay hare and lynx pelts (RMSE in thousands of pelts; one free run fitted over "
            "1900-1914, tested by a free run from the 1914 counts to 1920)", "",
