@@ -530,6 +530,28 @@ def test_a_term_made_dispensable_by_a_later_one_is_dropped(pendulum):
     assert set(theta) == set(inspect.signature(current).parameters) - {"v"}
 
 
+def test_a_screening_refit_that_gets_lost_starts_again_from_the_model_it_extends(pendulum):
+    """A ranked coefficient that makes the simulation blow up leaves least squares stuck far from any
+    minimum; the candidate is then refitted from its new coefficient at zero (the current model)."""
+    from sklearn_hybrid.diagnosis.candidates import _augment
+    from sklearn_hybrid.diagnosis.stepwise import _Judge, _screen
+
+    data, est = pendulum
+    fit = ScienceFit(est, data.X_train, data.y_train)
+    n = len(fit.y)
+    judge = _Judge(fit, [(np.arange(n - 12), np.arange(n - 12, n))])
+    term = next(t for t in physics_terms(NAMES, data.X_train) if t.name == "v_dot")
+    placed = [{"component": 1, "term": term.name, "kind": term.kind, "unit": term.unit, "function": term.func,
+               "shape": {}, "bounds": term.shape, "coef": 1e3, "gain": 0.0}]
+    damped = _augment(pendulum_f, placed, NAMES, 2, None)
+    start = {"omega": 0.6, damped.terms[0][2]: 1e3}
+    lost = judge.fit(damped, start, {}, screening=True)
+    assert judge.training_error(damped, lost) > 1e6  # the plain refit does not recover
+    theta = _screen(judge, damped, start, {}, n_kept=0)
+    assert judge.training_error(damped, theta) < judge.training_error(damped, {**start, damped.terms[0][2]: 0.0})
+    assert theta[damped.terms[0][2]] == pytest.approx(-0.5, rel=0.1)
+
+
 def test_scoring_in_a_worker_process_gives_the_same_table(pendulum):
     """n_jobs=2 scores in a second process (a closure scorer and the augmented science are pickled
     there): the table is the one of a single process."""

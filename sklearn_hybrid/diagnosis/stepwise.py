@@ -76,6 +76,12 @@ class _Judge:
     def fit(self, science, start, bounds=None, screening=False) -> dict:
         return _fit_on(self.screen if screening else self.train, science, start, bounds, screening)
 
+    def training_error(self, science, theta) -> float:
+        """Mean squared error on the screening rows, from the states the screening fit holds."""
+        with np.errstate(all="ignore"):
+            error = float(np.mean((self.screen.predict(science, theta) - self.screen.y) ** 2))
+        return error if np.isfinite(error) else np.inf
+
     def errors(self, science, theta, bounds=None, screening=False) -> np.ndarray:
         if len(self.folds) == 1:  # the validation rows were not fitted: no refit needed
             errors = self.folds[0][2].errors(science, theta)
@@ -179,7 +185,7 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
             start = {**theta_now, **_initial_values(candidate_science, placed, len(_entries(cand)))}
             try:
                 bounds = _shape_bounds(candidate_science, placed)
-                fitted = judge.fit(candidate_science, start, bounds, screening=True)
+                fitted = _screen(judge, candidate_science, start, bounds, len(placed) - len(_entries(cand)))
                 cand_errors = judge.errors(candidate_science, fitted, bounds, screening=True)
             except (RuntimeError, ValueError, FloatingPointError) as exc:  # a term that breaks the simulation
                 steps.append({"step": step, **_public(cand), "failed": repr(exc), "accepted": False})
@@ -213,6 +219,22 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
         judge.settle(current, theta_now)
     return {"science": current, "theta": theta_now, "added": added, "steps": steps,
             "base_errors": base_errors, "errors": errors, "seconds": time.perf_counter() - start_time}
+
+
+def _screen(judge: _Judge, science, start: dict, bounds: dict, n_kept: int) -> dict:
+    """The screening refit of a candidate model whose terms after the first ``n_kept`` are new.
+
+    With the new coefficients at zero the candidate is the model the step continues from, so its
+    refit can only end worse on its own training samples when the search got lost: a ranked
+    coefficient that drives the simulation off (a constant that takes a population below zero,
+    where it then grows without bound) leaves the least-squares search far from any minimum.
+    Such a refit starts again from the new coefficients at zero.
+    """
+    fitted = judge.fit(science, start, bounds, screening=True)
+    nested = {**start, **{coef: 0.0 for _, _, coef in science.terms[n_kept:]}}
+    if judge.training_error(science, fitted) > judge.training_error(science, nested):
+        fitted = judge.fit(science, nested, bounds, screening=True)
+    return fitted
 
 
 def _drop_dispensable(science, current, added, theta, errors, judge, variables, n_states,
