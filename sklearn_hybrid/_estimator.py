@@ -317,8 +317,10 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
         if len(y_shape) > 1:  # scikit-learn validates 2-D targets; predict restores the shape
             y = np.reshape(y, (len(y), math.prod(y_shape)))
         # self changes only in _set_fitted: a failed refit leaves the earlier fit whole
+        # order="C": a reversed view (negative strides) reaches torch as a copy, which torch accepts
         (X, y), features = validate_into_copy(self, X, y, allow_nd=True, multi_output=True,
-                                              y_numeric=True, dtype=np.float64)
+                                              y_numeric=True, dtype=np.float64, order="C")
+        y = np.ascontiguousarray(y)  # order= reaches X only
         dtype, device = _DTYPES[self.dtype], resolve_device(self.device)
         seed = int(check_random_state(self.random_state).randint(np.iinfo(np.int32).max))
         science = ScienceModel(self.science, self.theta_init, self.theta_bounds,
@@ -411,7 +413,7 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
     def _fitted_X(self, X):
         """``X`` validated against the fit: feature count and per-sample shape."""
         check_is_fitted(self)
-        X = validate_data(self, X, reset=False, allow_nd=True, dtype=np.float64)
+        X = validate_data(self, X, reset=False, allow_nd=True, dtype=np.float64, order="C")
         if X.shape[1:] != self.x_shape_:
             raise ValueError(
                 f"X has per-sample shape {X.shape[1:]}; this model was fitted on {self.x_shape_}."

@@ -172,7 +172,7 @@ class EstimatorExtras:
             raise ValueError("simulate does not support a theta_encoder yet (theta is inferred per "
                              "input window); use predict.")
         state_shape = tuple(s.state_shape)
-        x0 = np.asarray(x0, dtype=float)
+        x0 = np.ascontiguousarray(x0, dtype=float)  # torch refuses negative strides (a reversed view)
         single = x0.shape == state_shape
         x0 = x0[None] if single else x0
         if x0.shape[1:] != state_shape:
@@ -212,7 +212,7 @@ class EstimatorExtras:
             return None, int(n_steps)
         if u is None:
             raise ValueError(f"This hybrid ODE is forced (n_inputs={s.n_inputs}): give u.")
-        u = np.asarray(u, dtype=float)
+        u = np.ascontiguousarray(u, dtype=float)
         if single and u.ndim == 1:
             u = u[:, None]
         if single and u.ndim == 2:
@@ -261,12 +261,21 @@ class EstimatorExtras:
             lines.append("theta drift (relative change over the last 10 % of its summed learning "
                          "rate; a settled theta moves little there): "
                          + ", ".join(f"{k} {v:.2g}" for k, v in drift.items()))
+        # the encoder turns its parameters' own gradients off: they are inferred, not fixed
+        inferred = getattr(self.model_, "encoder", None) is not None
         notes = {}
         for name in science.names:
-            if not science.raw[name].requires_grad:
+            if name in (self.theta_fixed or ()) or (not inferred and not science.raw[name].requires_grad):
                 notes[name] = "(fixed)"
-            elif self.theta_bounds and name in self.theta_bounds:
-                notes[name] = f"(bounds {tuple(self.theta_bounds[name])})"
+                continue
+            said = ["(inferred per sample by the encoder; mean over the training samples)"] if inferred else []
+            if self.theta_bounds and name in self.theta_bounds:
+                said.append(f"(bounds {tuple(None if b is None else float(b) for b in self.theta_bounds[name])})")
+            if said:
+                notes[name] = " ".join(said)
+        if inferred:
+            how = "no standard errors: theta is inferred per sample; predict_theta(X) gives it for each"
+            return format_report("Hybrid fit", lines, self.theta_, None, how, extra=notes)
         how = ("standard errors: Gauss-Newton, s^2 (J^T W J)^-1 with the network held fixed; "
                "noise only, not the bias of a misspecified science model")
         return format_report("Hybrid fit", lines, self.theta_, self.theta_std_, how, extra=notes)

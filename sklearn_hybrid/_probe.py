@@ -37,6 +37,9 @@ def call_science(science, args, expected_shape, what, differentiable=False):
     before = [a.clone() for a in args]
     if differentiable:  # non-leaf copies: in-place writes reach the mutation check below
         args = tuple(a.clone().requires_grad_() * 1 for a in args)
+    # an in-place write that changes nothing on these rows (`v[:, 0].clamp_(min=0)`) still breaks
+    # training's autograd: torch counts every in-place write in the tensor's version
+    versions = [a._version for a in args]
     try:
         with torch.enable_grad():
             out = science(*args)
@@ -52,16 +55,26 @@ def call_science(science, args, expected_shape, what, differentiable=False):
     if not isinstance(out, torch.Tensor):
         raise TypeError(
             f"The science function {name!r} returned {type(out).__name__}, expected a torch.Tensor.")
-    if any(not torch.equal(a.detach(), b) for a, b in zip(args, before)):
+    if any(not torch.equal(a.detach(), b) or a._version != v for a, b, v in zip(args, before, versions)):
         raise ValueError(
-            f"The science function {name!r} modifies its input in place (e.g. `v[:, 0] *= k` or "
-            "`v.mul_(k)`); it would rewrite the data at every call. Use out-of-place "
-            "operations (`v = v * k`, `torch.stack`)."
+            f"The science function {name!r} modifies its input in place (e.g. `v[:, 0] *= k`, "
+            "`v.mul_(k)` or `v[:, 0].clamp_(min=0)`); it would rewrite the data at every call. Use "
+            "out-of-place operations (`v = v * k`, `v[:, 0].clamp(min=0)`, `torch.stack`)."
+        )
+    if out.dtype != args[0].dtype:
+        raise ValueError(
+            f"The science function {name!r} returned {out.dtype} values for {args[0].dtype} inputs: make its "
+            "constants with the inputs' dtype (`torch.tensor(c, dtype=v.dtype)`), or fit with "
+            f"dtype={str(out.dtype).removeprefix('torch.')!r} when it must compute in that precision."
         )
     batch = args[0].shape[0]
     if expected_shape is not None and tuple(out.shape) != tuple(expected_shape):
-        hint = (" It looks transposed: stack the components along the last axis (dim=-1)."
-                if tuple(out.shape) == tuple(expected_shape)[::-1] else "")
+        hint = ""
+        if tuple(out.shape) == tuple(expected_shape)[::-1]:
+            hint = " It looks transposed: stack the components along the last axis (dim=-1)."
+        elif tuple(out.shape) + (1,) == tuple(expected_shape):
+            hint = (" It lacks the trailing axis of length 1: return `out[:, None]`, or, where the "
+                    "structure takes that axis from y (an (n, 1) y), fit y as a 1-D array.")
         raise ValueError(
             f"The science function {name!r} returned shape {tuple(out.shape)} for {what} of "
             f"shape {tuple(args[0].shape)}; the structure needs {tuple(expected_shape)}.{hint}"

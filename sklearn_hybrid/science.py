@@ -103,10 +103,16 @@ class _Bounded(nn.Module):
             p = (value - low) / (high - low)
             return np.log(p) - np.log1p(-p)
         if self.has_low:
-            return np.log(np.expm1(value - low))
+            return _inverse_softplus(value - low)
         if self.has_high:
-            return np.log(np.expm1(high - value))
+            return _inverse_softplus(high - value)
         return value
+
+
+def _inverse_softplus(x: np.ndarray) -> np.ndarray:
+    """``log(expm1(x))`` written so that it does not overflow: a start 1000 above its bound is common
+    (a stiffness in N/m, a pressure in Pa) and ``expm1(1000)`` is infinite."""
+    return x + np.log(-np.expm1(-x))
 
 
 class ScienceModel(nn.Module):
@@ -153,10 +159,10 @@ class ScienceModel(nn.Module):
         self.transforms = nn.ModuleDict()
         for name, default in defaults.items():
             value = np.asarray(theta_init.get(name, default), dtype=float)
-            if value.shape != default.shape and default.ndim > 0:
+            if value.shape != default.shape:  # a scalar given as [0.6] would turn theta_[name] into an array
                 raise ValueError(
                     f"theta_init[{name!r}] has shape {value.shape}, the default has shape "
-                    f"{default.shape}."
+                    f"{default.shape}" + (": give a number." if default.ndim == 0 else ".")
                 )
             if not np.all(np.isfinite(value)):
                 raise ValueError(f"theta_init[{name!r}] = {value} is not finite.")

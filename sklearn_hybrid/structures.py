@@ -382,7 +382,15 @@ class CallableStructure(ComposeStructure):
     def forward(self, model, x, use_residual=True):
         if not use_residual:
             raise ValueError("A user-supplied composition has no science-only prediction.")
-        return self.func(x, model.science, model.residual).reshape(len(x), *self.y_shape), {}
+        out = self.func(x, model.science, model.residual)
+        # a transposed (outputs, samples) result reshaped anyway would mix the samples' values
+        if (not torch.is_tensor(out) or out.ndim == 0 or out.shape[0] != len(x)
+                or math.prod(out.shape[1:]) != math.prod(self.y_shape)):
+            got = tuple(out.shape) if torch.is_tensor(out) else type(out).__name__
+            raise ValueError(f"The structure {getattr(self.func, '__name__', self.func)!r} returned {got} for "
+                             f"{len(x)} samples; it must return a tensor of shape {(len(x), *self.y_shape)}, "
+                             "one row per sample, like y.")
+        return out.reshape(len(x), *self.y_shape), {}
 
     def trace(self, model, inputs, pred, extras):
         raise ValueError("A user-supplied composition does not say where its network acts.")

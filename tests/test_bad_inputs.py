@@ -77,6 +77,23 @@ def returns_numpy(v, omega=0.5):
     return np.zeros((len(v), 2))
 
 
+def clamps_in_place(v, omega=0.5):  # a domain guard that changes no value here, yet breaks autograd
+    v[:, 0].clamp_(min=-10)
+    return pendulum_f(v, omega)
+
+
+def float64_constant(v, omega=0.5):  # promotes a float32 fit's states to float64
+    return pendulum_f(v, omega) * torch.from_numpy(np.ones(1))
+
+
+def scalar_of_x(x, k=1.0):  # one value per sample, for a y of shape (n, 1)
+    return k * x[:, 0]
+
+
+def transposed_composition(x, f, g):
+    return (f(x) + g(x)).T
+
+
 # --- the table -----------------------------------------------------------------------------
 
 @dataclass
@@ -158,6 +175,17 @@ CASES = [
     ("science raises", fit(science=raises),
      ValueError, "'raises' raised RuntimeError: division by the unknown"),
     ("science returns numpy", fit(science=returns_numpy), TypeError, "expected a torch.Tensor"),
+    ("science clamps its input in place, values unchanged", fit(science=clamps_in_place),
+     ValueError, "modifies its input in place"),
+    ("science returns float64 in a float32 fit", fit(science=float64_constant),
+     ValueError, "returned torch.float64 values for torch.float32 inputs"),
+    ("science lacks y's trailing axis of length 1", fit_on(lambda X, y: (X, X[:, :1]), science=scalar_of_x,
+                                                          structure="additive"),
+     ValueError, "It lacks the trailing axis of length 1"),
+    ("user composition returns (outputs, samples)", fit_on(lambda X, y: (X, X), science=lambda x, a=1.0: a * x,
+                                                           structure=transposed_composition,
+                                                           residual=lambda: torch.nn.Linear(2, 2)),
+     ValueError, "'transposed_composition' returned (2, 6) for 6 samples"),
     # item 8: the signature reader
     ("tensor default", fit(science=tensor_default), TypeError, "'k' has a torch.Tensor default"),
     ("NaN bound", fit(theta_bounds={"omega": (np.nan, 2.0)}), ValueError, "contains NaN"),
@@ -165,6 +193,8 @@ CASES = [
      ValueError, "must hold numbers"),
     ("unknown parameter name", fit(theta_init={"omgea": 1.0}),
      ValueError, "theta_init names unknown parameter(s) ['omgea']"),
+    ("scalar parameter started as an array", fit(theta_init={"omega": np.array([0.6])}),
+     ValueError, "theta_init['omega'] has shape (1,), the default has shape (): give a number"),
     ("initial value outside bounds", fit(theta_init={"omega": 3.0}, theta_bounds={"omega": (0, 2)}),
      ValueError, "outside its bounds"),
     # item 9: raw or misleading messages
@@ -232,7 +262,7 @@ def test_bad_input_is_named_and_changes_nothing(earlier, what, call, error, phra
 
 def test_table_size():
     """The closing note quotes this count; keep it in step with CASES."""
-    assert len(CASES) == 42
+    assert len(CASES) == 47
 
 
 def test_data_home_that_is_a_file(tmp_path, monkeypatch):

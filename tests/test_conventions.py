@@ -111,6 +111,37 @@ def test_fixed_parameter_has_zero_std_and_is_marked(pendulum):
     assert "gamma: 0.5 +/- 0" in est.fit_report() and "(fixed)" in est.fit_report()
 
 
+def test_report_with_a_theta_encoder_says_theta_is_inferred_not_fixed():
+    data = make_pendulum(omega=(0.1, 1.0), n_train=12, n_val=2, n_test=2, n_input_steps=10, random_state=0)
+    est = HybridRegressor(science=pendulum_f, theta_encoder="mlp", method="erm", max_iter=3,
+                          theta_bounds={"omega": (np.float64(0.1), 2)}, **{**SMALL, "dt": data.dt})
+    report = est.fit(data.X_train, data.y_train).fit_report()
+    line = next(row for row in report.splitlines() if row.strip().startswith("omega:"))
+    assert "inferred per sample" in line and "(bounds (0.1, 2.0))" in line
+    assert "fixed" not in line and "nan" not in line and "+/-" not in line
+    assert "predict_theta(X)" in report
+
+
+def test_a_start_far_above_a_one_sided_bound_stays_finite(pendulum):
+    """lmfit-style positivity on a parameter in the thousands (a stiffness in N/m): the start is kept."""
+    def heavy(v, m=1000.0):
+        return pendulum_f(v, 0.5) * (m / 1000.0)
+
+    est = HybridRegressor(science=heavy, theta_bounds={"m": (0, None)}, method="erm", max_iter=2, **SMALL)
+    assert est.fit(pendulum.X_train, pendulum.y_train).theta_["m"] == pytest.approx(1000.0, rel=1e-3)
+
+
+def test_reversed_views_are_read_like_copies(pendulum, fitted):
+    """A negative-stride view (X[::-1]) is valid input; torch refuses it, so it is copied first."""
+    X, y = pendulum.X_train[::-1], pendulum.y_train[::-1]
+    a = HybridRegressor(science=pendulum_f, method="erm", max_iter=3, **SMALL).fit(X, y)
+    b = HybridRegressor(science=pendulum_f, method="erm", max_iter=3, **SMALL).fit(X.copy(), y.copy())
+    assert a.theta_ == b.theta_
+    np.testing.assert_array_equal(fitted.predict(X), fitted.predict(X.copy()))
+    assert fitted.score(X, y) == fitted.score(X.copy(), y.copy())
+    np.testing.assert_array_equal(fitted.simulate(X, 3), fitted.simulate(X.copy(), 3))
+
+
 def test_sweep_report_gives_the_spread_across_seeds(pendulum):
     cv = HybridRegressorCV(HybridRegressor(science=pendulum_f, method="erm", max_iter=5, **SMALL),
                            seeds=[0, 1]).fit(pendulum.X_train, pendulum.y_train)
