@@ -62,8 +62,12 @@ def sensitivity_curve(estimator, param_name: str, param_range: Sequence, X, y, X
     """
     if len(param_range) == 0 or len(seeds) == 0:
         raise ValueError("param_range and seeds must not be empty.")
-    if param_name not in estimator.get_params():
-        raise ValueError(f"{type(estimator).__name__} has no parameter {param_name!r}.")
+    if param_name == "random_state":
+        raise ValueError("random_state is what seeds sets for every fit; sweep it with seeds=[...].")
+    try:  # set_params knows nested names (residual__hidden), as GridSearchCV uses them
+        clone(estimator).set_params(**{param_name: param_range[0]})
+    except ValueError as exc:
+        raise ValueError(f"{type(estimator).__name__} has no parameter {param_name!r}: {exc}") from exc
     jobs = [(v, s) for v in param_range for s in seeds]
     out = Parallel(n_jobs=n_jobs)(
         delayed(_fit_one)(estimator, param_name, v, s, X, y, X_test, y_test, theta_true, metric)

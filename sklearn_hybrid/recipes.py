@@ -21,6 +21,7 @@ import torch
 from sklearn.utils import Bunch
 
 from . import HybridRegressor
+from ._validation import check_positive
 from .datasets import (estimate_derivative, fetch_cascaded_tanks, fetch_hare_lynx, fetch_silverbox,
                        load_pendulum_freeswing, make_duffing, make_pendulum, make_windows)
 from .diagnosis import (MLPOn, ZeroResidual, close_the_loop, fit_initial_state, free_run,
@@ -354,6 +355,7 @@ def run_case(name: str, fast: bool = False, method: str = "erm", max_iter: int |
     """
     if name not in CASES:
         raise ValueError(f"Unknown case {name!r}; choose one of {sorted(CASES)}.")
+    check_positive("max_iter", max_iter, integer=True, allow_none=True)  # the cases read 0 as "the default"
     case = CASES[name](fast=fast, method=method, max_iter=max_iter, **options)
     grouped = case.get("grouped", False) if grouped is None else grouped
     cv = case.get("cv") if isinstance(cv, str) and cv == "auto" else cv

@@ -101,6 +101,8 @@ def test_run_case_takes_the_case_s_evidence_settings(monkeypatch):
     assert seen[-1]["cv"] is None and seen[-1]["groups"] is None
     with pytest.raises(ValueError, match="has no groups"):
         recipes.run_case("pendulum", fast=True, max_iter=1, grouped=True)
+    with pytest.raises(ValueError, match="max_iter must be a positive integer, got 0"):  # not "the default"
+        recipes.run_case("pendulum", fast=True, max_iter=0)
 
 
 def test_loop_json_lists_the_added_terms(tmp_path, capsys):

@@ -242,8 +242,23 @@ def test_exact_components_and_bad_options(pendulum):
         close_the_loop(est, X, y, min_gain=2.0)
     # a misspelt unit name is refused before any fit (it would lose its unit silently); a user term's is kept
     unfitted = HybridRegressor(science=pendulum_f, dt=0.1, max_iter=2)
-    with pytest.raises(ValueError, match=r"units names \['vdot'\], neither a state, an input nor a user term"):
+    with pytest.raises(ValueError, match=r"units names \['vdot'\], which the model does not have"):
         close_the_loop(unfitted, X, y, state_names=NAMES, units={"v": "rad", "vdot": "rad/s"})
+    # so are other names that name nothing, names used twice, and user terms that cannot work
+    refused = [({"positive": ["zz"]}, r"positive names \['zz'\]"),
+               ({"input_names": ["u"]}, "the estimator has no inputs"),
+               ({"state_names": ["v", "v"]}, r"\['v'\] name\(s\) more than one"),
+               ({"user_terms": {"v": lambda d: d["v"]}}, r"\['v'\] name\(s\) more than one"),
+               ({"user_terms": {"v_dot^2": lambda d: d["v"]}}, "the name of a variable or a built-in term"),
+               ({"user_terms": {"f": lambda d: d["vdot"]}}, r"'f' raised KeyError.*The variables are"),
+               ({"user_terms": {"f": lambda d: d["v"].numpy()}}, "returned ndarray for 12 points"),
+               ({"user_terms": {"f": lambda d: d["v"][:5]}}, r"returned \(5,\) for 12 points"),
+               ({"user_terms": {"f": lambda d: d["v"]}, "term_kinds": ["polynomial"]}, "leaves out 'user'"),
+               ({"n_jobs": 0}, "n_jobs must be None or a non-zero integer"),
+               ({"X_test": X}, "X_test and y_test go together")]
+    for options, message in refused:
+        with pytest.raises(ValueError, match=message):
+            close_the_loop(unfitted, X, y, **{"state_names": NAMES, **options})
     assert not hasattr(unfitted, "model_")
     with pytest.raises(ValueError, match="Every component is exact"):
         close_the_loop(HybridRegressor(science=pendulum_f, dt=0.1, max_iter=2), X, y, exact=[0, 1])
@@ -359,6 +374,8 @@ def test_bad_input_is_reported(pendulum):
         ResidualDiagnosis(components=[5]).fit(est, data.X_train)
     with pytest.raises(ValueError, match="min_residual"):
         ResidualDiagnosis(min_residual=2).fit(est, data.X_train)
+    with pytest.raises(ValueError, match="max_points must be a positive integer"):
+        ResidualDiagnosis(max_points=0).fit(est, data.X_train)
     with pytest.raises(ValueError, match="MLPOn"):
         MLPOn([3])(((2,),), (2,))
 
@@ -550,6 +567,22 @@ def test_a_screening_refit_that_gets_lost_starts_again_from_the_model_it_extends
     theta = _screen(judge, damped, start, {}, n_kept=0)
     assert judge.training_error(damped, theta) < judge.training_error(damped, {**start, damped.terms[0][2]: 0.0})
     assert theta[damped.terms[0][2]] == pytest.approx(-0.5, rel=0.1)
+
+
+def _pendulum_with_damping_f(v, omega=0.5, gamma=0.0):
+    return torch.stack([v[:, 1], -(2 * torch.pi * omega) ** 2 * torch.sin(v[:, 0]) - gamma * v[:, 1]], dim=-1)
+
+
+def test_the_estimators_fixed_parameters_stay_fixed_in_every_refit(pendulum):
+    """theta_fixed=["gamma"] (no damping, by the user's choice): the network-free refits must not move
+    gamma, so the missing damping is found as a term; it used to be absorbed by a free gamma."""
+    data, _ = pendulum
+    est = HybridRegressor(science=_pendulum_with_damping_f, theta_fixed=["gamma"], method="erm", dt=0.1, lr=1e-2,
+                          max_iter=100, random_state=0)
+    out = close_the_loop(est, data.X_train, data.y_train, state_names=NAMES)
+    assert out.science_theta["gamma"] == 0.0 and out.science_only.theta_["gamma"] == 0.0
+    assert [t["term"] for t in out.added] == ["v_dot"]
+    assert out.added[0]["coef"] == pytest.approx(-0.5, rel=0.1)
 
 
 def test_scoring_in_a_worker_process_gives_the_same_table(pendulum):

@@ -315,6 +315,15 @@ def test_windowing_counts():
                                                  "test": slice(70, 95)}
     with pytest.raises(ValueError, match="window"):
         make_wind_tunnel_simulated(n_runs=1, window=0)
+    # a zero time step would leave the fans still (targets of noise alone); nothing is silently empty
+    for make, options, message in [(make_wind_tunnel_simulated, {"dt": 0}, "dt must be > 0"),
+                                   (make_wind_tunnel_simulated, {"dt": np.nan}, "dt must be finite"),
+                                   (make_wind_tunnel_simulated, {"n_runs": 0}, "n_runs must be"),
+                                   (make_wind_tunnel_simulated, {"n_steps": 100}, "n_steps must be an integer >= 200"),
+                                   (make_light_tunnel_simulated, {"n_samples": -3}, "n_samples must be"),
+                                   (make_light_tunnel_simulated, {"image_size": 0}, "image_size must be")]:
+        with pytest.raises(ValueError, match=message):
+            make(**options)
 
 
 def _lt_tree(home, n=12, fmt="png"):

@@ -139,6 +139,22 @@ def test_random_state_determinism_and_no_global_rng(library, states):
     np.testing.assert_array_equal(a.coef_, b.coef_)
 
 
+def test_coefficients_do_not_depend_on_the_terms_units():
+    """x in mm beside v in m/s: x^3 is 1e6 times v; the refit must not drop the smaller column."""
+    rng = np.random.RandomState(0)
+    Z = np.c_[rng.randn(500), rng.randn(500)]
+    r = 2 * Z[:, 0] ** 3 - 5 * Z[:, 1] + 1e-3 * rng.randn(500)
+    fits = []
+    for unit in (1.0, 100.0):  # the same data, x written in another unit
+        lib = CandidateLibrary(degree=3, include_bias=False)
+        T = lib.fit_transform(Z * [unit, 1.0], feature_names=["x", "v"])
+        fits.append(SparseTermRegression(n_bootstrap=0).fit(T, r, list(lib.term_names_)))
+    names = list(fits[0].term_names_)
+    for fit, unit in zip(fits, (1.0, 100.0)):
+        assert fit.coef_[0, names.index("x^3")] * unit**3 == pytest.approx(2.0, rel=1e-3)
+        assert fit.coef_[0, names.index("v")] == pytest.approx(-5.0, rel=1e-3)
+
+
 def test_state_reset_on_refit(library, states):
     Theta = library.transform(states)
     model = SparseTermRegression(n_bootstrap=5, random_state=0)

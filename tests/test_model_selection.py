@@ -29,3 +29,15 @@ def test_sensitivity_curve_matches_separate_fits():
     with pytest.raises(ValueError, match="no parameter 'gamma'"):
         sensitivity_curve(est, "gamma", [1], d.X_train, d.y_train, d.X_test, d.y_test,
                           theta_true=d.theta_true)
+
+
+def test_sensitivity_curve_takes_nested_names_as_grid_search_does():
+    d = make_pendulum(n_train=6, n_val=2, n_test=4, n_steps=3, random_state=0)
+    est = HybridRegressor(science=pendulum_f, dt=0.2, max_iter=3, residual={"hidden": (8,)})
+    res = sensitivity_curve(est, "residual__hidden", [(4,), (8,)], d.X_train, d.y_train, d.X_test, d.y_test,
+                            theta_true=d.theta_true, seeds=[0])
+    single = est.set_params(residual__hidden=(4,), random_state=0).fit(d.X_train, d.y_train)
+    assert res.theta[0][0] == single.theta_
+    with pytest.raises(ValueError, match="sweep it with seeds"):  # seeds would overwrite it silently
+        sensitivity_curve(est, "random_state", [1, 2], d.X_train, d.y_train, d.X_test, d.y_test,
+                          theta_true=d.theta_true)

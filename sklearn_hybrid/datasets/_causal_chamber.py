@@ -22,6 +22,7 @@ from sklearn.utils import Bunch, check_random_state
 
 from ._base import ChecksumError, RemoteFile, extract_zip, fetch_file, get_data_home
 from ._base import read_csv_columns
+from ._synthetic import _check_float, _check_int
 
 __all__ = ["fetch_light_tunnel", "fetch_wind_tunnel", "hexagon_mask", "light_tunnel_inputs",
            "make_light_tunnel_simulated", "make_wind_tunnel_simulated", "model_f3_colour",
@@ -337,6 +338,10 @@ def make_wind_tunnel_simulated(
     data : Bunch
         Same fields as :func:`fetch_wind_tunnel`, ``simulated=True``.
     """
+    _check_window(window, stride)
+    n_runs, n_steps = _check_int("n_runs", n_runs, 1), _check_int("n_steps", n_steps, window)
+    dt = _check_float("dt", dt, 0.0, strict=True)
+    ambient_pressure = _check_float("ambient_pressure", ambient_pressure)
     rng = check_random_state(random_state)
     u = wind_tunnel_inputs(n_steps)
     w_in, w_out = _fan_speed(u["load_in"], dt), _fan_speed(u["load_out"], dt)
@@ -411,6 +416,7 @@ def make_light_tunnel_simulated(
     """
     from scipy.ndimage import gaussian_filter
 
+    n_samples, image_size = _check_int("n_samples", n_samples, 1), _check_int("image_size", image_size, 1)
     rng = check_random_state(random_state)
     X = light_tunnel_inputs(n_samples)
     colour = model_f3_colour(X).astype(np.float32)

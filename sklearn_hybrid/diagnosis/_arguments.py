@@ -10,10 +10,11 @@ from numbers import Real
 import numpy as np
 
 from ..science import read_signature
+from .candidates import _free_columns
 from .residual import _names, parameter_jacobian
 
 
-def _check_options(validation_fraction, max_terms, n_candidates, cv, z, min_gain):
+def _check_options(validation_fraction, max_terms, n_candidates, cv, z, min_gain, n_jobs, X_test, y_test):
     fraction = validation_fraction
     if isinstance(fraction, bool) or not isinstance(fraction, Real) or not 0 < fraction < 1:
         raise ValueError(f"validation_fraction must be in (0, 1), got {validation_fraction!r}.")
@@ -26,6 +27,10 @@ def _check_options(validation_fraction, max_terms, n_candidates, cv, z, min_gain
     for name, value in (("max_terms", max_terms), ("n_candidates", n_candidates)):
         if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
             raise ValueError(f"{name} must be a positive integer, got {value!r}.")
+    if n_jobs is not None and (isinstance(n_jobs, bool) or not isinstance(n_jobs, (int, np.integer)) or n_jobs == 0):
+        raise ValueError(f"n_jobs must be None or a non-zero integer (joblib's convention), got {n_jobs!r}.")
+    if (X_test is None) != (y_test is None):
+        raise ValueError("X_test and y_test go together: give both, or neither.")
 
 
 def _uncertain_components(estimator, X, y, exact, state_names) -> list[int] | None:
@@ -42,7 +47,8 @@ def _uncertain_components(estimator, X, y, exact, state_names) -> list[int] | No
                                                        **dict(estimator.theta_init or {})}
         sample = X[: min(len(X), 64)]
         args = [sample[:, :d]] + ([sample[:, d:d + n_inputs]] if n_inputs else [])
-        jac, _ = parameter_jacobian(estimator.science, theta, args)
+        # an equation whose only parameters are fixed (theta_fixed) has nothing to estimate either
+        jac = _free_columns(*parameter_jacobian(estimator.science, theta, args), set(estimator.theta_fixed or ()))
         if jac.shape[-1] == 0:
             return None
         fixed = [j for j in range(jac.shape[1]) if not np.any(np.abs(jac[:, j, :]) > 1e-12)]
@@ -68,18 +74,31 @@ def _offset_states(estimator, X, y, offsets, state_names) -> list[int]:
     return out
 
 
-def _check_units(estimator, X, y, units, state_names, input_names, user_terms) -> None:
-    """``units`` may name the states, the inputs and the user's terms only: a misspelt name would lose its
-    unit silently."""
-    if not units:
-        return
+def _check_names(estimator, X, y, state_names, input_names, units, user_terms,
+                 positive) -> tuple[list[str], np.ndarray]:
+    """Every name an option gives must name something, and no two things one name: a misspelt name
+    would lose its unit or its positivity silently, and a shared one would label a term with the
+    wrong variable. Returns the variable names (states, then inputs) and their values in ``X``
+    (the initial states and first inputs), for checking the candidate terms before any fit."""
+    X = np.asarray(X, dtype=float)
     n_inputs = (estimator.n_inputs or 0) if estimator.structure == "ode" else 0
-    known = (_names(state_names, _n_variables(estimator, X, y), "x", "state_names")
-             + (_names(input_names, n_inputs, "u", "input_names") if n_inputs else []) + list(user_terms or {}))
-    unknown = [k for k in units if k not in known]
-    if unknown:
-        raise ValueError(f"units names {unknown}, neither a state, an input nor a user term; the names are "
-                         f"{known}.")
+    n = _n_variables(estimator, X, y)
+    if input_names is not None and not n_inputs:
+        raise ValueError(f"input_names {list(input_names)} given, but the estimator has no inputs "
+                         f"(n_inputs={estimator.n_inputs}, structure={estimator.structure!r}).")
+    variables = (_names(state_names, n, "x", "state_names")
+                 + (_names(input_names, n_inputs, "u", "input_names") if n_inputs else []))
+    names = variables + list(user_terms or {})
+    twice = sorted({name for name in names if names.count(name) > 1})
+    if twice:
+        raise ValueError(f"{twice} name(s) more than one of the states, inputs and user terms {names}; "
+                         "each needs its own name.")
+    for option, given, known in (("units", units, names), ("positive", positive, variables)):
+        unknown = [k for k in (given or ()) if k not in known]
+        if unknown:
+            raise ValueError(f"{option} names {unknown}, which the model does not have; the names are {known}.")
+    flat = X.reshape(len(X), -1)
+    return variables, flat[:, :n + n_inputs]
 
 
 def _state_indices(items, names: list[str], option: str) -> list[int]:

@@ -92,7 +92,7 @@ def _rank_by_fit(columns: list[tuple], science: Callable, current: Callable, add
     """
     base = fit.predict(current, theta).ravel()
     r = fit.y.ravel() - base
-    J, _ = finite_differences(lambda values: fit.predict(current, values).ravel(), theta)
+    J = _free_columns(*finite_differences(lambda values: fit.predict(current, values).ravel(), theta), fit.fixed)
     J = J[:, np.all(np.isfinite(J), axis=0)]
     Q = np.linalg.qr(J)[0] if J.shape[1] else np.zeros((len(base), 0))
     r = r - Q @ (Q.T @ r)
@@ -122,6 +122,11 @@ def _rank_by_fit(columns: list[tuple], science: Callable, current: Callable, add
             if (j, term.name) not in best or gain > best[j, term.name]["gain"]:
                 best[j, term.name] = {**cand, "coef": float(c @ r) / cc, "gain": gain, "ranked_by": "fit"}
     return sorted(best.values(), key=lambda t: -t["gain"])
+
+
+def _free_columns(jac: np.ndarray, names: Sequence[str], fixed: set) -> np.ndarray:
+    """The sensitivities of the parameters a refit may move: a fixed one cannot absorb a shift."""
+    return jac[..., [i for i, name in enumerate(names) if name.split("[")[0] not in fixed]]
 
 
 def _interleave(ranked: list[dict], n: int) -> list[dict]:

@@ -32,7 +32,8 @@ class ScienceFit:
     Parameters
     ----------
     estimator : fitted HybridRegressor
-        Supplies the structure (ODE grid, observed components, inputs) and ``theta_bounds``.
+        Supplies the structure (ODE grid, observed components, inputs), ``theta_bounds`` and
+        ``theta_fixed`` (held at the values a fit starts from).
     X, y : array-like
         Samples, as for the estimator's ``fit``.
     fit_initial_states : bool, default=False
@@ -48,6 +49,7 @@ class ScienceFit:
         X = estimator._fitted_X(X)
         self.structure = estimator.model_.structure
         self.bounds = dict(estimator.theta_bounds or {})
+        self.fixed = set(estimator.theta_fixed or ())  # held at the value a fit starts from
         with torch.no_grad():
             self.inputs = self.structure.tensors(estimator._structure_X(X), torch.float64)
         self.y = np.asarray(y, dtype=float).reshape(len(X), -1)
@@ -65,6 +67,7 @@ class ScienceFit:
         """The same fit restricted to some samples (a train / validation split)."""
         out = object.__new__(ScienceFit)
         out.structure, out.bounds, out.y, out.latent = self.structure, self.bounds, self.y[rows], self.latent
+        out.fixed = self.fixed
         out.inputs = tuple(t[torch.as_tensor(rows)] for t in self.inputs)
         out.initial_states, out.anchor = self.initial_states[rows].copy(), self.anchor[rows].copy()
         return out
@@ -165,7 +168,9 @@ class ScienceFit:
         """
         _, defaults = read_signature(science)
         start = {k: np.asarray(theta.get(k, v), dtype=float) for k, v in defaults.items()}
-        names, shapes = list(start), [start[k].shape for k in start]
+        held = {k: v for k, v in start.items() if k in self.fixed}  # the estimator's theta_fixed
+        names = [k for k in start if k not in held]
+        shapes = [start[k].shape for k in names]
         x0 = np.concatenate([start[k].ravel() for k in names])
         bounds = {**self.bounds, **dict(extra_bounds or {})}
         low = np.concatenate([np.broadcast_to(_side(bounds.get(k), 0, -np.inf), s).ravel()
@@ -181,7 +186,9 @@ class ScienceFit:
                 size = math.prod(s)
                 out[k] = x[i:i + size].reshape(s)
                 i += size
-            return out
+            for k, v in held.items():  # as tensors inside a vectorised simulation
+                out[k] = torch.as_tensor(v, dtype=x.dtype) if torch.is_tensor(x) else v
+            return {k: out[k] for k in start}
 
         scale = 1.0 / math.sqrt(self.y.size)
 

@@ -21,7 +21,7 @@ from torch import nn
 from ..engine import DivergenceError
 from ..residual import MLP, MaskedMLP
 from ..science import read_signature
-from ._arguments import _check_options, _check_units, _n_states, _offset_states, _uncertain_components
+from ._arguments import _check_names, _check_options, _n_states, _offset_states, _uncertain_components
 from .evidence import ScienceFit, held_out_splits
 from .report import Scoring, format_table, residual_profile
 from .residual import _names, science_output
@@ -223,7 +223,7 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         if verbose:
             print(message if message.startswith(("  ", "|")) or "\n" in message
                   else f"[{time.perf_counter() - start:4.0f} s] {message}", flush=True)
-    _check_options(validation_fraction, max_terms, n_candidates, cv, z, min_gain)
+    _check_options(validation_fraction, max_terms, n_candidates, cv, z, min_gain, n_jobs, X_test, y_test)
     # the held-out split checks the groups and its own limits before anything is fitted
     splits, codes = held_out_splits(len(y), validation_fraction, cv, groups)
     if fit_initial_states and (estimator.structure != "ode" or estimator.observed is None):
@@ -234,7 +234,9 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
                          "with one theta shared by every sample. Close the loop on a model with a shared theta.")
     uncertain = _uncertain_components(estimator, X, y, exact, state_names)
     offsets = _offset_states(estimator, X, y, offsets, state_names)
-    _check_units(estimator, X, y, units, state_names, input_names, user_terms)
+    variables, first_values = _check_names(estimator, X, y, state_names, input_names, units, user_terms, positive)
+    if terms is None:  # the user's terms are tried on the data's first states before anything is fitted
+        physics_terms(variables, first_values, units, term_kinds, user_terms, positive)
     try:
         check_is_fitted(estimator, "model_")
         before = estimator

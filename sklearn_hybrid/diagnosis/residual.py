@@ -24,6 +24,7 @@ from sklearn.base import BaseEstimator, clone
 from sklearn.utils import check_random_state
 from sklearn.utils.validation import check_is_fitted
 
+from .._validation import check_positive
 from .library import CandidateLibrary
 from .sparse import SparseTermRegression
 
@@ -204,6 +205,7 @@ class ResidualDiagnosis(BaseEstimator):
         check_is_fitted(estimator, "model_")
         if not (isinstance(self.min_residual, (int, float)) and 0 <= self.min_residual < 1):
             raise ValueError(f"min_residual must be in [0, 1), got {self.min_residual!r}.")
+        check_positive("max_points", self.max_points, integer=True)
         trace = estimator.residual_trace(X)
         points = trace["points"].reshape(len(trace["points"]), -1)
         inputs = trace["inputs"]

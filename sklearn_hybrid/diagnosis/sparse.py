@@ -195,7 +195,7 @@ class SparseTermRegression(RegressorMixin, BaseEstimator):
     cv : int, default=5
         Number of contiguous folds when ``criterion="cv"``.
     random_state : int, RandomState instance or None, default=None
-        Seeds the bootstrap; the global RNG is never used.
+        Seeds the bootstrap; None draws from numpy's global RNG, as in scikit-learn.
 
     Attributes
     ----------
@@ -290,8 +290,10 @@ class SparseTermRegression(RegressorMixin, BaseEstimator):
             for j, S in enumerate(supports):
                 cols = usable[list(S)]
                 self.support_[j, cols] = True
-                if S:  # the unbiased refit, on the original columns
-                    self.coef_[j, cols] = LinearRegression(fit_intercept=False).fit(Theta[:, cols], R[:, j]).coef_
+                if S:  # the unbiased refit, on the unit-RMS columns too: LinearRegression's rank cut-off
+                    # would drop a column a million times smaller than another (x in mm beside v in m/s)
+                    refit = LinearRegression(fit_intercept=False).fit(Xs[:, list(S)], R[:, j])
+                    self.coef_[j, cols] = refit.coef_ / scale[cols]
                     self.explained_fraction_[j, cols] = _shares(total.G, total.B[:, j], float(total.yy[j]), S)
             fitted = Theta @ self.coef_.T
             yy = np.sum(R**2, axis=0)

@@ -25,8 +25,9 @@ import numpy as np
 import torch
 
 from ..science import read_signature
-from .candidates import (_augment, _entries, _groups, _initial_values, _interleave, _merge, _n_parameters, _offset,
-                         _public, _rank, _rank_by_fit, _shape_bounds, _term_columns, _where, _with_fitted)
+from .candidates import (_augment, _entries, _free_columns, _groups, _initial_values, _interleave, _merge,
+                         _n_parameters, _offset, _public, _rank, _rank_by_fit, _shape_bounds, _term_columns, _where,
+                         _with_fitted)
 from .evidence import ScienceFit, evidence
 from .report import format_gain
 from .residual import parameter_jacobian, science_output
@@ -168,7 +169,7 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
     while len(added) < max_terms:
         step += 1
         remaining = learned - science_output(current, theta_now, args)
-        jac, _ = parameter_jacobian(current, theta_now, args)
+        jac = _free_columns(*parameter_jacobian(current, theta_now, args), fit.fixed)
         taken = {(t["component"], t["term"]) for t in added} | rejected
         by_residual = _interleave(_rank(columns, remaining, jac, components, taken), n_candidates)
         by_fit = _rank_by_fit(columns, science, current, added, theta_now, judge.screen, scale, components, taken,

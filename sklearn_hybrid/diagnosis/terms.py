@@ -148,12 +148,33 @@ def physics_terms(variables: Sequence[str], values: np.ndarray, units: Mapping[s
         col, u = values[:, i], units.get(x, "")
         scale = float(np.sqrt(np.mean(col**2))) or 1.0
         terms += _single_variable(x, col, scale, u, kinds, x in positive)
+    if user_terms and "user" not in kinds:
+        raise ValueError(f"user_terms {list(user_terms)} given, but kinds {kinds} leaves out 'user'.")
+    taken = {t.name for t in terms} | set(variables)
     for name, func in (user_terms or {}).items():
         if not callable(func):
             raise TypeError(f"user term {name!r} is not callable.")
-        if "user" in kinds:
-            terms.append(Term(name, func, "user", unit=units.get(name, "")))
+        if name in taken:
+            raise ValueError(f"user term {name!r} has the name of a variable or a built-in term; rename it.")
+        _check_user_term(name, func, variables, values)
+        terms.append(Term(name, func, "user", unit=units.get(name, "")))
     return terms
+
+
+def _check_user_term(name: str, func: Callable, variables: Sequence[str], values: np.ndarray) -> None:
+    """The term is called as the selection will call it: on a dict of float64 tensors, one per
+    variable, returning one value per point (or one for all)."""
+    d = {v: torch.as_tensor(values[:, i].copy()) for i, v in enumerate(variables)}
+    try:
+        out = func(d)
+    except Exception as exc:
+        hint = f" The variables are {list(variables)}." if isinstance(exc, KeyError) else ""
+        raise ValueError(f"user term {name!r} raised {type(exc).__name__}: {exc}.{hint} It receives a dict of "
+                         "torch tensors by variable name and must use torch operations.") from exc
+    if not torch.is_tensor(out) or out.shape not in ((), (len(values),)):
+        got = tuple(out.shape) if torch.is_tensor(out) else type(out).__name__
+        raise ValueError(f"user term {name!r} returned {got} for {len(values)} points; it must return a torch "
+                         f"tensor of shape ({len(values)},).")
 
 
 def _polynomials(variables: Sequence[str], units: Mapping[str, str]) -> list[Term]:
