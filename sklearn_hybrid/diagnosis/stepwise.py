@@ -226,10 +226,10 @@ def _screen(judge: _Judge, science, start: dict, bounds: dict, n_kept: int) -> d
     """The screening refit of a candidate model whose terms after the first ``n_kept`` are new.
 
     With the new coefficients at zero the candidate is the model the step continues from, so its
-    refit can only end worse on its own training samples when the search got lost: a ranked
-    coefficient that drives the simulation off (a constant that takes a population below zero,
-    where it then grows without bound) leaves the least-squares search far from any minimum.
-    Such a refit starts again from the new coefficients at zero.
+    refit can only end worse on its own training samples when the search got lost: a start that
+    makes the simulation overflow (``exp(k*x)`` with its ranked coefficient and grid ``k``) clamps
+    every residual, the Jacobian is zero and least squares stops where it began. Such a refit
+    starts again from the new coefficients at zero.
     """
     fitted = judge.fit(science, start, bounds, screening=True)
     nested = {**start, **{coef: 0.0 for _, _, coef in science.terms[n_kept:]}}
