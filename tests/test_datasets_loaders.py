@@ -313,6 +313,10 @@ def test_windowing_counts():
     assert cc._windows(rows[:150], 200, 50).shape == (0, 200)
     assert cc._split(95, (6000, 1000, 2500)) == {"train": slice(0, 60), "val": slice(60, 70),
                                                  "test": slice(70, 95)}
+    # a 9-sample file: the proportional cut would leave validation empty; every part keeps a sample
+    assert cc._split(9, (6000, 1000, 2500)) == {"train": slice(0, 4), "val": slice(4, 5), "test": slice(5, 9)}
+    with pytest.raises(ValueError, match="2 samples cannot be split"):
+        cc._split(2, (600, 150, 235))
     with pytest.raises(ValueError, match="window"):
         make_wind_tunnel_simulated(n_runs=1, window=0)
     # a zero time step would leave the fans still (targets of noise alone); nothing is silently empty

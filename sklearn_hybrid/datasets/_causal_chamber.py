@@ -105,11 +105,20 @@ _SIM_LT = ("SIMULATED, NOT MEASURED. Exact commanded inputs of the publisher's g
 
 
 def _split(n: int, sizes: tuple[int, ...]) -> dict[str, slice]:
-    """Consecutive train/val/test slices; proportional to ``sizes`` when n < sum(sizes)."""
+    """Consecutive train/val/test slices; proportional to ``sizes`` when n < sum(sizes).
+
+    A short record still gets one sample in every part: a part the proportional cut leaves empty
+    (validation, for a 9-sample light-tunnel file) takes one from the largest.
+    """
     total = sum(sizes)
+    if n < len(sizes):
+        raise ValueError(f"{n} samples cannot be split into train, val and test; at least {len(sizes)} are needed.")
     if n < total:
         sizes = [n * s // total for s in sizes[:-1]]
         sizes.append(n - sum(sizes))
+        for i in np.flatnonzero(np.array(sizes) == 0):
+            sizes[int(np.argmax(sizes))] -= 1
+            sizes[i] = 1
     bounds = np.cumsum([0, *sizes])
     names = ("train", "val", "test")
     return {k: slice(int(a), int(b)) for k, a, b in zip(names, bounds, bounds[1:])}
