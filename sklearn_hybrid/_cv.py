@@ -5,13 +5,14 @@ from __future__ import annotations
 import itertools
 import math
 import numbers
+import warnings
 
 import numpy as np
 import torch
 from joblib import Parallel, delayed, effective_n_jobs
 from sklearn.base import BaseEstimator, RegressorMixin, clone
 from sklearn.metrics import check_scoring
-from sklearn.utils.validation import check_is_fitted
+from sklearn.utils.validation import check_is_fitted, validate_data
 
 from ._batched import BATCHABLE_METHODS, train_batched
 from ._estimator import HybridRegressor
@@ -29,9 +30,11 @@ def _values(name, values, default, kind=numbers.Real, positive=True):
     if not values:
         raise ValueError(f"{name} must hold at least one value.")
     for v in values:
-        if not isinstance(v, kind) or isinstance(v, bool) or (positive and not v > 0):
+        if not isinstance(v, kind) or isinstance(v, bool) or not math.isfinite(v) or (positive and not v > 0):
             what = "integers" if kind is numbers.Integral else "numbers"
             raise ValueError(f"{name} must hold {'positive ' if positive else ''}{what}, got {v!r}.")
+    if len(set(values)) < len(values):  # a repeated seed would report a spread of 0 as if measured
+        raise ValueError(f"{name} holds a value more than once: {values}.")
     return values
 
 
@@ -171,6 +174,8 @@ class HybridRegressorCV(RegressorMixin, BaseEstimator):
         rhos = _values("rhos", self.rhos, est.rho)
         lams = _values("lams", self.lams, est.lam)
         seeds = _values("seeds", self.seeds, default_seed, kind=numbers.Integral, positive=False)
+        if not all(0 <= s < 2**32 for s in seeds):  # numpy's seeding range
+            raise ValueError(f"seeds must be integers in [0, 2**32 - 1], got {seeds}.")
         return [{"rho": r, "lam": lam, "random_state": s}
                 for r, lam, s in itertools.product(rhos, lams, seeds)]
 
@@ -243,7 +248,7 @@ class HybridRegressorCV(RegressorMixin, BaseEstimator):
             member._set_fitted(setup, member_history)
             if diverged[k] < 0:
                 scores[k] = check_scoring(member, scoring=self.scoring)(member, X_val, y_val)
-        best = int(np.argmax(scores))
+        best = self._best(scores, diverged, len(val_idx))
         self.estimators_, self.best_index_ = members, best
         set_feature_info(self, features)
         self.best_estimator_ = members[best]
@@ -257,6 +262,19 @@ class HybridRegressorCV(RegressorMixin, BaseEstimator):
             spread = np.std([np.asarray(members[k].theta_[name]) for k in same], axis=0)
             self.theta_std_[name] = float(spread) if np.ndim(value) == 0 else spread
         return self
+
+    def _best(self, scores, diverged, n_val):
+        """Index of the best score; a NaN score (np.argmax would pick it) ranks last, with a warning."""
+        nan = np.isnan(scores)
+        if nan.all():
+            raise ValueError(
+                f"Every member's validation score is NaN ({self.scoring or 'R^2'} on {n_val} validation "
+                "sample(s); R^2 needs at least two): raise validation_fraction, give more samples, or "
+                "choose another scoring.")
+        if nan.any():
+            warnings.warn(f"The validation score of member(s) {np.flatnonzero(nan).tolist()} is NaN; "
+                          "they rank last.", UserWarning, stacklevel=3)
+        return int(np.argmax(np.where(nan, -np.inf, scores)))
 
     def _train(self, setups, params):
         """Train the members, in ``n_jobs`` groups at once (worker processes of one torch thread each)."""
@@ -315,7 +333,7 @@ class HybridRegressorCV(RegressorMixin, BaseEstimator):
         """
         check_is_fitted(self)
         best = self.best_estimator_
-        n_seeds = len(_values("seeds", self.seeds, 0, kind=numbers.Integral, positive=False))
+        n_seeds = len(set(self.cv_results_["seed"].tolist()))  # of the fit, whatever set_params says since
         lines = [f"members: {len(self.estimators_)} (rho x lam x {n_seeds} seed(s)), "
                  f"{best.max_iter} iterations each",
                  f"best: {self.best_params_}, score {self.cv_results_['score'][self.best_index_]:.4g}"]
@@ -337,15 +355,18 @@ class HybridRegressorCV(RegressorMixin, BaseEstimator):
         ndarray of shape (n_samples, ...)
             Shaped as ``y`` in ``fit``.
         """
-        check_is_fitted(self)
-        return self.best_estimator_.predict(X)
+        return self.best_estimator_.predict(self._fitted_X(X))
 
     def predict_theta(self, X):
         """Each sample's theta according to the best member (see ``HybridRegressor.predict_theta``)."""
-        check_is_fitted(self)
-        return self.best_estimator_.predict_theta(X)
+        return self.best_estimator_.predict_theta(self._fitted_X(X))
 
     def score(self, X, y, sample_weight=None):
         """R^2 of the best member (targets flattened per sample)."""
+        return self.best_estimator_.score(self._fitted_X(X), y, sample_weight=sample_weight)
+
+    def _fitted_X(self, X):
+        """``X`` checked against the fit's feature names and count (the members were fitted on arrays)."""
         check_is_fitted(self)
-        return self.best_estimator_.score(X, y, sample_weight=sample_weight)
+        validate_data(self, X, reset=False, skip_check_array=True)
+        return np.asarray(X)

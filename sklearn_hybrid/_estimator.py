@@ -20,7 +20,7 @@ from . import encoder as _encoder
 from .engine import TrainConfig, cosine_lr, explain_nonfinite, theta_drift, train
 from ._extras import EstimatorExtras, _check_sample_weight, _holdout
 from ._memory import check_fit_memory, explained_memory_errors
-from ._validation import check_positive, set_feature_info, torch_threads, validate_into_copy
+from ._validation import check_positive, check_target_layout, set_feature_info, torch_threads, validate_into_copy
 from ._report import theta_uncertainty
 from .methods import make_method
 from .residual import build_residual
@@ -322,7 +322,11 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
                                               y_numeric=True, dtype=np.float64, order="C")
         y = np.ascontiguousarray(y)  # order= reaches X only
         dtype, device = _DTYPES[self.dtype], resolve_device(self.device)
-        seed = int(check_random_state(self.random_state).randint(np.iinfo(np.int32).max))
+        try:
+            seed = int(check_random_state(self.random_state).randint(np.iinfo(np.int32).max))
+        except ValueError as error:  # numpy's message names neither the argument nor its value
+            raise ValueError(f"random_state must be None, a RandomState or an integer in [0, 2**32 - 1], "
+                             f"got {self.random_state!r}.") from error
         science = ScienceModel(self.science, self.theta_init, self.theta_bounds,
                                self.theta_fixed, dtype=dtype)
         structure = self._make_structure()
@@ -407,7 +411,7 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
                 f"The training loss spiked at iterations {history['lr_halved_at']}; each time the last "
                 "good state was restored and the learning rates halved. A lower lr would train more smoothly.",
                 UserWarning, stacklevel=3)
-        self._fitted_structure = self._structure_params()
+        self._fitted_params = self.get_params(deep=False)  # what the report and the structure check read
         set_feature_info(self, setup.features)
 
     def _fitted_X(self, X):
@@ -542,4 +546,5 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
         """R^2 of the prediction over all output values (targets flattened per sample)."""
         pred = self.predict(X)
         n = len(pred)
-        return r2_score(np.reshape(y, (n, -1)), pred.reshape(n, -1), sample_weight=sample_weight)
+        y = check_target_layout(y, pred)
+        return r2_score(y.reshape(n, -1), pred.reshape(n, -1), sample_weight=sample_weight)

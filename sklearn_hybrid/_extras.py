@@ -22,7 +22,7 @@ __all__ = ["EstimatorExtras"]
 
 #: Parameters that fix how predictions are computed; changing one after fit would be ignored.
 STRUCTURE_PARAMS = ("structure", "dt", "n_substeps", "solver", "observed", "n_inputs",
-                    "input_interp")
+                    "input_interp", "theta_encoder")
 
 
 def _same(a, b) -> bool:
@@ -115,15 +115,12 @@ class EstimatorExtras:
             self.residual = spec
         return self
 
-    def _structure_params(self) -> dict:
-        return {name: getattr(self, name) for name in STRUCTURE_PARAMS}
-
     def _check_structure_unchanged(self) -> None:
         """Raise if a parameter that fixes the predictions changed since fit (it would be ignored)."""
-        fitted = getattr(self, "_fitted_structure", None)
+        fitted = getattr(self, "_fitted_params", None)
         if fitted is None:
             return
-        changed = [k for k, v in self._structure_params().items() if not _same(v, fitted[k])]
+        changed = [k for k in STRUCTURE_PARAMS if not _same(getattr(self, k), fitted[k])]
         if changed:
             detail = ", ".join(f"{k}={fitted[k]!r} -> {getattr(self, k)!r}" for k in changed)
             raise ValueError(
@@ -135,8 +132,9 @@ class EstimatorExtras:
     def simulate(self, x0, n_steps=None, *, u=None, dt=None, use_residual=True) -> np.ndarray:
         """Simulate the fitted hybrid ODE from initial states over any horizon and output spacing.
 
-        The RK4 step is never longer than in training: with another ``dt`` the
-        number of steps per output interval becomes
+        The integration step (RK4, or a fixed-grid torchdiffeq solver) is never
+        longer than in training: with another ``dt`` the number of steps per
+        output interval becomes
         ``ceil(n_substeps * dt / dt_fit)``.
 
         Parameters
@@ -144,6 +142,8 @@ class EstimatorExtras:
         x0 : array-like of shape (n, ...)
             Initial states (all components, observed or not; without the
             inputs of a forced system); one state alone may drop the leading axis.
+            A DataFrame's columns must be the fit's first feature names (the
+            states), in their order.
         n_steps : int, optional
             Number of output intervals; for a forced system it follows from ``u``.
         u : array-like of shape (n, n_steps + 1, n_inputs), optional
@@ -172,6 +172,7 @@ class EstimatorExtras:
             raise ValueError("simulate does not support a theta_encoder yet (theta is inferred per "
                              "input window); use predict.")
         state_shape = tuple(s.state_shape)
+        self._check_state_names(x0)
         x0 = np.ascontiguousarray(x0, dtype=float)  # torch refuses negative strides (a reversed view)
         single = x0.shape == state_shape
         x0 = x0[None] if single else x0
@@ -200,6 +201,15 @@ class EstimatorExtras:
             out = torch.cat([x[:, None], states], dim=1).cpu().numpy().astype(float)
         out[:, 0] = x0  # exactly the given states, not their rounding to the model's dtype
         return out[0] if single else out
+
+    def _check_state_names(self, x0) -> None:
+        """Refuse columns named otherwise than the fit's states (predict does the same for X)."""
+        columns, fitted = getattr(x0, "columns", None), getattr(self, "feature_names_in_", None)
+        if columns is None or fitted is None:
+            return
+        columns, states = [str(c) for c in columns], [str(c) for c in fitted[:len(columns)]]
+        if columns != states:
+            raise ValueError(f"x0 has columns {columns}; this model was fitted with states {states}, in that order.")
 
     @staticmethod
     def _check_inputs(s, u, n_steps, n, single):
@@ -247,12 +257,13 @@ class EstimatorExtras:
         """
         check_is_fitted(self)
         science = self.model_.science
-        func = getattr(self.science, "__name__", type(self.science).__name__)
-        stop = (f"stopped early: loss and theta changed by less than tol={self.tol} over "
-                f"{self.n_iter_no_change} iterations" if self.stopped_early_ else
+        fit = self._fitted_params  # the settings of the fit, whatever set_params changed since
+        func = getattr(fit["science"], "__name__", type(fit["science"]).__name__)
+        stop = (f"stopped early: loss and theta changed by less than tol={fit['tol']} over "
+                f"{fit['n_iter_no_change']} iterations" if self.stopped_early_ else
                 "ran to max_iter")
-        lines = [f"science: {func}, structure: {self.structure}, method: {self.method}",
-                 f"iterations: {self.n_iter_} of max_iter={self.max_iter} ({stop})",
+        lines = [f"science: {func}, structure: {fit['structure']}, method: {fit['method']}",
+                 f"iterations: {self.n_iter_} of max_iter={fit['max_iter']} ({stop})",
                  f"training loss (last iteration): {self.history_['loss'][-1]:.4g}"]
         if "validation_loss" in self.history_ and len(self.history_["validation_loss"]):
             lines.append(f"validation loss (last check): {self.history_['validation_loss'][-1]:.4g}")
@@ -265,12 +276,12 @@ class EstimatorExtras:
         inferred = getattr(self.model_, "encoder", None) is not None
         notes = {}
         for name in science.names:
-            if name in (self.theta_fixed or ()) or (not inferred and not science.raw[name].requires_grad):
+            if name in (fit["theta_fixed"] or ()) or (not inferred and not science.raw[name].requires_grad):
                 notes[name] = "(fixed)"
                 continue
             said = ["(inferred per sample by the encoder; mean over the training samples)"] if inferred else []
-            if self.theta_bounds and name in self.theta_bounds:
-                said.append(f"(bounds {tuple(None if b is None else float(b) for b in self.theta_bounds[name])})")
+            if fit["theta_bounds"] and name in fit["theta_bounds"]:
+                said.append(f"(bounds {tuple(None if b is None else float(b) for b in fit['theta_bounds'][name])})")
             if said:
                 notes[name] = " ".join(said)
         if inferred:

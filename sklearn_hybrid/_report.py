@@ -5,7 +5,8 @@ squares) approximation of the data loss around the fitted theta, with the
 network held at its fitted weights:
 
     J = d prediction / d theta        (every output value, central differences in float64)
-    s^2 = sum_i w_i r_i^2 / (N - p)   (weighted residual variance, N output values, p free parameters)
+    s^2 = sum_i w_i r_i^2 / (N - p)   (weighted residual variance, N output values of non-zero weight,
+                                       p free parameters)
     cov(theta) = s^2 (J^T W J)^-1
 
 This is the standard error lmfit and ``scipy.optimize.curve_fit`` report. It
@@ -75,7 +76,9 @@ def theta_uncertainty(model, inputs, y, sample_weight=None, chunk=None) -> tuple
     y = y.reshape(len(y), -1).to(torch.float64).cpu().numpy()
     n = len(y)
     w = np.ones(n) if sample_weight is None else sample_weight.to(torch.float64).cpu().numpy()
-    w = np.repeat(w / w.mean(), y.shape[1])  # one weight per output value, mean 1
+    counted = w > 0  # a zero weight removes a sample, in the fit and here
+    n_values = int(counted.sum()) * y.shape[1]
+    w = np.repeat(w / w[counted].mean(), y.shape[1])  # one weight per output value, mean 1 where counted
     base = _predict(model, inputs, chunk).ravel()
     columns, labels, where = [], [], []
     for name in science.names:
@@ -102,7 +105,7 @@ def theta_uncertainty(model, inputs, y, sample_weight=None, chunk=None) -> tuple
         return std, np.zeros((0, 0)), labels
     J = np.stack(columns, axis=1)
     resid = y.ravel() - base
-    dof = max(len(resid) - p, 1)
+    dof = max(n_values - p, 1)
     s2 = float(np.sum(w * resid**2) / dof)
     JtWJ = J.T @ (w[:, None] * J)
     try:

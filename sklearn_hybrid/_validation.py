@@ -4,13 +4,15 @@ numbers, and torch's thread count for the duration of a fit or a prediction."""
 from __future__ import annotations
 
 import copy
+import math
 import numbers
 from contextlib import contextmanager
 
+import numpy as np
 import torch
 from sklearn.utils.validation import validate_data
 
-__all__ = ["torch_threads", "validate_into_copy", "set_feature_info", "check_positive"]
+__all__ = ["torch_threads", "validate_into_copy", "set_feature_info", "check_positive", "check_target_layout"]
 
 
 @contextmanager
@@ -47,9 +49,24 @@ def set_feature_info(estimator, features: dict) -> None:
 
 
 def check_positive(name, value, integer=False, allow_none=False):
-    """Raise a ValueError naming ``name`` unless ``value`` is a positive number (or integer)."""
+    """Raise a ValueError naming ``name`` unless ``value`` is a positive finite number (or integer)."""
     if value is None and allow_none:
         return
     kind = numbers.Integral if integer else numbers.Real
-    if not isinstance(value, kind) or isinstance(value, bool) or not value > 0:
-        raise ValueError(f"{name} must be a positive {'integer' if integer else 'number'}, got {value!r}.")
+    if not isinstance(value, kind) or isinstance(value, bool) or not 0 < value < math.inf:
+        raise ValueError(f"{name} must be a positive {'integer' if integer else 'number'}, got {value!r}"
+                         + (" (finite values only)." if value == math.inf else "."))
+
+
+def check_target_layout(y, pred: np.ndarray, name: str = "y") -> np.ndarray:
+    """``y`` as floats shaped like ``pred``; it may come flattened per sample, not in another layout.
+
+    A plain reshape would score ``(n, n_outputs, n_steps)`` targets against
+    ``(n, n_steps, n_outputs)`` predictions without a word.
+    """
+    y = np.asarray(y, dtype=float)
+    flat = (len(pred), math.prod(pred.shape[1:]))
+    if y.shape != pred.shape and y.shape != flat:
+        raise ValueError(f"{name} has shape {y.shape}; the model predicts {pred.shape} for these X "
+                         f"({flat} flattened per sample is accepted too).")
+    return y.reshape(pred.shape)

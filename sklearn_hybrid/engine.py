@@ -213,7 +213,7 @@ def explain_nonfinite(model: nn.Module, inputs: tuple[torch.Tensor, ...]) -> str
 
 def _loss_and_grads(model, method, inputs, y, params, weight=None):
     pred, extras = model(*inputs)
-    loss = data_loss(pred, y, weight) + method.penalty(model, pred, extras)
+    loss = data_loss(pred, y, weight) + method.penalty(model, pred, extras, weight)
     grads = torch.autograd.grad(loss, params, allow_unused=True)
     return loss.detach(), [torch.zeros_like(p) if g is None else g for p, g in zip(params, grads)]
 

@@ -22,6 +22,8 @@ import torch
 __all__ = ["integrate", "upsample_inputs", "INPUT_INTERPOLATIONS"]
 
 INPUT_INTERPOLATIONS = ("cubic", "linear", "zoh", "fft")
+#: torchdiffeq's fixed-grid methods: without a ``step_size`` they take one step per output interval.
+_FIXED_GRID = ("euler", "midpoint", "heun2", "heun3", "explicit_adams", "implicit_adams", "fixed_adams")
 
 
 def upsample_inputs(u: np.ndarray, factor: int, kind: str = "cubic") -> np.ndarray:
@@ -95,7 +97,10 @@ def _odeint(rhs, x, n_steps, dt, n_substeps, u_fine, method, options):
             w = pos - i
             return rhs(v, (1 - w) * u_fine[:, i] + w * u_fine[:, i + 1])
 
-    return torchdiffeq.odeint(func, x, t, method=method, **(options or {}))[1:].movedim(0, 1)
+    options = dict(options or {})
+    if method in _FIXED_GRID:  # n_substeps steps per output interval, as the RK4 takes
+        options.setdefault("options", {"step_size": dt / n_substeps})
+    return torchdiffeq.odeint(func, x, t, method=method, **options)[1:].movedim(0, 1)
 
 
 def integrate(rhs: Callable, x0: torch.Tensor, n_steps: int, dt: float, *,
@@ -114,7 +119,9 @@ def integrate(rhs: Callable, x0: torch.Tensor, n_steps: int, dt: float, *,
     dt : float
         Output spacing.
     n_substeps : int
-        RK4 steps per output interval (also fixes the input grid spacing).
+        Steps per output interval of ``"rk4"`` and of torchdiffeq's fixed-grid
+        methods (``"euler"``, ``"midpoint"``...; unless ``solver_options``
+        sets their ``options``); also fixes the input grid spacing.
     solver : str
         ``"rk4"`` (output-aligned, classic RK4) or a torchdiffeq method.
     u_fine : Tensor of shape (batch, 2 * n_substeps * n_steps + 1, n_inputs), optional

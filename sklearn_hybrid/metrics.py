@@ -8,6 +8,8 @@ import numpy as np
 from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.metrics import get_scorer
 
+from ._validation import check_target_layout
+
 __all__ = ["theta_error", "make_theta_scorer", "ThetaScorer", "make_flat_scorer", "FlatScorer",
            "make_per_sample_theta_scorer", "PerSampleThetaScorer"]
 
@@ -19,6 +21,17 @@ def _stack(theta: Mapping, names, what: str) -> np.ndarray:
     if missing:
         raise KeyError(f"{what} has no value for {missing}; it has {sorted(theta)}.")
     return np.concatenate([np.ravel(np.asarray(theta[n], dtype=float)) for n in names])
+
+
+def _check_pairs(theta: Mapping, theta_true: Mapping) -> None:
+    """Each compared parameter must have its reference's shape: stacking alone would pair
+    ``{"a": [1, 2], "b": 3}`` with ``{"a": 1, "b": [2, 3]}`` entry by entry."""
+    for name in theta_true:
+        est, true = np.shape(theta[name]), np.shape(theta_true[name])
+        if est != true:
+            raise ValueError(f"theta[{name!r}] has shape {est} and theta_true[{name!r}] {true}; they must match.")
+        if not np.all(np.isfinite(np.asarray(theta_true[name], dtype=float))):
+            raise ValueError(f"theta_true[{name!r}] is not finite.")
 
 
 def theta_error(theta: Mapping, theta_true: Mapping, metric: str = "rmse") -> float:
@@ -43,7 +56,10 @@ def theta_error(theta: Mapping, theta_true: Mapping, metric: str = "rmse") -> fl
     if metric not in _METRICS:
         raise ValueError(f"Unknown metric {metric!r}; choose one of {_METRICS}.")
     names = list(theta_true)
+    if not names:
+        raise ValueError("theta_true names no parameter to compare.")
     est, true = _stack(theta, names, "theta"), _stack(theta_true, names, "theta_true")
+    _check_pairs(theta, theta_true)
     if metric == "rmse":
         return float(np.sqrt(np.mean((est - true) ** 2)))
     return float(est @ true / (np.linalg.norm(est) * np.linalg.norm(true) + 1e-300))
@@ -89,16 +105,18 @@ def make_theta_scorer(theta_true: Mapping, metric: str = "rmse") -> ThetaScorer:
 
 
 class _FlatPredictions(RegressorMixin, BaseEstimator):
-    """A fitted estimator whose predictions come back flattened per sample."""
+    """A fitted estimator whose predictions come back flattened per sample, checked against ``y``."""
 
-    def __init__(self, estimator=None):
+    def __init__(self, estimator=None, y=None):
         self.estimator = estimator
+        self.y = y
 
     def __sklearn_is_fitted__(self) -> bool:
         return True
 
     def predict(self, X):
         pred = np.asarray(self.estimator.predict(X))
+        check_target_layout(self.y, pred)
         return pred.reshape(len(pred), -1)
 
 
@@ -116,7 +134,7 @@ class FlatScorer:
 
     def __call__(self, estimator, X, y) -> float:
         y = np.asarray(y)
-        return self._scorer(_FlatPredictions(estimator), X, y.reshape(len(y), -1))
+        return self._scorer(_FlatPredictions(estimator, y), X, y.reshape(len(y), -1))
 
     def __repr__(self) -> str:
         return f"make_flat_scorer({self.scoring!r})"

@@ -15,6 +15,7 @@ from joblib import Parallel, delayed
 from sklearn.base import clone
 from sklearn.utils import Bunch
 
+from ._validation import check_target_layout
 from .metrics import theta_error
 
 __all__ = ["sensitivity_curve", "plot_sensitivity"]
@@ -23,7 +24,7 @@ __all__ = ["sensitivity_curve", "plot_sensitivity"]
 def _fit_one(estimator, param_name, value, seed, X, y, X_test, y_test, theta_true, metric):
     est = clone(estimator).set_params(**{param_name: value, "random_state": seed}).fit(X, y)
     pred = est.predict(X_test)
-    y_err = float(np.sqrt(np.mean((np.reshape(pred, np.shape(y_test)) - y_test) ** 2)))
+    y_err = float(np.sqrt(np.mean((pred - check_target_layout(y_test, pred, "y_test")) ** 2)))
     return theta_error(est.theta_, theta_true, metric), y_err, est.theta_
 
 

@@ -4,7 +4,7 @@ A structure learns the per-sample shapes from the training data (``setup``),
 turns arrays into tensors (``tensors``), checks the science function on a
 few samples (``probe``), names the shapes its network needs
 (``residual_shapes``), computes predictions (``forward``), and defines the
-functional regulariser of ``method="f-reg"`` (``functional_penalty``).
+functional regulariser of ``method="f-reg"`` (``functional_penalty``, one value per sample).
 
 ==============  =========================================================
 ``"ode"``       hybrid neural ODE ``dv/dt = f_theta(v[, u]) + g_phi(v[, u])``
@@ -181,9 +181,10 @@ class OdeStructure:
         msg = (f"For structure='ode' y must have shape (n_samples, n_steps, "
                f"{', '.join(map(str, obs))}) (state shape {self.state_shape} from X, {seen}); "
                f"got y of per-sample shape {y_shape}.")
-        if len(y_shape) == 1:
-            msg += (f" If y was flattened, give it back its steps: y.reshape(len(y), -1, "
-                    f"{', '.join(map(str, obs))}).")
+        if len(y_shape) == 1:  # one component over time, or flattened trajectories: y cannot tell
+            msg += (" If y holds one state component over time, say which with observed=[i]"
+                    + (f"; if it was flattened, give it back its steps: y.reshape(len(y), -1, "
+                       f"{', '.join(map(str, obs))})." if self.observed is None or len(self.observed) > 1 else "."))
         elif tuple(y_shape[:len(obs)]) == obs and len(y_shape) == len(obs) + 1:
             msg += " It looks transposed (time on the last axis): use np.moveaxis(y, -1, 1)."
         elif self.observed is not None and y_shape[1:] == tuple(self.state_shape):
@@ -211,6 +212,14 @@ class OdeStructure:
         return (v,) if u is None else (v, u)
 
     def probe(self, science, inputs) -> None:
+        takes = science.inputs  # the arguments without a default: (v,) or (v, u)
+        if len(takes) == 1 and self.n_inputs:
+            raise ValueError(f"The science function takes the state {takes[0]!r} alone, but n_inputs="
+                             f"{self.n_inputs}: give it the inputs as its second argument, f({takes[0]}, u, ...), "
+                             "or set n_inputs=0.")
+        if len(takes) == 2 and not self.n_inputs:
+            raise ValueError(f"The science function takes inputs {takes[1]!r} besides the state, but "
+                             "n_inputs=0: set n_inputs and build X with pack_inputs(x0, u).")
         batch = probe_batch(inputs, self.state_shape)
         v = batch[0]
         u = batch[1][:, 0] if self.n_inputs else None
@@ -271,8 +280,8 @@ class OdeStructure:
         return model.residual(*args).reshape(states.shape)
 
     def functional_penalty(self, model, pred, extras):
-        g = self.residual_values(model, extras)
-        return g.pow(2).reshape(g.shape[0] * g.shape[1], -1).sum(-1).mean()
+        g = self.residual_values(model, extras)  # (n, n_steps, ...): mean over each sample's steps
+        return g.pow(2).reshape(g.shape[0], g.shape[1], -1).sum(-1).mean(1)
 
     def trace(self, model, inputs, pred, extras):
         states = extras["states"]
@@ -334,7 +343,7 @@ class ComposeStructure:
     def functional_penalty(self, model, pred, extras):
         z = extras["z"].reshape(len(pred), -1)
         reduced = z if model.reduction is None else model.reduction(z)
-        return (pred.reshape(len(pred), -1) - reduced).pow(2).sum(-1).mean()
+        return (pred.reshape(len(pred), -1) - reduced).pow(2).sum(-1)
 
 
 class AdditiveStructure(ComposeStructure):
@@ -362,7 +371,7 @@ class AdditiveStructure(ComposeStructure):
         return None
 
     def functional_penalty(self, model, pred, extras):
-        return extras["g"].pow(2).reshape(len(pred), -1).sum(-1).mean()
+        return extras["g"].pow(2).reshape(len(pred), -1).sum(-1)
 
 
 class CallableStructure(ComposeStructure):

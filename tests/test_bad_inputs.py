@@ -222,6 +222,18 @@ CASES = [
      ValueError, "expecting 2 features"),
     ("predict on NaN", predict_on(lambda X: np.where(X > 0, np.nan, X)),
      ValueError, "Input X contains NaN"),
+    # audit 3
+    ("rho=inf", fit(method="sam", rho=np.inf), ValueError, "rho must be a positive number, got inf (finite"),
+    ("lr=inf", fit(lr=np.inf), ValueError, "lr must be a positive number, got inf (finite"),
+    ("random_state=-1", fit(random_state=-1), ValueError, "random_state must be None, a RandomState or an integer"),
+    ("science without u, n_inputs=1", fit_on(lambda X, y: (np.concatenate([X, np.zeros((6, 6))], 1), y),
+                                            n_inputs=1),
+     ValueError, "takes the state 'v' alone, but n_inputs=1"),
+    ("HybridRegressorCV seeds=[3, 3]", cv(seeds=[3, 3]), ValueError, "seeds holds a value more than once"),
+    ("HybridRegressorCV seeds=[-1]", cv(seeds=[-1]), ValueError, "seeds must be integers in [0, 2**32 - 1]"),
+    ("HybridRegressorCV rhos=[inf]", cv(rhos=[np.inf]), ValueError, "rhos must hold positive numbers, got inf"),
+    ("score on transposed y", Call({}, lambda est, X, y: est.score(X, np.swapaxes(y, 1, 2))),
+     ValueError, "y has shape (6, 2, 5); the model predicts (6, 5, 2)"),
 ]
 
 
@@ -262,7 +274,7 @@ def test_bad_input_is_named_and_changes_nothing(earlier, what, call, error, phra
 
 def test_table_size():
     """The closing note quotes this count; keep it in step with CASES."""
-    assert len(CASES) == 47
+    assert len(CASES) == 55
 
 
 def test_data_home_that_is_a_file(tmp_path, monkeypatch):

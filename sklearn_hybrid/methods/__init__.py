@@ -6,8 +6,7 @@ adding one class and one registry entry.
 
 from __future__ import annotations
 
-import numbers
-
+from .._validation import check_positive
 from ._base import Method
 from .regularized import ERM, FunctionalRegularization, ParameterRegularization
 from .sharpness import (ASAM, SAM, FisherSAM, asam_perturbation, fsam_perturbation,
@@ -27,8 +26,7 @@ METHODS: dict[str, type[Method]] = {
 
 
 def _positive(name, value):
-    if not isinstance(value, numbers.Real) or isinstance(value, bool) or not value > 0:
-        raise ValueError(f"{name} must be a positive number, got {value!r}.")
+    check_positive(name, value)
     return float(value)
 
 

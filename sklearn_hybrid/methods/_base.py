@@ -22,8 +22,10 @@ class Method:
     name = "erm"
     perturbs = False
 
-    def penalty(self, model, pred: torch.Tensor, extras: dict) -> torch.Tensor | float:
-        """Regularisation added to the data loss (none for erm)."""
+    def penalty(self, model, pred: torch.Tensor, extras: dict,
+                sample_weight: torch.Tensor | None = None) -> torch.Tensor | float:
+        """Regularisation added to the data loss (none for erm); a penalty summed over
+        samples weighs them by ``sample_weight``, as the data loss does."""
         return 0.0
 
     def perturbation(self, params: list[torch.Tensor], grads: list[torch.Tensor],

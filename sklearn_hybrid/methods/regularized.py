@@ -23,7 +23,7 @@ class ParameterRegularization(Method):
     lam: float = 1e-3
     name = "p-reg"
 
-    def penalty(self, model, pred, extras):
+    def penalty(self, model, pred, extras, sample_weight=None):
         return self.lam * sum(p.pow(2).sum() for p in model.residual.parameters())
 
 
@@ -34,11 +34,15 @@ class FunctionalRegularization(Method):
     Additive structures (APHYNITY): ``lam * mean ||g_phi||^2`` at the states the
     prediction visits.  Non-additive ones (Phys-VAE style): ``lam * mean
     ||h(x) - A f_theta(x)||^2`` with a learnable linear map ``A`` (identity when
-    the science output and ``y`` share a shape).
+    the science output and ``y`` share a shape).  The mean weighs the samples by
+    ``sample_weight``, as the data loss does.
     """
 
     lam: float = 1e-3
     name = "f-reg"
 
-    def penalty(self, model, pred, extras):
-        return self.lam * model.structure.functional_penalty(model, pred, extras)
+    def penalty(self, model, pred, extras, sample_weight=None):
+        per_sample = model.structure.functional_penalty(model, pred, extras)
+        if sample_weight is None:
+            return self.lam * per_sample.mean()
+        return self.lam * (per_sample * sample_weight).sum() / sample_weight.sum()
