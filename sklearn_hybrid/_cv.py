@@ -19,6 +19,7 @@ from ._estimator import HybridRegressor
 from ._validation import set_feature_info, torch_threads, validate_into_copy
 from ._kernels import reusing_buffers
 from ._memory import check_fit_memory
+from .metrics import make_flat_scorer
 from .engine import DivergenceError, train
 
 __all__ = ["HybridRegressorCV"]
@@ -96,7 +97,9 @@ class HybridRegressorCV(RegressorMixin, BaseEstimator):
         Scorer ``scorer(member, X_val, y_val)`` (greater is better), e.g.
         :func:`~sklearn_hybrid.make_theta_scorer` when the true parameters
         are known; None uses the members' ``score`` (R^2) on the validation
-        samples.
+        samples; a scikit-learn scorer name (``"neg_mean_squared_error"``) is
+        applied to targets flattened per sample (:func:`~sklearn_hybrid.make_flat_scorer`),
+        since trajectories have more axes than scikit-learn's metrics take.
     validation_fraction : float or None, default=0.2
         Fraction of the samples held out for scoring (a fixed random subset,
         seeded by the first seed); None trains on all samples and scores on
@@ -241,13 +244,15 @@ class HybridRegressorCV(RegressorMixin, BaseEstimator):
                 "with theta_bounds."
             )
         scores = np.full(len(members), -np.inf)
+        scorer = (make_flat_scorer(self.scoring) if isinstance(self.scoring, str)
+                  else check_scoring(members[0], scoring=self.scoring))
         X_val, y_val = X_arr[val_idx], y_arr[val_idx]
         for k, (member, setup) in enumerate(zip(members, setups)):
             member_history = {"loss": history["loss"][:, k],
                               "theta": {n: v[:, k] for n, v in history["theta"].items()}}
             member._set_fitted(setup, member_history)
             if diverged[k] < 0:
-                scores[k] = check_scoring(member, scoring=self.scoring)(member, X_val, y_val)
+                scores[k] = scorer(member, X_val, y_val)
         best = self._best(scores, diverged, len(val_idx))
         self.estimators_, self.best_index_ = members, best
         set_feature_info(self, features)

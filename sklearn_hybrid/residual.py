@@ -213,10 +213,34 @@ def build_residual(spec, in_shapes: Sequence[tuple] | None, out_shape: tuple | N
     if callable(spec):
         wants_shapes = in_shapes is not None and _takes_arguments(spec)
         module = spec(tuple(in_shapes), tuple(out_shape)) if wants_shapes else spec()
-        return new_module(module, "residual").to(dtype)
-    if in_shapes is None:
+        module = new_module(module, "residual").to(dtype)
+    elif in_shapes is None:
         raise ValueError(
             "A user-supplied structure needs `residual` to be a factory returning a "
             "torch.nn.Module (called with no arguments)."
         )
-    return from_registry("residual", spec, RESIDUALS, (in_shapes, out_shape), dtype)
+    else:
+        module = from_registry("residual", spec, RESIDUALS, (in_shapes, out_shape), dtype)
+    if in_shapes is not None:
+        _check_output(module, in_shapes, out_shape, dtype)
+    return module
+
+
+def _check_output(residual: nn.Module, in_shapes, out_shape, dtype) -> None:
+    """Run the network once on zeros, so that a network unfit for the structure's inputs or
+    outputs is named here rather than by a reshape deep inside training."""
+    probe = [torch.zeros((2, *shape), dtype=dtype) for shape in in_shapes]
+    training = residual.training
+    residual.eval()  # no BatchNorm statistics from the zeros
+    try:
+        with torch.no_grad(), torch.random.fork_rng(devices=[]):  # the seeded initialisation goes on as before
+            out = residual(*probe)
+    except Exception as error:
+        raise ValueError(f"The residual network fails on inputs of per-sample shape(s) {list(in_shapes)}: "
+                         f"{type(error).__name__}: {error}") from error
+    finally:
+        residual.train(training)
+    if not torch.is_tensor(out) or out.shape[:1] != (2,) or out[0].numel() != math.prod(out_shape):
+        got = tuple(out.shape[1:]) if torch.is_tensor(out) else type(out).__name__
+        raise ValueError(f"The residual network returns {got} per sample for inputs of per-sample shape(s) "
+                         f"{list(in_shapes)}; the structure adds it to an output of shape {tuple(out_shape)}.")

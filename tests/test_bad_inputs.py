@@ -232,6 +232,10 @@ CASES = [
     ("HybridRegressorCV seeds=[3, 3]", cv(seeds=[3, 3]), ValueError, "seeds holds a value more than once"),
     ("HybridRegressorCV seeds=[-1]", cv(seeds=[-1]), ValueError, "seeds must be integers in [0, 2**32 - 1]"),
     ("HybridRegressorCV rhos=[inf]", cv(rhos=[np.inf]), ValueError, "rhos must hold positive numbers, got inf"),
+    ("residual='cnn' on a vector state", fit(residual="cnn"),
+     ValueError, "The residual network fails on inputs of per-sample shape(s) [(2,)]"),
+    ("residual factory with the wrong output size", fit(residual=lambda: torch.nn.Linear(2, 3)),
+     ValueError, "returns (3,) per sample"),
     ("score on transposed y", Call({}, lambda est, X, y: est.score(X, np.swapaxes(y, 1, 2))),
      ValueError, "y has shape (6, 2, 5); the model predicts (6, 5, 2)"),
 ]
@@ -274,7 +278,7 @@ def test_bad_input_is_named_and_changes_nothing(earlier, what, call, error, phra
 
 def test_table_size():
     """The closing note quotes this count; keep it in step with CASES."""
-    assert len(CASES) == 55
+    assert len(CASES) == 57
 
 
 def test_data_home_that_is_a_file(tmp_path, monkeypatch):

@@ -125,3 +125,14 @@ def test_sweep_checks_feature_names_and_reports_its_own_seeds(data):
         sweep.predict(X[columns[::-1]])
     sweep.set_params(seeds=[0])
     assert "across the 2 seed(s)" in sweep.fit_report()
+
+
+def test_sweep_takes_a_scorer_name_on_trajectory_targets(data):
+    """scikit-learn's metrics take at most 2-D targets; a name is applied per sample, flattened."""
+    base = HybridRegressor(science=pendulum_f, method="sam", **FAST)
+    sweep = HybridRegressorCV(base, rhos=[0.01, 0.1], scoring="neg_mean_squared_error")
+    sweep.fit(data.X_train, data.y_train)
+    flat = make_flat_scorer("neg_mean_squared_error")
+    validation = sweep._split(len(data.X_train), 0)[1]
+    scores = [flat(m, data.X_train[validation], data.y_train[validation]) for m in sweep.estimators_]
+    np.testing.assert_allclose(sweep.cv_results_["score"], scores)
