@@ -83,9 +83,12 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
     dt : float, default=1.0
         ``"ode"``: time between consecutive outputs (outputs at ``dt, 2 dt, ...``).
     n_substeps : int, default=4
-        ``"ode"``: RK4 steps per output interval.
+        ``"ode"``: steps per output interval of ``"rk4"`` and of torchdiffeq's
+        fixed-grid methods (``"euler"``, ``"midpoint"``...).
     solver : str, default="rk4"
-        ``"ode"``: ``"rk4"`` (output-aligned) or a torchdiffeq method such as ``"dopri5"``.
+        ``"ode"``: ``"rk4"`` (output-aligned) or a torchdiffeq method such as
+        ``"dopri5"`` (adaptive: ``n_substeps`` then only sets the grid of the
+        inputs).
     observed : list of int, optional
         ``"ode"``: indices of the state components that ``y`` observes.
     n_inputs : int, default=0
