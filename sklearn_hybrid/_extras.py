@@ -117,7 +117,8 @@ class EstimatorExtras:
 
     def _check_structure_unchanged(self) -> None:
         """Raise if a parameter that fixes the predictions changed since fit (it would be ignored)."""
-        fitted = getattr(self, "_fitted_params", None)
+        # _fitted_structure: the same snapshot in fits pickled before _fitted_params (benchmark caches)
+        fitted = getattr(self, "_fitted_params", None) or getattr(self, "_fitted_structure", None)
         if fitted is None:
             return
         changed = [k for k in STRUCTURE_PARAMS if not _same(getattr(self, k), fitted[k])]
@@ -257,7 +258,8 @@ class EstimatorExtras:
         """
         check_is_fitted(self)
         science = self.model_.science
-        fit = self._fitted_params  # the settings of the fit, whatever set_params changed since
+        # the settings of the fit, whatever set_params changed since (fits pickled before: the current ones)
+        fit = getattr(self, "_fitted_params", None) or self.get_params(deep=False)
         func = getattr(fit["science"], "__name__", type(fit["science"]).__name__)
         stop = (f"stopped early: loss and theta changed by less than tol={fit['tol']} over "
                 f"{fit['n_iter_no_change']} iterations" if self.stopped_early_ else
