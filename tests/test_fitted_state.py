@@ -136,3 +136,14 @@ def test_sweep_takes_a_scorer_name_on_trajectory_targets(data):
     validation = sweep._split(len(data.X_train), 0)[1]
     scores = [flat(m, data.X_train[validation], data.y_train[validation]) for m in sweep.estimators_]
     np.testing.assert_allclose(sweep.cv_results_["score"], scores)
+
+
+def test_fits_pickled_before_the_snapshot_still_report_and_check(data):
+    """The benchmarks reuse pickled fits that carry the older ``_fitted_structure`` instead."""
+    est = HybridRegressor(science=pendulum_f, **FAST).fit(data.X_train, data.y_train)
+    snapshot = est.__dict__.pop("_fitted_params")
+    est._fitted_structure = {k: snapshot[k] for k in ("structure", "dt", "n_substeps", "solver", "observed",
+                                                       "n_inputs", "input_interp", "theta_encoder")}
+    assert "method: fsam" in est.fit_report()
+    with pytest.raises(ValueError, match="dt=0.2 -> 0.1 was changed after fit"):
+        est.set_params(dt=0.1).predict(data.X_test)
