@@ -121,7 +121,7 @@ class EstimatorExtras:
         fitted = getattr(self, "_fitted_params", None) or getattr(self, "_fitted_structure", None)
         if fitted is None:
             return
-        changed = [k for k in STRUCTURE_PARAMS if not _same(getattr(self, k), fitted[k])]
+        changed = [k for k in STRUCTURE_PARAMS if k in fitted and not _same(getattr(self, k), fitted[k])]
         if changed:
             detail = ", ".join(f"{k}={fitted[k]!r} -> {getattr(self, k)!r}" for k in changed)
             raise ValueError(

@@ -143,7 +143,7 @@ def test_fits_pickled_before_the_snapshot_still_report_and_check(data):
     est = HybridRegressor(science=pendulum_f, **FAST).fit(data.X_train, data.y_train)
     snapshot = est.__dict__.pop("_fitted_params")
     est._fitted_structure = {k: snapshot[k] for k in ("structure", "dt", "n_substeps", "solver", "observed",
-                                                       "n_inputs", "input_interp", "theta_encoder")}
+                                                       "n_inputs", "input_interp")}
     assert "method: fsam" in est.fit_report()
     with pytest.raises(ValueError, match="dt=0.2 -> 0.1 was changed after fit"):
         est.set_params(dt=0.1).predict(data.X_test)
