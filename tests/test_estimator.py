@@ -220,6 +220,11 @@ def test_reaction_diffusion_field_state():
     est = HybridRegressor(science=diffusion, dt=0.1, method="fsam",
                           **{**FAST, "max_iter": 3, "residual": "cnn"}).fit(X, y)
     assert est.predict(X).shape == y.shape
+    # fields are named by their per-sample shape, not as "8 features"
+    with pytest.raises(ValueError, match=r"X has per-sample shape \(8, 8, 2\); this model was fitted on \(2, 8, 8\)"):
+        est.predict(np.moveaxis(X, 1, -1))
+    with pytest.raises(ValueError, match=r"needs its leading axis: X\[None\]"):
+        est.predict(X[0])
 
 
 def test_verbose_progress_bar(pendulum, capsys):
