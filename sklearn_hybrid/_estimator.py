@@ -420,8 +420,8 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
     def _fitted_X(self, X):
         """``X`` validated against the fit: feature count and per-sample shape."""
         check_is_fitted(self)
-        shape = tuple(np.shape(X))
-        if len(self.x_shape_) > 1 and shape[1:] != self.x_shape_:  # fields, images: "features" would mislead
+        shape = tuple(np.shape(X)) if len(self.x_shape_) > 1 else None  # fields, images: "features" misleads
+        if shape is not None and shape[1:] != self.x_shape_:
             one = " (a single sample needs its leading axis: X[None])" if shape == self.x_shape_ else ""
             raise ValueError(f"X has per-sample shape {shape[1:]}; this model was fitted on {self.x_shape_}{one}.")
         X = validate_data(self, X, reset=False, allow_nd=True, dtype=np.float64, order="C")
