@@ -56,7 +56,7 @@ class System:
     batch : int
         1: the systems the benchmark was built with; 2 and 3: systems written on 2026-11-25, after the
         selection's code was last changed, and added unchanged whatever they gave (``FRESH``, ``FRESH_3``);
-        4 to 9: written in later sessions (``FRESH_4`` to ``FRESH_9``), likewise.
+        4 to 10: written in later sessions (``FRESH_4`` to ``FRESH_10``), likewise.
     sign_of : int or None
         For an effect that jumps with the sign of one state (dry friction): that state's index.  Trajectories
         are then integrated piecewise between its zero crossings (no chattering of the step size), and a
@@ -774,7 +774,83 @@ FRESH_9 = [
            fitzhugh_nagumo_f, {"eps": 0.25, "a": 0.7, "b": 0.8}, None,
            ["V", "W"], {"V": "1", "W": "1", "u": "1"}, 0.2, 30, (-2.0, -1.0), (2.0, 1.5), (0.0, 0.8), batch=9),
 ]
-SYSTEMS = {s.name: s for s in SYSTEMS + FRESH + FRESH_3 + FRESH_4 + FRESH_5 + FRESH_6 + FRESH_7 + FRESH_8 + FRESH_9}
+# batch 10: a diode's exponential leak, algae growth that saturates in the light (rational in the input, times the
+# state: outside the term library), an expression cascade repressed by its protein (a Hill function of the second
+# state), substrate inhibition of a fed reaction (Haldane: rational, outside the library), an oscillator pushed by a
+# wind whose drag follows the relative speed ((u - v)|u - v|: outside the library; the science model's force is
+# linear in the wind), a loss whose conductance grows with the temperature (quadratic); and two controls from
+# models new here (Sel'kov's glycolysis oscillator, a two-mass heat exchanger). Only their simulated data were
+# looked at before the commit (all trajectories finite and in range); each runs once and is shown whatever it gives.
+def charging_f(v, u, a=0.6):
+    return torch.stack([a * (u[:, 0] - v[:, 0])], dim=-1)
+
+
+def light_growth_f(v, u, mu=1.0, d=0.3):
+    X = v[:, 0]
+    return torch.stack([mu * u[:, 0] * X - d * X ** 2], dim=-1)
+
+
+def expression_cascade_f(v, b=1.2, dm=0.6, k=0.8, dp=0.4):
+    m, p = v[:, 0], v[:, 1]
+    return torch.stack([b - dm * m, k * m - dp * p], dim=-1)
+
+
+def wind_oscillator_f(v, u, k=1.5, c=0.2, b=0.5):
+    return torch.stack([v[:, 1], -k * v[:, 0] - c * v[:, 1] + b * u[:, 0]], dim=-1)
+
+
+def selkov_f(v, a=0.1, b=0.5):
+    x, y = v[:, 0], v[:, 1]
+    return torch.stack([-x + a * y + x ** 2 * y, b - a * y - x ** 2 * y], dim=-1)
+
+
+def heat_exchanger_f(v, u, p=0.8, h=0.5, g=0.25):
+    T1, T2 = v[:, 0], v[:, 1]
+    return torch.stack([p * u[:, 0] - h * (T1 - T2), h * (T1 - T2) - g * T2], dim=-1)
+
+
+def _haldane_minus_mm(S, vmax=1.2, km=0.3, ki=0.8):
+    """What substrate inhibition gives back of Michaelis-Menten uptake: vmax S/(km + S) - vmax S/(km + S + S^2/ki)."""
+    return vmax * S / (km + S) - vmax * S / (km + S + S ** 2 / ki)
+
+
+FRESH_10 = [
+    System("diode_leak", "electrical", "exponential (a diode's current)",
+           "a diode across the capacitor leaks -0.05 (exp(2 v) - 1)",
+           charging_f, {"a": 0.8}, lambda x, u: -0.05 * (np.exp(2.0 * x) - 1.0),
+           ["v"], {"v": "V", "u": "V"}, 0.2, 30, (0.0,), (1.4,), (0.0, 1.5), batch=10),
+    System("light_limited_algae", "population", "rational in the input times the state (outside the term library)",
+           "growth saturating in the light: 1.2 X u/(0.5 + u) where the science says mu u X, mu = 1.2",
+           light_growth_f, {"mu": 1.2, "d": 0.4}, lambda x, u: 1.2 * x * (u / (0.5 + u) - u),
+           ["X"], {"X": "g/L", "u": "1"}, 0.2, 30, (0.2,), (1.5,), (0.1, 1.5), batch=10),
+    System("repressed_expression", "biochemical", "rational (Hill function of the second state)",
+           "the protein represses its own transcription: -1.5 (p/0.6)^2 / (1 + (p/0.6)^2) on m",
+           expression_cascade_f, {"b": 1.5, "dm": 0.8, "k": 1.0, "dp": 0.5},
+           lambda x, u: _on(0, 2, -1.5 * (x[:, 1] / 0.6) ** 2 / (1 + (x[:, 1] / 0.6) ** 2)),
+           ["m", "p"], {"m": "1", "p": "1"}, 0.25, 30, (0.0, 0.0), (2.0, 3.0), zero_components=[1], batch=10),
+    System("substrate_inhibition", "chemical", "rational, outside the term library (Haldane kinetics)",
+           "uptake inhibited by its substrate: vmax S/(km + S + S^2/0.8) where the science has Michaelis-Menten",
+           fed_substrate_f, {"vmax": 1.2, "km": 0.3}, lambda x, u: _haldane_minus_mm(x),
+           ["S"], {"S": "mol/L", "u": "mol/L/h"}, 0.25, 30, (0.0,), (2.0,), (0.1, 0.6), batch=10),
+    System("wind_drag", "oscillator", "non-smooth in a state and the input (relative speed), outside the library",
+           "a wind pushes the mass by drag on the relative speed, 0.4 (u - v)|u - v|, where the science has b u",
+           wind_oscillator_f, {"k": 2.0, "c": 0.1, "b": 0.0}, lambda x, u: _on(1, 2, 0.4 * (u[:, 0] - x[:, 1])
+                                                                                * np.abs(u[:, 0] - x[:, 1])),
+           ["x", "v"], {"x": "m", "v": "m/s", "u": "m/s"}, 0.1, 40, (-1.0, -1.0), (1.0, 1.0), (-0.5, 2.0),
+           zero_components=[0], batch=10),
+    System("conductive_loss", "thermal", "polynomial (quadratic)",
+           "a loss whose conductance grows with the temperature: -0.3 T (T - 0.2)",
+           heated_body_f, {"p": 1.0, "h": 0.5}, lambda x, u: -0.3 * x * (x - 0.2),
+           ["T"], {"T": "100 K", "u": "1"}, 0.25, 30, (0.2,), (2.0,), (0.2, 1.2), batch=10),
+    System("control_selkov", "biochemical", "control", "nothing (Sel'kov glycolysis oscillator)",
+           selkov_f, {"a": 0.08, "b": 0.6}, None,
+           ["x", "y"], {"x": "1", "y": "1"}, 0.25, 30, (0.2, 0.2), (2.0, 2.0), batch=10),
+    System("control_heat_exchanger", "thermal", "control", "nothing (two thermal masses, one heated)",
+           heat_exchanger_f, {"p": 1.0, "h": 0.6, "g": 0.3}, None,
+           ["T1", "T2"], {"T1": "100 K", "T2": "100 K", "u": "kW"}, 0.25, 30, (0.0, 0.0), (1.5, 1.5), (0.0, 1.0),
+           batch=10),
+]
+SYSTEMS = {s.name: s for s in SYSTEMS + FRESH + FRESH_3 + FRESH_4 + FRESH_5 + FRESH_6 + FRESH_7 + FRESH_8 + FRESH_9 + FRESH_10}
 
 
 # ----------------------------------------------------------------------------------------------------- simulation

@@ -146,6 +146,17 @@ BATCHES = {
         "taken). The saturating coil failed at both noises, nothing added (0.822 / 0.824): a smaller L mimics most "
         "of its gain 1 + 0.5 i^2 on the visited states, and what is left gained at most 14 % (i^2*u, z 3.5 "
         "against 3.85) at 0.01 and 16 % (exp(k*i), z 2.0) at 0.05."),
+    10: ("## Batch 10: fresh systems, written in the session after batch 9's rerun",
+         "Written on 2026-11-25, two sessions after batch 9, with the diagnosis package unchanged since 9835b93 (the code "
+         "every row above ran with, or code that reproduced it), committed before they ran, on an Intel Xeon where "
+         "the rows above ran on an AMD EPYC: a diode's exponential leak, algae growth saturating in the light "
+         "(rational in the input, times the state: outside the term library), an expression cascade repressed by its "
+         "protein (a Hill function of the second state), substrate inhibition of a fed reaction (Haldane kinetics: "
+         "outside the library), an oscillator pushed by wind drag on the relative speed ((u - v)|u - v|, outside the "
+         "library, where the science's force is linear in the wind), a loss whose conductance grows with the "
+         "temperature, and two controls from models new here (Sel'kov's glycolysis oscillator, a two-mass heat "
+         "exchanger). Only their simulated data were looked at before the commit; each ran once and is shown "
+         "whatever it gave."),
 }
 # Run order (the tables follow SYSTEMS): domains and controls interleaved, so that a partial run is a cross-section.
 RUN_ORDER = ["drag_oscillator", "control_rlc", "budworm", "enzyme_reactor", "saturating_heater", "diode_clamped_rc",
@@ -175,7 +186,10 @@ RUN_ORDER = ["drag_oscillator", "control_rlc", "budworm", "enzyme_reactor", "sat
              "control_declared_gauges", "thermometer_offset", "declared_encoder_drag",
              # batch 9 (_identification_systems.FRESH_9)
              "saturating_coil", "control_chemostat", "boiling_loss", "prey_refuge", "backlash_spring",
-             "control_fitzhugh_nagumo", "drug_inhibition", "product_inhibition"]
+             "control_fitzhugh_nagumo", "drug_inhibition", "product_inhibition",
+             # batch 10 (_identification_systems.FRESH_10)
+             "diode_leak", "control_selkov", "light_limited_algae", "repressed_expression", "substrate_inhibition",
+             "control_heat_exchanger", "wind_drag", "conductive_loss"]
 
 
 def cache_dir(fast: bool) -> Path:
