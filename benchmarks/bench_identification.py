@@ -155,8 +155,14 @@ BATCHES = {
          "outside the library), an oscillator pushed by wind drag on the relative speed ((u - v)|u - v|, outside the "
          "library, where the science's force is linear in the wind), a loss whose conductance grows with the "
          "temperature, and two controls from models new here (Sel'kov's glycolysis oscillator, a two-mass heat "
-         "exchanger). Only their simulated data were looked at before the commit; each ran once and is shown "
-         "whatever it gave."),
+         "exchanger). Only their simulated data were looked at before the commit; each ran once (the two noise "
+         "levels side by side on the 2 cores) and is shown whatever it gave: 10 of 12 effects within 10 %, 4 of 4 "
+         "controls clean. The diode's leak was named exp(k*v) (with a constant at 0.01; 0.002 / 0.095), the "
+         "repression exp(k*p) on m (0.003 / 0.004), the temperature-dependent loss T^2 (0.005 / 0.006); outside the "
+         "library, the light saturation X*u^2 (with X at 0.01; 0.021 / 0.087) and the substrate inhibition a hinge "
+         "above a knot (with S^2 at 0.01; 0.008 / 0.050). The wind drag on the relative speed, outside the library "
+         "too, failed at both noises with nothing added (0.265): v*u gained 57 % / 53 % but with z 2.9 / 3.4 "
+         "against 3.85, and the refit's damping c (0.66 for a true 0.1) took part of the drag."),
 }
 # Run order (the tables follow SYSTEMS): domains and controls interleaved, so that a partial run is a cross-section.
 RUN_ORDER = ["drag_oscillator", "control_rlc", "budworm", "enzyme_reactor", "saturating_heater", "diode_clamped_rc",
