@@ -5,6 +5,7 @@ Each names the problem: an unknown state, an option out of range, a unit for a v
 
 from __future__ import annotations
 
+from difflib import get_close_matches
 from numbers import Real
 
 import numpy as np
@@ -31,6 +32,31 @@ def _check_options(validation_fraction, max_terms, n_candidates, cv, z, min_gain
         raise ValueError(f"n_jobs must be None or a non-zero integer (joblib's convention), got {n_jobs!r}.")
     if (X_test is None) != (y_test is None):
         raise ValueError("X_test and y_test go together: give both, or neither.")
+
+
+def _check_refit_params(estimator, refit_params) -> None:
+    """``refit_params`` are ``set_params`` keys of the estimator, checked now rather than after the selection."""
+    keys = set(refit_params or {})
+    owned = sorted(keys & {"science", "theta_init"})  # the loop sets these itself for the refit
+    if owned:
+        raise ValueError(f"refit_params may not set {owned}: the refit takes the augmented science model and "
+                         "starts theta from its network-free fit.")
+    unknown = sorted(keys - set(estimator.get_params(deep=True)))
+    if unknown:
+        raise ValueError(f"refit_params names {unknown}, which are not parameters of {type(estimator).__name__} "
+                         f"(see its get_params()).")
+
+
+def _check_param_names(param_names, term_names) -> None:
+    """Each key of ``param_names`` names a candidate term, each value a valid parameter name."""
+    unknown = [k for k in (param_names or {}) if k not in term_names]
+    if unknown:
+        close = sorted({m for k in unknown for m in get_close_matches(str(k), sorted(term_names), n=3)})
+        raise ValueError(f"param_names names {unknown}, which are no candidate terms"
+                         + (f"; close ones: {close}." if close else f" (e.g. {sorted(term_names)[:8]})."))
+    invalid = [v for v in (param_names or {}).values() if not isinstance(v, str) or not v.isidentifier()]
+    if invalid:
+        raise ValueError(f"param_names must map terms to valid Python identifiers, got {invalid}.")
 
 
 def _uncertain_components(estimator, X, y, exact, state_names) -> list[int] | None:

@@ -78,9 +78,13 @@ def term_to_torch(term: str, variables: Sequence[str],
     return partial(monomial, factors=tuple(factors))
 
 
-def _flat(x: torch.Tensor) -> torch.Tensor:
-    """``x`` as (batch, columns); no operation when it already is."""
-    return x if x.ndim == 2 else x.reshape(len(x), -1)
+def _flat(x: torch.Tensor, single: bool = False) -> torch.Tensor:
+    """``x`` as (batch, columns); no operation when it already is. A 1-D ``x`` is a batch of scalars
+    (a static model's output), or with ``single`` one sample (a state handed over by ``solve_ivp``,
+    which the original science function reads as such: ``v[..., 1]``)."""
+    if x.ndim == 2:
+        return x
+    return x.reshape(1, -1) if single and x.ndim == 1 else x.reshape(len(x), -1)
 
 
 def parameter_name(term: str, taken: Sequence[str], suffix: str = "", prefix: str = "c") -> str:
@@ -153,7 +157,12 @@ def augment_science(science: Callable, terms: Sequence[Mapping[str, Any]], varia
 
     added, taken = [], list(values) + list(inputs)
     for t in terms:
+        lacking = [key for key in ("component", "term", "coef") if key not in t]
+        if lacking:
+            raise ValueError(f"Each term needs 'component', 'term' and 'coef'; {dict(t)!r} lacks {lacking}.")
         component, term = int(t["component"]), str(t["term"])
+        if component < 0:
+            raise ValueError(f"Term {term!r}: component must be a non-negative index, got {component}.")
         is_offset = t.get("kind") == "offset"
         if is_offset and not 0 <= component < n_states:
             raise ValueError(f"A sensor offset needs a state index in [0, {n_states}), got {component}.")
@@ -182,7 +191,8 @@ def augment_science(science: Callable, terms: Sequence[Mapping[str, Any]], varia
 class AugmentedScience:
     """A science function plus named terms (and sensor offsets), made by :func:`augment_science`.
 
-    Called like the original, ``f(*inputs, **theta)``; ``inspect.signature`` lists the inputs, then
+    Called like the original, ``f(*inputs, **theta)``, on a batch or on one state (a 1-D first input,
+    as ``solve_ivp`` hands it over); ``inspect.signature`` lists the inputs, then
     every parameter with its initial value. ``terms`` lists ``(component, term, parameter)``,
     ``shape_names`` each term's shape parameters, ``equation`` reads what was added.
     """
@@ -218,21 +228,29 @@ class AugmentedScience:
         """One-hot rows of ``flat``'s width for ``components``, made once per width, dtype and device."""
         cached = self._one_hot.setdefault((flat.shape[1], flat.dtype, flat.device), {})
         for j in components:
+            if j >= flat.shape[1]:
+                terms = [term for c, term, *_ in self.added if c == j]
+                raise ValueError(f"Term(s) {terms} go to component {j}, but the science function returns "
+                                 f"{flat.shape[1]} component(s) per sample.")
             if j not in cached:
                 cached[j] = torch.eye(flat.shape[1], dtype=flat.dtype, device=flat.device)[j]
         return {j: cached[j] for j in components}
 
     def __call__(self, *args, **params):
         params = {**self.initial, **params}
+        single = args[0].ndim == 1  # one state, not a batch
         if self.offsets:  # the sensor reads state + offset: the model's equations see the reading less the offset
-            state = _flat(args[0])
+            state = _flat(args[0], single)
             for j, row in self._rows(state, self.offsets).items():
                 state = state - params[self.offsets[j]] * row
             args = (state.reshape(args[0].shape), *args[1:])
         out = self.science(*args, **{k: params[k] for k in self.original})
-        columns = list(_flat(args[0]).unbind(1))[:self.n_states]
+        columns = list(_flat(args[0], single).unbind(1))[:self.n_states]
         if len(args) > 1:
-            columns += _flat(args[1]).unbind(1)[:len(self.variable_names) - self.n_states]
+            columns += _flat(args[1], single).unbind(1)[:len(self.variable_names) - self.n_states]
+        if len(columns) < len(self.variable_names):
+            raise ValueError(f"variable_names has {len(self.variable_names)} names {self.variable_names}, but the "
+                             f"inputs have {len(columns)} column(s).")
         d = dict(zip(self.variable_names, columns))
         extra = {}
         for component, _, param, func, shape in self.added:
@@ -240,7 +258,7 @@ class AugmentedScience:
                 continue
             value = params[param] * func(d, **{local: params[name] for local, name in shape.items()})
             extra[component] = value if component not in extra else extra[component] + value
-        flat = _flat(out)
+        flat = _flat(out, single)
         for j, row in self._rows(flat, self.touched).items():
             value = extra[j]
             flat = torch.addcmul(flat, value.unsqueeze(-1), row) if torch.is_tensor(value) else flat + value * row

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import math
 import time
+import warnings
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
@@ -21,7 +22,8 @@ from torch import nn
 from ..engine import DivergenceError
 from ..residual import MLP, MaskedMLP
 from ..science import read_signature
-from ._arguments import _check_names, _check_options, _n_states, _offset_states, _uncertain_components
+from ._arguments import (_check_names, _check_options, _check_param_names, _check_refit_params, _n_states,
+                         _offset_states, _uncertain_components)
 from .evidence import ScienceFit, held_out_splits
 from .report import Scoring, format_table, residual_profile
 from .residual import _names, science_output
@@ -235,8 +237,11 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
     uncertain = _uncertain_components(estimator, X, y, exact, state_names)
     offsets = _offset_states(estimator, X, y, offsets, state_names)
     variables, first_values = _check_names(estimator, X, y, state_names, input_names, units, user_terms, positive)
-    if terms is None:  # the user's terms are tried on the data's first states before anything is fitted
-        physics_terms(variables, first_values, units, term_kinds, user_terms, positive)
+    # the user's terms are tried on the data's first states before anything is fitted
+    library = physics_terms(variables, first_values, units, term_kinds, user_terms, positive) if terms is None \
+        else terms
+    _check_param_names(param_names, {t.name for t in library} | {f"offset({variables[j]})" for j in offsets})
+    _check_refit_params(estimator, refit_params)
     try:
         check_is_fitted(estimator, "model_")
         before = estimator
@@ -328,6 +333,10 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
                              **scoring.submit(after)()})
         rows.append({"stage": "science only", "science": getattr(final, "__name__", "science"),
                      "added": getattr(augmented, "equation", ""), **alone_row()})
+    unscored = sorted(set(theta_true or {}) - set(before.theta_) - set(science_theta))
+    if unscored:  # only now known: theta_true may name the coefficient of a term the loop might add
+        warnings.warn(f"theta_true names {unscored}, parameters of neither the science model nor the terms added: "
+                      "their error is not reported.", UserWarning, stacklevel=2)
     report = format_table(rows, added, sel["steps"], unexplained, n_val, z=z, min_gain=min_gain, cv=cv,
                           unit=unit)
     log(report)

@@ -44,7 +44,8 @@ def free_run(estimator: Any, x0: np.ndarray, u: np.ndarray | None = None, n_step
     if u is not None:  # the shorthands of a single record: (n_steps + 1,) or (n_steps + 1, n_inputs)
         u = np.asarray(u, dtype=float)
         u = u.reshape(1, -1, 1) if u.ndim == 1 else (u[None] if u.ndim == 2 and len(x0) == 1 else u)
-    return estimator.simulate(x0, None if u is not None else n_steps, u=u, use_residual=use_residual)
+    # n_steps goes along with u too: simulate refuses the two when they disagree
+    return estimator.simulate(x0, n_steps, u=u, use_residual=use_residual)
 
 
 def fit_initial_state(estimator: Any, y_head: np.ndarray, x0_guess: np.ndarray, u_head: np.ndarray | None = None,
@@ -71,22 +72,64 @@ def fit_initial_state(estimator: Any, y_head: np.ndarray, x0_guess: np.ndarray, 
     Returns
     -------
     ndarray of shape (n_states,)
+
+    Raises
+    ------
+    ValueError
+        For a non-finite guess or record, a ``y_head`` whose width is not the number of observed
+        components, ``u_head`` over other samples than ``y_head``, or ``observed`` / ``free``
+        indices outside the state.
     """
-    observed = list(observed if observed is not None else (estimator.observed or range(len(x0_guess))))
-    y_head = np.asarray(y_head, float).reshape(len(y_head), -1)
-    guess = np.asarray(x0_guess, float)
-    free = list(range(len(guess))) if free is None else list(free)
-    u = None if u_head is None else np.asarray(u_head, float).reshape(1, len(y_head), -1)
+    guess = np.asarray(x0_guess, float).ravel()
+    n_states = len(guess)
+    observed = _indices("observed", observed if observed is not None else estimator.observed, n_states)
+    free = _indices("free", free, n_states)
+    if not np.all(np.isfinite(guess)):
+        raise ValueError(f"x0_guess holds NaN or infinite values: {guess}.")
+    y_head = np.asarray(y_head, float)
+    y_head = y_head.reshape(len(y_head), -1)
+    if y_head.shape[1] != len(observed) or len(y_head) < 2 or not np.all(np.isfinite(y_head)):
+        raise ValueError(f"y_head must hold finite observations of the {len(observed)} observed component(s) "
+                         f"{observed} at 2 or more times, shape (n_head, {len(observed)}); got shape "
+                         f"{y_head.shape}{'' if np.all(np.isfinite(y_head)) else ' with NaN or infinite values'}.")
+    u = None
+    if u_head is not None:
+        u = np.asarray(u_head, float)
+        if len(u) != len(y_head):
+            raise ValueError(f"u_head has {len(u)} samples and y_head {len(y_head)}: give the inputs over the "
+                             "same samples.")
+        u = u.reshape(1, len(y_head), -1)
 
-    def resid(z):
-        x0 = guess.copy()
-        x0[free] = z
-        states = free_run(estimator, x0, u=u, n_steps=len(y_head) - 1, use_residual=use_residual)[0]
-        return (states[:, observed] - y_head).ravel()
+    def errors(z):  # the observation errors of one free run per row of z, as one batch
+        x0 = np.repeat(guess[None], len(z), axis=0)
+        x0[:, free] = z
+        inputs = None if u is None else np.repeat(u, len(z), axis=0)
+        states = free_run(estimator, x0, u=inputs, n_steps=len(y_head) - 1, use_residual=use_residual)
+        return (states[:, :, observed] - y_head).reshape(len(z), -1)
 
-    scale = np.maximum(np.abs(guess[free]), 1e-3)
-    # Steps of 1e-3 (relative): the simulation may run in float32, too coarse for the default.
-    return _put(guess, free, least_squares(resid, guess[free], x_scale=scale, diff_step=1e-3).x)
+    # Forward differences with steps of 1e-3 of each component's size, or of the record's where the
+    # component is near 0: scipy's relative diff_step turns into 1.5e-8 at 0 (an unknown velocity
+    # guessed at 0), below what a float32 simulation resolves, and that component never moved.
+    typical = max(float(np.abs(guess).max()), float(np.sqrt(np.mean(y_head**2))), 1e-12)
+
+    def jacobian(z):
+        steps = 1e-3 * np.maximum(np.abs(z), typical)
+        out = errors(np.vstack([z, z + np.diag(steps)]))
+        return ((out[1:] - out[0]) / steps[:, None]).T
+
+    fit = least_squares(lambda z: errors(z[None])[0], guess[free], jac=jacobian, x_scale="jac")
+    return _put(guess, free, fit.x)
+
+
+def _indices(name: str, values: Any, n_states: int) -> list[int]:
+    """State indices (all of them for None), checked against the number of states."""
+    if values is None:
+        return list(range(n_states))
+    out = np.atleast_1d(np.asarray(values))
+    if out.dtype.kind not in "iu" or out.ndim != 1 or len(out) == 0 or out.min() < 0 or out.max() >= n_states:
+        raise ValueError(f"{name} must list state indices in [0, {n_states - 1}] (x0_guess has {n_states} "
+                         f"states), got {values!r}.")
+    return out.tolist()
 
 
 def _put(x: np.ndarray, idx: list[int], values: np.ndarray) -> np.ndarray:

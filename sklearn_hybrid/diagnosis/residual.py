@@ -16,6 +16,7 @@ span) are left out. A selected ``df/d<name>`` term says "shift theta by its coef
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
+from numbers import Real
 from typing import Any
 
 import numpy as np
@@ -203,7 +204,8 @@ class ResidualDiagnosis(BaseEstimator):
         self : ResidualDiagnosis
         """
         check_is_fitted(estimator, "model_")
-        if not (isinstance(self.min_residual, (int, float)) and 0 <= self.min_residual < 1):
+        share = self.min_residual
+        if isinstance(share, bool) or not (isinstance(share, Real) and 0 <= share < 1):
             raise ValueError(f"min_residual must be in [0, 1), got {self.min_residual!r}.")
         check_positive("max_points", self.max_points, integer=True)
         trace = estimator.residual_trace(X)
@@ -237,6 +239,8 @@ class ResidualDiagnosis(BaseEstimator):
             chosen = [j for j in range(residual.shape[1])
                       if not (self.residual_share_[j] < self.min_residual) and np.any(residual[:, j] != 0)]
         else:
+            if np.ndim(self.components) != 1:
+                raise ValueError(f"components must be a list of residual component indices, got {self.components!r}.")
             chosen = [int(j) for j in self.components]
             bad = [j for j in chosen if not 0 <= j < residual.shape[1]]
             if bad:

@@ -135,12 +135,24 @@ def physics_terms(variables: Sequence[str], values: np.ndarray, units: Mapping[s
     -------
     list of Term
     """
+    if isinstance(kinds, str):  # a string is a sequence of letters, none of them a kind
+        raise ValueError(f"kinds must be a list of term kinds, got the string {kinds!r}; write [{kinds!r}].")
     kinds = list(TERM_KINDS if kinds is None else kinds)
     unknown = sorted(set(kinds) - set(TERM_KINDS))
     if unknown:
         raise ValueError(f"Unknown term kinds {unknown}; choose from {list(TERM_KINDS)}.")
+    variables = list(variables)
+    if len(set(variables)) < len(variables):
+        raise ValueError(f"variables must have distinct names, got {variables}.")
     units = dict(units or {})
-    values = np.asarray(values, dtype=float).reshape(len(values), len(variables))
+    values = np.asarray(values, dtype=float)
+    if values.ndim == 1 and len(variables) == 1:
+        values = values[:, None]
+    if values.ndim != 2 or values.shape[1] != len(variables) or len(values) == 0:
+        raise ValueError(f"values must hold the {len(variables)} variables {variables} at one point or more, "
+                         f"shape (n_points, {len(variables)}); got shape {values.shape}.")
+    if not np.all(np.isfinite(values)):
+        raise ValueError("values holds NaN or infinite entries: the starting grids (scales, knots) come from them.")
     terms: list[Term] = []
     if "polynomial" in kinds:
         terms += _polynomials(variables, units)
