@@ -31,6 +31,8 @@ only with ``perturb="all"``.
 from __future__ import annotations
 
 import math
+import os
+import traceback
 from typing import Sequence
 
 import torch
@@ -301,6 +303,13 @@ def make_theta_encoder(spec, science: nn.Module, in_shape: tuple,
     return ThetaEncoder(build_encoder(spec, in_shape, n_free, dtype), science)
 
 
+def _under_vmap(exc: BaseException) -> bool:
+    """Whether ``exc`` was raised inside torch.func.vmap (or names what vmap refuses)."""
+    files = [frame.f_code.co_filename for frame, _ in traceback.walk_tb(exc.__traceback__)]
+    return (any("_functorch" in f or f"torch{os.sep}func" in f for f in files)
+            or any(word in str(exc) for word in ("vmap", ".item()", "data-dependent", "BatchedTensor")))
+
+
 def probe_per_sample(model: nn.Module, inputs: tuple) -> None:
     """Run the model on two samples: fail early, and choose the direct call where it is exact.
 
@@ -329,12 +338,12 @@ def probe_per_sample(model: nn.Module, inputs: tuple) -> None:
             except Exception:  # the function does not broadcast per-sample theta: keep vmap
                 pass
     except Exception as exc:
-        raise ValueError(
-            f"The hybrid model with per-sample theta failed on two samples: {type(exc).__name__}: "
-            f"{exc}. With theta_encoder the science function is called once per sample under "
-            "torch.func.vmap, so it must use torch operations only (no .item(), no Python "
-            "branching on tensor values) and accept a batch of one."
-        ) from exc
+        # the vmap advice only where vmap was at work: a network's own shape error needs none
+        hint = (" With theta_encoder the science function is called once per sample under torch.func.vmap, so "
+                "it must use torch operations only (no .item(), no Python branching on tensor values) and "
+                "accept a batch of one." if _under_vmap(exc) else "")
+        raise ValueError(f"The hybrid model with per-sample theta failed on two samples: {type(exc).__name__}: "
+                         f"{str(exc).rstrip('.')}.{hint}") from exc
     finally:
         model.train(training)
         if model.encoder is not None:

@@ -108,19 +108,23 @@ class ConvNet(nn.Module):
         Activation between layers.
     padding_mode : str
         ``"circular"`` for periodic domains, ``"replicate"`` for zero-flux.
+    batch_norm : bool
+        Batch normalisation after each hidden convolution, with the statistics of the batch at hand
+        in training and in prediction alike (APHYNITY's setting): a field's prediction then depends
+        on the fields predicted with it. ``False`` makes every prediction depend on its own sample only.
     """
 
     def __init__(self, in_shapes: Sequence[tuple], out_shape: tuple,
                  hidden: Sequence[int] = (16, 16), activation: str = "relu",
-                 padding_mode: str = "circular"):
+                 padding_mode: str = "circular", batch_norm: bool = True):
         super().__init__()
         channels = [sum(s[0] for s in in_shapes), *hidden, out_shape[0]]
         layers = []
         for i, (c_in, c_out) in enumerate(zip(channels[:-1], channels[1:])):
             layers.append(nn.Conv2d(c_in, c_out, 3, padding=1, padding_mode=padding_mode))
             if i < len(channels) - 2:
-                layers += [nn.BatchNorm2d(c_out, track_running_stats=False),
-                           _activation(activation)]
+                layers += [nn.BatchNorm2d(c_out, track_running_stats=False)] if batch_norm else []
+                layers.append(_activation(activation))
         self.net = nn.Sequential(*layers)
 
     def forward(self, *inputs: torch.Tensor) -> torch.Tensor:

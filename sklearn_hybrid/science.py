@@ -158,7 +158,10 @@ class ScienceModel(nn.Module):
         self.raw = nn.ParameterDict()
         self.transforms = nn.ModuleDict()
         for name, default in defaults.items():
-            value = np.asarray(theta_init.get(name, default), dtype=float)
+            given = theta_init.get(name, default)
+            if given is None or isinstance(given, (str, bool)):  # np.asarray would make None a NaN, "0.5" a number
+                raise ValueError(f"theta_init[{name!r}] must be a number (or an array of numbers), got {given!r}.")
+            value = np.asarray(given, dtype=float)
             if value.shape != default.shape:  # a scalar given as [0.6] would turn theta_[name] into an array
                 raise ValueError(
                     f"theta_init[{name!r}] has shape {value.shape}, the default has shape "
