@@ -357,8 +357,9 @@ def render(records: list[dict]) -> str:
         md += ["", f"All batches, as the stored records stand: {hit} of {len(effects)} effects within 10 % "
                    f"({100 * hit / len(effects):.0f} %; target >= 90 %), {clean} of {len(controls)} controls with "
                    "nothing added. Where a fresh batch first ran with an older selection, its preface gives that "
-                   "first result; every row whose first hybrid fit was stored is the rerun at 1818e3d, the 26 others "
-                   "were run again end to end at 9835b93 (the notes at the end)."]
+                   "first result; of batches 1 to 9, every row whose first hybrid fit was stored is the rerun at 1818e3d "
+                   "and the 26 others were run again end to end at 9835b93 (the notes at the end); batch 10 ran once, "
+                   "at 9ce627e."]
         # batch 1 is what the selection was built on; the fresh batches are the honest forecast for new systems
         fresh = [r for r in effects if SYSTEMS[r["system"]].batch > 1]
         fresh_hit = sum(bool(r.get("identified")) for r in fresh)
