@@ -809,6 +809,12 @@ def heat_exchanger_f(v, u, p=0.8, h=0.5, g=0.25):
     return torch.stack([p * u[:, 0] - h * (T1 - T2), h * (T1 - T2) - g * T2], dim=-1)
 
 
+def _relative_drag(x, u, cd=0.4):
+    """Drag of a wind of speed u on a mass moving at v: cd (u - v)|u - v|, on the velocity's equation."""
+    slip = u[:, 0] - x[:, 1]
+    return _on(1, 2, cd * slip * np.abs(slip))
+
+
 def _haldane_minus_mm(S, vmax=1.2, km=0.3, ki=0.8):
     """What substrate inhibition gives back of Michaelis-Menten uptake: vmax S/(km + S) - vmax S/(km + S + S^2/ki)."""
     return vmax * S / (km + S) - vmax * S / (km + S + S ** 2 / ki)
@@ -834,8 +840,7 @@ FRESH_10 = [
            ["S"], {"S": "mol/L", "u": "mol/L/h"}, 0.25, 30, (0.0,), (2.0,), (0.1, 0.6), batch=10),
     System("wind_drag", "oscillator", "non-smooth in a state and the input (relative speed), outside the library",
            "a wind pushes the mass by drag on the relative speed, 0.4 (u - v)|u - v|, where the science has b u",
-           wind_oscillator_f, {"k": 2.0, "c": 0.1, "b": 0.0}, lambda x, u: _on(1, 2, 0.4 * (u[:, 0] - x[:, 1])
-                                                                                * np.abs(u[:, 0] - x[:, 1])),
+           wind_oscillator_f, {"k": 2.0, "c": 0.1, "b": 0.0}, _relative_drag,
            ["x", "v"], {"x": "m", "v": "m/s", "u": "m/s"}, 0.1, 40, (-1.0, -1.0), (1.0, 1.0), (-0.5, 2.0),
            zero_components=[0], batch=10),
     System("conductive_loss", "thermal", "polynomial (quadratic)",
@@ -850,7 +855,8 @@ FRESH_10 = [
            ["T1", "T2"], {"T1": "100 K", "T2": "100 K", "u": "kW"}, 0.25, 30, (0.0, 0.0), (1.5, 1.5), (0.0, 1.0),
            batch=10),
 ]
-SYSTEMS = {s.name: s for s in SYSTEMS + FRESH + FRESH_3 + FRESH_4 + FRESH_5 + FRESH_6 + FRESH_7 + FRESH_8 + FRESH_9 + FRESH_10}
+SYSTEMS = {s.name: s for s in SYSTEMS + FRESH + FRESH_3 + FRESH_4 + FRESH_5 + FRESH_6 + FRESH_7 + FRESH_8 + FRESH_9
+           + FRESH_10}
 
 
 # ----------------------------------------------------------------------------------------------------- simulation

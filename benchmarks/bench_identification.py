@@ -147,8 +147,9 @@ BATCHES = {
         "of its gain 1 + 0.5 i^2 on the visited states, and what is left gained at most 14 % (i^2*u, z 3.5 "
         "against 3.85) at 0.01 and 16 % (exp(k*i), z 2.0) at 0.05."),
     10: ("## Batch 10: fresh systems, written in the session after batch 9's rerun",
-         "Written on 2026-11-25, two sessions after batch 9, with the diagnosis package unchanged since 9835b93 (the code "
-         "every row above ran with, or code that reproduced it), committed before they ran, on an Intel Xeon where "
+         "Written on 2026-11-25, two sessions after batch 9, with the diagnosis package unchanged since 9835b93 "
+         "(the code every row above ran with, or code that reproduced it), committed before they ran, on an Intel "
+         "Xeon where "
          "the rows above ran on an AMD EPYC: a diode's exponential leak, algae growth saturating in the light "
          "(rational in the input, times the state: outside the term library), an expression cascade repressed by its "
          "protein (a Hill function of the second state), substrate inhibition of a fed reaction (Haldane kinetics: "
@@ -357,9 +358,9 @@ def render(records: list[dict]) -> str:
         md += ["", f"All batches, as the stored records stand: {hit} of {len(effects)} effects within 10 % "
                    f"({100 * hit / len(effects):.0f} %; target >= 90 %), {clean} of {len(controls)} controls with "
                    "nothing added. Where a fresh batch first ran with an older selection, its preface gives that "
-                   "first result; of batches 1 to 9, every row whose first hybrid fit was stored is the rerun at 1818e3d "
-                   "and the 26 others were run again end to end at 9835b93 (the notes at the end); batch 10 ran once, "
-                   "at 9ce627e."]
+                   "first result; of batches 1 to 9, every row whose first hybrid fit was stored is the rerun at "
+                   "1818e3d and the 26 others were run again end to end at 9835b93 (the notes at the end); batch 10 "
+                   "ran once, at 9ce627e."]
         # batch 1 is what the selection was built on; the fresh batches are the honest forecast for new systems
         fresh = [r for r in effects if SYSTEMS[r["system"]].batch > 1]
         fresh_hit = sum(bool(r.get("identified")) for r in fresh)

@@ -68,8 +68,9 @@ def theta_uncertainty(model, inputs, y, sample_weight=None, chunk=None) -> tuple
     science = model.science
     if getattr(model, "encoder", None) is not None:  # theta is per sample: no shared theta to vary
         encoded = set(model.encoder.names)  # the others are fixed: known exactly, 0 as without an encoder
-        std = {name: np.full(science.shapes[name], np.nan if name in encoded else 0.0) for name in science.names}
-        std = {name: float(v) if v.ndim == 0 else v for name, v in std.items()}
+        value = {name: np.nan if name in encoded else 0.0 for name in science.names}
+        std = {name: (value[name] if science.shapes[name] == () else np.full(science.shapes[name], value[name]))
+               for name in science.names}
         return std, np.zeros((0, 0)), []
     model = copy.deepcopy(model).to(torch.float64).eval()
     inputs = tuple(t.to(torch.float64) for t in inputs)

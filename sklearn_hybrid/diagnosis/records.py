@@ -28,9 +28,9 @@ def free_run(estimator: Any, x0: np.ndarray, u: np.ndarray | None = None, n_step
     x0 : ndarray of shape (n, n_states) or (n_states,)
         Initial states.
     u : ndarray of shape (n, n_steps + 1, n_inputs) or (n_steps + 1,), optional
-        Inputs on the output grid (forced systems); fixes ``n_steps``.
+        Inputs on the output grid (forced systems); they set ``n_steps``.
     n_steps : int, optional
-        Number of outputs (autonomous systems).
+        Number of outputs; with ``u`` it must agree with the inputs' length (or be left out).
     use_residual : bool or array of bool of shape (n,), default=True
         False simulates the science part alone; one flag per initial state mixes both in one batch.
 
@@ -88,10 +88,11 @@ def fit_initial_state(estimator: Any, y_head: np.ndarray, x0_guess: np.ndarray, 
         raise ValueError(f"x0_guess holds NaN or infinite values: {guess}.")
     y_head = np.asarray(y_head, float)
     y_head = y_head.reshape(len(y_head), -1)
-    if y_head.shape[1] != len(observed) or len(y_head) < 2 or not np.all(np.isfinite(y_head)):
-        raise ValueError(f"y_head must hold finite observations of the {len(observed)} observed component(s) "
-                         f"{observed} at 2 or more times, shape (n_head, {len(observed)}); got shape "
-                         f"{y_head.shape}{'' if np.all(np.isfinite(y_head)) else ' with NaN or infinite values'}.")
+    if y_head.shape[1] != len(observed) or len(y_head) < 2:
+        raise ValueError(f"y_head must hold the {len(observed)} observed component(s) {observed} at 2 or more "
+                         f"times, shape (n_head, {len(observed)}); got shape {y_head.shape}.")
+    if not np.all(np.isfinite(y_head)):
+        raise ValueError("y_head holds NaN or infinite values.")
     u = None
     if u_head is not None:
         u = np.asarray(u_head, float)
