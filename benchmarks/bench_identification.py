@@ -16,7 +16,7 @@ the truth, and ``|a| = sqrt(mean over test states of the sum over components of 
 - controls (``m = 0``): the number of added terms (target 0) and ``|F - T| / |T|``.
 
 Every finished case is cached as ``results/identification_runs/<system>_noise<level>_seed<seed>.json`` and
-skipped on a rerun (delete a file to run its case again; the first hybrid fit is kept in ``fits/`` beside
+skipped on a rerun (``--rerun`` runs the given cases again; the first hybrid fit is kept in ``fits/`` beside
 them, outside git, and reused, so that a change of the selection is measured without refitting it);
 ``--fast`` (8 training trajectories, 40 iterations) only checks the plumbing, caches to
 ``identification_runs_fast/`` and is never rendered into the results.
@@ -459,6 +459,8 @@ def main(argv=None) -> None:
     parser.add_argument("--seeds", nargs="*", type=int, default=[0])
     parser.add_argument("--render", action="store_true", help="rebuild the results from the cache only")
     parser.add_argument("--fast", action="store_true", help="smoke protocol (separate cache, never rendered)")
+    parser.add_argument("--rerun", action="store_true",
+                        help="run the cases again though cached (each record is replaced once its new run ends)")
     args = parser.parse_args(argv)
     if args.render:
         write(load(False))
@@ -471,7 +473,7 @@ def main(argv=None) -> None:
     todo = [(n, s, c) for n in args.noise for s in args.seeds for c in RUN_ORDER if c in args.cases]
     for i, (noise, seed, name) in enumerate(todo, 1):
         path = folder / f"{name}_noise{noise:g}_seed{seed}.json"
-        if path.exists():
+        if path.exists() and not args.rerun:
             print(f"[{i}/{len(todo)}] {name} noise={noise:g} seed={seed}: cached", flush=True)
             continue
         print(f"[{i}/{len(todo)}] {name} noise={noise:g} seed={seed} ...", end=" ", flush=True)

@@ -16,9 +16,10 @@ from .records import fit_initial_state, free_run
 from .report import format_table, plot_unexplained, prediction_metrics
 from .residual import ResidualDiagnosis, science_sensitivities
 from .sparse import SparseTermRegression
-from .terms import TERM_KINDS, Term, physics_terms
+from .terms import SCIENCE_OUTPUT, TERM_KINDS, Term, physics_terms
 
 __all__ = ["CandidateLibrary", "SparseTermRegression", "ResidualDiagnosis", "science_sensitivities",
            "augment_science", "AugmentedScience", "term_to_torch", "parameter_name", "close_the_loop", "free_run",
            "fit_initial_state", "MLPOn", "ZeroResidual", "prediction_metrics", "format_table",
-           "plot_unexplained", "Term", "physics_terms", "TERM_KINDS", "ScienceFit", "evidence", "critical_value"]
+           "plot_unexplained", "Term", "physics_terms", "TERM_KINDS", "SCIENCE_OUTPUT", "ScienceFit", "evidence",
+           "critical_value"]

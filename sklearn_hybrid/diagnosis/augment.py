@@ -22,7 +22,7 @@ import numpy as np
 import torch
 
 from ..science import read_signature
-from .terms import _abs, _drag, constant, monomial
+from .terms import SCIENCE_OUTPUT, _abs, _drag, constant, monomial
 
 __all__ = ["augment_science", "AugmentedScience", "term_to_torch", "parameter_name"]
 
@@ -92,7 +92,8 @@ def parameter_name(term: str, taken: Sequence[str], suffix: str = "", prefix: st
 
     ``prefix`` names other parameters of the term, e.g. ``"w"`` for the width of dry friction.
     """
-    text = re.sub(r"\|(\w+)\|", r"_abs_\1_", term).replace("^", "").replace("*", "_")
+    text = re.sub(r"\|(\w+)\|", r"_abs_\1_", term)
+    text = re.sub(r"\[(\w+)\]", r"_\1", text).replace("^", "").replace("*", "_")  # "f[v]*x" -> "f_v_x"
     text = re.sub(r"\W+", "_", text).strip("_") or "term"
     base = f"{prefix}_{text}" + (f"_{suffix}" if suffix else "")
     name, i = base, 2
@@ -251,14 +252,14 @@ class AugmentedScience:
         if len(columns) < len(self.variable_names):
             raise ValueError(f"variable_names has {len(self.variable_names)} names {self.variable_names}, but the "
                              f"inputs have {len(columns)} column(s).")
-        d = dict(zip(self.variable_names, columns))
+        flat = _flat(out, single)
+        d = {**dict(zip(self.variable_names, columns)), SCIENCE_OUTPUT: flat}  # a "scaled" term reads the output
         extra = {}
         for component, _, param, func, shape in self.added:
             if func is None:
                 continue
             value = params[param] * func(d, **{local: params[name] for local, name in shape.items()})
             extra[component] = value if component not in extra else extra[component] + value
-        flat = _flat(out, single)
         for j, row in self._rows(flat, self.touched).items():
             value = extra[j]
             flat = torch.addcmul(flat, value.unsqueeze(-1), row) if torch.is_tensor(value) else flat + value * row

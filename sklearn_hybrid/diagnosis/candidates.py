@@ -27,7 +27,8 @@ def _term_columns(terms: Sequence[Term], variables: dict[str, torch.Tensor]) -> 
     """``(term, shape, values)`` of every term at every starting shape, on the visited states.
 
     Finite and not identically zero only; the states do not change during the selection, so this is
-    computed once for both rankings and every step.
+    computed once for both rankings and every step (a ``"scaled"`` term's column from the science
+    output at the starting parameters: close enough to rank it).
     """
     n = len(next(iter(variables.values())))
     out = []
@@ -63,6 +64,8 @@ def _rank(columns: list[tuple], remaining: np.ndarray, jac: np.ndarray, componen
                 continue
             best = None
             for term, shape, col in options:
+                if term.component not in (None, j):
+                    continue
                 c = col - Q @ (Q.T @ col)
                 cc = float(c @ c)
                 if cc < 1e-3 * float(col @ col):  # within the parameters' span: a shift, not a term
@@ -103,7 +106,7 @@ def _rank_by_fit(columns: list[tuple], science: Callable, current: Callable, add
         if not np.isfinite(size) or size == 0:
             continue
         for j in components:
-            if (j, term.name) in taken:
+            if (j, term.name) in taken or term.component not in (None, j):
                 continue
             h = 1e-4 * scale[j] / size
             cand = {"component": j, "term": term.name, "kind": term.kind, "unit": term.unit,

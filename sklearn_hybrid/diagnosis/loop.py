@@ -238,8 +238,12 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
     offsets = _offset_states(estimator, X, y, offsets, state_names)
     variables, first_values = _check_names(estimator, X, y, state_names, input_names, units, user_terms, positive)
     # the user's terms are tried on the data's first states before anything is fitted
-    library = physics_terms(variables, first_values, units, term_kinds, user_terms, positive) if terms is None \
-        else terms
+    n_states = _n_states(estimator, X, y) if estimator.structure == "ode" else None
+    # an ODE's uncertain equations may have a parameter that varies with the state: f_j(x) * x_k
+    scaled = (None if n_states is None else
+              {j: variables[j] for j in (range(n_states) if uncertain is None else uncertain)})
+    library = physics_terms(variables, first_values, units, term_kinds, user_terms, positive, scaled,
+                            n_states) if terms is None else terms
     _check_param_names(param_names, {t.name for t in library} | {f"offset({variables[j]})" for j in offsets})
     _check_refit_params(estimator, refit_params)
     try:
@@ -252,7 +256,7 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
             # start can push a state out of the science function's domain (an infected share below zero
             # makes S I grow without bound) and must first be undone. It acts on the uncertain components
             # only: the exact equations stay the science's.
-            components = uncertain if uncertain is not None else list(range(_n_states(estimator, X, y)))
+            components = uncertain if uncertain is not None else list(range(n_states))
             before.set_params(residual=MLPOn(components))
         log("fitting the hybrid model ...")
         before.fit(X, y)
@@ -274,7 +278,7 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
     components = list(range(base.shape[1])) if uncertain is None else uncertain
     values = np.hstack([a.reshape(len(a), -1) for a in args])
     if terms is None:
-        terms = physics_terms(variables, values, units, term_kinds, user_terms, positive)
+        terms = physics_terms(variables, values, units, term_kinds, user_terms, positive, scaled, n_states)
 
     with Scoring(n_jobs, X, X_test, y_test, test_scorer, theta_true) as scoring:
         log("scoring the first hybrid ..." if scoring.executor is None else

@@ -31,7 +31,7 @@ from .candidates import (_augment, _entries, _free_columns, _groups, _initial_va
 from .evidence import ScienceFit, evidence
 from .report import format_gain
 from .residual import parameter_jacobian, science_output
-from .terms import Term
+from .terms import SCIENCE_OUTPUT, Term
 
 __all__ = ["forward_selection"]
 
@@ -152,6 +152,7 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
     start_time = time.perf_counter()
     tensors = {name: torch.as_tensor(np.asarray(col, dtype=float))
                for name, col in zip(variables, np.hstack([np.asarray(a).reshape(len(a), -1) for a in args]).T)}
+    tensors[SCIENCE_OUTPUT] = torch.as_tensor(science_output(science, theta, args), dtype=torch.float64)
     columns = _term_columns(terms, tensors)
     judge = _Judge(fit, splits, groups)
     current, theta_now = science, judge.fit(science, theta)

@@ -7,6 +7,12 @@ kinds, one *shape* parameter fitted together with its coefficient: the width ``w
 from the data's scale; the same torch function serves the ranking (on the states the network
 visited) and the augmented science model (during its refit), so there is one implementation per
 term.
+
+A term of kind ``"scaled"`` multiplies the science model's own output for one component by a
+state, ``f_j(x) * x_k`` (or ``x_k^2``): a parameter of that equation that varies with the state (an
+inductance that saturates with the current, a growth rate that depends on the density, a rate
+constant that grows with the temperature). It reads the science output from the variables under
+the key ``SCIENCE_OUTPUT``, which the augmented science model and the selection provide.
 """
 
 from __future__ import annotations
@@ -19,9 +25,12 @@ from typing import Any
 import numpy as np
 import torch
 
-__all__ = ["Term", "physics_terms", "TERM_KINDS"]
+__all__ = ["Term", "physics_terms", "TERM_KINDS", "SCIENCE_OUTPUT"]
 
-TERM_KINDS = ("polynomial", "drag", "dry_friction", "hinge", "sqrt", "exponential", "saturation", "user")
+TERM_KINDS = ("polynomial", "drag", "dry_friction", "hinge", "sqrt", "exponential", "saturation", "scaled", "user")
+# Key of the science model's output, shape (batch, n_outputs), among a term's variables: not an
+# identifier, so no state or input can be named so.
+SCIENCE_OUTPUT = "<science output>"
 
 
 class Term:
@@ -39,13 +48,16 @@ class Term:
         Each nonlinear parameter's starting grid and bounds, e.g. ``{"w": ([0.01, 0.1], (1e-4, 10))}``.
     unit : str, default=""
         Units of the term (for the report); ``""`` if dimensionless or unknown.
+    component : int, optional
+        The only output component the term may be added to (a ``"scaled"`` term scales that
+        component's science output); default any.
     """
 
     def __init__(self, name: str, func: Callable, kind: str,
                  shape: Mapping[str, tuple[Sequence[float], tuple[float, float]]] | None = None,
-                 unit: str = "") -> None:
+                 unit: str = "", component: int | None = None) -> None:
         self.name, self.func, self.kind, self.unit = name, func, kind, unit
-        self.shape = dict(shape or {})
+        self.shape, self.component = dict(shape or {}), component
 
     def __call__(self, d: Mapping[str, torch.Tensor], **shape: Any) -> torch.Tensor:
         return self.func(d, **shape)
@@ -77,6 +89,11 @@ def monomial(d, factors):
     for name, power in factors[1:]:
         out = out * d[name] ** power
     return out
+
+
+def _scaled(d, component, factors):
+    """The science output of ``component`` times ``monomial(d, factors)``."""
+    return d[SCIENCE_OUTPUT][..., component] * monomial(d, factors)
 
 
 def _drag(d, x):
@@ -113,7 +130,8 @@ def _saturation(d, x, K):
 
 def physics_terms(variables: Sequence[str], values: np.ndarray, units: Mapping[str, str] | None = None,
                   kinds: Sequence[str] | None = None, user_terms: Mapping[str, Callable] | None = None,
-                  positive: Sequence[str] = ()) -> list[Term]:
+                  positive: Sequence[str] = (), scaled: Mapping[int, str] | None = None,
+                  n_states: int | None = None) -> list[Term]:
     """The default candidate library over the named variables.
 
     Parameters
@@ -130,6 +148,13 @@ def physics_terms(variables: Sequence[str], values: np.ndarray, units: Mapping[s
         Your own terms by name: ``f(d) -> Tensor`` with ``d`` mapping variable names to tensors.
     positive : list of str, optional
         Variables that are never negative (levels, concentrations): no hinge below zero for them.
+    scaled : dict of int to str, optional
+        Output components whose science output may vary with a state, with their labels
+        (``{1: "v"}``): terms ``f[v]*x`` and ``f[v]*x^2`` for every state ``x`` (kind ``"scaled"``),
+        each placed on its own component only. Default none: the terms need the science output,
+        which only the augmented science model and the selection provide.
+    n_states : int, optional
+        How many of ``variables`` are states (the rest are inputs, which scale no output); default all.
 
     Returns
     -------
@@ -156,6 +181,8 @@ def physics_terms(variables: Sequence[str], values: np.ndarray, units: Mapping[s
     terms: list[Term] = []
     if "polynomial" in kinds:
         terms += _polynomials(variables, units)
+    if "scaled" in kinds:
+        terms += _scaled_terms(dict(scaled or {}), variables[:len(variables) if n_states is None else n_states])
     for i, x in enumerate(variables):
         col, u = values[:, i], units.get(x, "")
         scale = float(np.sqrt(np.mean(col**2))) or 1.0
@@ -202,6 +229,14 @@ def _polynomials(variables: Sequence[str], units: Mapping[str, str]) -> list[Ter
             unit = "*".join(filter(None, (_power(units.get(x, ""), px), _power(units.get(z, ""), pz))))
             terms.append(Term(name, partial(monomial, factors=((x, px), (z, pz))), "polynomial", unit=unit))
     return terms
+
+
+def _scaled_terms(scaled: Mapping[int, str], states: Sequence[str]) -> list[Term]:
+    """``f[label]*x`` and ``f[label]*x^2`` for every scaled component and state (``f[label]*1`` is the
+    science output itself, which a parameter of its own equation scales already)."""
+    return [Term(f"f[{label}]*{x}" + (f"^{p}" if p > 1 else ""),
+                 partial(_scaled, component=int(j), factors=((x, p),)), "scaled", component=int(j))
+            for j, label in scaled.items() for x in states for p in (1, 2)]
 
 
 def _single_variable(x: str, col: np.ndarray, scale: float, unit: str, kinds: Sequence[str],

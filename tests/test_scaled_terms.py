@@ -1,0 +1,79 @@
+"""Terms of kind "scaled": a parameter of an equation that varies with the state, f_j(x) * x_k."""
+
+import inspect
+import pickle
+
+import numpy as np
+import pytest
+import torch
+from scipy.integrate import solve_ivp
+
+from sklearn_hybrid import HybridRegressor
+from sklearn_hybrid.diagnosis import SCIENCE_OUTPUT, ScienceFit, augment_science, physics_terms
+from sklearn_hybrid.diagnosis.stepwise import forward_selection
+
+NAMES = ["A", "B"]
+
+
+def relaxation_f(v, k=0.5, d=0.4):
+    """A relaxes towards B at rate k; B decays at rate d (one state or a batch)."""
+    A, B = v[..., 0], v[..., 1]
+    return torch.stack([B - k * A, -d * B], dim=-1)
+
+
+def test_scaled_terms_are_built_per_uncertain_component_and_state_only():
+    values = np.random.default_rng(0).uniform(0, 2, (50, 3))
+    terms = physics_terms(["A", "B", "u"], values, scaled={0: "A"}, n_states=2)
+    scaled = {t.name: t for t in terms if t.kind == "scaled"}
+    assert set(scaled) == {"f[A]*A", "f[A]*A^2", "f[A]*B", "f[A]*B^2"}  # inputs scale nothing
+    assert {t.component for t in scaled.values()} == {0}
+    assert all(t.component is None for t in terms if t.kind != "scaled")
+    # without the science outputs, or with the kind left out, there are none
+    assert not [t for t in physics_terms(["A", "B"], values[:, :2]) if t.kind == "scaled"]
+    kinds = ["polynomial"]
+    assert not [t for t in physics_terms(["A", "B"], values[:, :2], kinds=kinds, scaled={0: "A"}) if t.kind == "scaled"]
+    d = {"A": torch.tensor([1.0, 2.0]), "B": torch.tensor([0.5, 0.0]), SCIENCE_OUTPUT: torch.tensor([[3.0, 1.0],
+                                                                                                   [4.0, 1.0]])}
+    torch.testing.assert_close(scaled["f[A]*A^2"](d), torch.tensor([3.0, 16.0]))
+
+
+def test_augmented_science_scales_its_own_output():
+    values = np.random.default_rng(0).uniform(0, 2, (50, 2))
+    term, = [t for t in physics_terms(NAMES, values, scaled={0: "A"}) if t.name == "f[A]*A"]
+    aug = augment_science(relaxation_f, [{"component": 0, "term": term.name, "coef": 0.7, "function": term.func,
+                                          "kind": term.kind}], NAMES)
+    assert list(inspect.signature(aug).parameters) == ["v", "k", "d", "c_f_A_A"]
+    v = torch.tensor([[0.3, 1.0], [1.5, 0.2]], dtype=torch.float64)
+    f = relaxation_f(v)
+    expected = torch.stack([f[:, 0] * (1 + 0.7 * v[:, 0]), f[:, 1]], dim=-1)
+    torch.testing.assert_close(aug(v), expected)
+    torch.testing.assert_close(aug(v[0]), expected[0])  # one state, as solve_ivp hands it over
+    torch.testing.assert_close(pickle.loads(pickle.dumps(aug))(v, k=0.2), aug(v, k=0.2))
+
+
+def test_the_selection_finds_a_rate_that_grows_with_the_state():
+    """dA/dt = (B - k A)(1 + 0.7 A): two polynomial terms (A^2 and A*B) would be needed, one scaled term is exact."""
+    rng = np.random.default_rng(1)
+    dt, n_steps = 0.2, 12
+
+    def truth(t, x):
+        return [(x[1] - 0.5 * x[0]) * (1 + 0.7 * x[0]), -0.4 * x[1]]
+
+    x0 = rng.uniform([0.0, 0.2], [1.5, 2.0], size=(40, 2))
+    t = dt * np.arange(n_steps + 1)
+    x = np.stack([solve_ivp(truth, (0, t[-1]), s, t_eval=t, rtol=1e-9, atol=1e-11).y.T for s in x0])
+    y = x[:, 1:] + 0.005 * rng.standard_normal(x[:, 1:].shape)
+    est = HybridRegressor(science=relaxation_f, dt=dt, method="erm", max_iter=2, random_state=0).fit(x0, y)
+    fit = ScienceFit(est, x0, y)
+    states = x.reshape(-1, 2)
+    learned = np.stack([truth(0, s) for s in states])
+    n = len(y)
+    sel = forward_selection(relaxation_f, {"k": 0.5, "d": 0.4}, fit, [(np.arange(n - 12), np.arange(n - 12, n))],
+                            physics_terms(NAMES, states, scaled={0: "A", 1: "B"}), NAMES, 2, [states], learned,
+                            [0, 1])
+    assert [(t["component"], t["term"], t["kind"]) for t in sel["added"]] == [(0, "f[A]*A", "scaled")]
+    assert sel["added"][0]["coef"] == pytest.approx(0.7, rel=0.05)
+    assert sel["theta"]["k"] == pytest.approx(0.5, rel=0.05) and sel["theta"]["d"] == pytest.approx(0.4, rel=0.02)
+    # each scaled candidate was only ever placed on its own component
+    assert all(s["component"] == 0 for s in sel["steps"] if s["term"].startswith("f[A]"))
+    assert all(s["component"] == 1 for s in sel["steps"] if s["term"].startswith("f[B]"))
