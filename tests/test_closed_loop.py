@@ -737,11 +737,28 @@ def _reaction_f(v, k1=0.4, k2=0.7):
     return torch.stack([-k1 * A, k1 * A - k2 * B], dim=-1)
 
 
+def select_on_simulated_data(science, theta, truth, x0, dt, n_steps, noise, rng, names, library, rtol=1e-9,
+                             atol=1e-11):
+    """forward_selection on trajectories of ``truth`` from ``x0`` (the last 12 samples judge), with the network's
+    part taken as known: ``learned`` is the true right-hand side at the visited states. ``library(names, states)``
+    gives the candidates."""
+    from sklearn_hybrid.diagnosis import stepwise
+
+    t = dt * np.arange(n_steps + 1)
+    x = np.stack([solve_ivp(truth, (0, t[-1]), s, t_eval=t, rtol=rtol, atol=atol).y.T for s in x0])
+    y = x[:, 1:] + noise * rng.standard_normal(x[:, 1:].shape)
+    est = HybridRegressor(science=science, dt=dt, method="erm", max_iter=2, random_state=0).fit(x0, y)
+    states = x.reshape(-1, x.shape[-1])
+    learned = np.stack([truth(0, s) for s in states])
+    n = len(y)
+    splits = [(np.arange(n - 12), np.arange(n - 12, n))]
+    return stepwise.forward_selection(science, theta, ScienceFit(est, x0, y), splits, library(names, states), names,
+                                      len(names), [states], learned, list(range(len(names))))
+
+
 def test_a_flux_between_two_components_is_added_to_both_at_once():
     """Dimerisation 2A -> B at rate 0.5 A^2 (-1.0 A^2 on A, +0.5 A^2 on B): alone on either balance
     the term leaves the other wrong; the group (the term on both, one coefficient each) explains it."""
-    from sklearn_hybrid.diagnosis import stepwise
-
     rng = np.random.default_rng(0)
     names, dt, n_steps = ["A", "B"], 0.25, 12
 
@@ -750,17 +767,8 @@ def test_a_flux_between_two_components_is_added_to_both_at_once():
         return [-0.3 * x[0] - 2 * flux, 0.3 * x[0] - 0.9 * x[1] + flux]
 
     x0 = rng.uniform([0.5, 0.0], [2.0, 0.5], size=(40, 2))
-    t = dt * np.arange(n_steps + 1)
-    x = np.stack([solve_ivp(truth, (0, t[-1]), s, t_eval=t, rtol=1e-8).y.T for s in x0])
-    y = x[:, 1:] + 0.02 * rng.standard_normal(x[:, 1:].shape)
-    est = HybridRegressor(science=_reaction_f, dt=dt, method="erm", max_iter=2, random_state=0).fit(x0, y)
-    fit = ScienceFit(est, x0, y)
-    states = x.reshape(-1, 2)
-    learned = np.stack([truth(0, s) for s in states])
-    n = len(y)
-    sel = stepwise.forward_selection(_reaction_f, {"k1": 0.4, "k2": 0.7}, fit,
-                                     [(np.arange(n - 12), np.arange(n - 12, n))], physics_terms(names, states),
-                                     names, 2, [states], learned, [0, 1])
+    sel = select_on_simulated_data(_reaction_f, {"k1": 0.4, "k2": 0.7}, truth, x0, dt, n_steps, 0.02, rng, names,
+                                   physics_terms, rtol=1e-8, atol=1e-6)
     groups = [s for s in sel["steps"] if s["ranked_by"] == "group"]
     assert groups and all(isinstance(s["component"], list) and len(s["component"]) > 1 for s in groups)
     accepted = [s for s in sel["steps"] if s["accepted"]]

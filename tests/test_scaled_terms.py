@@ -6,11 +6,9 @@ import pickle
 import numpy as np
 import pytest
 import torch
-from scipy.integrate import solve_ivp
+from test_closed_loop import select_on_simulated_data
 
-from sklearn_hybrid import HybridRegressor
-from sklearn_hybrid.diagnosis import SCIENCE_OUTPUT, ScienceFit, augment_science, physics_terms
-from sklearn_hybrid.diagnosis.stepwise import forward_selection
+from sklearn_hybrid.diagnosis import SCIENCE_OUTPUT, augment_science, physics_terms
 
 NAMES = ["A", "B"]
 
@@ -60,17 +58,8 @@ def test_the_selection_finds_a_rate_that_grows_with_the_state():
         return [(x[1] - 0.5 * x[0]) * (1 + 0.7 * x[0]), -0.4 * x[1]]
 
     x0 = rng.uniform([0.0, 0.2], [1.5, 2.0], size=(40, 2))
-    t = dt * np.arange(n_steps + 1)
-    x = np.stack([solve_ivp(truth, (0, t[-1]), s, t_eval=t, rtol=1e-9, atol=1e-11).y.T for s in x0])
-    y = x[:, 1:] + 0.005 * rng.standard_normal(x[:, 1:].shape)
-    est = HybridRegressor(science=relaxation_f, dt=dt, method="erm", max_iter=2, random_state=0).fit(x0, y)
-    fit = ScienceFit(est, x0, y)
-    states = x.reshape(-1, 2)
-    learned = np.stack([truth(0, s) for s in states])
-    n = len(y)
-    sel = forward_selection(relaxation_f, {"k": 0.5, "d": 0.4}, fit, [(np.arange(n - 12), np.arange(n - 12, n))],
-                            physics_terms(NAMES, states, scaled={0: "A", 1: "B"}), NAMES, 2, [states], learned,
-                            [0, 1])
+    sel = select_on_simulated_data(relaxation_f, {"k": 0.5, "d": 0.4}, truth, x0, dt, n_steps, 0.005, rng, NAMES,
+                                   lambda names, states: physics_terms(names, states, scaled={0: "A", 1: "B"}))
     assert [(t["component"], t["term"], t["kind"]) for t in sel["added"]] == [(0, "f[A]*A", "scaled")]
     assert sel["added"][0]["coef"] == pytest.approx(0.7, rel=0.05)
     assert sel["theta"]["k"] == pytest.approx(0.5, rel=0.05) and sel["theta"]["d"] == pytest.approx(0.4, rel=0.02)
