@@ -31,6 +31,7 @@ from __future__ import annotations
 import argparse
 import json
 import pickle
+import subprocess
 import sys
 import time
 import traceback
@@ -46,6 +47,8 @@ from _identification_systems import SYSTEMS, System, call_science, simulate  # n
 
 from sklearn_hybrid import HybridRegressor, pack_inputs  # noqa: E402
 from sklearn_hybrid.diagnosis import close_the_loop  # noqa: E402
+
+ROOT = RESULTS.parents[1]  # the repository
 
 NOISE_LEVELS = (0.01, 0.05)
 PROTOCOL = {"n_train": 50, "n_test": 20, "estimator": "HybridRegressor(science=f, dt=dt, method='erm', "
@@ -452,6 +455,28 @@ def write(records: list[dict]) -> None:
     (RESULTS / "identification.json").write_text(json.dumps({"protocol": PROTOCOL, "cases": slim}, indent=2))
 
 
+def changes_since(rev: str) -> list[str]:
+    """One line per cached case whose record differs from its version at git revision ``rev``: the terms and
+    the score before and after (what a rerun changed)."""
+    lines = []
+    for path in sorted(cache_dir(False).glob("*.json")):
+        new = json.loads(path.read_text())
+        shown = subprocess.run(["git", "show", f"{rev}:{path.relative_to(ROOT).as_posix()}"], cwd=ROOT,
+                               capture_output=True, text=True)
+        if shown.returncode:
+            lines.append(f"{new['system']} {new['noise']:g}: new since {rev}")
+            continue
+        old = json.loads(shown.stdout)
+        if old.get("package_commit") == new.get("package_commit"):
+            continue
+        key = "rel_err" if "rel_err" in new else "control_err"
+        same = _terms(old) == _terms(new) and abs((old.get(key) or 0) - (new.get(key) or 0)) < 5e-4
+        lines.append(f"{new['system']} {new['noise']:g} ({old.get('package_commit')} -> {new.get('package_commit')}): "
+                     f"{key} {_fmt(old.get(key))} -> {_fmt(new.get(key))}; {_terms(old)} -> {_terms(new)}"
+                     + ("" if not same else " (same)"))
+    return lines
+
+
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--cases", nargs="*", default=list(SYSTEMS), choices=list(SYSTEMS))
@@ -459,9 +484,14 @@ def main(argv=None) -> None:
     parser.add_argument("--seeds", nargs="*", type=int, default=[0])
     parser.add_argument("--render", action="store_true", help="rebuild the results from the cache only")
     parser.add_argument("--fast", action="store_true", help="smoke protocol (separate cache, never rendered)")
+    parser.add_argument("--changes-since", metavar="REV",
+                        help="list the cached cases whose record differs from git revision REV's, and stop")
     parser.add_argument("--rerun", action="store_true",
                         help="run the cases again though cached (each record is replaced once its new run ends)")
     args = parser.parse_args(argv)
+    if args.changes_since:
+        print("\n".join(changes_since(args.changes_since)))
+        return
     if args.render:
         write(load(False))
         print((RESULTS / "identification.md").read_text())

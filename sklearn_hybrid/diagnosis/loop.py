@@ -151,7 +151,8 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         no parameter -- the physicist's default: an equation with nothing to estimate is a
         definition, not a model. ``None`` makes every component uncertain.
     terms : list of Term, optional
-        The candidates; default :func:`physics_terms` over the states and inputs.
+        The candidates; default :func:`physics_terms` over the states and inputs and, for an ODE, each
+        uncertain equation's own science output times a state (kind ``"scaled"``).
     term_kinds, user_terms, positive : optional
         Passed to :func:`physics_terms`: which kinds, your own terms by name (torch functions of a
         dict of variables), variables that are never negative.
