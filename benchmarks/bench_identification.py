@@ -334,6 +334,55 @@ def _tables(records: list[dict]) -> list[str]:
     return md
 
 
+# The selection gained the "scaled" terms at SCALED_SINCE; WITHOUT_SCALED holds every record made before.
+SCALED_SINCE, WITHOUT_SCALED = "e81d042", "0736e56"
+
+
+def _git(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run(["git", *args], cwd=ROOT, capture_output=True, text=True)
+
+
+def _record_at(rev: str, record: dict) -> dict | None:
+    """The record of the same case at git revision ``rev`` (None if it had none)."""
+    path = cache_dir(False).relative_to(ROOT) / f"{record['system']}_noise{record['noise']:g}_seed{record['seed']}.json"
+    shown = _git("show", f"{rev}:{path.as_posix()}")
+    return json.loads(shown.stdout) if shown.returncode == 0 else None
+
+
+def _rerun_section(records: list[dict]) -> list[str]:
+    """The cases run again since the scaled terms came, against their records from before."""
+    commits = {r.get("package_commit") for r in records}
+    since = {c for c in commits if c and _git("merge-base", "--is-ancestor", SCALED_SINCE, c).returncode == 0}
+    pairs = [(r, _record_at(WITHOUT_SCALED, r)) for r in records if r.get("package_commit") in since]
+    pairs = [(new, old) for new, old in pairs if old is not None]
+    if not pairs:
+        return []
+    effects = [(n, o) for n, o in pairs if not SYSTEMS[n["system"]].is_control]
+    controls = [(n, o) for n, o in pairs if SYSTEMS[n["system"]].is_control]
+
+    def count(group, which, test):
+        return sum(bool(test(pair[which])) for pair in group)
+
+    md = ["", "## Rerun with the scaled terms (in progress)", "",
+          f"Since {SCALED_SINCE} the library also offers each uncertain equation of an ODE its own science output "
+          "times a state (kind `scaled`, e.g. `f[i]*i^2`: a parameter that varies with the state). That changes the "
+          "selection, so every case is being run again (`--rerun`, the first fits made again where none was stored), "
+          "in this order: the controls (a new kind risks false positives), then the systems that had failed "
+          "(`allee`, `allee_slow`, `asymmetric_damping`, `saturating_incidence`, `declared_gauge_outlet`, "
+          "`prey_refuge`, `saturating_coil`, `wind_drag`, both noise levels), then the others.",
+          "", f"So far {len(pairs)} of {len(records)} cases (records at {', '.join(sorted(since))}): "
+          f"effects within 10 %: {count(effects, 0, lambda r: r.get('identified'))} of {len(effects)} "
+          f"(the same cases before, at {WITHOUT_SCALED}: {count(effects, 1, lambda r: r.get('identified'))}); "
+          f"controls with nothing added: {count(controls, 0, lambda r: r.get('n_added') == 0)} of {len(controls)} "
+          f"(before: {count(controls, 1, lambda r: r.get('n_added') == 0)}).", "",
+          "| system | noise | score before | after | terms before | after |", "|---|---|---|---|---|---|"]
+    for new, old in pairs:
+        key = "rel_err" if "rel_err" in new else "control_err"
+        md.append(f"| {new['system']} | {new['noise']:g} | {_fmt(old.get(key))} | {_fmt(new.get(key))} | "
+                  f"{_terms(old)} | {_terms(new)} |")
+    return md + ["", "The score is `rel_err` for an effect and `|F - T| / |T|` for a control."]
+
+
 def render(records: list[dict]) -> str:
     """The markdown results: per-batch tables and summaries, the machines and commands."""
     order = {name: i for i, name in enumerate(SYSTEMS)}
@@ -363,7 +412,8 @@ def render(records: list[dict]) -> str:
                    "nothing added. Where a fresh batch first ran with an older selection, its preface gives that "
                    "first result; of batches 1 to 9, every row whose first hybrid fit was stored is the rerun at "
                    "1818e3d and the 26 others were run again end to end at 9835b93 (the notes at the end); batch 10 "
-                   "ran once, at 9ce627e."]
+                   "ran once, at 9ce627e. Rows run again with the scaled terms replace those records: the section "
+                   "that follows says which."]
         # batch 1 is what the selection was built on; the fresh batches are the honest forecast for new systems
         fresh = [r for r in effects if SYSTEMS[r["system"]].batch > 1]
         fresh_hit = sum(bool(r.get("identified")) for r in fresh)
@@ -372,6 +422,7 @@ def render(records: list[dict]) -> str:
                        f"built on batch 1 and changed since, their prefaces give the first results): {fresh_hit} of "
                        f"{len(fresh)} effects within 10 % ({100 * fresh_hit / len(fresh):.0f} %), the better "
                        "forecast for a system the loop has not met."]
+    md += _rerun_section(records)
     for batch, (heading, preface) in BATCHES.items():
         if batches[batch]:
             md += ["", heading, ""] + ([preface, ""] if preface else []) + _tables(batches[batch])
