@@ -56,7 +56,7 @@ class System:
     batch : int
         1: the systems the benchmark was built with; 2 and 3: systems written on 2026-11-25, after the
         selection's code was last changed, and added unchanged whatever they gave (``FRESH``, ``FRESH_3``);
-        4 to 10: written in later sessions (``FRESH_4`` to ``FRESH_10``), likewise.
+        4 to 11: written in later sessions (``FRESH_4`` to ``FRESH_11``), likewise.
     sign_of : int or None
         For an effect that jumps with the sign of one state (dry friction): that state's index.  Trajectories
         are then integrated piecewise between its zero crossings (no chattering of the step size), and a
@@ -855,8 +855,97 @@ FRESH_10 = [
            ["T1", "T2"], {"T1": "100 K", "T2": "100 K", "u": "kW"}, 0.25, 30, (0.0, 0.0), (1.5, 1.5), (0.0, 1.0),
            batch=10),
 ]
+
+
+# ------------------------------------------------------------------------------------------ batch 11 (fresh systems)
+# Written on 2026-11-25 in the session that added the "scaled" terms (package commit e81d042), while the other
+# cases were being run again with them; committed before any of them ran. A damping that grows with the
+# displacement (polynomial cross term), a varistor's cubic leak on a charged capacitor, predator interference
+# (Beddington-DeAngelis: rational, two components), a decay whose rate follows the temperature input (Arrhenius:
+# exponential in the input times the state, outside the library), flocculation (a Hill removal of the state
+# itself, outside the library), a cell whose open-circuit voltage has a Nernst term (logarithmic, outside the
+# library); two controls from models new here (a forced Duffing oscillator with its cubic in the science model, a
+# two-step Michaelis-Menten chain). Only their simulated data were looked at before the commit (finite, in range).
+def damped_oscillator_f(v, k=1.6, c=0.25):
+    return torch.stack([v[:, 1], -k * v[:, 0] - c * v[:, 1]], dim=-1)
+
+
+def charged_capacitor_f(v, u, a=0.7):
+    return torch.stack([a * (u[:, 0] - v[:, 0])], dim=-1)
+
+
+def predation_f(v, r=1.0, K=3.0, a=0.9, e=0.5, m=0.4):
+    x, y = v[:, 0], v[:, 1]
+    xp = x.clamp(min=0)
+    return torch.stack([r * x * (1 - xp / K) - a * xp * y, e * a * xp * y - m * y], dim=-1)
+
+
+def heated_decay_f(v, u, k=0.5, q=0.4):
+    return torch.stack([q - k * v[:, 0]], dim=-1)
+
+
+def settling_f(v, u, k=0.3):
+    return torch.stack([u[:, 0] - k * v[:, 0]], dim=-1)
+
+
+def cell_f(v, u, e0=0.4, a=0.6, R=0.5):
+    return torch.stack([(u[:, 0] - e0 - a * v[:, 0]) / R], dim=-1)
+
+
+def forced_duffing_f(v, u, k=1.2, c=0.2, b=0.6):
+    x, y = v[:, 0], v[:, 1]
+    return torch.stack([y, -k * x - b * x ** 3 - c * y + u[:, 0]], dim=-1)
+
+
+def mm_chain_f(v, u, v1=1.0, k1=0.5, v2=0.8, k2=0.3):
+    A, B = v[:, 0], v[:, 1]
+    A_, B_ = A.clamp(min=0), B.clamp(min=0)
+    step1, step2 = v1 * A_ / (k1 + A_), v2 * B_ / (k2 + B_)
+    return torch.stack([u[:, 0] - step1, step1 - step2], dim=-1)
+
+
+def _interference(x, u, a=1.1, e=0.5, b=0.8):
+    """What Beddington-DeAngelis predation a x y/(1 + b y) gives back of mass action a x y: prey and predator."""
+    lost = a * x[:, 0] * x[:, 1] * (1.0 - 1.0 / (1.0 + b * x[:, 1]))
+    return np.stack([lost, -e * lost], axis=1)
+
+
+FRESH_11 = [
+    System("displacement_damping", "oscillator", "polynomial (state times state squared)",
+           "a damping that grows with the displacement: -0.4 x^2 v",
+           damped_oscillator_f, {"k": 2.0, "c": 0.2}, lambda x, u: _on(1, 2, -0.4 * x[:, 0] ** 2 * x[:, 1]),
+           ["x", "v"], {"x": "m", "v": "m/s"}, 0.1, 40, (-2.0, -1.5), (2.0, 1.5), zero_components=[0], batch=11),
+    System("varistor_leak", "electrical", "polynomial (cubic)", "a varistor across the capacitor leaks -0.15 v^3",
+           charged_capacitor_f, {"a": 0.9}, lambda x, u: -0.15 * x ** 3,
+           ["v"], {"v": "V", "u": "V"}, 0.2, 30, (0.0,), (2.0,), (0.0, 2.2), batch=11),
+    System("predator_interference", "population", "rational (two components)",
+           "predators interfere: a x y/(1 + 0.8 y) where the science has mass action a x y (prey and predator)",
+           predation_f, {"r": 1.2, "K": 3.0, "a": 1.1, "e": 0.5, "m": 0.3}, _interference,
+           ["x", "y"], {"x": "1", "y": "1"}, 0.25, 30, (0.5, 0.3), (2.5, 1.5), batch=11,
+           theta_guess={"r": 1.0, "K": 2.5, "a": 0.9, "e": 0.6, "m": 0.4}),
+    System("arrhenius_decay", "chemical", "exponential in the input times the state (outside the library)",
+           "the decay rate follows the temperature input: -0.6 C (exp(1.5 (u - 1)) - 1) beside the science's -k C",
+           heated_decay_f, {"k": 0.6, "q": 0.3}, lambda x, u: -0.6 * x * (np.exp(1.5 * (u - 1.0)) - 1.0),
+           ["C"], {"C": "mol/L", "u": "100 K"}, 0.25, 30, (0.2,), (2.0,), (0.6, 1.6), batch=11),
+    System("flocculation", "chemical", "rational (Hill removal of the state, outside the library)",
+           "particles flocculate and settle: -0.5 C^2/(0.4^2 + C^2)",
+           settling_f, {"k": 0.2}, lambda x, u: -0.5 * x ** 2 / (0.16 + x ** 2),
+           ["C"], {"C": "g/L", "u": "g/L/h"}, 0.25, 30, (0.0,), (2.0,), (0.1, 0.8), batch=11),
+    System("nernst_cell", "electrical", "logarithmic (outside the library)",
+           "the open-circuit voltage has a Nernst term: -0.1 log(q/(1 - q)) / R beside the science's linear e0 + a q",
+           cell_f, {"e0": 0.5, "a": 0.4, "R": 0.5}, lambda x, u: -0.1 * np.log(x / (1.0 - x)) / 0.5,
+           ["q"], {"q": "1", "u": "V"}, 0.1, 30, (0.15,), (0.85,), (0.55, 1.05), batch=11),
+    System("control_forced_duffing", "oscillator", "control", "nothing (a forced Duffing oscillator)",
+           forced_duffing_f, {"k": 1.0, "c": 0.15, "b": 0.5}, None,
+           ["x", "v"], {"x": "m", "v": "m/s", "u": "N"}, 0.1, 40, (-1.5, -1.0), (1.5, 1.0), (-0.8, 0.8), batch=11),
+    System("control_mm_chain", "biochemical", "control", "nothing (two Michaelis-Menten steps in a chain, fed)",
+           mm_chain_f, {"v1": 1.2, "k1": 0.4, "v2": 0.9, "k2": 0.25}, None,
+           ["A", "B"], {"A": "mol/L", "B": "mol/L", "u": "mol/L/h"}, 0.25, 30, (0.0, 0.0), (2.0, 1.5), (0.1, 0.7),
+           batch=11),
+]
+
 SYSTEMS = {s.name: s for s in SYSTEMS + FRESH + FRESH_3 + FRESH_4 + FRESH_5 + FRESH_6 + FRESH_7 + FRESH_8 + FRESH_9
-           + FRESH_10}
+           + FRESH_10 + FRESH_11}
 
 
 # ----------------------------------------------------------------------------------------------------- simulation

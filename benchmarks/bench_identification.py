@@ -167,6 +167,15 @@ BATCHES = {
          "above a knot (with S^2 at 0.01; 0.008 / 0.050). The wind drag on the relative speed, outside the library "
          "too, failed at both noises with nothing added (0.265): v*u gained 57 % / 53 % but with z 2.9 / 3.4 "
          "against 3.85, and the refit's damping c (0.66 for a true 0.1) took part of the drag."),
+    11: ("## Batch 11: fresh systems, written after the scaled terms came",
+         "Written on 2026-11-25 in the session that added the scaled terms (package commit e81d042), committed before "
+         "they ran, while the cases above were being run again with them: a damping that grows with the displacement "
+         "(x^2 v), a varistor's cubic leak, predator interference (Beddington-DeAngelis, rational on two components), "
+         "a decay whose rate follows the temperature input (Arrhenius: exponential in the input times the state, "
+         "outside the library), flocculation (a Hill removal, outside the library), a cell's Nernst term (logarithmic, "
+         "outside the library), and two controls from models new here (a forced Duffing oscillator, a two-step "
+         "Michaelis-Menten chain). Only their simulated data were looked at before the commit; each runs once and is "
+         "shown whatever it gives."),
 }
 # Run order (the tables follow SYSTEMS): domains and controls interleaved, so that a partial run is a cross-section.
 RUN_ORDER = ["drag_oscillator", "control_rlc", "budworm", "enzyme_reactor", "saturating_heater", "diode_clamped_rc",
@@ -199,7 +208,10 @@ RUN_ORDER = ["drag_oscillator", "control_rlc", "budworm", "enzyme_reactor", "sat
              "control_fitzhugh_nagumo", "drug_inhibition", "product_inhibition",
              # batch 10 (_identification_systems.FRESH_10)
              "diode_leak", "control_selkov", "light_limited_algae", "repressed_expression", "substrate_inhibition",
-             "control_heat_exchanger", "wind_drag", "conductive_loss"]
+             "control_heat_exchanger", "wind_drag", "conductive_loss",
+             # batch 11 (_identification_systems.FRESH_11)
+             "displacement_damping", "control_forced_duffing", "varistor_leak", "predator_interference",
+             "arrhenius_decay", "control_mm_chain", "flocculation", "nernst_cell"]
 
 
 def cache_dir(fast: bool) -> Path:
