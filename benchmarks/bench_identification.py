@@ -381,8 +381,10 @@ def _rerun_section(records: list[dict]) -> list[str]:
           "selection, so every case is being run again (`--rerun`, the first fits made again where none was stored), "
           "in this order: the controls (a new kind risks false positives), then the systems that had failed "
           "(`allee`, `allee_slow`, `asymmetric_damping`, `saturating_incidence`, `declared_gauge_outlet`, "
-          "`prey_refuge`, `saturating_coil`, `wind_drag`, both noise levels), then the others.",
-          "", f"So far {len(pairs)} of {len(records)} cases (records at {', '.join(sorted(since))}): "
+          "`prey_refuge`, `saturating_coil`, `wind_drag`, both noise levels), then the others, batch 10's first (their "
+          "first fits were stored). Batch 11 ran between them.",
+          "", f"So far {len(pairs)} of the {sum(SYSTEMS[r['system']].batch < max(BATCHES) for r in records)} cases "
+          f"of batches 1 to {max(BATCHES) - 1} (records at {', '.join(sorted(since))}): "
           f"effects within 10 %: {count(effects, 0, lambda r: r.get('identified'))} of {len(effects)} "
           f"(the same cases before, at {WITHOUT_SCALED}: {count(effects, 1, lambda r: r.get('identified'))}); "
           f"controls with nothing added: {count(controls, 0, lambda r: r.get('n_added') == 0)} of {len(controls)} "
