@@ -182,7 +182,7 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         states (from the data's differences, or made with the science model, which are wrong
         where the science misses an effect). It costs: every refit fits one more value per sample
         and unobserved state. Silverbox: 217 s against 146 s on one machine, and a better model
-        (``benchmarks/results/closed_loop.md``: 84 s with it on a faster machine); on the real
+        (84 s with it on a faster machine; 150 s in ``benchmarks/results/closed_loop.md``); on the real
         pendulum free swing, whose candidates carry widths and knots, a run was stopped unfinished
         after many times the case's time without it, so its recipe leaves it off.
     max_terms, n_candidates : int, default=4
