@@ -537,12 +537,10 @@ def changes_since(rev: str) -> list[str]:
     lines = []
     for path in sorted(cache_dir(False).glob("*.json")):
         new = json.loads(path.read_text())
-        shown = subprocess.run(["git", "show", f"{rev}:{path.relative_to(ROOT).as_posix()}"], cwd=ROOT,
-                               capture_output=True, text=True)
-        if shown.returncode:
+        old = _record_at(rev, new)
+        if old is None:
             lines.append(f"{new['system']} {new['noise']:g}: new since {rev}")
             continue
-        old = json.loads(shown.stdout)
         if old.get("package_commit") == new.get("package_commit"):
             continue
         key = "rel_err" if "rel_err" in new else "control_err"
