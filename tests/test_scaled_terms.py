@@ -35,6 +35,18 @@ def test_scaled_terms_are_built_per_uncertain_component_and_state_only():
     torch.testing.assert_close(scaled["f[A]*A^2"](d), torch.tensor([3.0, 16.0]))
 
 
+@pytest.mark.parametrize("options, match", [({"scaled": {-1: "A"}}, "non-negative integer"),
+                                            ({"scaled": {"A": "A"}}, "non-negative integer"),
+                                            ({"n_states": 3}, r"n_states must be an integer in \[0, 2\]"),
+                                            ({"n_states": True}, "n_states must be")])
+def test_bad_scaled_options_are_named(options, match):
+    values = np.ones((5, 2))
+    scaled = {0: "A"}
+    with pytest.raises(ValueError, match=match):
+        physics_terms(NAMES, values, **{"scaled": scaled, **options})
+    assert scaled == {0: "A"}  # the caller's mapping is left as it was
+
+
 def test_augmented_science_scales_its_own_output():
     values = np.random.default_rng(0).uniform(0, 2, (50, 2))
     term, = [t for t in physics_terms(NAMES, values, scaled={0: "A"}) if t.name == "f[A]*A"]

@@ -253,7 +253,8 @@ class AugmentedScience:
             raise ValueError(f"variable_names has {len(self.variable_names)} names {self.variable_names}, but the "
                              f"inputs have {len(columns)} column(s).")
         flat = _flat(out, single)
-        d = {**dict(zip(self.variable_names, columns)), SCIENCE_OUTPUT: flat}  # a "scaled" term reads the output
+        d = dict(zip(self.variable_names, columns))
+        d[SCIENCE_OUTPUT] = flat  # a "scaled" term reads the science output
         extra = {}
         for component, _, param, func, shape in self.added:
             if func is None:

@@ -178,11 +178,19 @@ def physics_terms(variables: Sequence[str], values: np.ndarray, units: Mapping[s
                          f"shape (n_points, {len(variables)}); got shape {values.shape}.")
     if not np.all(np.isfinite(values)):
         raise ValueError("values holds NaN or infinite entries: the starting grids (scales, knots) come from them.")
+    n_states = len(variables) if n_states is None else n_states
+    if isinstance(n_states, bool) or not isinstance(n_states, (int, np.integer)) or not 0 <= n_states <= len(variables):
+        raise ValueError(f"n_states must be an integer in [0, {len(variables)}] (how many of {variables} are states), "
+                         f"got {n_states!r}.")
+    scaled = dict(scaled or {})
+    bad = [j for j in scaled if isinstance(j, bool) or not isinstance(j, (int, np.integer)) or j < 0]
+    if bad:
+        raise ValueError(f"scaled maps output components (non-negative integer indices) to labels; got keys {bad}.")
     terms: list[Term] = []
     if "polynomial" in kinds:
         terms += _polynomials(variables, units)
     if "scaled" in kinds:
-        terms += _scaled_terms(dict(scaled or {}), variables[:len(variables) if n_states is None else n_states])
+        terms += _scaled_terms(scaled, variables[:n_states])
     for i, x in enumerate(variables):
         col, u = values[:, i], units.get(x, "")
         scale = float(np.sqrt(np.mean(col**2))) or 1.0
