@@ -31,6 +31,7 @@ from __future__ import annotations
 import argparse
 import json
 import pickle
+import re
 import subprocess
 import sys
 import time
@@ -361,29 +362,37 @@ def _record_at(rev: str, record: dict) -> dict | None:
     return json.loads(shown.stdout) if shown.returncode == 0 else None
 
 
-def _rerun_section(records: list[dict]) -> list[str]:
-    """The cases run again since the scaled terms came, against their records from before."""
+def _rerun_pairs(records: list[dict]) -> list[tuple[dict, dict]]:
+    """(record, its record at WITHOUT_SCALED) for each case run again since the scaled terms came."""
     commits = {r.get("package_commit") for r in records}
     since = {c for c in commits if c and _git("merge-base", "--is-ancestor", SCALED_SINCE, c).returncode == 0}
     pairs = [(r, _record_at(WITHOUT_SCALED, r)) for r in records if r.get("package_commit") in since]
-    pairs = [(new, old) for new, old in pairs if old is not None]
+    return [(new, old) for new, old in pairs if old is not None]
+
+
+def _rerun_section(records: list[dict], pairs: list[tuple[dict, dict]]) -> list[str]:
+    """The cases run again since the scaled terms came, against their records from before."""
     if not pairs:
         return []
+    since = {new.get("package_commit") for new, _ in pairs}
     effects = [(n, o) for n, o in pairs if not SYSTEMS[n["system"]].is_control]
     controls = [(n, o) for n, o in pairs if SYSTEMS[n["system"]].is_control]
 
     def count(group, which, test):
         return sum(bool(test(pair[which])) for pair in group)
 
-    md = ["", "## Rerun with the scaled terms (in progress)", "",
+    n_earlier = sum(SYSTEMS[r["system"]].batch < max(BATCHES) for r in records)
+    done = len(pairs) == n_earlier
+    md = ["", "## Rerun with the scaled terms" + ("" if done else " (in progress)"), "",
           f"Since {SCALED_SINCE} the library also offers each uncertain equation of an ODE its own science output "
           "times a state (kind `scaled`, e.g. `f[i]*i^2`: a parameter that varies with the state). That changes the "
-          "selection, so every case is being run again (`--rerun`, the first fits made again where none was stored), "
-          "in this order: the controls (a new kind risks false positives), then the systems that had failed "
-          "(`allee`, `allee_slow`, `asymmetric_damping`, `saturating_incidence`, `declared_gauge_outlet`, "
-          "`prey_refuge`, `saturating_coil`, `wind_drag`, both noise levels), then the others, batch 10's first (their "
-          "first fits were stored). Batch 11 ran between them.",
-          "", f"So far {len(pairs)} of the {sum(SYSTEMS[r['system']].batch < max(BATCHES) for r in records)} cases "
+          "selection, so every case " + ("was" if done else "is being") + " run again (`--rerun`, the first fits "
+          "made again where none was stored), in this order: the controls (a new kind risks false positives), then "
+          "the systems that had failed (`allee`, `allee_slow`, `asymmetric_damping`, `saturating_incidence`, "
+          "`declared_gauge_outlet`, `prey_refuge`, `saturating_coil`, `wind_drag`, both noise levels), then batch "
+          "10 (its first fits were stored), then the rest, the longest first, one case per process and two "
+          "processes at a time. Batch 11 ran between them.",
+          "", ("All " if done else "So far ") + f"{len(pairs)} of the {n_earlier} cases "
           f"of batches 1 to {max(BATCHES) - 1} (records at {', '.join(sorted(since))}): "
           f"effects within 10 %: {count(effects, 0, lambda r: r.get('identified'))} of {len(effects)} "
           f"(the same cases before, at {WITHOUT_SCALED}: {count(effects, 1, lambda r: r.get('identified'))}); "
@@ -395,6 +404,18 @@ def _rerun_section(records: list[dict]) -> list[str]:
         md.append(f"| {new['system']} | {new['noise']:g} | {_fmt(old.get(key))} | {_fmt(new.get(key))} | "
                   f"{_terms(old)} | {_terms(new)} |")
     return md + ["", "The score is `rel_err` for an effect and `|F - T| / |T|` for a control."]
+
+
+def _command_lines(commands: list[str]) -> list[str]:
+    """One line per command; the runs of one case and one noise level each share one line with a count."""
+    one_case = re.compile(r"^(.* --cases) \S+ (--noise) \S+$")
+    single = [c for c in commands if one_case.match(c)]
+    lines = [f"- command: `{c}`" for c in sorted(set(commands) - set(single))]
+    if single:
+        shapes = sorted({one_case.sub(r"\1 NAME \2 LEVEL", c) for c in single})
+        lines += [f"- command, once per case ({len(single)} cases, one case and one noise level per process, two "
+                  f"processes at a time): `{shape}`" for shape in shapes]
+    return lines
 
 
 def render(records: list[dict]) -> str:
@@ -419,15 +440,21 @@ def render(records: list[dict]) -> str:
                                     for b in batches) + f" (seed 0, noise {NOISE_LEVELS})."]
     effects = [r for r in records if not SYSTEMS[r["system"]].is_control]
     controls = [r for r in records if SYSTEMS[r["system"]].is_control]
+    pairs = _rerun_pairs(records)
+    complete = len(pairs) == sum(SYSTEMS[r["system"]].batch < max(BATCHES) for r in records)
     if effects:
         hit, clean = sum(bool(r.get("identified")) for r in effects), sum(r.get("n_added") == 0 for r in controls)
+        history = ("Every case of batches 1 to 10 was run again with the scaled terms: the section that follows "
+                   "gives each beside its record before them. Where a fresh batch first ran with an older "
+                   "selection, its preface gives that first result." if complete else
+                   "Where a fresh batch first ran with an older selection, its preface gives that first result; of "
+                   "batches 1 to 9, every row whose first hybrid fit was stored is the rerun at 1818e3d and the 26 "
+                   "others were run again end to end at 9835b93 (the notes at the end); batch 10 ran once, at "
+                   "9ce627e. Rows run again with the scaled terms replace those records: the section that follows "
+                   "says which.")
         md += ["", f"All batches, as the stored records stand: {hit} of {len(effects)} effects within 10 % "
                    f"({100 * hit / len(effects):.0f} %; target >= 90 %), {clean} of {len(controls)} controls with "
-                   "nothing added. Where a fresh batch first ran with an older selection, its preface gives that "
-                   "first result; of batches 1 to 9, every row whose first hybrid fit was stored is the rerun at "
-                   "1818e3d and the 26 others were run again end to end at 9835b93 (the notes at the end); batch 10 "
-                   "ran once, at 9ce627e. Rows run again with the scaled terms replace those records: the section "
-                   "that follows says which."]
+                   "nothing added. " + history]
         # batch 1 is what the selection was built on; the fresh batches are the honest forecast for new systems
         fresh = [r for r in effects if SYSTEMS[r["system"]].batch > 1]
         fresh_hit = sum(bool(r.get("identified")) for r in fresh)
@@ -447,7 +474,7 @@ def render(records: list[dict]) -> str:
                        "added after batch 9's `saturating_coil` had failed, so batches 2 to 10 are not fresh for "
                        f"them): {hits} of {n_eff} effects within 10 %, {clean} of {len(newest) - n_eff} controls "
                        f"clean, {len(newest)} of {n_cases} cases run."]
-    md += _rerun_section(records)
+    md += _rerun_section(records, pairs)
     for batch, (heading, preface) in BATCHES.items():
         if batches[batch]:
             md += ["", heading, ""] + ([preface, ""] if preface else []) + _tables(batches[batch])
@@ -458,7 +485,7 @@ def render(records: list[dict]) -> str:
     for r in records:
         commits.setdefault(r.get("package_commit") or "not recorded", []).append(f"{r['system']} {r['noise']:g}")
     md += [f"- package commit {c}: {len(v)} cases" for c, v in sorted(commits.items())]
-    md += [f"- command: `{c}`" for c in sorted({r.get("command", "?") for r in records})]
+    md += _command_lines([r.get("command", "?") for r in records])
     md.append("- render: `python benchmarks/bench_identification.py --render`")
     md += ["", "Since a705449 a term's evidence is judged against Student's t for the number of validation "
            "samples (3.85 standard errors with the 12 of these cases) instead of a plain 3. The cases run "
