@@ -925,3 +925,38 @@ def test_a_sensor_offset_with_fitted_unobserved_initial_states():
     true = np.column_stack([z[:, 1], -(2 * np.pi * 2 / 3) ** 2 * np.sin(z[:, 0] - 0.2) - 0.5 * z[:, 1]])
     # within 10 %, the benchmark's mark (the constant stands for the offset only where cos(angle) is near 1)
     assert np.sqrt(np.mean((fitted - true) ** 2)) < 0.10 * np.sqrt(np.mean(true[:, 1] ** 2))
+
+
+def test_a_drop_refits_the_reduced_model_from_its_fit_on_the_path_too(pendulum):
+    """Seen on a radiating body (benchmark rerun): a drop started the reduced model from the full model's
+    values, which without the dropped term made the simulation overflow; least squares stalled there, the
+    drop test (is the term significantly better?) let the term go on the scattered errors, and the loop
+    crashed later on a diverging model. The reduced model's fit on the path is now a second start."""
+    from sklearn_hybrid.diagnosis.candidates import _augment, _with_fitted
+    from sklearn_hybrid.diagnosis.stepwise import _drop_dispensable, _Judge, _key, _refit_from_best
+
+    data, est = pendulum
+    fit = ScienceFit(est, data.X_train, data.y_train)
+    n = len(fit.y)
+    judge = _Judge(fit, [(np.arange(n - 12), np.arange(n - 12, n))])
+    terms = {t.name: t for t in physics_terms(NAMES, data.X_train)}
+    placed = [{"component": 1, "term": name, "kind": terms[name].kind, "unit": terms[name].unit,
+               "function": terms[name].func, "shape": {}, "bounds": terms[name].shape, "coef": 0.0, "gain": 0.0}
+              for name in ("v_dot", "v_dot|v_dot|")]
+    damped = _augment(pendulum_f, placed[:1], NAMES, 2, None)
+    coef = damped.terms[0][2]
+    lost_start, good_start = {"omega": 0.6, coef: 1e3}, {"omega": 0.6, coef: 0.0}
+    assert judge.training_error(damped, judge.fit(damped, lost_start)) > 1e6  # the plain refit stays lost
+    best = _refit_from_best(judge, damped, [lost_start, good_start], {})
+    assert best[coef] == pytest.approx(-0.5, rel=0.1)
+
+    full = _augment(pendulum_f, placed, NAMES, 2, None)
+    good_full = judge.fit(full, {"omega": 0.6})
+    lost_full = {**good_full, full.terms[0][2]: 1e3}  # values from which the model without drag is lost
+    added = [_with_fitted(p, full, lost_full, k) for k, p in enumerate(placed)]
+    known = {_key(added[:1]): judge.fit(damped, good_start)}
+    current, kept, theta, _ = _drop_dispensable(pendulum_f, full, added, lost_full, judge.errors(full, good_full),
+                                                judge, NAMES, 2, None, 3.0, 0.05, [], lambda s: None, known)
+    assert [t["term"] for t in kept] == ["v_dot"]
+    assert theta[kept[0]["param"]] == pytest.approx(-0.5, rel=0.1)
+    assert judge.training_error(current, theta) < 1e-2

@@ -165,6 +165,7 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
     # again (the two tests disagree on it, and proposing it again would repeat the same step forever).
     rejected: set[tuple] = set()
     visited: set[frozenset] = {frozenset()}
+    known = {(): theta_now}  # each model the path settled on (its terms in order) and its fit
     steps: list[dict] = []
     step = 0
     while len(added) < max_terms:
@@ -208,9 +209,10 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
         steps[index]["accepted"] = True
         added += [_with_fitted(entry, current, theta_now, len(added) + k) for k, entry in enumerate(_entries(cand))]
         log(f"  accepted {cand['term']} on {_where(cand)}")
+        known[_key(added)] = theta_now
         current, added, theta_now, errors = _drop_dispensable(
             science, current, added, theta_now, errors, judge, variables, n_states, param_names,
-            z, min_gain, steps, log)
+            z, min_gain, steps, log, known)
         model = frozenset((t["component"], t["term"]) for t in added)
         dropped_at_once = {(e["component"], e["term"]) for e in _entries(cand)} - model
         rejected |= dropped_at_once
@@ -239,13 +241,20 @@ def _screen(judge: _Judge, science, start: dict, bounds: dict, n_kept: int) -> d
     return fitted
 
 
+def _key(added: Sequence[dict]) -> tuple:
+    """A model's terms in order: the same key gives the same parameter names."""
+    return tuple((t["component"], t["term"]) for t in added)
+
+
 def _drop_dispensable(science, current, added, theta, errors, judge, variables, n_states,
-                      param_names, z, min_gain, steps, log):
+                      param_names, z, min_gain, steps, log, known=None):
     """Backward steps: drop a term that the terms accepted after it have made dispensable.
 
     A term that passed early may only have stood in for one found later (a hinge with a low knot
     for ``B^2``); it goes when the model without it, refitted, validates as well by the same test
-    a new term must pass (the model with it is not better by ``min_gain`` and ``z``).
+    a new term must pass (the model with it is not better by ``min_gain`` and ``z``). ``known``:
+    fits of models the path has settled on, by :func:`_key`; a reduced model among them is refitted
+    from that fit too (see :func:`_refit_from_best`).
     """
     original = read_signature(science)[1]
     while len(added) > 1:
@@ -257,9 +266,10 @@ def _drop_dispensable(science, current, added, theta, errors, judge, variables, 
             for k, t in enumerate(rest):  # the kept terms' latest values, under the reduced model's names
                 start[reduced.terms[k][2]] = theta[t["param"]]
                 start.update({glob: theta[t["shape_params"][loc]] for loc, glob in reduced.shape_names[k].items()})
+            starts = [start] + ([{**start, **known[_key(rest)]}] if known and _key(rest) in known else [])
             try:
                 bounds = _shape_bounds(reduced, rest)
-                fitted = judge.fit(reduced, start, bounds)
+                fitted = _refit_from_best(judge, reduced, starts, bounds)
                 reduced_errors = judge.errors(reduced, fitted, bounds)
             except (RuntimeError, ValueError, FloatingPointError):
                 continue
@@ -274,6 +284,20 @@ def _drop_dispensable(science, current, added, theta, errors, judge, variables, 
         added = [_with_fitted(t, reduced, fitted, k) for k, t in enumerate(rest)]
         current, theta, errors = reduced, fitted, reduced_errors
     return current, added, theta, errors
+
+
+def _refit_from_best(judge: _Judge, science, starts: Sequence[dict], bounds: dict) -> dict:
+    """The fit, among those from each start, with the lowest training error.
+
+    A drop starts the reduced model from the full model's values, which can be far from any good
+    fit without the dropped term: a scaled term ``f[T]*T`` rescales the whole equation, so without
+    it the other parameters may make the simulation overflow, least squares stalls there, and its
+    validation error is so large and scattered that the drop test, which asks whether the term is
+    *significantly* better, lets it go (seen on a radiating body: h became -27). The fit the
+    reduced model had on the path is the second start.
+    """
+    fits = [judge.fit(science, start, bounds) for start in starts]
+    return min(fits, key=lambda theta: judge.training_error(science, theta))
 
 
 def _evenly_spaced(rows: np.ndarray, n: int) -> np.ndarray:
