@@ -370,8 +370,8 @@ def _rerun_pairs(records: list[dict]) -> list[tuple[dict, dict]]:
     return [(new, old) for new, old in pairs if old is not None]
 
 
-def _rerun_section(records: list[dict], pairs: list[tuple[dict, dict]]) -> list[str]:
-    """The cases run again since the scaled terms came, against their records from before."""
+def _rerun_section(pairs: list[tuple[dict, dict]], n_earlier: int) -> list[str]:
+    """The cases run again since the scaled terms came, against their records from before (of ``n_earlier``)."""
     if not pairs:
         return []
     since = {new.get("package_commit") for new, _ in pairs}
@@ -381,7 +381,6 @@ def _rerun_section(records: list[dict], pairs: list[tuple[dict, dict]]) -> list[
     def count(group, which, test):
         return sum(bool(test(pair[which])) for pair in group)
 
-    n_earlier = sum(SYSTEMS[r["system"]].batch < max(BATCHES) for r in records)
     done = len(pairs) == n_earlier
     md = ["", "## Rerun with the scaled terms" + ("" if done else " (in progress)"), "",
           f"Since {SCALED_SINCE} the library also offers each uncertain equation of an ODE its own science output "
@@ -441,7 +440,8 @@ def render(records: list[dict]) -> str:
     effects = [r for r in records if not SYSTEMS[r["system"]].is_control]
     controls = [r for r in records if SYSTEMS[r["system"]].is_control]
     pairs = _rerun_pairs(records)
-    complete = len(pairs) == sum(SYSTEMS[r["system"]].batch < max(BATCHES) for r in records)
+    n_earlier = sum(SYSTEMS[r["system"]].batch < max(BATCHES) for r in records)
+    complete = len(pairs) == n_earlier
     if effects:
         hit, clean = sum(bool(r.get("identified")) for r in effects), sum(r.get("n_added") == 0 for r in controls)
         history = ("Every case of batches 1 to 10 was run again with the scaled terms: the section that follows "
@@ -474,7 +474,7 @@ def render(records: list[dict]) -> str:
                        "added after batch 9's `saturating_coil` had failed, so batches 2 to 10 are not fresh for "
                        f"them): {hits} of {n_eff} effects within 10 %, {clean} of {len(newest) - n_eff} controls "
                        f"clean, {len(newest)} of {n_cases} cases run."]
-    md += _rerun_section(records, pairs)
+    md += _rerun_section(pairs, n_earlier)
     for batch, (heading, preface) in BATCHES.items():
         if batches[batch]:
             md += ["", heading, ""] + ([preface, ""] if preface else []) + _tables(batches[batch])

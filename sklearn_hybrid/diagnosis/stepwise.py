@@ -165,7 +165,7 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
     # again (the two tests disagree on it, and proposing it again would repeat the same step forever).
     rejected: set[tuple] = set()
     visited: set[frozenset] = {frozenset()}
-    known = {(): theta_now}  # each model the path settled on (its terms in order) and its fit
+    known: dict[tuple, dict] = {}  # each model the path settled on (its terms in order) and its fit
     steps: list[dict] = []
     step = 0
     while len(added) < max_terms:
