@@ -569,6 +569,36 @@ def test_a_screening_refit_that_gets_lost_starts_again_from_the_model_it_extends
     assert theta[damped.terms[0][2]] == pytest.approx(-0.5, rel=0.1)
 
 
+def test_a_screening_refit_that_raises_starts_again_from_the_model_it_extends(pendulum, monkeypatch):
+    """Seen on a Brusselator (benchmark rerun): from its ranked coefficient, least squares raised
+    ("array must not contain infs or NaNs") for the right term in every step, so the term was never
+    judged. A refit that raises is tried again from the new coefficient at zero."""
+    from sklearn_hybrid.diagnosis.candidates import _augment
+    from sklearn_hybrid.diagnosis.stepwise import _Judge, _screen
+
+    data, est = pendulum
+    fit = ScienceFit(est, data.X_train, data.y_train)
+    n = len(fit.y)
+    judge = _Judge(fit, [(np.arange(n - 12), np.arange(n - 12, n))])
+    term = next(t for t in physics_terms(NAMES, data.X_train) if t.name == "v_dot")
+    placed = [{"component": 1, "term": term.name, "kind": term.kind, "unit": term.unit, "function": term.func,
+               "shape": {}, "bounds": term.shape, "coef": 3.0, "gain": 0.0}]
+    damped = _augment(pendulum_f, placed, NAMES, 2, None)
+    coef = damped.terms[0][2]
+    plain_fit, starts = judge.fit, []
+
+    def fit_that_raises_away_from_zero(science, theta, *args, **kwargs):
+        starts.append(theta[coef])
+        if theta[coef] != 0.0:
+            raise ValueError("array must not contain infs or NaNs")
+        return plain_fit(science, theta, *args, **kwargs)
+
+    monkeypatch.setattr(judge, "fit", fit_that_raises_away_from_zero)
+    theta = _screen(judge, damped, {"omega": 0.6, coef: 3.0}, {}, n_kept=0)
+    assert starts == [3.0, 0.0]
+    assert theta[coef] == pytest.approx(-0.5, rel=0.1)
+
+
 def _pendulum_with_damping_f(v, omega=0.5, gamma=0.0):
     return torch.stack([v[:, 1], -(2 * torch.pi * omega) ** 2 * torch.sin(v[:, 0]) - gamma * v[:, 1]], dim=-1)
 

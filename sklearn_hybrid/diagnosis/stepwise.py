@@ -232,10 +232,15 @@ def _screen(judge: _Judge, science, start: dict, bounds: dict, n_kept: int) -> d
     refit can only end worse on its own training samples when the search got lost: a start that
     makes the simulation overflow (``exp(k*x)`` with its ranked coefficient and grid ``k``) clamps
     every residual, the Jacobian is zero and least squares stops where it began. Such a refit
-    starts again from the new coefficients at zero.
+    starts again from the new coefficients at zero. So does one that raises: least squares may meet
+    a Jacobian that is not finite on its way from such a start (seen on a Brusselator: ``x^2*y`` on
+    dx/dt, ranked at 2.96, raised in every step and lost to three terms that stand in for it).
     """
-    fitted = judge.fit(science, start, bounds, screening=True)
     nested = {**start, **{coef: 0.0 for _, _, coef in science.terms[n_kept:]}}
+    try:
+        fitted = judge.fit(science, start, bounds, screening=True)
+    except (RuntimeError, ValueError, FloatingPointError):  # the errors forward_selection counts as a failed term
+        return judge.fit(science, nested, bounds, screening=True)
     if judge.training_error(science, fitted) > judge.training_error(science, nested):
         fitted = judge.fit(science, nested, bounds, screening=True)
     return fitted
