@@ -397,6 +397,12 @@ def _rerun_section(pairs: list[tuple[dict, dict]], n_earlier: int) -> list[str]:
           f"(the same cases before, at {WITHOUT_SCALED}: {count(effects, 1, lambda r: r.get('identified'))}); "
           f"controls with nothing added: {count(controls, 0, lambda r: r.get('n_added') == 0)} of {len(controls)} "
           f"(before: {count(controls, 1, lambda r: r.get('n_added') == 0)}).", "",
+          "The rerun found two faults of the selection, fixed on the way; after each fix the records it could "
+          "change were run again with it. f63545d: a backward drop refits the reduced model also from its fit on "
+          "the selection path (a `radiating_body` run crashed); rerun: every record with two or more terms on one "
+          "equation. f7b3c24: a screening refit that raises starts again from the new coefficients at zero "
+          "(`brusselator` 0.01 had lost x^2*y to three stand-ins); rerun: every record with a failed candidate, "
+          "the only ones whose path it can change.", "",
           "| system | noise | score before | after | terms before | after |", "|---|---|---|---|---|---|"]
     for new, old in pairs:
         key = "rel_err" if "rel_err" in new else "control_err"
