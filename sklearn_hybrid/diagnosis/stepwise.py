@@ -95,6 +95,10 @@ class _Judge:
         return np.bincount(self.judged_groups, weights=errors) / np.bincount(self.judged_groups)
 
 
+# What a candidate's refit raises when the term breaks the simulation or least squares: the candidate failed.
+_FIT_FAILURES = (RuntimeError, ValueError, FloatingPointError)
+
+
 def _fit_on(fit: ScienceFit, science, start, bounds, screening) -> dict:
     if screening:  # fewer evaluations, and fitted initial states held where the current model put them
         return fit.fit(science, start, bounds, max_nfev=_SCREENING_NFEV, fit_states=False)
@@ -190,7 +194,7 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
                 bounds = _shape_bounds(candidate_science, placed)
                 fitted = _screen(judge, candidate_science, start, bounds, len(placed) - len(_entries(cand)))
                 cand_errors = judge.errors(candidate_science, fitted, bounds, screening=True)
-            except (RuntimeError, ValueError, FloatingPointError) as exc:  # a term that breaks the simulation
+            except _FIT_FAILURES as exc:  # a term that breaks the simulation
                 steps.append({"step": step, **_public(cand), "failed": repr(exc), "accepted": False})
                 continue
             verdict = evidence(errors, cand_errors, z=z, min_gain=min_gain)
@@ -239,7 +243,7 @@ def _screen(judge: _Judge, science, start: dict, bounds: dict, n_kept: int) -> d
     nested = {**start, **{coef: 0.0 for _, _, coef in science.terms[n_kept:]}}
     try:
         fitted = judge.fit(science, start, bounds, screening=True)
-    except (RuntimeError, ValueError, FloatingPointError):  # the errors forward_selection counts as a failed term
+    except _FIT_FAILURES:
         return judge.fit(science, nested, bounds, screening=True)
     if judge.training_error(science, fitted) > judge.training_error(science, nested):
         fitted = judge.fit(science, nested, bounds, screening=True)
@@ -276,7 +280,7 @@ def _drop_dispensable(science, current, added, theta, errors, judge, variables, 
                 bounds = _shape_bounds(reduced, rest)
                 fitted = _refit_from_best(judge, reduced, starts, bounds)
                 reduced_errors = judge.errors(reduced, fitted, bounds)
-            except (RuntimeError, ValueError, FloatingPointError):
+            except _FIT_FAILURES:
                 continue
             if not evidence(reduced_errors, errors, z=z, min_gain=min_gain)["accepted"]:
                 trials.append((reduced_errors.mean(), i, rest, reduced, fitted, reduced_errors))
