@@ -522,16 +522,31 @@ def test_a_term_the_converged_test_drops_at_once_is_not_proposed_again(pendulum,
     assert all(s["term"] != "v_dot" for s in sel["steps"][[s["term"] for s in sel["steps"]].index("v_dot") + 1:])
 
 
-def test_a_term_made_dispensable_by_a_later_one_is_dropped(pendulum):
-    """Drag v_dot|v_dot| stands in for linear damping until v_dot itself is in; then it goes."""
-    from sklearn_hybrid.diagnosis.candidates import _augment, _with_fitted
-    from sklearn_hybrid.diagnosis.stepwise import _drop_dispensable, _Judge
+def _held_out_judge(pendulum):
+    """The selection's judge of the pendulum's network-free fit, its last 12 samples held out."""
+    from sklearn_hybrid.diagnosis.stepwise import _Judge
 
     data, est = pendulum
     fit = ScienceFit(est, data.X_train, data.y_train)
     n = len(fit.y)
-    judge = _Judge(fit, [(np.arange(n - 12), np.arange(n - 12, n))])
-    terms = physics_terms(NAMES, data.X_train)
+    return _Judge(fit, [(np.arange(n - 12), np.arange(n - 12, n))])
+
+
+def _on_v_dot(pendulum, names, coef=0.0):
+    """Candidate entries of the pendulum's library terms ``names`` on dv/dt, in that order."""
+    terms = {t.name: t for t in physics_terms(NAMES, pendulum[0].X_train)}
+    return [{"component": 1, "term": name, "kind": terms[name].kind, "unit": terms[name].unit,
+             "function": terms[name].func, "shape": {}, "bounds": terms[name].shape, "coef": coef, "gain": 0.0}
+            for name in names]
+
+
+def test_a_term_made_dispensable_by_a_later_one_is_dropped(pendulum):
+    """Drag v_dot|v_dot| stands in for linear damping until v_dot itself is in; then it goes."""
+    from sklearn_hybrid.diagnosis.candidates import _augment, _with_fitted
+    from sklearn_hybrid.diagnosis.stepwise import _drop_dispensable
+
+    judge = _held_out_judge(pendulum)
+    terms = physics_terms(NAMES, pendulum[0].X_train)
     placed = [{"component": 1, "term": t.name, "kind": t.kind, "unit": t.unit, "function": t.func, "shape": {},
                "bounds": t.shape, "coef": 0.0, "gain": 0.0} for t in terms if t.name in ("v_dot|v_dot|", "v_dot")]
     assert [p["term"] for p in placed] == ["v_dot", "v_dot|v_dot|"]
@@ -551,16 +566,10 @@ def test_a_screening_refit_that_gets_lost_starts_again_from_the_model_it_extends
     """A ranked coefficient that makes the simulation blow up leaves least squares stuck far from any
     minimum; the candidate is then refitted from its new coefficient at zero (the current model)."""
     from sklearn_hybrid.diagnosis.candidates import _augment
-    from sklearn_hybrid.diagnosis.stepwise import _Judge, _screen
+    from sklearn_hybrid.diagnosis.stepwise import _screen
 
-    data, est = pendulum
-    fit = ScienceFit(est, data.X_train, data.y_train)
-    n = len(fit.y)
-    judge = _Judge(fit, [(np.arange(n - 12), np.arange(n - 12, n))])
-    term = next(t for t in physics_terms(NAMES, data.X_train) if t.name == "v_dot")
-    placed = [{"component": 1, "term": term.name, "kind": term.kind, "unit": term.unit, "function": term.func,
-               "shape": {}, "bounds": term.shape, "coef": 1e3, "gain": 0.0}]
-    damped = _augment(pendulum_f, placed, NAMES, 2, None)
+    judge = _held_out_judge(pendulum)
+    damped = _augment(pendulum_f, _on_v_dot(pendulum, ["v_dot"], coef=1e3), NAMES, 2, None)
     start = {"omega": 0.6, damped.terms[0][2]: 1e3}
     lost = judge.fit(damped, start, {}, screening=True)
     assert judge.training_error(damped, lost) > 1e6  # the plain refit does not recover
@@ -574,16 +583,10 @@ def test_a_screening_refit_that_raises_starts_again_from_the_model_it_extends(pe
     ("array must not contain infs or NaNs") for the right term in every step, so the term was never
     judged. A refit that raises is tried again from the new coefficient at zero."""
     from sklearn_hybrid.diagnosis.candidates import _augment
-    from sklearn_hybrid.diagnosis.stepwise import _Judge, _screen
+    from sklearn_hybrid.diagnosis.stepwise import _screen
 
-    data, est = pendulum
-    fit = ScienceFit(est, data.X_train, data.y_train)
-    n = len(fit.y)
-    judge = _Judge(fit, [(np.arange(n - 12), np.arange(n - 12, n))])
-    term = next(t for t in physics_terms(NAMES, data.X_train) if t.name == "v_dot")
-    placed = [{"component": 1, "term": term.name, "kind": term.kind, "unit": term.unit, "function": term.func,
-               "shape": {}, "bounds": term.shape, "coef": 3.0, "gain": 0.0}]
-    damped = _augment(pendulum_f, placed, NAMES, 2, None)
+    judge = _held_out_judge(pendulum)
+    damped = _augment(pendulum_f, _on_v_dot(pendulum, ["v_dot"], coef=3.0), NAMES, 2, None)
     coef = damped.terms[0][2]
     plain_fit, starts = judge.fit, []
 
@@ -963,16 +966,10 @@ def test_a_drop_refits_the_reduced_model_from_its_fit_on_the_path_too(pendulum):
     drop test (is the term significantly better?) let the term go on the scattered errors, and the loop
     crashed later on a diverging model. The reduced model's fit on the path is now a second start."""
     from sklearn_hybrid.diagnosis.candidates import _augment, _with_fitted
-    from sklearn_hybrid.diagnosis.stepwise import _drop_dispensable, _Judge, _key, _refit_from_best
+    from sklearn_hybrid.diagnosis.stepwise import _drop_dispensable, _key, _refit_from_best
 
-    data, est = pendulum
-    fit = ScienceFit(est, data.X_train, data.y_train)
-    n = len(fit.y)
-    judge = _Judge(fit, [(np.arange(n - 12), np.arange(n - 12, n))])
-    terms = {t.name: t for t in physics_terms(NAMES, data.X_train)}
-    placed = [{"component": 1, "term": name, "kind": terms[name].kind, "unit": terms[name].unit,
-               "function": terms[name].func, "shape": {}, "bounds": terms[name].shape, "coef": 0.0, "gain": 0.0}
-              for name in ("v_dot", "v_dot|v_dot|")]
+    judge = _held_out_judge(pendulum)
+    placed = _on_v_dot(pendulum, ["v_dot", "v_dot|v_dot|"])
     damped = _augment(pendulum_f, placed[:1], NAMES, 2, None)
     coef = damped.terms[0][2]
     lost_start, good_start = {"omega": 0.6, coef: 1e3}, {"omega": 0.6, coef: 0.0}
