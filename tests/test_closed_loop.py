@@ -289,6 +289,19 @@ def test_science_fit_recovers_parameters(pendulum):
     assert fit.errors(damped, theta).mean() < 0.2 * fit.errors(pendulum_f, {"omega": 2 / 3}).mean()
 
 
+def test_science_fit_from_a_start_that_diverges_without_overflowing(pendulum):
+    """A start whose simulation grows to 1e165 (finite) squares to infinity: least_squares stepped to
+    NaN and raised. Diverged residuals are now bounded: from there the fit finds no way down and stays
+    put, and from a start 'only' 1e39 off it still finds the damping."""
+    data, est = pendulum
+    fit = ScienceFit(est, data.X_train, data.y_train)
+    damped = augment_science(pendulum_f, [{"component": 1, "term": "v_dot", "coef": 0.0}], NAMES)
+    far = {"omega": 0.6, "c_v_dot": 3e5}
+    assert np.all(np.isfinite(fit.predict(damped, far))) and np.abs(fit.predict(damped, far)).max() > 1e160
+    assert fit.fit(damped, far) == far
+    assert fit.fit(damped, {"omega": 0.6, "c_v_dot": 200.0})["c_v_dot"] == pytest.approx(-0.5, rel=0.05)
+
+
 def test_science_fit_vectorised_jacobian_same_fit_and_fallback(pendulum, monkeypatch):
     """The Jacobian of every perturbation in one vmapped simulation gives the fit the one-at-a-time
     differences give; a science function vmap cannot run (``.item()``) takes the reference path."""
@@ -564,13 +577,14 @@ def test_a_term_made_dispensable_by_a_later_one_is_dropped(pendulum):
 
 def test_a_screening_refit_that_gets_lost_starts_again_from_the_model_it_extends(pendulum):
     """A ranked coefficient that makes the simulation blow up leaves least squares stuck far from any
-    minimum; the candidate is then refitted from its new coefficient at zero (the current model)."""
+    minimum; the candidate is then refitted from its new coefficient at zero (the current model).
+    (From 1e3 the plain refit recovers since diverged residuals are bounded; from 1e4 it stays put.)"""
     from sklearn_hybrid.diagnosis.candidates import _augment
     from sklearn_hybrid.diagnosis.stepwise import _screen
 
     judge = _held_out_judge(pendulum)
-    damped = _augment(pendulum_f, _on_v_dot(pendulum, ["v_dot"], coef=1e3), NAMES, 2, None)
-    start = {"omega": 0.6, damped.terms[0][2]: 1e3}
+    damped = _augment(pendulum_f, _on_v_dot(pendulum, ["v_dot"], coef=1e4), NAMES, 2, None)
+    start = {"omega": 0.6, damped.terms[0][2]: 1e4}
     lost = judge.fit(damped, start, {}, screening=True)
     assert judge.training_error(damped, lost) > 1e6  # the plain refit does not recover
     theta = _screen(judge, damped, start, {}, n_kept=0)
@@ -972,14 +986,14 @@ def test_a_drop_refits_the_reduced_model_from_its_fit_on_the_path_too(pendulum):
     placed = _on_v_dot(pendulum, ["v_dot", "v_dot|v_dot|"])
     damped = _augment(pendulum_f, placed[:1], NAMES, 2, None)
     coef = damped.terms[0][2]
-    lost_start, good_start = {"omega": 0.6, coef: 1e3}, {"omega": 0.6, coef: 0.0}
+    lost_start, good_start = {"omega": 0.6, coef: 1e4}, {"omega": 0.6, coef: 0.0}
     assert judge.training_error(damped, judge.fit(damped, lost_start)) > 1e6  # the plain refit stays lost
     best = _refit_from_best(judge, damped, [lost_start, good_start], {})
     assert best[coef] == pytest.approx(-0.5, rel=0.1)
 
     full = _augment(pendulum_f, placed, NAMES, 2, None)
     good_full = judge.fit(full, {"omega": 0.6})
-    lost_full = {**good_full, full.terms[0][2]: 1e3}  # values from which the model without drag is lost
+    lost_full = {**good_full, full.terms[0][2]: 1e4}  # values from which the model without drag is lost
     added = [_with_fitted(p, full, lost_full, k) for k, p in enumerate(placed)]
     known = {_key(added[:1]): judge.fit(damped, good_start)}
     current, kept, theta, _ = _drop_dispensable(pendulum_f, full, added, lost_full, judge.errors(full, good_full),

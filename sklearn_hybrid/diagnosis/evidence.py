@@ -62,12 +62,14 @@ class ScienceFit:
             self.latent = [j for j in range(self.structure.state_shape[0]) if j not in observed]
         self.initial_states = self.inputs[0].numpy().copy()
         self.anchor = self.initial_states.copy()  # where every fit of the states starts
+        # A residual beyond this counts as a diverged simulation (see _bounded).
+        self.diverged = 1e3 * max(1.0, float(np.sqrt(np.mean(self.y**2))))
 
     def subset(self, rows: np.ndarray) -> "ScienceFit":
         """The same fit restricted to some samples (a train / validation split)."""
         out = object.__new__(ScienceFit)
         out.structure, out.bounds, out.y, out.latent = self.structure, self.bounds, self.y[rows], self.latent
-        out.fixed = self.fixed
+        out.fixed, out.diverged = self.fixed, self.diverged
         out.inputs = tuple(t[torch.as_tensor(rows)] for t in self.inputs)
         out.initial_states, out.anchor = self.initial_states[rows].copy(), self.anchor[rows].copy()
         return out
@@ -133,7 +135,7 @@ class ScienceFit:
         def residuals(x0):
             with torch.no_grad(), np.errstate(all="ignore"):
                 r = self._simulate(science, values, x0).reshape(self.y.shape).numpy() - self.y
-            return np.nan_to_num(r, nan=1e3, posinf=1e3, neginf=-1e3)
+            return _bounded(r, self.diverged)
 
         x0, damping = self.anchor.copy(), np.full(len(self.y), 1e-3)
         r = residuals(x0)
@@ -192,9 +194,8 @@ class ScienceFit:
 
         scale = 1.0 / math.sqrt(self.y.size)
 
-        def scaled(pred):  # residual vector(s) of predictions; non-finite values steer the search away
-            r = (pred - self.y).reshape(*pred.shape[:-2], -1) * scale
-            return np.nan_to_num(r, nan=1e3, posinf=1e3, neginf=-1e3)
+        def scaled(pred):  # residual vector(s) of predictions; diverged values steer the search away
+            return _bounded((pred - self.y).reshape(*pred.shape[:-2], -1) * scale, self.diverged)
 
         def residuals(x):
             return scaled(self.predict(science, unpack(x)))
@@ -283,6 +284,14 @@ class ScienceFit:
         except Exception:  # noqa: BLE001 -- any failure means: take the reference path
             return False
         return bool(np.allclose(many[0], alone, rtol=1e-9, atol=1e-12, equal_nan=True))
+
+
+def _bounded(r: np.ndarray, cap: float) -> np.ndarray:
+    """Residuals with a diverged simulation's values (NaN, infinite, or finite beyond ``cap``) at
+    ``cap``, signed. Clipping the finite ones too matters: a start whose simulation grows to 1e200
+    without overflowing has an infinite squared error and an infinite Jacobian, from which
+    ``least_squares`` steps to NaN and raises, where it should merely find no way down."""
+    return np.clip(np.nan_to_num(r, nan=cap, posinf=cap, neginf=-cap), -cap, cap)
 
 
 def _difference_steps(x: np.ndarray, high: np.ndarray) -> np.ndarray:
