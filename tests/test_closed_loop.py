@@ -302,6 +302,29 @@ def test_science_fit_from_a_start_that_diverges_without_overflowing(pendulum):
     assert fit.fit(damped, {"omega": 0.6, "c_v_dot": 200.0})["c_v_dot"] == pytest.approx(-0.5, rel=0.05)
 
 
+def _runaway_f(v, omega=2 / 3, c=0.0):
+    """The pendulum, with a runaway past 0.6 rad: with a large ``c`` the samples that reach it blow up."""
+    return torch.stack([v[:, 1], -(2 * torch.pi * omega) ** 2 * torch.sin(v[:, 0])
+                        + c * torch.relu(v[:, 0] - 0.6) * v[:, 1]], dim=-1)
+
+
+def test_a_sample_whose_simulation_blew_up_counts_as_infinitely_wrong(pendulum):
+    """Seen on a radiating body: a backward drop left a model whose simulation blew up on some
+    validation samples to finite but astronomical errors; scattered over hundreds of orders of
+    magnitude, they made the drop test (is the term significantly better?) too weak to keep the
+    term. A residual beyond ``diverged`` now counts as infinite, and a model that fails a sample
+    never validates 'as well' as one that does not."""
+    data, est = pendulum
+    fit = ScienceFit(est, data.X_train, data.y_train)
+    calm, runaway = fit.errors(_runaway_f, {"c": 0.0}), fit.errors(_runaway_f, {"c": 1e4})
+    residual = fit.predict(_runaway_f, {"c": 1e4}) - fit.y
+    blown_finite = np.all(np.isfinite(residual), axis=1) & (np.abs(residual).max(axis=1) > fit.diverged)
+    assert blown_finite.sum() >= 5 and np.all(np.isinf(runaway[blown_finite]))
+    untouched = np.all(fit.predict(_runaway_f, {"c": 1e4}) == fit.predict(_runaway_f, {"c": 0.0}), axis=1)
+    assert untouched.sum() >= 10 and np.array_equal(runaway[untouched], calm[untouched])
+    assert evidence(runaway, calm)["accepted"]  # the model without the runaway is better, however scattered
+
+
 def test_science_fit_vectorised_jacobian_same_fit_and_fallback(pendulum, monkeypatch):
     """The Jacobian of every perturbation in one vmapped simulation gives the fit the one-at-a-time
     differences give; a science function vmap cannot run (``.item()``) takes the reference path."""

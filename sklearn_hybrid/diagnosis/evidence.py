@@ -89,12 +89,18 @@ class ScienceFit:
         return self.structure.forward(model, *inputs, use_residual=False)[0]
 
     def errors(self, science: Callable, theta: Mapping[str, Any]) -> np.ndarray:
-        """Mean squared error of every sample (non-finite predictions count as infinite)."""
+        """Mean squared error of every sample; a sample whose simulation diverged (a residual
+        non-finite or beyond ``diverged``) counts as infinite. A blown-up sample is a failure, not
+        a large number: its error, finite but scattered over hundreds of orders of magnitude,
+        weakened the test a backward drop makes (is the term significantly better?), which let a
+        term go and left a model that diverged (seen on a radiating body)."""
         if self.latent:  # every model judged from the same start, the anchor
             self.fit_initial_states(science, theta)
         with np.errstate(over="ignore", invalid="ignore"):  # a diverging candidate: counted, not warned
-            err = np.mean((self.predict(science, theta) - self.y) ** 2, axis=1)
-        return np.where(np.isfinite(err), err, np.inf)
+            residual = self.predict(science, theta) - self.y
+            err = np.mean(residual**2, axis=1)
+            diverged = ~np.all(np.abs(residual) <= self.diverged, axis=1)  # NaN compares False: diverged
+        return np.where(diverged, np.inf, err)
 
     def settle(self, science: Callable, theta: Mapping[str, Any]) -> None:
         """Start later fits of the states from those that fit ``science`` at ``theta`` (the model a
