@@ -28,7 +28,8 @@ import torch
 from sklearn.base import clone
 
 from _common import write_results
-from sklearn_hybrid.diagnosis.evidence import ScienceFit, evidence, held_out_splits
+from sklearn_hybrid.diagnosis.evidence import evidence, held_out_splits
+from sklearn_hybrid.diagnosis.science_fit import ScienceFit
 from sklearn_hybrid.recipes import tanks_case, tanks_f
 
 TOP = 10.0  # V: both tanks overflow at the top of the gauge's range (the record's maximum)

@@ -9,12 +9,13 @@ model's residual by sparse regression on a :class:`CandidateLibrary` (an explora
 """
 
 from .augment import AugmentedScience, augment_science, parameter_name, term_to_torch
-from .evidence import ScienceFit, critical_value, evidence
+from .evidence import critical_value, evidence
 from .library import CandidateLibrary
 from .loop import MLPOn, ZeroResidual, close_the_loop
 from .records import fit_initial_state, free_run
 from .report import format_table, plot_unexplained, prediction_metrics
 from .residual import ResidualDiagnosis, science_sensitivities
+from .science_fit import ScienceFit
 from .sparse import SparseTermRegression
 from .terms import SCIENCE_OUTPUT, TERM_KINDS, Term, physics_terms
 

@@ -18,7 +18,7 @@ import numpy as np
 import torch
 
 from .augment import augment_science
-from .evidence import ScienceFit
+from .science_fit import ScienceFit
 from .residual import finite_differences
 from .terms import Term
 

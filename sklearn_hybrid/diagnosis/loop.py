@@ -24,9 +24,10 @@ from ..residual import MLP, MaskedMLP
 from ..science import read_signature
 from ._arguments import (_check_names, _check_options, _check_param_names, _check_refit_params, _n_states,
                          _offset_states, _uncertain_components)
-from .evidence import ScienceFit, held_out_splits
+from .evidence import held_out_splits
 from .report import Scoring, format_table, residual_profile
 from .residual import _names, science_output
+from .science_fit import ScienceFit
 from .stepwise import forward_selection
 from .terms import Term, physics_terms
 

@@ -28,9 +28,10 @@ from ..science import read_signature
 from .candidates import (_augment, _entries, _free_columns, _groups, _initial_values, _interleave, _merge,
                          _n_parameters, _offset, _public, _rank, _rank_by_fit, _shape_bounds, _term_columns, _where,
                          _with_fitted)
-from .evidence import ScienceFit, evidence
+from .evidence import evidence
 from .report import format_gain
 from .residual import parameter_jacobian, science_output
+from .science_fit import ScienceFit
 from .terms import SCIENCE_OUTPUT, Term
 
 __all__ = ["forward_selection"]
