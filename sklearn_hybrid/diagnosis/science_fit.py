@@ -40,6 +40,13 @@ class ScienceFit:
         wrong exactly where the science misses something, and would count against the term that
         mends it. :meth:`errors` then fits them on the judged samples too (they are states, not
         parameters of the model being judged), and ``initial_states`` holds the last values.
+
+    Attributes
+    ----------
+    diverged : float
+        A residual beyond this (1e3 times the RMS of ``y``, at least 1e3) or non-finite marks a
+        diverged simulation: a fit sees it at this value, signed, and :meth:`errors` counts the
+        sample as infinitely wrong.
     """
 
     def __init__(self, estimator: Any, X: Any, y: Any, fit_initial_states: bool = False) -> None:
