@@ -54,13 +54,10 @@ def selection(name: str, noise: float) -> tuple[list[str], dict]:
     """Terms (as '<term> [component]') and network-free parameter values the loop selects today."""
     system = SYSTEMS[name]
     data = bench.make_data(system, noise, 0, False)
-    est = pickle.loads((bench.cache_dir(False) / "fits" / f"{name}_noise{noise:g}_seed0.pkl").read_bytes())
-    units = {k: v for k, v in system.units.items() if k != "u" or system.forced}
+    est = pickle.loads((bench.cache_dir(False) / "fits" / f"{bench.case_name(name, noise, 0)}.pkl").read_bytes())
     original, LOOP._fixed_science = LOOP._fixed_science, _stop
     try:
-        bench.close_the_loop(est, data["X"], data["y"], state_names=system.state_names,
-                             input_names=["u"] if system.forced else None, units=units,
-                             offsets=system.declared_offsets)
+        bench.close_the_loop(est, data["X"], data["y"], **bench.loop_arguments(system))
     except _Selected as done:
         terms = [f"{term} [{component}]" for component, term, _ in getattr(done.science, "terms", [])]
         return terms, {k: np.asarray(v, float).tolist() for k, v in done.theta.items()}
@@ -70,7 +67,7 @@ def selection(name: str, noise: float) -> tuple[list[str], dict]:
 
 
 def check(name: str, noise: float) -> dict:
-    record = json.loads((bench.cache_dir(False) / f"{name}_noise{noise:g}_seed0.json").read_text())
+    record = json.loads((bench.cache_dir(False) / f"{bench.case_name(name, noise, 0)}.json").read_text())
     start = time.perf_counter()
     terms, theta = selection(name, noise)
     stored_terms = [f"{t['term']} [{t['component']}]" for t in record["added"]]
