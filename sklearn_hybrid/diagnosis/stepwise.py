@@ -237,9 +237,10 @@ def _screen(judge: _Judge, science, start: dict, bounds: dict, n_kept: int) -> d
     refit can only end worse on its own training samples when the search got lost: a start that
     makes the simulation overflow (``exp(k*x)`` with its ranked coefficient and grid ``k``) clamps
     every residual, the Jacobian is zero and least squares stops where it began. Such a refit
-    starts again from the new coefficients at zero. So does one that raises: least squares may meet
-    a Jacobian that is not finite on its way from such a start (seen on a Brusselator: ``x^2*y`` on
-    dx/dt, ranked at 2.96, raised in every step and lost to three terms that stand in for it).
+    starts again from the new coefficients at zero. So does one that raises (a science function may
+    raise at a start outside its domain). Before ScienceFit bounded a diverged simulation's finite
+    residuals, least squares itself raised from such starts on a non-finite Jacobian (a Brusselator's
+    ``x^2*y`` on dx/dt, ranked at 2.96, lost to three terms that stand in for it).
     """
     nested = {**start, **{coef: 0.0 for _, _, coef in science.terms[n_kept:]}}
     try:
