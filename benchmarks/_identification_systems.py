@@ -56,7 +56,7 @@ class System:
     batch : int
         1: the systems the benchmark was built with; 2 and 3: systems written on 2026-11-25, after the
         selection's code was last changed, and added unchanged whatever they gave (``FRESH``, ``FRESH_3``);
-        4 to 11: written in later sessions (``FRESH_4`` to ``FRESH_11``), likewise.
+        4 to 12: written in later sessions (``FRESH_4`` to ``FRESH_12``), likewise.
     sign_of : int or None
         For an effect that jumps with the sign of one state (dry friction): that state's index.  Trajectories
         are then integrated piecewise between its zero crossings (no chattering of the step size), and a
@@ -944,8 +944,74 @@ FRESH_11 = [
            batch=11),
 ]
 
+
+# ------------------------------------------------------------------------------------------ batch 12 (fresh systems)
+# Written on 2026-11-26, at package commit d7e787f, committed before any of them ran: a torsion spring on a
+# pendulum (a linear term beside the science's sin), predators crowding each other (quadratic on the second
+# component), an eddy-current brake (rational, odd in the velocity), a spring with a dead zone (two hinges), growth
+# that follows the season (the input times the science's own growth), a weir above a draining tank (a hinge to the
+# power 1.5, outside the library), a capacitor's saturating leak (tanh with its width); two controls from models new
+# here (a forced pendulum, the seasonal logistic itself). Only their simulated data were looked at before the commit.
+def seasonal_logistic_f(v, u, r=0.6, K=2.5):
+    x = v[:, 0]
+    return torch.stack([r * x * (1 - x.clamp(min=0) / K)], dim=-1)
+
+
+def seasonal_growth_f(v, u, r=0.6, K=2.5, s=0.4):
+    x = v[:, 0]
+    return torch.stack([r * x * (1 - x.clamp(min=0) / K) * (1 + s * u[:, 0])], dim=-1)
+
+
+def forced_pendulum_f(v, u, w2=1.6, c=0.25):
+    return torch.stack([v[:, 1], -w2 * torch.sin(v[:, 0]) - c * v[:, 1] + u[:, 0]], dim=-1)
+
+
+FRESH_12 = [
+    System("torsion_pendulum", "oscillator", "linear (beside the science's sin)",
+           "a torsion spring on the pendulum's axis: -0.6 theta",
+           damped_pendulum_f, {"w2": 2.5, "c": 0.2}, lambda x, u: _on(1, 2, -0.6 * x[:, 0]),
+           ["theta", "omega"], {"theta": "rad", "omega": "rad/s"}, 0.1, 40, (-2.0, -1.5), (2.0, 1.5),
+           zero_components=[0], batch=12, theta_guess={"w2": 2.1, "c": 0.25}),
+    System("crowded_predators", "population", "polynomial (quadratic on the second component)",
+           "predators crowd each other: -0.15 y^2",
+           lotka_volterra_f, {"a": 1.0, "b": 0.9, "c": 0.6, "d": 0.4}, lambda x, u: _on(1, 2, -0.15 * x[:, 1] ** 2),
+           ["x", "y"], {"x": "1", "y": "1"}, 0.3, 30, (0.5, 0.3), (2.0, 1.5), batch=12,
+           theta_guess={"a": 0.8, "b": 1.1, "c": 0.5, "d": 0.5}),
+    System("eddy_brake", "oscillator", "rational (saturating, odd in the velocity)",
+           "an eddy-current brake: -0.6 v/(0.5 + |v|)",
+           damped_oscillator_f, {"k": 1.5, "c": 0.1}, lambda x, u: _on(1, 2, -0.6 * x[:, 1] / (0.5 + np.abs(x[:, 1]))),
+           ["x", "v"], {"x": "m", "v": "m/s"}, 0.1, 40, (-2.0, -1.5), (2.0, 1.5), zero_components=[0], batch=12,
+           theta_guess={"k": 1.8, "c": 0.13}),
+    System("dead_zone_spring", "oscillator", "non-smooth (two hinges)",
+           "a second spring engages beyond +-0.4: -2 (x - clip(x, -0.4, 0.4))",
+           linear_oscillator_f, {"k": 0.8, "c": 0.15},
+           lambda x, u: _on(1, 2, -2.0 * (x[:, 0] - np.clip(x[:, 0], -0.4, 0.4))),
+           ["x", "v"], {"x": "m", "v": "m/s"}, 0.1, 40, (-1.5, -1.5), (1.5, 1.5), zero_components=[0], batch=12,
+           theta_guess={"k": 1.0, "c": 0.12}),
+    System("seasonal_growth", "population", "input-dependent (the input times the science's growth)",
+           "growth follows the season u: 0.5 u r x (1 - x/K), r = 0.8, K = 2",
+           seasonal_logistic_f, {"r": 0.8, "K": 2.0},
+           lambda x, u: 0.5 * u * 0.8 * x * (1 - x / 2.0),
+           ["x"], {"x": "1", "u": "1"}, 0.25, 30, (0.2,), (2.5,), (-1.0, 1.0), batch=12),
+    System("weir_tank", "hydraulic", "hinge to the power 1.5 (outside the library)",
+           "a weir above 0.8 m: -0.4 max(0, h - 0.8)^1.5",
+           draining_f, {"a": 0.45}, lambda x, u: -0.4 * np.maximum(0.0, x - 0.8) ** 1.5,
+           ["h"], {"h": "m", "u": "m/s"}, 0.3, 30, (0.2,), (2.5,), (0.2, 1.0), batch=12, theta_guess={"a": 0.55}),
+    System("tanh_leak", "electrical", "saturating (tanh with a width)",
+           "a leak that saturates: -0.4 tanh(v/0.5)",
+           charging_f, {"a": 0.7}, lambda x, u: -0.4 * np.tanh(x / 0.5),
+           ["v"], {"v": "V", "u": "V"}, 0.2, 30, (0.0,), (2.0,), (0.0, 2.0), batch=12, theta_guess={"a": 0.55}),
+    System("control_forced_pendulum", "oscillator", "control", "nothing (a forced pendulum)",
+           forced_pendulum_f, {"w2": 2.0, "c": 0.2}, None,
+           ["theta", "omega"], {"theta": "rad", "omega": "rad/s", "u": "N m"}, 0.1, 40, (-2.0, -1.5), (2.0, 1.5),
+           (-0.8, 0.8), batch=12),
+    System("control_seasonal_growth", "population", "control", "nothing (logistic growth that follows the season)",
+           seasonal_growth_f, {"r": 0.8, "K": 2.0, "s": 0.5}, None,
+           ["x"], {"x": "1", "u": "1"}, 0.25, 30, (0.2,), (2.5,), (-1.0, 1.0), batch=12),
+]
+
 SYSTEMS = {s.name: s for s in SYSTEMS + FRESH + FRESH_3 + FRESH_4 + FRESH_5 + FRESH_6 + FRESH_7 + FRESH_8 + FRESH_9
-           + FRESH_10 + FRESH_11}
+           + FRESH_10 + FRESH_11 + FRESH_12}
 
 
 # ----------------------------------------------------------------------------------------------------- simulation
