@@ -153,7 +153,7 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         definition, not a model. ``None`` makes every component uncertain.
     terms : list of Term, optional
         The candidates; default :func:`physics_terms` over the states and inputs and, for an ODE, each
-        uncertain equation's own science output times a state (kind ``"scaled"``).
+        uncertain equation's own science output times a state or an input (kind ``"scaled"``).
     term_kinds, user_terms, positive : optional
         Passed to :func:`physics_terms`: which kinds, your own terms by name (torch functions of a
         dict of variables), variables that are never negative.
@@ -241,7 +241,7 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
     variables, first_values = _check_names(estimator, X, y, state_names, input_names, units, user_terms, positive)
     # the user's terms are tried on the data's first states before anything is fitted
     n_states = _n_states(estimator, X, y) if estimator.structure == "ode" else None
-    # an ODE's uncertain equations may have a parameter that varies with the state: f_j(x) * x_k
+    # an ODE's uncertain equations may have a parameter that varies with the state or an input: f_j(x) * x_k
     scaled = (None if n_states is None else
               {j: variables[j] for j in (range(n_states) if uncertain is None else uncertain)})
     library = physics_terms(variables, first_values, units, term_kinds, user_terms, positive, scaled,

@@ -9,8 +9,9 @@ visited) and the augmented science model (during its refit), so there is one imp
 term.
 
 A term of kind ``"scaled"`` multiplies the science model's own output for one component by a
-state, ``f_j(x) * x_k`` (or ``x_k^2``): a parameter of that equation that varies with the state (an
-inductance that saturates with the current, a growth rate that depends on the density, a rate
+state, ``f_j(x) * x_k`` (or ``x_k^2``), or by an input, ``f_j(x) * u``: a parameter of that
+equation that varies with the state or with what drives the system (an inductance that saturates
+with the current, a growth rate that depends on the density or follows the season, a rate
 constant that grows with the temperature). It reads the science output from the variables under
 the key ``SCIENCE_OUTPUT``, which the augmented science model and the selection provide.
 """
@@ -149,12 +150,14 @@ def physics_terms(variables: Sequence[str], values: np.ndarray, units: Mapping[s
     positive : list of str, optional
         Variables that are never negative (levels, concentrations): no hinge below zero for them.
     scaled : dict of int to str, optional
-        Output components whose science output may vary with a state, with their labels
-        (``{1: "v"}``): terms ``f[v]*x`` and ``f[v]*x^2`` for every state ``x`` (kind ``"scaled"``),
-        each placed on its own component only. Default none: the terms need the science output,
-        which only the augmented science model and the selection provide.
+        Output components whose science output may vary with a state or an input, with their
+        labels (``{1: "v"}``): terms ``f[v]*x`` and ``f[v]*x^2`` for every state ``x`` and ``f[v]*u``
+        for every input ``u`` (kind ``"scaled"``), each placed on its own component only. Default
+        none: the terms need the science output, which only the augmented science model and the
+        selection provide.
     n_states : int, optional
-        How many of ``variables`` are states (the rest are inputs, which scale no output); default all.
+        How many of ``variables`` are states (the rest are inputs, which scale an output linearly
+        only); default all.
 
     Returns
     -------
@@ -190,7 +193,7 @@ def physics_terms(variables: Sequence[str], values: np.ndarray, units: Mapping[s
     if "polynomial" in kinds:
         terms += _polynomials(variables, units)
     if "scaled" in kinds:
-        terms += _scaled_terms(scaled, variables[:n_states])
+        terms += _scaled_terms(scaled, variables[:n_states], variables[n_states:])
     for i, x in enumerate(variables):
         col, u = values[:, i], units.get(x, "")
         scale = float(np.sqrt(np.mean(col**2))) or 1.0
@@ -239,12 +242,14 @@ def _polynomials(variables: Sequence[str], units: Mapping[str, str]) -> list[Ter
     return terms
 
 
-def _scaled_terms(scaled: Mapping[int, str], states: Sequence[str]) -> list[Term]:
-    """``f[label]*x`` and ``f[label]*x^2`` for every scaled component and state (``f[label]*1`` is the
-    science output itself, which a parameter of its own equation scales already)."""
+def _scaled_terms(scaled: Mapping[int, str], states: Sequence[str], inputs: Sequence[str]) -> list[Term]:
+    """``f[label]*x`` and ``f[label]*x^2`` for every scaled component and state, ``f[label]*u`` for every
+    input (a rate proportional to what drives it; ``f[label]*1`` is the science output itself, which a
+    parameter of its own equation scales already)."""
+    powers = [(x, p) for x in states for p in (1, 2)] + [(u, 1) for u in inputs]
     return [Term(f"f[{label}]*{x}" + (f"^{p}" if p > 1 else ""),
                  partial(_scaled, component=int(j), factors=((x, p),)), "scaled", component=int(j))
-            for j, label in scaled.items() for x in states for p in (1, 2)]
+            for j, label in scaled.items() for x, p in powers]
 
 
 def _single_variable(x: str, col: np.ndarray, scale: float, unit: str, kinds: Sequence[str],
