@@ -24,6 +24,7 @@ import pickle
 import sys
 import time
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 import torch
@@ -50,26 +51,32 @@ def _stop(before, science, theta, X, y):
     raise _Selected(science, theta)
 
 
-def selection(name: str, noise: float) -> tuple[list[str], dict]:
-    """Terms (as '<term> [component]') and network-free parameter values the loop selects today."""
+def selection(name: str, noise: float, **options) -> tuple[Callable, dict]:
+    """The science model (with ``.terms``) and network-free parameter values the loop selects today, from the
+    case's stored first fit; ``options`` go to close_the_loop beside the protocol's own arguments."""
     system = SYSTEMS[name]
     data = bench.make_data(system, noise, 0, False)
     est = pickle.loads((bench.cache_dir(False) / "fits" / f"{bench.case_name(name, noise, 0)}.pkl").read_bytes())
     original, LOOP._fixed_science = LOOP._fixed_science, _stop
     try:
-        bench.close_the_loop(est, data["X"], data["y"], **bench.loop_arguments(system))
+        bench.close_the_loop(est, data["X"], data["y"], **bench.loop_arguments(system), **options)
     except _Selected as done:
-        terms = [f"{term} [{component}]" for component, term, _ in getattr(done.science, "terms", [])]
-        return terms, {k: np.asarray(v, float).tolist() for k, v in done.theta.items()}
+        return done.science, {k: np.asarray(v, float).tolist() for k, v in done.theta.items()}
     finally:
         LOOP._fixed_science = original
     raise RuntimeError("the loop ended without reaching its network-free fit")
 
 
+def term_names(science: Callable) -> list[str]:
+    """The added terms as '<term> [component]' (none for the original science function)."""
+    return [f"{term} [{component}]" for component, term, _ in getattr(science, "terms", [])]
+
+
 def check(name: str, noise: float) -> dict:
     record = json.loads((bench.cache_dir(False) / f"{bench.case_name(name, noise, 0)}.json").read_text())
     start = time.perf_counter()
-    terms, theta = selection(name, noise)
+    science, theta = selection(name, noise)
+    terms = term_names(science)
     stored_terms = [f"{t['term']} [{t['component']}]" for t in record["added"]]
     stored = record["science_theta"]
     same_values = set(theta) == set(stored) and all(
