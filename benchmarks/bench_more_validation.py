@@ -77,6 +77,14 @@ def render() -> None:
         lines.append(f"| {r['system']} | {r['noise']:g} | {r['record_score']:.3f} | {score:.3f} | "
                      f"{'; '.join(r['record_terms']) or 'nothing'} | {'; '.join(r['terms']) or 'nothing'} | "
                      f"{r['seconds']:.0f} |")
+    # the same cases' selections with one held-out split, timed by check_selection_unchanged.py
+    split = {(c["system"], c["noise"]): c["seconds"] for c in
+             (json.loads(p.read_text()) for p in (RESULTS / "selection_checks").glob("*.json"))}
+    timed = [r for r in rows if (r["system"], r["noise"]) in split]
+    lines += ["", f"Time: the {len(timed)} of these cases that `selection_checks.md` also timed took "
+              f"{sum(r['seconds'] for r in timed):.0f} s with cv={CV} against "
+              f"{sum(split[r['system'], r['noise']] for r in timed):.0f} s with one split (selection up to the "
+              "network-free fit; the first hybrid fit and the refit after it are the same either way)."]
     machines = sorted({r["machine"].get("cpu") for r in rows})
     commits = sorted({r["package_commit"] for r in rows})
     lines += ["", f"Scores as in `identification.md` (rel_err for an effect, |F - T|/|T| for a control). Machine: "
