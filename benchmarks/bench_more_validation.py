@@ -28,7 +28,7 @@ sys.path.insert(0, str(HERE))
 import bench_identification as bench  # noqa: E402
 from _common import PACKAGE_COMMIT, RESULTS, machine_description  # noqa: E402
 from _identification_systems import SYSTEMS  # noqa: E402
-from check_selection_unchanged import selection, term_names  # noqa: E402
+from check_selection_unchanged import record_terms, selection, stored_record, term_names  # noqa: E402
 from inconclusive_candidates import inconclusive  # noqa: E402
 
 CV = 4
@@ -47,13 +47,13 @@ def cases() -> list[tuple[str, float]]:
 
 def run(name: str, noise: float) -> dict:
     system = SYSTEMS[name]
-    record = json.loads((bench.cache_dir(False) / f"{bench.case_name(name, noise, 0)}.json").read_text())
+    record = stored_record(name, noise)
     data = bench.make_data(system, noise, 0, False)
     start = time.perf_counter()
-    science, theta = selection(name, noise, cv=CV)
+    science, theta = selection(name, noise, data, cv=CV)
     scores = bench.score(system, science, theta, record["before_theta"], data["x_test"], data["u_test"])
     return {"system": name, "noise": noise, "cv": CV, "terms": term_names(science),
-            "record_terms": [f"{t['term']} [{t['component']}]" for t in record["added"]], **scores,
+            "record_terms": record_terms(record), **scores,
             "record_score": record.get("rel_err", record.get("control_err")), "record_identified":
             record.get("identified"), "package_commit": PACKAGE_COMMIT, "seconds": time.perf_counter() - start,
             "machine": machine_description()}

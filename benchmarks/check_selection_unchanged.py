@@ -51,11 +51,12 @@ def _stop(before, science, theta, X, y):
     raise _Selected(science, theta)
 
 
-def selection(name: str, noise: float, **options) -> tuple[Callable, dict]:
+def selection(name: str, noise: float, data: dict | None = None, **options) -> tuple[Callable, dict]:
     """The science model (with ``.terms``) and network-free parameter values the loop selects today, from the
-    case's stored first fit; ``options`` go to close_the_loop beside the protocol's own arguments."""
+    case's stored first fit; ``data``: the case's ``bench.make_data`` if the caller has it already; ``options``
+    go to close_the_loop beside the protocol's own arguments."""
     system = SYSTEMS[name]
-    data = bench.make_data(system, noise, 0, False)
+    data = bench.make_data(system, noise, 0, False) if data is None else data
     est = pickle.loads((bench.cache_dir(False) / "fits" / f"{bench.case_name(name, noise, 0)}.pkl").read_bytes())
     original, LOOP._fixed_science = LOOP._fixed_science, _stop
     try:
@@ -72,12 +73,22 @@ def term_names(science: Callable) -> list[str]:
     return [f"{term} [{component}]" for component, term, _ in getattr(science, "terms", [])]
 
 
+def stored_record(name: str, noise: float) -> dict:
+    """The case's record of ``bench_identification.py`` (seed 0), as committed."""
+    return json.loads((bench.cache_dir(False) / f"{bench.case_name(name, noise, 0)}.json").read_text())
+
+
+def record_terms(record: dict) -> list[str]:
+    """The record's added terms as '<term> [component]', as :func:`term_names` gives them."""
+    return [f"{t['term']} [{t['component']}]" for t in record["added"]]
+
+
 def check(name: str, noise: float) -> dict:
-    record = json.loads((bench.cache_dir(False) / f"{bench.case_name(name, noise, 0)}.json").read_text())
+    record = stored_record(name, noise)
     start = time.perf_counter()
     science, theta = selection(name, noise)
     terms = term_names(science)
-    stored_terms = [f"{t['term']} [{t['component']}]" for t in record["added"]]
+    stored_terms = record_terms(record)
     stored = record["science_theta"]
     same_values = set(theta) == set(stored) and all(
         np.allclose(theta[k], stored[k], rtol=1e-7, atol=1e-12) for k in theta)
