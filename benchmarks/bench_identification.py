@@ -578,11 +578,11 @@ def render(records: list[dict]) -> str:
            "unchanged. A later rerun of 34 of the 120 from their stored first fits at 9ce627e (cut off with its "
            "session, not committed) gave the same terms and rel_err to the last digit."]
     if not any(r.get("fast") for r in records):  # it counts the main protocol's records and checks
-        md += ["", _bounded_residuals_note(records)]
+        md += ["", _package_changes_note(records)]
     return "\n".join(md) + "\n"
 
 
-def _bounded_residuals_note(records: list[dict]) -> str:
+def _package_changes_note(records: list[dict]) -> str:
     """What 76a1151 and d850188 (diverged simulations in the network-free refits) and 4bb2d19 (a science output
     times an input) did to the records."""
     rerun = [r for r in records if r.get("package_commit") == "d850188"]
