@@ -15,7 +15,8 @@ from .candidates import _free_columns
 from .residual import _names, parameter_jacobian
 
 
-def _check_options(validation_fraction, max_terms, n_candidates, cv, z, min_gain, n_jobs, X_test, y_test):
+def _check_options(validation_fraction, max_terms, n_candidates, cv, z, min_gain, n_jobs, X_test, y_test,
+                   second_look):
     fraction = validation_fraction
     if isinstance(fraction, bool) or not isinstance(fraction, Real) or not 0 < fraction < 1:
         raise ValueError(f"validation_fraction must be in (0, 1), got {validation_fraction!r}.")
@@ -25,6 +26,9 @@ def _check_options(validation_fraction, max_terms, n_candidates, cv, z, min_gain
         raise ValueError(f"min_gain must be in [0, 1) (a share of the held-out error), got {min_gain!r}.")
     if cv is not None and (isinstance(cv, bool) or not isinstance(cv, (int, np.integer)) or cv < 2):
         raise ValueError(f"cv must be None or an integer of at least 2, got {cv!r}.")
+    if second_look is not None and (isinstance(second_look, bool) or not isinstance(second_look, (int, np.integer))
+                                    or second_look < 2):
+        raise ValueError(f"second_look must be None or a number of folds of at least 2, got {second_look!r}.")
     for name, value in (("max_terms", max_terms), ("n_candidates", n_candidates)):
         if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
             raise ValueError(f"{name} must be a positive integer, got {value!r}.")

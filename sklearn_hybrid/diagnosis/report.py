@@ -190,6 +190,16 @@ def plot_unexplained(result: Any, axes: Any = None) -> np.ndarray:
     return axes
 
 
+def _second_look_words(steps: Sequence[dict], min_gain: float) -> str:
+    """The report's account of second looks (see ``close_the_loop``'s ``second_look``), if any."""
+    looked = [s for s in steps if str(s["step"]).endswith("second look")]
+    if not looked:
+        return ""
+    return (f". Candidates that lowered it by {min_gain * 100:g} % with z above 2 but not past the threshold had a "
+            f"second look (rows 'second look'): the same test on folds of the training samples, each predicted by "
+            f"a refit on the others, with a threshold of {looked[0]['threshold']:.2f} for their number")
+
+
 def format_table(rows: list[dict], added: Sequence[dict] = (), steps: Sequence[dict] = (),
                  unexplained: dict | None = None, n_validation: int | None = None, z: float = 3.0,
                  min_gain: float = 0.05, cv: int | None = None, unit: str = "samples") -> str:
@@ -224,7 +234,7 @@ def format_table(rows: list[dict], added: Sequence[dict] = (), steps: Sequence[d
                       f"least {min_gain * 100:g} % and by more than "
                       f"{critical_value(z, n_validation or 0):.2f} standard errors, Student's t for the tail "
                       f"of z = {z:g}; a term the later "
-                      "ones make dispensable by that test is dropped):", "",
+                      "ones make dispensable by that test is dropped)" + _second_look_words(steps, min_gain) + ":", "",
                   "| step | output | term | kind | validation MSE before | after | gain | z | accepted |",
                   "|---|---|---|---|---|---|---|---|---|"]
         for s in steps:
@@ -246,7 +256,8 @@ def format_table(rows: list[dict], added: Sequence[dict] = (), steps: Sequence[d
             shape = ", ".join(f"{k} = {v:.4g}" for k, v in t["shape"].items())
             lines.append(f"Added to {t['output']}: {t['coef']:+.4g} * {t['term']}"
                          + (f" with {shape}" if shape else "") + f" ({KIND_WORDS.get(t['kind'], t['kind'])}"
-                         + (f", term in {t['unit']}" if t.get("unit") else "") + f"; parameter {t['param']})")
+                         + (f", term in {t['unit']}" if t.get("unit") else "") + f"; parameter {t['param']}"
+                         + ("; accepted on a second look" if t.get("second_look") else "") + ")")
     else:
         lines.append("Nothing added: no candidate improved the held-out error by more than the noise explains.")
     if unexplained is not None:

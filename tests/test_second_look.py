@@ -1,0 +1,79 @@
+"""A second look: candidates one split finds promising but cannot prove are judged on folds of the training samples."""
+
+import numpy as np
+import pytest
+
+from sklearn_hybrid import HybridRegressor
+from sklearn_hybrid.diagnosis import ScienceFit, physics_terms, stepwise
+from sklearn_hybrid.diagnosis.evidence import critical_value
+from sklearn_hybrid.diagnosis.report import format_table
+
+
+def decay_f(v, k=0.5):
+    """First-order decay of one state (one state or a batch)."""
+    return -k * v
+
+
+def _select(c: float, n_validation: int, second_look: int | None, seed: int = 0) -> dict:
+    """forward_selection on 40 trajectories of dA/dt = -0.6 A - c A^2 (exact solution), judged by the last
+    ``n_validation``: with 3, the threshold is Student's t for 2 degrees of freedom (19.2 at z = 3), which
+    no real gain passes on three samples."""
+    rng = np.random.default_rng(seed)
+    dt, n_steps, n, k = 0.25, 12, 40, 0.6
+    x0 = rng.uniform(0.3, 2.0, (n, 1))
+    t = dt * np.arange(n_steps + 1)
+    decay = np.exp(-k * t)[None, :, None]
+    x = k * x0[:, None] * decay / (k + c * x0[:, None] * (1 - decay))
+    y = x[:, 1:] + 0.01 * rng.standard_normal(x[:, 1:].shape)
+    est = HybridRegressor(science=decay_f, dt=dt, max_iter=2, random_state=0).fit(x0, y)
+    states = x.reshape(-1, 1)
+    learned = -k * states - c * states**2
+    splits = [(np.arange(n - n_validation), np.arange(n - n_validation, n))]
+    return stepwise.forward_selection(decay_f, {"k": 0.5}, ScienceFit(est, x0, y), splits,
+                                      physics_terms(["A"], states), ["A"], 1, [states], learned, [0],
+                                      second_look=second_look)
+
+
+def test_a_term_three_validation_samples_cannot_prove_is_accepted_on_the_training_folds():
+    without = _select(0.5, 3, None)
+    assert without["added"] == []
+    first = [s for s in without["steps"] if s["term"] == "A^2"][0]
+    assert first["gain"] > 0.5 and 2 < first["z"] < first["threshold"]  # promising, not proven
+
+    sel = _select(0.5, 3, 4)
+    assert [(t["component"], t["term"], t["second_look"]) for t in sel["added"]] == [(0, "A^2", True)]
+    assert sel["added"][0]["coef"] == pytest.approx(-0.5, rel=0.05)
+    assert sel["theta"]["k"] == pytest.approx(0.6, rel=0.05)
+    looked = [s for s in sel["steps"] if s["step"] == "1, second look"]
+    assert looked and all(s["z"] > s["threshold"] for s in looked if s["accepted"])
+    # 37 training samples in 4 folds: the threshold for 37 samples, far below the first look's 19.2
+    assert looked[0]["threshold"] == pytest.approx(critical_value(3.0, 37))
+    # the first look's own row still says it did not pass
+    assert not [s for s in sel["steps"] if s["step"] == 1 and s["term"] == "A^2"][0]["accepted"]
+    report = format_table([], [{**t, "output": "g[A]"} for t in sel["added"]],
+                          [{**s, "output": "g[A]"} for s in sel["steps"]], None, 3)
+    assert "| 1, second look | g[A] | A^2 |" in report and "second look (rows 'second look')" in report
+    assert "accepted on a second look" in report
+
+
+def test_nothing_is_added_on_a_second_look_when_nothing_is_missing():
+    sel = _select(0.0, 3, 4)
+    assert sel["added"] == []
+
+
+def test_second_look_needs_one_split_and_two_samples_a_fold():
+    fit = object.__new__(ScienceFit)
+    fit.y = np.zeros((10, 1))
+    one_split = [(np.arange(7), np.arange(7, 10))]
+    assert stepwise._training_folds(fit, one_split, None, None) is None
+    assert stepwise._training_folds(fit, one_split + one_split, None, 4) is None  # every sample judges already
+    assert stepwise._training_folds(fit, [(np.arange(3), np.arange(3, 10))], None, 4) is None  # one fold only
+
+
+@pytest.mark.parametrize("folds", [1, 2.0, True, "4"])
+def test_a_bad_number_of_second_look_folds_is_named(folds):
+    from sklearn_hybrid.diagnosis import close_the_loop
+
+    X, y = np.ones((8, 1)), np.ones((8, 3, 1))
+    with pytest.raises(ValueError, match="second_look must be None or a number of folds of at least 2"):
+        close_the_loop(HybridRegressor(science=decay_f, dt=0.1), X, y, second_look=folds)
