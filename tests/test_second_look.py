@@ -45,7 +45,8 @@ def test_a_term_three_validation_samples_cannot_prove_is_accepted_on_the_trainin
     assert sel["added"][0]["coef"] == pytest.approx(-0.5, rel=0.05)
     assert sel["theta"]["k"] == pytest.approx(0.6, rel=0.05)
     looked = [s for s in sel["steps"] if s["step"] == "1, second look"]
-    assert looked and all(s["z"] > s["threshold"] for s in looked if s["accepted"])
+    assert [s["term"] for s in looked if s["accepted"]] == ["A^2"]  # the one kept, though others passed too
+    assert all(s["z"] > s["threshold"] for s in looked if s["accepted"])
     # 37 training samples in 4 folds: the threshold for 37 samples, far below the first look's 19.2
     assert looked[0]["threshold"] == pytest.approx(critical_value(3.0, 37))
     # the first look's own row still says it did not pass

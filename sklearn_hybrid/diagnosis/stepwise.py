@@ -287,7 +287,7 @@ def _second_look(recheck: _Judge, tried: list, current, theta: dict, added: list
         except _FIT_FAILURES:
             continue
         verdict = evidence(base, errors, z=z, min_gain=min_gain)
-        steps.append({**steps[index], **verdict, "step": f"{steps[index]['step']}, second look"})
+        steps.append({**steps[index], **verdict, "step": f"{steps[index]['step']}, second look", "accepted": False})
         log(f"  second look at {cand['term']} on {_where(cand)}: training-fold MSE {verdict['mse_after']:.4g} "
             f"(gain {format_gain(verdict['gain'])}, z {verdict['z']:.1f})")
         looked.append(({**cand, "second_look": True}, fitted, verdict, errors, candidate_science, len(steps) - 1))
