@@ -327,10 +327,11 @@ def _fmt(v, digits=3) -> str:
 
 
 def _terms(rec: dict) -> str:
+    """The added terms, for a markdown cell (a bar inside a term escaped, or it would split the cell)."""
     if "error" in rec:
         return "error: " + rec["error"].splitlines()[-1][:80]
     return "; ".join(f"{a.get('term')}" + (f" = {a['coef']:.3f}" if a.get("kind") == "offset" else "")
-                     + f" [{a.get('component')}]" for a in rec["added"]) or "nothing"
+                     + f" [{a.get('component')}]" for a in rec["added"]).replace("|", "\\|") or "nothing"
 
 
 def _tables(records: list[dict]) -> list[str]:
@@ -378,6 +379,36 @@ SCALED_SINCE, WITHOUT_SCALED = "e81d042", "0736e56"
 SCALED_BATCH = 11
 # Since this commit a scaled term may also be a science output times an input (f[x]*u).
 INPUT_SCALED_SINCE = "4bb2d19"
+# Since SECOND_LOOK_SINCE close_the_loop judges a candidate one split leaves inconclusive again on folds of the
+# training trajectories (second_look=4); BEFORE_SECOND_LOOK holds every record made before.
+SECOND_LOOK_SINCE, BEFORE_SECOND_LOOK = "40847dc", "eb0d2e7"
+
+
+def _second_look_section(records: list[dict]) -> list[str]:
+    """The records run again with the second look, against their records from before it."""
+    pairs = [(r, _record_at(BEFORE_SECOND_LOOK, r)) for r in records if r.get("package_commit") == SECOND_LOOK_SINCE]
+    if not pairs:
+        return []
+    effects = [(n, o) for n, o in pairs if not SYSTEMS[n["system"]].is_control]
+    n_controls = sum(SYSTEMS[r["system"]].is_control for r in records)
+    changed = [(n, o) for n, o in pairs if _terms(n) != _terms(o)]
+    md = ["", "## Rerun with the second look", "",
+          f"Since {SECOND_LOOK_SINCE} a candidate that the 12 validation trajectories leave inconclusive (gain of 5 % "
+          "or more, z above 2 but under the threshold) is judged again by the same test on 4 contiguous folds of "
+          "the 38 training trajectories, each predicted by a refit on the others (`close_the_loop(second_look=4)`, "
+          "the default; the validation trajectories take no part). It is asked only at a step where no candidate "
+          "passed, so it can change only the records whose last step held such a candidate: the 31 listed in "
+          "`results/inconclusive_candidates.md` (made from the records before the change, none of them a "
+          f"control). Those were run again from their stored first fits"
+          + ("" if len(pairs) == 31 else f" ({len(pairs)} of 31 so far)") + ". Effects within "
+          f"10 %: {sum(bool(n.get('identified')) for n, _ in effects)} of {len(effects)} after, "
+          f"{sum(bool(o.get('identified')) for _, o in effects)} before (records at {BEFORE_SECOND_LOOK}); "
+          f"{len(changed)} added other terms; controls: none of the 31, so all {n_controls} stay as they were.", "",
+          "| system | noise | rel_err before | after | terms before | after |", "|---|---|---|---|---|---|"]
+    for new, old in pairs:
+        md.append(f"| {new['system']} | {new['noise']:g} | {_fmt(old.get('rel_err'))} | {_fmt(new.get('rel_err'))} | "
+                  f"{_terms(old)} | {_terms(new)} |")
+    return md
 
 
 def _git(*args: str) -> subprocess.CompletedProcess:
@@ -509,7 +540,7 @@ def render(records: list[dict]) -> str:
                        f"were added after batch 9's `saturating_coil` had failed, so batches 2 to {SCALED_BATCH - 1} "
                        f"are not fresh for them): {hits} of {n_eff} effects within 10 %, {clean} of "
                        f"{len(newest) - n_eff} controls clean, {len(newest)} of {n_cases} cases run."]
-    md += _rerun_section(pairs, n_earlier)
+    md += _rerun_section(pairs, n_earlier) + _second_look_section(records)
     for batch, (heading, preface) in BATCHES.items():
         if batches[batch]:
             md += ["", heading, ""] + ([preface, ""] if preface else []) + _tables(batches[batch])
@@ -595,7 +626,8 @@ def _package_changes_note(records: list[dict]) -> str:
     # the systems without inputs have had the same library since d850188: a record made since holds as made
     covered = ({(r["system"], r["noise"]) for r in rerun} | {(c["system"], c["noise"]) for c in first + second}
                | {(r["system"], r["noise"]) for r in records if r["system"] not in forced
-                  and r.get("package_commit") in ("d850188", "d7e787f")})
+                  and r.get("package_commit") in ("d850188", "d7e787f")}
+               | {(r["system"], r["noise"]) for r in records if r.get("package_commit") == SECOND_LOOK_SINCE})
     unchecked = sum((r["system"], r["noise"]) not in covered for r in records)
     return ("Since 76a1151 and d850188 a network-free refit bounds the residuals of a diverged simulation "
             "(non-finite, or beyond 1e3 times the data's RMS; before, only non-finite ones were, and a start whose "
@@ -615,7 +647,9 @@ def _package_changes_note(records: list[dict]) -> str:
             + (f"; run again end to end at {INPUT_SCALED_SINCE} (where the selection changed, or to show the new "
                f"term's evidence in the report): {', '.join(rerun_second)}" if rerun_second else "")
             + ". " + (f"{unchecked} were not checked and keep their records, made before these changes." if unchecked
-                      else f"Every record holds for the package since {INPUT_SCALED_SINCE}."))
+                      else f"Every record holds for the package since {INPUT_SCALED_SINCE}, and since "
+                      f"{SECOND_LOOK_SINCE} with the second look: it can change only the records its section "
+                      "lists, run again with it."))
 
 
 def load(fast: bool) -> list[dict]:
