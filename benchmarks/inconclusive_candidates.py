@@ -5,7 +5,9 @@ candidate that lowered the held-out error by at least ``min_gain`` (5 %) with z 
 (3.85 standard errors for the 12 validation trajectories of the protocol) was neither supported nor ruled out:
 more validation samples (``close_the_loop(cv=...)``, every trajectory judging) could accept it. This script lists
 those records from their stored reports, so that a change towards more validation samples knows which records
-it can change and which failures it might turn.
+it can change and which failures it might turn. The committed ``results/inconclusive_candidates.md`` was made from
+the records before the second look (``close_the_loop(second_look=4)``, since 40847dc), and lists the 31 records
+that were run again with it; run now, the script lists the records that still end on such a candidate.
 
     python benchmarks/inconclusive_candidates.py    # writes results/inconclusive_candidates.md
 """
