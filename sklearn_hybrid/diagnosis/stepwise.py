@@ -240,10 +240,11 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
             "base_errors": base_errors, "errors": errors, "seconds": time.perf_counter() - start_time}
 
 
-# A candidate gets a second look when the first split's z is above this: with 12 validation samples a
-# useless term gets there about once in 28 candidates (Student's t, 11 degrees of freedom), often enough
-# to be worth the folds' refits, far too often to be a term.
-_SECOND_LOOK_Z = 2.0
+def _promising(verdict: dict, min_gain: float) -> bool:
+    """Worth a second look: the gain is enough and z above 2. With 12 validation samples a useless
+    term gets there about once in 28 candidates (Student's t, 11 degrees of freedom): often enough to
+    be worth the folds' refits, far too often to be a term."""
+    return verdict["gain"] >= min_gain and verdict["z"] > 2.0
 
 
 def _training_folds(fit: ScienceFit, splits, groups, folds: int | None) -> _Judge | None:
@@ -276,7 +277,7 @@ def _second_look(recheck: _Judge, tried: list, current, theta: dict, added: list
     Returns the simplest of the best that pass (as :func:`_simplest_of_the_best`), its tuple
     marked ``"second_look"``, or None.
     """
-    promising = [t for t in tried if t[2]["gain"] >= min_gain and t[2]["z"] > _SECOND_LOOK_Z]
+    promising = [t for t in tried if _promising(t[2], min_gain)]
     if not promising:
         return None
     recheck.settle(current, theta)
