@@ -3,6 +3,8 @@
 import numpy as np
 import pytest
 
+from test_closed_loop import pendulum  # noqa: F401 (a fixture)
+
 from sklearn_hybrid import HybridRegressor
 from sklearn_hybrid.diagnosis import ScienceFit, physics_terms, stepwise
 from sklearn_hybrid.diagnosis.evidence import critical_value
@@ -78,3 +80,30 @@ def test_a_bad_number_of_second_look_folds_is_named(folds):
     X, y = np.ones((8, 1)), np.ones((8, 3, 1))
     with pytest.raises(ValueError, match="second_look must be None or a number of folds of at least 2"):
         close_the_loop(HybridRegressor(science=decay_f, dt=0.1), X, y, second_look=folds)
+
+
+def test_a_term_accepted_on_a_second_look_is_dropped_by_the_same_judge(pendulum):  # noqa: F811 (the fixture)
+    """Drag v_dot|v_dot| stands in for linear damping until v_dot is in; accepted on a second look, its drop
+    is judged on the training folds, and its row says so."""
+    from test_closed_loop import NAMES, _held_out_judge, pendulum_f
+
+    from sklearn_hybrid.diagnosis.candidates import _augment, _with_fitted
+
+    judge = _held_out_judge(pendulum)
+    fit = ScienceFit(pendulum[1], pendulum[0].X_train, pendulum[0].y_train)
+    n = len(fit.y)
+    recheck = stepwise._training_folds(fit, [(np.arange(n - 12), np.arange(n - 12, n))], None, 4)
+    terms = {t.name: t for t in physics_terms(NAMES, pendulum[0].X_train)}
+    placed = [{"component": 1, "term": name, "kind": terms[name].kind, "unit": terms[name].unit,
+               "function": terms[name].func, "shape": {}, "bounds": terms[name].shape, "coef": 0.0, "gain": 0.0}
+              for name in ("v_dot|v_dot|", "v_dot")]
+    full = _augment(pendulum_f, placed, NAMES, 2, None)
+    theta = judge.fit(full, {"omega": 0.6})
+    added = [{**_with_fitted(p, full, theta, k), "second_look": k == 0} for k, p in enumerate(placed)]
+    steps = []
+    _, kept, _, errors = stepwise._drop_dispensable(pendulum_f, full, added, theta, judge.errors(full, theta), judge,
+                                                    NAMES, 2, None, 3.0, 0.05, steps, lambda s: None, None, recheck)
+    assert [t["term"] for t in kept] == ["v_dot"]
+    assert [(s["step"], s["term"]) for s in steps] == [("drop, second look", "v_dot|v_dot|")]
+    assert steps[0]["threshold"] == pytest.approx(critical_value(3.0, n - 12))  # the folds' samples, not the 12
+    assert len(errors) == 12  # the model kept is judged on the validation samples again

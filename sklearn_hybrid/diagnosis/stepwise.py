@@ -363,7 +363,8 @@ def _drop_dispensable(science, current, added, theta, errors, judge, variables, 
         if not trials:
             break
         _, i, rest, reduced, fitted, reduced_errors, with_it, without = min(trials, key=lambda t: t[0])
-        steps.append({"step": "drop", **_public(added[i]), **evidence(with_it, without, z=z, min_gain=min_gain),
+        label = "drop, second look" if added[i].get("second_look") else "drop"  # which judge's errors the row holds
+        steps.append({"step": label, **_public(added[i]), **evidence(with_it, without, z=z, min_gain=min_gain),
                       "accepted": False, "dropped": True})
         log(f"  dropped {added[i]['term']} on component {added[i]['component']}: the later terms explain it")
         added = [_with_fitted(t, reduced, fitted, k) for k, t in enumerate(rest)]
