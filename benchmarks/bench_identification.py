@@ -382,11 +382,14 @@ INPUT_SCALED_SINCE = "4bb2d19"
 # Since SECOND_LOOK_SINCE close_the_loop judges a candidate one split leaves inconclusive again on folds of the
 # training trajectories (second_look=4); BEFORE_SECOND_LOOK holds every record made before.
 SECOND_LOOK_SINCE, BEFORE_SECOND_LOOK = "40847dc", "eb0d2e7"
+# Package commits the second look's records were made at: aaa6944 only labels the drop of a term accepted on a
+# second look "drop, second look"; the 4 records with such a drop were run again with it.
+SECOND_LOOK_COMMITS = (SECOND_LOOK_SINCE, "aaa6944")
 
 
 def _second_look_section(records: list[dict]) -> list[str]:
     """The records run again with the second look, against their records from before it."""
-    pairs = [(r, _record_at(BEFORE_SECOND_LOOK, r)) for r in records if r.get("package_commit") == SECOND_LOOK_SINCE]
+    pairs = [(r, _record_at(BEFORE_SECOND_LOOK, r)) for r in records if r.get("package_commit") in SECOND_LOOK_COMMITS]
     if not pairs:
         return []
     effects = [(n, o) for n, o in pairs if not SYSTEMS[n["system"]].is_control]
@@ -399,7 +402,9 @@ def _second_look_section(records: list[dict]) -> list[str]:
           "the default; the validation trajectories take no part). It is asked only at a step where no candidate "
           "passed, so it can change only the records whose last step held such a candidate: the 31 listed in "
           "`results/inconclusive_candidates.md` (made from the records before the change, none of them a "
-          f"control). Those were run again from their stored first fits"
+          f"control). Those were run again from their stored first fits (at "
+          f"{' and '.join(sorted({n['package_commit'] for n, _ in pairs}))}: the second commit only labels the drop "
+          "of a term accepted on a second look, and the records with such a drop were run again with it)"
           + ("" if len(pairs) == 31 else f" ({len(pairs)} of 31 so far)") + ". Effects within "
           f"10 %: {sum(bool(n.get('identified')) for n, _ in effects)} of {len(effects)} after, "
           f"{sum(bool(o.get('identified')) for _, o in effects)} before (records at {BEFORE_SECOND_LOOK}); "
@@ -627,7 +632,7 @@ def _package_changes_note(records: list[dict]) -> str:
     covered = ({(r["system"], r["noise"]) for r in rerun} | {(c["system"], c["noise"]) for c in first + second}
                | {(r["system"], r["noise"]) for r in records if r["system"] not in forced
                   and r.get("package_commit") in ("d850188", "d7e787f")}
-               | {(r["system"], r["noise"]) for r in records if r.get("package_commit") == SECOND_LOOK_SINCE})
+               | {(r["system"], r["noise"]) for r in records if r.get("package_commit") in SECOND_LOOK_COMMITS})
     unchecked = sum((r["system"], r["noise"]) not in covered for r in records)
     return ("Since 76a1151 and d850188 a network-free refit bounds the residuals of a diverged simulation "
             "(non-finite, or beyond 1e3 times the data's RMS; before, only non-finite ones were, and a start whose "
