@@ -9,6 +9,7 @@ import subprocess
 import sys
 from datetime import datetime, timezone
 from pathlib import Path
+from typing import Callable
 
 RESULTS = Path(__file__).resolve().parent / "results"
 
@@ -107,3 +108,23 @@ def write_results(name: str, payload: dict, markdown: str) -> Path:
     path = RESULTS / f"{name}.md"
     path.write_text("\n".join(lines) + "\n")
     return path
+
+
+def run_each_case(folder: Path, cases: list[str], noises: list[float], run: Callable[[str, float], dict],
+                  summary: Callable[[dict], str], cached: Callable[[dict], bool] = lambda result: True) -> None:
+    """Run ``run(name, noise)`` for every case and noise level, one torch thread, caching each result as
+    ``folder/<name>_noise<level>.json`` as soon as it ends (a long sweep resumes where it stopped); a case whose
+    cached result satisfies ``cached`` is skipped. ``summary(result)`` is printed after each run."""
+    import torch
+
+    torch.set_num_threads(1)
+    folder.mkdir(parents=True, exist_ok=True)
+    for name in cases:
+        for noise in noises:
+            path = folder / f"{name}_noise{noise:g}.json"
+            if path.exists() and cached(json.loads(path.read_text())):
+                print(f"{name} {noise:g}: cached", flush=True)
+                continue
+            result = run(name, noise)
+            path.write_text(json.dumps(result, indent=1, default=float) + "\n")
+            print(f"{name} {noise:g}: {summary(result)}", flush=True)

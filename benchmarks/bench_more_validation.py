@@ -21,12 +21,11 @@ import sys
 import time
 from pathlib import Path
 
-import torch
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 import bench_identification as bench  # noqa: E402
-from _common import PACKAGE_COMMIT, RESULTS, machine_description  # noqa: E402
+from _common import PACKAGE_COMMIT, RESULTS, machine_description, run_each_case  # noqa: E402
 from _identification_systems import SYSTEMS  # noqa: E402
 from check_selection_unchanged import record_terms, selection, stored_record, term_names  # noqa: E402
 from inconclusive_candidates import inconclusive  # noqa: E402
@@ -107,17 +106,9 @@ def main() -> None:
     if args.render:
         render()
         return
-    torch.set_num_threads(1)
-    CACHE.mkdir(exist_ok=True)
-    for name in args.cases:
-        for noise in args.noise:
-            out = CACHE / f"{name}_noise{noise:g}.json"
-            if out.exists():
-                continue
-            result = run(name, noise)
-            out.write_text(json.dumps(result, indent=1) + "\n")
-            print(f"{name} {noise:g}: {'; '.join(result['terms']) or 'nothing'} "
-                  f"({result.get('rel_err', result.get('control_err')):.3f}, {result['seconds']:.0f} s)", flush=True)
+    run_each_case(CACHE, args.cases, args.noise, run,
+                  lambda r: f"{'; '.join(r['terms']) or 'nothing'} "
+                            f"({r.get('rel_err', r.get('control_err')):.3f}, {r['seconds']:.0f} s)")
 
 
 if __name__ == "__main__":

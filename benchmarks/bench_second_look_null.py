@@ -21,11 +21,10 @@ import sys
 import time
 from pathlib import Path
 
-import torch
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
-from _common import PACKAGE_COMMIT, RESULTS, machine_description  # noqa: E402
+from _common import PACKAGE_COMMIT, RESULTS, machine_description, run_each_case  # noqa: E402
 from _identification_systems import SYSTEMS  # noqa: E402
 from check_selection_unchanged import selection, term_names  # noqa: E402
 
@@ -91,17 +90,9 @@ def main(argv=None) -> None:
     parser.add_argument("--render", action="store_true", help="write the results from the cache only")
     args = parser.parse_args(argv)
     if not args.render:
-        torch.set_num_threads(1)
-        CACHE.mkdir(parents=True, exist_ok=True)
-        for noise in args.noise:
-            for name in args.cases:
-                path = CACHE / f"{name}_noise{noise:g}.json"
-                if path.exists():
-                    continue
-                record = run(name, noise)
-                path.write_text(json.dumps(record, indent=2, default=float))
-                print(f"{name} {noise:g}: {record['n_looked']} looked at, {record['n_passed']} passed, "
-                      f"added {record['added'] or 'nothing'} ({record['seconds']:.0f} s)", flush=True)
+        run_each_case(CACHE, args.cases, args.noise, run,
+                      lambda r: f"{r['n_looked']} looked at, {r['n_passed']} passed, "
+                                f"added {r['added'] or 'nothing'} ({r['seconds']:.0f} s)")
     (RESULTS / "second_look_null.md").write_text(render())
     print((RESULTS / "second_look_null.md").read_text())
 

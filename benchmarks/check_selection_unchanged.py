@@ -27,12 +27,11 @@ from pathlib import Path
 from typing import Callable
 
 import numpy as np
-import torch
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 import bench_identification as bench  # noqa: E402
-from _common import PACKAGE_COMMIT, RESULTS, machine_description  # noqa: E402
+from _common import PACKAGE_COMMIT, RESULTS, machine_description, run_each_case  # noqa: E402
 from _identification_systems import SYSTEMS  # noqa: E402
 
 CHECKS = RESULTS / "selection_checks"
@@ -128,18 +127,9 @@ def main() -> None:
     if args.render:
         render()
         return
-    torch.set_num_threads(1)
-    CHECKS.mkdir(exist_ok=True)
-    for name in args.cases:
-        for noise in args.noise:
-            out = CHECKS / f"{name}_noise{noise:g}.json"
-            if out.exists() and json.loads(out.read_text())["package_commit"] == PACKAGE_COMMIT:
-                print(f"{name} {noise:g}: checked at {PACKAGE_COMMIT} already", flush=True)
-                continue
-            result = check(name, noise)
-            out.write_text(json.dumps(result, indent=1) + "\n")
-            print(f"{name} {noise:g}: {'same' if result['same'] else 'DIFFERS'} ({result['seconds']:.0f} s)",
-                  flush=True)
+    run_each_case(CHECKS, args.cases, args.noise, check,  # a check made for another package commit is made again
+                  lambda r: f"{'same' if r['same'] else 'DIFFERS'} ({r['seconds']:.0f} s)",
+                  cached=lambda r: r["package_commit"] == PACKAGE_COMMIT)
 
 
 if __name__ == "__main__":
