@@ -499,7 +499,7 @@ def test_candidates_are_also_ranked_without_the_network(pendulum):
 
 def test_screening_refits_use_evenly_spaced_training_samples_and_the_kept_term_all_of_them(pendulum, monkeypatch):
     """Candidates are screened on a subsample (speed); the accepted term is refitted on every sample."""
-    from sklearn_hybrid.diagnosis import stepwise
+    from sklearn_hybrid.diagnosis import _judge, stepwise
     from sklearn_hybrid.diagnosis.residual import science_output
 
     data, est = pendulum
@@ -513,18 +513,18 @@ def test_screening_refits_use_evenly_spaced_training_samples_and_the_kept_term_a
         return original(self, science, theta, extra_bounds, max_nfev, fit_states)
 
     monkeypatch.setattr(ScienceFit, "fit", recording)
-    monkeypatch.setattr(stepwise, "_SCREENING_SAMPLES", 10)
+    monkeypatch.setattr(_judge, "SCREENING_SAMPLES", 10)
     states = data.X_train
     learned = science_output(pendulum_f, {"omega": 2 / 3}, [states])
     learned[:, 1] -= 0.5 * states[:, 1]
     sel = stepwise.forward_selection(pendulum_f, {"omega": 0.6}, fit, [(np.arange(n - 12), np.arange(n - 12, n))],
                                      physics_terms(NAMES, states), NAMES, 2, [states], learned, [1], max_terms=1)
-    screens = [size for size, nfev in sizes if nfev == stepwise._SCREENING_NFEV]
+    screens = [size for size, nfev in sizes if nfev == _judge.SCREENING_NFEV]
     assert screens and set(screens) == {10}
     assert (n - 12, 100) in sizes  # the science alone and the kept term: every training sample
     assert [t["term"] for t in sel["added"]] == ["v_dot"]
     assert sel["theta"]["c_v_dot"] == pytest.approx(-0.5, rel=0.1)
-    assert stepwise._evenly_spaced(np.arange(5, 105), 10)[[0, -1]].tolist() == [5, 104]
+    assert _judge.evenly_spaced(np.arange(5, 105), 10)[[0, -1]].tolist() == [5, 104]
 
 
 def test_a_term_the_converged_test_drops_at_once_is_not_proposed_again(pendulum, monkeypatch):
@@ -560,12 +560,12 @@ def test_a_term_the_converged_test_drops_at_once_is_not_proposed_again(pendulum,
 
 def _held_out_judge(pendulum):
     """The selection's judge of the pendulum's network-free fit, its last 12 samples held out."""
-    from sklearn_hybrid.diagnosis.stepwise import _Judge
+    from sklearn_hybrid.diagnosis._judge import Judge
 
     data, est = pendulum
     fit = ScienceFit(est, data.X_train, data.y_train)
     n = len(fit.y)
-    return _Judge(fit, [(np.arange(n - 12), np.arange(n - 12, n))])
+    return Judge(fit, [(np.arange(n - 12), np.arange(n - 12, n))])
 
 
 def _on_v_dot(pendulum, names, coef=0.0):
@@ -711,7 +711,7 @@ def test_held_out_splits_keep_groups_whole_and_match_the_ungrouped_split():
 def test_grouped_evidence_counts_each_group_once(pendulum):
     """Groups of samples are judged by their mean error: the threshold is Student's t for the number of
     groups, and the report says so; the damping still passes with 6 groups judged."""
-    from sklearn_hybrid.diagnosis import stepwise
+    from sklearn_hybrid.diagnosis import _judge
     from sklearn_hybrid.diagnosis.evidence import held_out_splits
 
     data, est = pendulum
@@ -726,8 +726,8 @@ def test_grouped_evidence_counts_each_group_once(pendulum):
     # the judge's errors are the group means of the per-sample errors
     splits, codes = held_out_splits(n, 0.25, None, groups)
     fit = ScienceFit(est, data.X_train, data.y_train)
-    per_sample = stepwise._Judge(fit, splits).errors(pendulum_f, {"omega": 0.6})
-    per_group = stepwise._Judge(fit, splits, codes).errors(pendulum_f, {"omega": 0.6})
+    per_sample = _judge.Judge(fit, splits).errors(pendulum_f, {"omega": 0.6})
+    per_group = _judge.Judge(fit, splits, codes).errors(pendulum_f, {"omega": 0.6})
     np.testing.assert_allclose(per_group, per_sample.reshape(-1, 2).mean(axis=1))
     with pytest.raises(ValueError, match="3 groups: a split needs 4 at least"):
         close_the_loop(est, data.X_train, data.y_train, groups=np.arange(n) * 3 // n)

@@ -6,7 +6,7 @@ import pytest
 from test_closed_loop import pendulum  # noqa: F401 (a fixture)
 
 from sklearn_hybrid import HybridRegressor
-from sklearn_hybrid.diagnosis import ScienceFit, physics_terms, stepwise
+from sklearn_hybrid.diagnosis import ScienceFit, _judge, physics_terms, stepwise
 from sklearn_hybrid.diagnosis.evidence import critical_value
 from sklearn_hybrid.diagnosis.report import format_table
 
@@ -68,9 +68,9 @@ def test_second_look_needs_one_split_and_two_samples_a_fold():
     fit = object.__new__(ScienceFit)
     fit.y = np.zeros((10, 1))
     one_split = [(np.arange(7), np.arange(7, 10))]
-    assert stepwise._training_folds(fit, one_split, None, None) is None
-    assert stepwise._training_folds(fit, one_split + one_split, None, 4) is None  # every sample judges already
-    assert stepwise._training_folds(fit, [(np.arange(3), np.arange(3, 10))], None, 4) is None  # one fold only
+    assert _judge.training_folds(fit, one_split, None, None) is None
+    assert _judge.training_folds(fit, one_split + one_split, None, 4) is None  # every sample judges already
+    assert _judge.training_folds(fit, [(np.arange(3), np.arange(3, 10))], None, 4) is None  # one fold only
 
 
 @pytest.mark.parametrize("folds", [1, 2.0, True, "4"])
@@ -92,7 +92,7 @@ def test_a_term_accepted_on_a_second_look_is_dropped_by_the_same_judge(pendulum)
     judge = _held_out_judge(pendulum)
     fit = ScienceFit(pendulum[1], pendulum[0].X_train, pendulum[0].y_train)
     n = len(fit.y)
-    recheck = stepwise._training_folds(fit, [(np.arange(n - 12), np.arange(n - 12, n))], None, 4)
+    recheck = _judge.training_folds(fit, [(np.arange(n - 12), np.arange(n - 12, n))], None, 4)
     terms = {t.name: t for t in physics_terms(NAMES, pendulum[0].X_train)}
     placed = [{"component": 1, "term": name, "kind": terms[name].kind, "unit": terms[name].unit,
                "function": terms[name].func, "shape": {}, "bounds": terms[name].shape, "coef": 0.0, "gain": 0.0}

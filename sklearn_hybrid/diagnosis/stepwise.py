@@ -8,7 +8,7 @@ which does not trust the network to have learned the effect). The best few of ea
 added to the science model one at a time (and a term that ranks on several components also on all
 of them at once: a reaction's flux enters every balance it converts), refitted without the network
 (:class:`ScienceFit`, on at most 256 evenly spaced training samples) and judged on validation
-samples (:func:`evidence`).
+samples (:class:`~sklearn_hybrid.diagnosis._judge.Judge`, :func:`evidence`).
 The best one that passes is refitted on every training sample and kept, and a term kept earlier
 that it makes dispensable (the model without it validates as well) is dropped; the next step
 starts from there. Selection stops when no candidate passes. The candidates, their rankings and
@@ -25,86 +25,17 @@ import numpy as np
 import torch
 
 from ..science import read_signature
+from ._judge import FIT_FAILURES, Judge, training_folds
 from .candidates import (_augment, _entries, _free_columns, _groups, _initial_values, _interleave, _merge,
                          _n_parameters, _offset, _public, _rank, _rank_by_fit, _shape_bounds, _term_columns, _where,
                          _with_fitted)
-from .evidence import evidence, held_out_splits
+from .evidence import evidence
 from .report import format_gain
 from .residual import parameter_jacobian, science_output
 from .science_fit import ScienceFit
 from .terms import SCIENCE_OUTPUT, Term
 
 __all__ = ["forward_selection"]
-
-
-# Iterations of a candidate's screening refit. Most converge in under 20; a shape parameter that
-# drifts along a flat direction (a saturation's K growing towards the linear limit) would use the
-# default 100, a third of the Silverbox selection's time. An unconverged screen only understates
-# the candidate's gain, and the accepted model is refitted to convergence afterwards.
-_SCREENING_NFEV = 40
-# Training samples of a candidate's screening refit and of the ranking by fit: a few parameters
-# are fitted as well from 256 windows as from 762 (Silverbox), at a third of the time; an
-# accepted term is refitted on every training sample before the next step.
-_SCREENING_SAMPLES = 256
-
-
-class _Judge:
-    """Held-out errors of science models: one split (fitted on the training rows, errors of the
-    validation rows) or contiguous folds (each block's errors from a fit on the other rows, so that
-    every sample judges: the evidence a single short record can give).
-
-    ``fit`` gives the parameters a step continues from (on the training rows, or on every row with
-    folds); ``errors`` the per-sample held-out errors, in the same sample order for every model.
-    ``screening``: at most ``_SCREENING_SAMPLES`` evenly spaced fitting rows and ``_SCREENING_NFEV``,
-    and fitted initial states held where :meth:`settle` left them. ``groups`` (every row's group
-    code): ``errors`` gives one mean error per group instead of one per row.
-    """
-
-    def __init__(self, fit: ScienceFit, splits: Sequence[tuple[np.ndarray, np.ndarray]],
-                 groups: np.ndarray | None = None):
-        # the rows a step's model is fitted on: the training rows of one split, or every judged row
-        rows = splits[0][0] if len(splits) == 1 else np.unique(np.concatenate([te for _, te in splits]))
-        self.train, self.screen = fit.subset(rows), fit.subset(_evenly_spaced(rows, _SCREENING_SAMPLES))
-        self.folds = [(fit.subset(tr), fit.subset(_evenly_spaced(tr, _SCREENING_SAMPLES)), fit.subset(te))
-                      for tr, te in splits]
-        # the judged rows' groups, in the order errors() returns them
-        self.judged_groups = None if groups is None else np.unique(
-            np.concatenate([groups[te] for _, te in splits]), return_inverse=True)[1]
-
-    def settle(self, science, theta) -> None:
-        """With fitted initial states: later fits start from the states that fit this model."""
-        for part in [self.train, self.screen, *(f for fold in self.folds for f in fold)]:
-            part.settle(science, theta)
-
-    def fit(self, science, start, bounds=None, screening=False) -> dict:
-        return _fit_on(self.screen if screening else self.train, science, start, bounds, screening)
-
-    def training_error(self, science, theta) -> float:
-        """Mean squared error on the screening rows, from the states the screening fit holds."""
-        with np.errstate(all="ignore"):
-            error = float(np.mean((self.screen.predict(science, theta) - self.screen.y) ** 2))
-        return error if np.isfinite(error) else np.inf
-
-    def errors(self, science, theta, bounds=None, screening=False) -> np.ndarray:
-        if len(self.folds) == 1:  # the validation rows were not fitted: no refit needed
-            errors = self.folds[0][2].errors(science, theta)
-        else:
-            errors = np.concatenate([test.errors(science, _fit_on(screen if screening else train, science,
-                                                                  theta, bounds, screening))
-                                     for train, screen, test in self.folds])
-        if self.judged_groups is None:
-            return errors
-        return np.bincount(self.judged_groups, weights=errors) / np.bincount(self.judged_groups)
-
-
-# What a candidate's refit raises when the term breaks the simulation or least squares: the candidate failed.
-_FIT_FAILURES = (RuntimeError, ValueError, FloatingPointError)
-
-
-def _fit_on(fit: ScienceFit, science, start, bounds, screening) -> dict:
-    if screening:  # fewer evaluations, and fitted initial states held where the current model put them
-        return fit.fit(science, start, bounds, max_nfev=_SCREENING_NFEV, fit_states=False)
-    return fit.fit(science, start, bounds)
 
 
 def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceFit,
@@ -165,8 +96,8 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
                for name, col in zip(variables, np.hstack([np.asarray(a).reshape(len(a), -1) for a in args]).T)}
     tensors[SCIENCE_OUTPUT] = torch.as_tensor(science_output(science, theta, args), dtype=torch.float64)
     columns = _term_columns(terms, tensors)
-    judge = _Judge(fit, splits, groups)
-    recheck = _training_folds(fit, splits, groups, second_look)
+    judge = Judge(fit, splits, groups)
+    recheck = training_folds(fit, splits, groups, second_look)
     current, theta_now = science, judge.fit(science, theta)
     judge.settle(science, theta_now)
     errors = base_errors = judge.errors(science, theta_now)
@@ -202,7 +133,7 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
                 bounds = _shape_bounds(candidate_science, placed)
                 fitted = _screen(judge, candidate_science, start, bounds, len(placed) - len(_entries(cand)))
                 cand_errors = judge.errors(candidate_science, fitted, bounds, screening=True)
-            except _FIT_FAILURES as exc:  # a term that breaks the simulation
+            except FIT_FAILURES as exc:  # a term that breaks the simulation
                 steps.append({"step": step, **_public(cand), "failed": repr(exc), "accepted": False})
                 continue
             verdict = evidence(errors, cand_errors, z=z, min_gain=min_gain)
@@ -247,22 +178,7 @@ def _promising(verdict: dict, min_gain: float) -> bool:
     return verdict["gain"] >= min_gain and verdict["z"] > 2.0
 
 
-def _training_folds(fit: ScienceFit, splits, groups, folds: int | None) -> _Judge | None:
-    """The judge of a second look: ``folds`` contiguous folds of one split's training samples (or
-    groups), fewer where there are not two to a fold; None with several splits (every sample
-    judges already) or without ``folds``."""
-    if folds is None or len(splits) != 1:
-        return None
-    train = splits[0][0]
-    local = None if groups is None else groups[train]
-    n = len(train) if local is None else len(np.unique(local))
-    if min(folds, n // 2) < 2:
-        return None
-    inner, _ = held_out_splits(len(train), 0.25, min(folds, n // 2), local)
-    return _Judge(fit, [(train[a], train[b]) for a, b in inner], groups)
-
-
-def _second_look(recheck: _Judge, tried: list, current, theta: dict, added: list, steps: list,
+def _second_look(recheck: Judge, tried: list, current, theta: dict, added: list, steps: list,
                  z: float, min_gain: float, log) -> tuple | None:
     """Judge again, on the training samples, the candidates one split found promising but not proven.
 
@@ -287,7 +203,7 @@ def _second_look(recheck: _Judge, tried: list, current, theta: dict, added: list
         try:
             bounds = _shape_bounds(candidate_science, [*added, *_entries(cand)])
             errors = recheck.errors(candidate_science, fitted, bounds, screening=True)
-        except _FIT_FAILURES:
+        except FIT_FAILURES:
             continue
         verdict = evidence(base, errors, z=z, min_gain=min_gain)
         steps.append({**steps[index], **verdict, "step": f"{steps[index]['step']}, second look", "accepted": False})
@@ -297,7 +213,7 @@ def _second_look(recheck: _Judge, tried: list, current, theta: dict, added: list
     return _simplest_of_the_best(looked, min_gain)
 
 
-def _screen(judge: _Judge, science, start: dict, bounds: dict, n_kept: int) -> dict:
+def _screen(judge: Judge, science, start: dict, bounds: dict, n_kept: int) -> dict:
     """The screening refit of a candidate model whose terms after the first ``n_kept`` are new.
 
     With the new coefficients at zero the candidate is the model the step continues from, so its
@@ -312,7 +228,7 @@ def _screen(judge: _Judge, science, start: dict, bounds: dict, n_kept: int) -> d
     nested = {**start, **{coef: 0.0 for _, _, coef in science.terms[n_kept:]}}
     try:
         fitted = judge.fit(science, start, bounds, screening=True)
-    except _FIT_FAILURES:
+    except FIT_FAILURES:
         return judge.fit(science, nested, bounds, screening=True)
     if judge.training_error(science, fitted) > judge.training_error(science, nested):
         fitted = judge.fit(science, nested, bounds, screening=True)
@@ -356,7 +272,7 @@ def _drop_dispensable(science, current, added, theta, errors, judge, variables, 
                     if on_folds is None:
                         on_folds = recheck.errors(current, theta, _shape_bounds(current, added))
                     with_it, without = on_folds, recheck.errors(reduced, fitted, bounds)
-            except _FIT_FAILURES:
+            except FIT_FAILURES:
                 continue
             if not evidence(without, with_it, z=z, min_gain=min_gain)["accepted"]:
                 trials.append((reduced_errors.mean(), i, rest, reduced, fitted, reduced_errors, with_it, without))
@@ -372,7 +288,7 @@ def _drop_dispensable(science, current, added, theta, errors, judge, variables, 
     return current, added, theta, errors
 
 
-def _refit_from_best(judge: _Judge, science, starts: Sequence[dict], bounds: dict) -> dict:
+def _refit_from_best(judge: Judge, science, starts: Sequence[dict], bounds: dict) -> dict:
     """The fit, among those from each start, with the lowest training error.
 
     A drop starts the reduced model from the full model's values, which can be far from any good
@@ -384,11 +300,6 @@ def _refit_from_best(judge: _Judge, science, starts: Sequence[dict], bounds: dic
     """
     fits = [judge.fit(science, start, bounds) for start in starts]
     return min(fits, key=lambda theta: judge.training_error(science, theta))
-
-
-def _evenly_spaced(rows: np.ndarray, n: int) -> np.ndarray:
-    """At most ``n`` of ``rows``, evenly spaced (windows of one record: every part of it)."""
-    return rows if len(rows) <= n else rows[np.unique(np.linspace(0, len(rows) - 1, n).round().astype(int))]
 
 
 def _simplest_of_the_best(tried: list, min_gain: float) -> tuple | None:
