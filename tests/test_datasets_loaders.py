@@ -20,6 +20,7 @@ from sklearn_hybrid.datasets import (
     make_wind_tunnel_simulated,
 )
 from sklearn_hybrid.datasets import _causal_chamber as cc
+from sklearn_hybrid.datasets import _causal_chamber_simulated as cc_sim
 from sklearn_hybrid.datasets import _measured
 from sklearn_hybrid.datasets._base import (
     ChecksumError,
@@ -252,7 +253,7 @@ def test_light_constants_match_calibration_files(shared_data):
 def _wt_zip(folder, n_rows=10000, runs=(1, 2, 3, 4, 5)):
     """wt_walks_v1.zip with loads_hatch_mix_fast_run_<k>.csv (placeholder values) + extras."""
     zpath = folder / "wt_walks_v1.zip"
-    u = cc.wind_tunnel_inputs(n_rows)
+    u = cc_sim.wind_tunnel_inputs(n_rows)
     with zipfile.ZipFile(zpath, "w") as z:
         for k in runs:
             t = np.arange(n_rows)
@@ -286,7 +287,7 @@ def test_wind_tunnel_from_local_zip(tmp_path, monkeypatch, wt_zip):
     assert d.X_train.shape[0] == 600 and d.y_val.shape[0] == 150 and d.X_test.shape[0] == 235
     i = 197 + 3  # run 2, 4th window: rows 150..349 of that run
     np.testing.assert_array_equal(d.y[i], np.arange(150, 350) + 2)
-    np.testing.assert_array_equal(d.X[i, :, 0], cc.wind_tunnel_inputs()["load_in"][150:350])
+    np.testing.assert_array_equal(d.X[i, :, 0], cc_sim.wind_tunnel_inputs()["load_in"][150:350])
     assert d.theta_reference == {"r": 0.7} and d.theta_reference_code == {"r": 0.75}
     assert local_zip.exists() and not d.simulated  # a zip put there by the user is kept
     shorter = fetch_wind_tunnel(home, window=1000, stride=1000)  # extracted folder is reused
@@ -385,7 +386,7 @@ def test_wind_tunnel_simulated():
     assert d.simulated and d.DESCR.count("SIMULATED") >= 2
     assert d.X.shape == (985, 200, 3) and d.y.shape == (985, 200)
     assert [(s.start, s.stop) for s in d.splits.values()] == [(0, 600), (600, 750), (750, 985)]
-    np.testing.assert_array_equal(d.X[0, :, 2], cc.wind_tunnel_inputs()["hatch"][:200])
+    np.testing.assert_array_equal(d.X[0, :, 2], cc_sim.wind_tunnel_inputs()["hatch"][:200])
     np.testing.assert_array_equal(d.y, make_wind_tunnel_simulated(random_state=0).y)
     dp = d.y - d.pressure_ambient  # bounded by S_max (1 - r) plus noise
     assert np.abs(dp).max() < cc.S_MAX * (1 - cc.C3_R0) + 2

@@ -2,12 +2,8 @@
 :func:`make_windows` / :func:`estimate_derivative` to build training data from your own recordings."""
 
 from ._base import get_data_home
-from ._causal_chamber import (
-    fetch_light_tunnel,
-    fetch_wind_tunnel,
-    make_light_tunnel_simulated,
-    make_wind_tunnel_simulated,
-)
+from ._causal_chamber import fetch_light_tunnel, fetch_wind_tunnel
+from ._causal_chamber_simulated import make_light_tunnel_simulated, make_wind_tunnel_simulated
 from ._measured import fetch_cascaded_tanks, fetch_hare_lynx, fetch_silverbox, load_pendulum_freeswing
 from ._pendulum_images import make_pendulum_images, render_pendulum
 from ._synthetic import make_duffing, make_pendulum, make_reaction_diffusion
