@@ -56,7 +56,7 @@ class System:
     batch : int
         1: the systems the benchmark was built with; 2 and 3: systems written on 2026-11-25, after the
         selection's code was last changed, and added unchanged whatever they gave (``FRESH``, ``FRESH_3``);
-        4 to 12: written in later sessions (``FRESH_4`` to ``FRESH_12``), likewise.
+        4 to 13: written in later sessions (``FRESH_4`` to ``FRESH_13``), likewise.
     sign_of : int or None
         For an effect that jumps with the sign of one state (dry friction): that state's index.  Trajectories
         are then integrated piecewise between its zero crossings (no chattering of the step size), and a
@@ -1010,8 +1010,88 @@ FRESH_12 = [
            ["x"], {"x": "1", "u": "1"}, 0.25, 30, (0.2,), (2.5,), (-1.0, 1.0), batch=12),
 ]
 
+
+# ------------------------------------------------------------------------------------------ batch 13 (fresh systems)
+# Written on 2026-11-26 at package commit d0ec440, the first batch written after the second look (40847dc) became
+# the default, and committed before any of them ran: a spring whose stiffness the input modulates (input times a
+# state), a harvest capped at a quota (a hinge below a level), an epidemic with a saturating treatment (rational), a
+# resistive heater driven by its voltage (the input squared), a fed reactant that dimerises (quadratic), tissue
+# that stiffens exponentially (exponential with its rate), a motor's cogging torque (periodic in the angle, outside
+# the library); two controls from models new here (the modulated spring and the treated epidemic themselves).
+# Only their simulated data were looked at before the commit.
+def modulated_spring_f(v, u, k=1.6, c=0.18):
+    return torch.stack([v[:, 1], -k * v[:, 0] - c * v[:, 1]], dim=-1)
+
+
+def parametric_spring_f(v, u, k=1.6, c=0.18, m=0.45):
+    return torch.stack([v[:, 1], -(k + m * u[:, 0]) * v[:, 0] - c * v[:, 1]], dim=-1)
+
+
+def sis_f(v, beta=1.6, gamma=0.5):
+    i = v[:, 0]
+    return torch.stack([beta * i * (1 - i.clamp(min=0)) - gamma * i], dim=-1)
+
+
+def treated_sis_f(v, beta=1.6, gamma=0.5, a=0.3):
+    i = v[:, 0]
+    return torch.stack([beta * i * (1 - i.clamp(min=0)) - gamma * i - a * i / (0.3 + i.clamp(min=0))], dim=-1)
+
+
+def voltage_heater_f(v, u, p=0.36, h=0.6):
+    return torch.stack([p * u[:, 0] - h * v[:, 0]], dim=-1)
+
+
+def fed_decay_f(v, u, k=0.5):
+    return torch.stack([u[:, 0] - k * v[:, 0]], dim=-1)
+
+
+def rotor_f(v, u, b=0.8, c=0.3):
+    return torch.stack([v[:, 1], b * u[:, 0] - c * v[:, 1]], dim=-1)
+
+
+FRESH_13 = [
+    System("parametric_spring", "oscillator", "input-dependent (the input times a state)",
+           "the input modulates the stiffness: -0.6 u x",
+           modulated_spring_f, {"k": 2.0, "c": 0.15}, lambda x, u: _on(1, 2, -0.6 * u[:, 0] * x[:, 0]),
+           ["x", "v"], {"x": "m", "v": "m/s", "u": "1"}, 0.1, 40, (-1.5, -1.5), (1.5, 1.5), (-1.0, 1.0),
+           zero_components=[0], batch=13),
+    System("quota_harvest", "population", "non-smooth (a harvest capped at a quota)",
+           "a harvest of 0.3 x capped at 0.15: -0.3 min(x, 0.5)",
+           logistic_f, {"r": 0.9, "K": 2.2}, lambda x, u: -0.3 * np.minimum(x, 0.5),
+           ["x"], {"x": "1"}, 0.3, 30, (0.1,), (2.5,), batch=13, theta_guess={"r": 0.75, "K": 2.6}),
+    System("treated_infection", "population", "rational (a saturating treatment)",
+           "treatment that saturates with the infected share: -0.4 I/(0.3 + I)",
+           sis_f, {"beta": 2.0, "gamma": 0.4}, lambda x, u: -0.4 * x / (0.3 + x),
+           ["I"], {"I": "1"}, 0.25, 30, (0.05,), (0.9,), batch=13),
+    System("resistive_heater", "thermal", "input-dependent (the input squared)",
+           "a resistive heater's power grows with its voltage squared: +0.4 u^2",
+           voltage_heater_f, {"p": 0.3, "h": 0.5}, lambda x, u: 0.4 * u ** 2,
+           ["T"], {"T": "10 K", "u": "V"}, 0.25, 30, (0.0,), (1.5,), (0.0, 1.5), batch=13),
+    System("dimerising_feed", "chemical", "polynomial (quadratic)",
+           "the fed reactant dimerises: -0.35 C^2",
+           fed_decay_f, {"k": 0.4}, lambda x, u: -0.35 * x ** 2,
+           ["C"], {"C": "mol/L", "u": "mol/L/h"}, 0.25, 30, (0.0,), (2.0,), (0.1, 1.0), batch=13),
+    System("tissue_stiffening", "oscillator", "exponential (with its rate)",
+           "tissue stiffens exponentially when stretched: -0.15 (exp(1.5 x) - 1)",
+           damped_oscillator_f, {"k": 1.2, "c": 0.2}, lambda x, u: _on(1, 2, -0.15 * (np.exp(1.5 * x[:, 0]) - 1)),
+           ["x", "v"], {"x": "m", "v": "m/s"}, 0.1, 40, (-1.0, -1.0), (1.0, 1.0), zero_components=[0], batch=13,
+           theta_guess={"k": 1.5, "c": 0.25}),
+    System("cogging_rotor", "electromechanical", "periodic in the angle (outside the library)",
+           "a motor's cogging torque: -0.3 sin(4 theta)",
+           rotor_f, {"b": 1.0, "c": 0.4}, lambda x, u: _on(1, 2, -0.3 * np.sin(4 * x[:, 0])),
+           ["theta", "omega"], {"theta": "rad", "omega": "rad/s", "u": "V"}, 0.1, 40, (-1.0, 0.0), (1.0, 1.0),
+           (0.0, 1.0), zero_components=[0], batch=13),
+    System("control_parametric_spring", "oscillator", "control", "nothing (a spring the input modulates, declared)",
+           parametric_spring_f, {"k": 2.0, "c": 0.15, "m": 0.6}, None,
+           ["x", "v"], {"x": "m", "v": "m/s", "u": "1"}, 0.1, 40, (-1.5, -1.5), (1.5, 1.5), (-1.0, 1.0), batch=13),
+    System("control_treated_infection", "population", "control", "nothing (an epidemic with its treatment declared)",
+           treated_sis_f, {"beta": 2.0, "gamma": 0.4, "a": 0.4}, None,
+           ["I"], {"I": "1"}, 0.25, 30, (0.05,), (0.9,), batch=13),
+]
+
+
 SYSTEMS = {s.name: s for s in SYSTEMS + FRESH + FRESH_3 + FRESH_4 + FRESH_5 + FRESH_6 + FRESH_7 + FRESH_8 + FRESH_9
-           + FRESH_10 + FRESH_11 + FRESH_12}
+           + FRESH_10 + FRESH_11 + FRESH_12 + FRESH_13}
 
 
 # ----------------------------------------------------------------------------------------------------- simulation

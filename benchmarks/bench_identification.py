@@ -189,6 +189,14 @@ BATCHES = {
          "(rel_err 1.064 and 1.054): no term of the library was the input times the science's own growth. Since "
          "4bb2d19 the scaled terms include it (`f[x]*u`); the rows below are the reruns: named at 0.01 (0.012), at "
          "0.05 it gains 84 % at z 3.1, under the 3.85 asked of 12 validation samples, and nothing is added."),
+    13: ("## Batch 13: fresh systems, the first written after the second look",
+         "Written on 2026-11-26 at package commit d0ec440 (the second look the default since 40847dc) and committed "
+         "before they ran: a spring whose stiffness the input modulates (the input times a state), a harvest capped "
+         "at a quota (a hinge), an epidemic with a saturating treatment (rational), a resistive heater driven by its "
+         "voltage (the input squared), a fed reactant that dimerises (quadratic), tissue that stiffens exponentially "
+         "(exponential with its rate), a motor's cogging torque (periodic in the angle, outside the library), and two "
+         "controls from models new here (the modulated spring and the treated epidemic themselves). Only their "
+         "simulated data were looked at before the commit; each runs once and is shown whatever it gives."),
 }
 # Run order (the tables follow SYSTEMS): domains and controls interleaved, so that a partial run is a cross-section.
 RUN_ORDER = ["drag_oscillator", "control_rlc", "budworm", "enzyme_reactor", "saturating_heater", "diode_clamped_rc",
@@ -227,7 +235,10 @@ RUN_ORDER = ["drag_oscillator", "control_rlc", "budworm", "enzyme_reactor", "sat
              "arrhenius_decay", "control_mm_chain", "flocculation", "nernst_cell",
              # batch 12 (_identification_systems.FRESH_12)
              "torsion_pendulum", "control_forced_pendulum", "crowded_predators", "eddy_brake", "seasonal_growth",
-             "control_seasonal_growth", "dead_zone_spring", "weir_tank", "tanh_leak"]
+             "control_seasonal_growth", "dead_zone_spring", "weir_tank", "tanh_leak",
+             # batch 13 (_identification_systems.FRESH_13)
+             "parametric_spring", "control_parametric_spring", "quota_harvest", "treated_infection",
+             "resistive_heater", "control_treated_infection", "dimerising_feed", "tissue_stiffening", "cogging_rotor"]
 
 
 def cache_dir(fast: bool) -> Path:
