@@ -3,7 +3,8 @@
 A :class:`Term` is a torch function of the named variables (states, then inputs) with, for some
 kinds, one *shape* parameter fitted together with its coefficient: the width ``w`` of dry friction
 ``tanh(v/w)``, the ``knot`` of a hinge ``max(0, x - knot)``, the constant ``K`` of a saturation
-``x/(K + |x|)``, the rate ``k`` of ``exp(k x)``. :func:`physics_terms` builds the default library
+``x/(K + |x|)``, the rate ``k`` of ``exp(k x)``, the phase of a harmonic ``sin(n x + phase)`` of an
+angle. :func:`physics_terms` builds the default library
 from the data's scale; the same torch function serves the ranking (on the states the network
 visited) and the augmented science model (during its refit), so there is one implementation per
 term.
@@ -19,6 +20,7 @@ the key ``SCIENCE_OUTPUT``, which the augmented science model and the selection 
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
+import re
 from functools import partial
 from itertools import combinations
 from typing import Any
@@ -28,7 +30,8 @@ import torch
 
 __all__ = ["Term", "physics_terms", "TERM_KINDS", "SCIENCE_OUTPUT"]
 
-TERM_KINDS = ("polynomial", "drag", "dry_friction", "hinge", "sqrt", "exponential", "saturation", "scaled", "user")
+TERM_KINDS = ("polynomial", "drag", "dry_friction", "hinge", "sqrt", "exponential", "saturation", "periodic", "scaled",
+              "user")
 # Key of the science model's output, shape (batch, n_outputs), among a term's variables: not an
 # identifier, so no state or input can be named so.
 SCIENCE_OUTPUT = "<science output>"
@@ -127,6 +130,27 @@ def _exponential(d, x, k):
 
 def _saturation(d, x, K):
     return d[x] / (K + d[x].abs())
+
+
+def _harmonic(d, x, n, phase):
+    """``sin(n a + phase)`` of the angle ``a``, which is ``d[x]`` in radians (``n`` holds the unit's factor)."""
+    return torch.sin(n * d[x] + phase)
+
+
+# Harmonics of an angle in the library: whatever acts on a body turning about an axis repeats with each
+# full turn, so its effect is a sum of sin(n a + phase) with whole n (a pendulum's own sin(a) is n = 1;
+# a motor's cogging torque has one n per pole pair, a detent or a cam its own count).
+_HARMONICS = (1, 2, 3, 4, 6, 8)
+_ANGLE_UNIT = re.compile(r"^\s*(?P<scale>[0-9]*\.?[0-9]+(?:[eE][-+]?[0-9]+)?)?\s*\*?\s*(?P<unit>rad|deg|°)\s*$")
+
+
+def angle_factor(unit: str) -> float | None:
+    """Radians per unit of a variable whose unit is an angle (``"rad"``, ``"deg"``, ``"0.1 rad"``), else None."""
+    match = _ANGLE_UNIT.match(unit or "")
+    if match is None:
+        return None
+    scale = float(match["scale"]) if match["scale"] else 1.0
+    return scale * (1.0 if match["unit"] == "rad" else np.pi / 180)
 
 
 def physics_terms(variables: Sequence[str], values: np.ndarray, units: Mapping[str, str] | None = None,
@@ -282,4 +306,10 @@ def _single_variable(x: str, col: np.ndarray, scale: float, unit: str, kinds: Se
     if "saturation" in kinds:  # Michaelis-Menten, Holling type II, a saturating actuator
         out.append(Term(f"{x}/(K + |{x}|)", partial(_saturation, x=x), "saturation",
                         {"K": ([0.1 * scale, 0.5 * scale, 2.0 * scale], (1e-3 * scale, 1e3 * scale))}))
+    radians = angle_factor(unit)
+    if "periodic" in kinds and radians is not None:  # only an angle repeats: a length or a level does not
+        angle = x if radians == 1 else f"{radians:.6g}*{x}"  # the angle in radians
+        for n in _HARMONICS:
+            out.append(Term(f"sin({'' if n == 1 else f'{n}*'}{angle} + phase)", partial(_harmonic, x=x, n=n * radians),
+                            "periodic", {"phase": ([0.0, np.pi / 2], (-np.pi, np.pi))}))
     return out
