@@ -48,6 +48,7 @@ from _identification_systems import SYSTEMS, System, call_science, simulate  # n
 
 from sklearn_hybrid import HybridRegressor, pack_inputs  # noqa: E402
 from sklearn_hybrid.diagnosis import close_the_loop  # noqa: E402
+from sklearn_hybrid.diagnosis.terms import angle_factor  # noqa: E402
 
 ROOT = RESULTS.parents[1]  # the repository
 
@@ -438,6 +439,39 @@ def _second_look_section(records: list[dict]) -> list[str]:
     return md
 
 
+# Since this commit a variable whose unit is an angle also gets its harmonics sin(n a + phase) (kind "periodic");
+# BEFORE_PERIODIC holds every record made before. Only the systems with an angle among their units can change.
+PERIODIC_SINCE, BEFORE_PERIODIC = "be4acc7", "c995451"
+PERIODIC_CHECKS = "selection_checks_periodic"  # check_selection_unchanged.py --into selection_checks_periodic
+
+
+def _periodic_section(records: list[dict]) -> list[str]:
+    """The records of systems with an angle unit: checked with the harmonics; those whose selection changed, rerun."""
+    angles = {name for name, s in SYSTEMS.items() if any(angle_factor(u) is not None for u in s.units.values())}
+    mine = [r for r in records if r["system"] in angles]
+    checks = {(c["system"], c["noise"]): c for c in (json.loads(p.read_text())
+                                                      for p in sorted((RESULTS / PERIODIC_CHECKS).glob("*.json")))
+              if c["package_commit"] == PERIODIC_SINCE}
+    rerun = [(r, _record_at(BEFORE_PERIODIC, r)) for r in mine if r.get("package_commit") == PERIODIC_SINCE]
+    if not mine or not (checks or rerun):
+        return []
+    same = [r for r in mine if checks.get((r["system"], r["noise"]), {}).get("same")]
+    md = ["", "## Rerun with the harmonics of an angle", "",
+          f"Since {PERIODIC_SINCE} a variable whose unit is an angle (`rad`, `deg`, `0.1 rad`) also has its harmonics "
+          "`sin(n a + phase)` among the candidates (n = 1, 2, 3, 4, 6, 8, the phase fitted): whatever acts on a "
+          "turning body repeats with each turn. They came after batch 13's cogging torque had found no term, so no "
+          f"batch up to 13 is fresh for them. Only the {len(angles)} systems with an angle among their units have a "
+          f"new library; their {len(mine)} records were checked from their stored first fits "
+          f"(`check_selection_unchanged.py --cases NAME --noise LEVEL --into {PERIODIC_CHECKS}`): "
+          f"{len(same)} select the same terms with the same values, and the {len(rerun)} others were run again "
+          f"end to end at {PERIODIC_SINCE} (before: the records at {BEFORE_PERIODIC}).", "",
+          "| system | noise | rel_err before | after | terms before | after |", "|---|---|---|---|---|---|"]
+    for new, old in rerun:
+        md.append(f"| {new['system']} | {new['noise']:g} | {_fmt(old.get('rel_err'))} | {_fmt(new.get('rel_err'))} | "
+                  f"{_terms(old)} | {_terms(new)} |")
+    return md
+
+
 def _git(*args: str) -> subprocess.CompletedProcess:
     return subprocess.run(["git", *args], cwd=ROOT, capture_output=True, text=True)
 
@@ -567,7 +601,7 @@ def render(records: list[dict]) -> str:
                        f"were added after batch 9's `saturating_coil` had failed, so batches 2 to {SCALED_BATCH - 1} "
                        f"are not fresh for them): {hits} of {n_eff} effects within 10 %, {clean} of "
                        f"{len(newest) - n_eff} controls clean, {len(newest)} of {n_cases} cases run."]
-    md += _rerun_section(pairs, n_earlier) + _second_look_section(records)
+    md += _rerun_section(pairs, n_earlier) + _second_look_section(records) + _periodic_section(records)
     for batch, (heading, preface) in BATCHES.items():
         if batches[batch]:
             md += ["", heading, ""] + ([preface, ""] if preface else []) + _tables(batches[batch])

@@ -13,6 +13,7 @@ commit it checked); ``--render`` writes ``results/selection_checks.md`` from the
 
     python benchmarks/check_selection_unchanged.py --cases radiating_body --noise 0.01
     python benchmarks/check_selection_unchanged.py --render
+    python benchmarks/check_selection_unchanged.py --cases large_swing --into selection_checks_periodic
 """
 
 from __future__ import annotations
@@ -123,11 +124,15 @@ def main() -> None:
     parser.add_argument("--cases", nargs="*", default=[], help="system names")
     parser.add_argument("--noise", type=float, nargs="*", default=[0.01, 0.05])
     parser.add_argument("--render", action="store_true", help="write selection_checks.md from the cache")
+    parser.add_argument("--into", default=CHECKS.name, metavar="FOLDER",
+                        help="folder of results/ for the checks of one change, kept apart from the others "
+                             "(selection_checks_periodic: the harmonics of an angle)")
     args = parser.parse_args()
     if args.render:
         render()
         return
-    run_each_case(CHECKS, args.cases, args.noise, check,  # a check made for another package commit is made again
+    # a check made for another package commit is made again
+    run_each_case(RESULTS / args.into, args.cases, args.noise, check,
                   lambda r: f"{'same' if r['same'] else 'DIFFERS'} ({r['seconds']:.0f} s)",
                   cached=lambda r: r["package_commit"] == PACKAGE_COMMIT)
 
