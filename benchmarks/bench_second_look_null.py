@@ -68,14 +68,14 @@ def render() -> str:
           f"{len(records)} of {2 * len(CONTROLS)} controls run: {n_looked} candidates looked at again, {n_passed} "
           f"passed the second look alone (gain >= 5 % and z above the threshold for the training trajectories); "
           f"{len(spoiled)} controls got a term.", "",
-          "| system | noise | candidates looked at | passed | highest z (threshold) | terms added | s |",
-          "|---|---|---|---|---|---|---|"]
+          "| system | noise | candidates looked at | passed | highest z (threshold) | terms added | s | commit |",
+          "|---|---|---|---|---|---|---|---|"]
     for r in records:
         top = max(r["looked"], key=lambda s: s["z"], default=None)
         best = "" if top is None else f"{top['z']:.1f} ({top['threshold']:.2f}), {top['term']}".replace("|", "\\|")
         terms = "; ".join(r["added"]).replace("|", "\\|") or "nothing"
         md.append(f"| {r['system']} | {r['noise']:g} | {r['n_looked']} | {r['n_passed']} | {best} | {terms} | "
-                  f"{r['seconds']:.0f} |")
+                  f"{r['seconds']:.0f} | {r['package_commit']} |")
     machines = sorted({f"{r['machine']['cpu']}, {r['machine']['cores']} cores" for r in records})
     commits = sorted({r["package_commit"] for r in records})
     md += ["", f"Machine: {'; '.join(machines)}. Package commit {', '.join(commits)}. Command: "
