@@ -19,8 +19,8 @@ the key ``SCIENCE_OUTPUT``, which the augmented science model and the selection 
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping, Sequence
 import re
+from collections.abc import Callable, Mapping, Sequence
 from functools import partial
 from itertools import combinations
 from typing import Any
@@ -132,9 +132,9 @@ def _saturation(d, x, K):
     return d[x] / (K + d[x].abs())
 
 
-def _harmonic(d, x, n, phase):
-    """``sin(n a + phase)`` of the angle ``a``, which is ``d[x]`` in radians (``n`` holds the unit's factor)."""
-    return torch.sin(n * d[x] + phase)
+def _harmonic(d, x, frequency, phase):
+    """``sin(n a + phase)`` of the angle ``a`` in radians: ``frequency`` is n times the radians per unit of ``d[x]``."""
+    return torch.sin(frequency * d[x] + phase)
 
 
 # Harmonics of an angle in the library: whatever acts on a body turning about an axis repeats with each
@@ -166,7 +166,8 @@ def physics_terms(variables: Sequence[str], values: np.ndarray, units: Mapping[s
     values : ndarray of shape (n_points, n_variables)
         Where the variables were visited; sets the starting grids (scales, quantiles for knots).
     units : dict of str to str, optional
-        Units of the variables (for the report).
+        Units of the variables (for the report). A variable whose unit is an angle (``"rad"``,
+        ``"deg"``, ``"0.1 rad"``) also gets its harmonics ``sin(n a + phase)`` (kind ``"periodic"``).
     kinds : list of str, optional
         Kinds to include (default all of ``TERM_KINDS``).
     user_terms : dict of str to callable, optional
@@ -310,6 +311,7 @@ def _single_variable(x: str, col: np.ndarray, scale: float, unit: str, kinds: Se
     if "periodic" in kinds and radians is not None:  # only an angle repeats: a length or a level does not
         angle = x if radians == 1 else f"{radians:.6g}*{x}"  # the angle in radians
         for n in _HARMONICS:
-            out.append(Term(f"sin({'' if n == 1 else f'{n}*'}{angle} + phase)", partial(_harmonic, x=x, n=n * radians),
-                            "periodic", {"phase": ([0.0, np.pi / 2], (-np.pi, np.pi))}))
+            out.append(Term(f"sin({'' if n == 1 else f'{n}*'}{angle} + phase)",
+                            partial(_harmonic, x=x, frequency=n * radians), "periodic",
+                            {"phase": ([0.0, np.pi / 2], (-np.pi, np.pi))}))
     return out
