@@ -56,7 +56,7 @@ class System:
     batch : int
         1: the systems the benchmark was built with; 2 and 3: systems written on 2026-11-25, after the
         selection's code was last changed, and added unchanged whatever they gave (``FRESH``, ``FRESH_3``);
-        4 to 13: written in later sessions (``FRESH_4`` to ``FRESH_13``), likewise.
+        4 to 14: written in later sessions (``FRESH_4`` to ``FRESH_14``), likewise.
     sign_of : int or None
         For an effect that jumps with the sign of one state (dry friction): that state's index.  Trajectories
         are then integrated piecewise between its zero crossings (no chattering of the step size), and a
@@ -1090,8 +1090,78 @@ FRESH_13 = [
 ]
 
 
+# ------------------------------------------------------------------------------------------ batch 14 (fresh systems)
+# Written on 2026-11-26 at package commit e31c3f3, after the harmonics of an angle came (be4acc7), and committed
+# before any of them ran: a rotary table's magnetic detent (periodic in the angle, with a phase), air drag on a
+# pendulum's bob (an angle in the states, an effect that is not periodic), two reactants consumed together (a
+# product on both balances), a pump that saturates (tanh of the input), vaccination in an epidemic (the input
+# times a state), an elastic that acts in tension only (max(0, x)^2, two terms of the library); two controls from
+# models new here (the detent rotor and the vaccinated epidemic themselves). Only their simulated data were
+# looked at before the commit.
+def fed_pair_f(v, u, k1=0.5, k2=0.3):
+    return torch.stack([u[:, 0] - k1 * v[:, 0], 0.3 - k2 * v[:, 1]], dim=-1)
+
+
+def pumped_tank_f(v, u, b=0.6, a=0.5):
+    return torch.stack([b * u[:, 0] - a * torch.sqrt(v[:, 0].clamp(min=0))], dim=-1)
+
+
+def sir_vaccination_f(v, u, beta=1.6, gamma=0.5):
+    s, i = v[:, 0], v[:, 1]
+    return torch.stack([-beta * s * i, beta * s * i - gamma * i], dim=-1)
+
+
+def detent_rotor_f(v, u, b=0.7, c=0.36, a=0.2):
+    return torch.stack([v[:, 1], b * u[:, 0] - c * v[:, 1] - a * torch.sin(2 * v[:, 0] + 0.6)], dim=-1)
+
+
+def vaccinated_sir_f(v, u, beta=1.6, gamma=0.5, nu=0.4):
+    s, i = v[:, 0], v[:, 1]
+    return torch.stack([-beta * s * i - nu * u[:, 0] * s, beta * s * i - gamma * i], dim=-1)
+
+
+FRESH_14 = [
+    System("detent_rotor", "electromechanical", "periodic in the angle, with a phase",
+           "a rotary table's magnetic detent: -0.25 sin(2 theta + 0.6)",
+           rotor_f, {"b": 0.9, "c": 0.3}, lambda x, u: _on(1, 2, -0.25 * np.sin(2 * x[:, 0] + 0.6)),
+           ["theta", "omega"], {"theta": "rad", "omega": "rad/s", "u": "V"}, 0.1, 40, (-1.5, 0.0), (1.5, 1.0),
+           (0.0, 1.0), zero_components=[0], batch=14, theta_guess={"b": 0.7, "c": 0.36}),
+    System("pendulum_air_drag", "oscillator", "drag (on an angular velocity)",
+           "air drag on the pendulum's bob: -0.3 omega |omega|",
+           damped_pendulum_f, {"w2": 2.4, "c": 0.1}, lambda x, u: _on(1, 2, -0.3 * x[:, 1] * np.abs(x[:, 1])),
+           ["theta", "omega"], {"theta": "rad", "omega": "rad/s"}, 0.1, 40, (-2.0, -1.5), (2.0, 1.5),
+           zero_components=[0], batch=14, theta_guess={"w2": 2.0, "c": 0.13}),
+    System("paired_consumption", "chemical", "polynomial (a product on both balances)",
+           "the two reactants are consumed together: -0.4 A B on A and on B",
+           fed_pair_f, {"k1": 0.4, "k2": 0.25}, lambda x, u: np.stack([-0.4 * x[:, 0] * x[:, 1]] * 2, axis=1),
+           ["A", "B"], {"A": "mol/L", "B": "mol/L", "u": "mol/L/h"}, 0.25, 30, (0.0, 0.2), (1.5, 1.5), (0.1, 1.0),
+           batch=14),
+    System("saturating_pump", "hydraulic", "saturating in the input (tanh of u)",
+           "the pump saturates: 0.8 (0.8 tanh(u/0.8) - u), where the science has 0.8 u",
+           pumped_tank_f, {"b": 0.8, "a": 0.6}, lambda x, u: 0.8 * (0.8 * np.tanh(u / 0.8) - u),
+           ["h"], {"h": "m", "u": "V"}, 0.25, 30, (0.2,), (2.0,), (0.0, 1.5), batch=14),
+    System("vaccination", "population", "input-dependent (the input times a state)",
+           "vaccination removes susceptibles at the rate u: -0.5 u S",
+           sir_vaccination_f, {"beta": 2.0, "gamma": 0.4}, lambda x, u: _on(0, 2, -0.5 * u[:, 0] * x[:, 0]),
+           ["S", "I"], {"S": "1", "I": "1", "u": "1/d"}, 0.25, 30, (0.5, 0.02), (0.95, 0.2), (0.0, 1.0),
+           zero_components=[1], batch=14),
+    System("tension_only_elastic", "oscillator", "non-smooth (a square on one side: two library terms)",
+           "an elastic that pulls in tension only: -1.5 max(0, x)^2",
+           linear_oscillator_f, {"k": 1.0, "c": 0.1}, lambda x, u: _on(1, 2, -1.5 * np.maximum(0.0, x[:, 0]) ** 2),
+           ["x", "v"], {"x": "m", "v": "m/s"}, 0.1, 40, (-1.5, -1.0), (1.5, 1.0), zero_components=[0], batch=14,
+           theta_guess={"k": 1.2, "c": 0.12}),
+    System("control_detent_rotor", "electromechanical", "control", "nothing (a rotor with its detent declared)",
+           detent_rotor_f, {"b": 0.9, "c": 0.3, "a": 0.25}, None,
+           ["theta", "omega"], {"theta": "rad", "omega": "rad/s", "u": "V"}, 0.1, 40, (-1.5, 0.0), (1.5, 1.0),
+           (0.0, 1.0), batch=14),
+    System("control_vaccinated_sir", "population", "control", "nothing (an epidemic with its vaccination declared)",
+           vaccinated_sir_f, {"beta": 2.0, "gamma": 0.4, "nu": 0.5}, None,
+           ["S", "I"], {"S": "1", "I": "1", "u": "1/d"}, 0.25, 30, (0.5, 0.02), (0.95, 0.2), (0.0, 1.0), batch=14),
+]
+
+
 SYSTEMS = {s.name: s for s in SYSTEMS + FRESH + FRESH_3 + FRESH_4 + FRESH_5 + FRESH_6 + FRESH_7 + FRESH_8 + FRESH_9
-           + FRESH_10 + FRESH_11 + FRESH_12 + FRESH_13}
+           + FRESH_10 + FRESH_11 + FRESH_12 + FRESH_13 + FRESH_14}
 
 
 # ----------------------------------------------------------------------------------------------------- simulation

@@ -205,6 +205,15 @@ BATCHES = {
          "a second look (z 7.5 against 3.22). "
          "`cogging_rotor` (1.012 at both): nothing passed, no term of the library is periodic in a state (the best "
          "gained 11 % at z 0.2)."),
+    14: ("## Batch 14: fresh systems, written after the harmonics of an angle",
+         "Written on 2026-11-26 at package commit e31c3f3 (the harmonics of an angle since be4acc7) and committed "
+         "before they ran: a rotary table's magnetic detent (periodic in the angle, with a phase), air drag on a "
+         "pendulum's bob (an angle among the states, an effect that is not periodic), two reactants consumed "
+         "together (a product on both balances), a pump that saturates (tanh of the input), vaccination in an "
+         "epidemic (the input times a state), an elastic that pulls in tension only (max(0, x)^2, two terms of the "
+         "library), and two controls from models new here (the detent rotor and the vaccinated epidemic "
+         "themselves). Only their simulated data were looked at before the commit; each runs once and is shown "
+         "whatever it gives."),
 }
 # Run order (the tables follow SYSTEMS): domains and controls interleaved, so that a partial run is a cross-section.
 RUN_ORDER = ["drag_oscillator", "control_rlc", "budworm", "enzyme_reactor", "saturating_heater", "diode_clamped_rc",
@@ -246,7 +255,10 @@ RUN_ORDER = ["drag_oscillator", "control_rlc", "budworm", "enzyme_reactor", "sat
              "control_seasonal_growth", "dead_zone_spring", "weir_tank", "tanh_leak",
              # batch 13 (_identification_systems.FRESH_13)
              "parametric_spring", "control_parametric_spring", "quota_harvest", "treated_infection",
-             "resistive_heater", "control_treated_infection", "dimerising_feed", "tissue_stiffening", "cogging_rotor"]
+             "resistive_heater", "control_treated_infection", "dimerising_feed", "tissue_stiffening", "cogging_rotor",
+             # batch 14 (_identification_systems.FRESH_14)
+             "detent_rotor", "control_detent_rotor", "pendulum_air_drag", "paired_consumption", "saturating_pump",
+             "control_vaccinated_sir", "vaccination", "tension_only_elastic"]
 
 
 def cache_dir(fast: bool) -> Path:
