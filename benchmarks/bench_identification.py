@@ -213,7 +213,10 @@ BATCHES = {
          "epidemic (the input times a state), an elastic that pulls in tension only (max(0, x)^2, two terms of the "
          "library), and two controls from models new here (the detent rotor and the vaccinated epidemic "
          "themselves). Only their simulated data were looked at before the commit; each runs once and is shown "
-         "whatever it gives."),
+         "whatever it gives. First run, at e31c3f3: 11 of 12 effects within 10 %, 4 of 4 controls clean. The detent "
+         "was named as sin(2*theta + phase) at both noises (0.012, 0.062), and the bob's drag as omega|omega| and, "
+         "at 0.05, omega^3 (0.070): no harmonic took the place of an effect that is not periodic. The elastic in "
+         "tension was within 10 % at 0.01 (a hinge and exp(k*x), 0.074), not at 0.05 (a hinge alone, 0.157)."),
 }
 # Run order (the tables follow SYSTEMS): domains and controls interleaved, so that a partial run is a cross-section.
 RUN_ORDER = ["drag_oscillator", "control_rlc", "budworm", "enzyme_reactor", "saturating_heater", "diode_clamped_rc",
@@ -455,11 +458,13 @@ def _second_look_section(records: list[dict]) -> list[str]:
 # BEFORE_PERIODIC holds every record made before. Only the systems with an angle among their units can change.
 PERIODIC_SINCE, BEFORE_PERIODIC = "be4acc7", "c995451"
 PERIODIC_CHECKS = "selection_checks_periodic"  # check_selection_unchanged.py --into selection_checks_periodic
+PERIODIC_BATCH = 14  # the first batch written with the harmonics: its records were made with them
 
 
 def _periodic_section(records: list[dict]) -> list[str]:
     """The records of systems with an angle unit: checked with the harmonics; those whose selection changed, rerun."""
-    angles = {name for name, s in SYSTEMS.items() if any(angle_factor(u) is not None for u in s.units.values())}
+    angles = {name for name, s in SYSTEMS.items() if any(angle_factor(u) is not None for u in s.units.values())
+              and s.batch < PERIODIC_BATCH}
     mine = [r for r in records if r["system"] in angles]
     checks = {(c["system"], c["noise"]): c for c in (json.loads(p.read_text())
                                                       for p in sorted((RESULTS / PERIODIC_CHECKS).glob("*.json")))
@@ -476,7 +481,8 @@ def _periodic_section(records: list[dict]) -> list[str]:
           f"new library; their {len(mine)} records were checked from their stored first fits "
           f"(`check_selection_unchanged.py --cases NAME --noise LEVEL --into {PERIODIC_CHECKS}`): "
           f"{len(same)} select the same terms with the same values, and the {len(rerun)} others were run again "
-          f"end to end at {PERIODIC_SINCE} (before: the records at {BEFORE_PERIODIC}).", "",
+          f"end to end at {PERIODIC_SINCE} (before: the records at {BEFORE_PERIODIC}). Batch {PERIODIC_BATCH}, the "
+          "first written after them, ran with them.", "",
           "| system | noise | rel_err before | after | terms before | after |", "|---|---|---|---|---|---|"]
     for new, old in rerun:
         md.append(f"| {new['system']} | {new['noise']:g} | {_fmt(old.get('rel_err'))} | {_fmt(new.get('rel_err'))} | "
