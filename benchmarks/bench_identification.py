@@ -446,12 +446,8 @@ def _second_look_section(records: list[dict]) -> list[str]:
           f"10 %: {sum(bool(n.get('identified')) for n, _ in effects)} of {len(effects)} after, "
           f"{sum(bool(o.get('identified')) for _, o in effects)} before (records at {BEFORE_SECOND_LOOK}); "
           f"{len(changed)} added other terms; controls: none of the 31, so the {n_controls} run before it stay as they "
-          f"were (batch {SECOND_LOOK_BATCH} and later ran with it).", "",
-          "| system | noise | rel_err before | after | terms before | after |", "|---|---|---|---|---|---|"]
-    for new, old in pairs:
-        md.append(f"| {new['system']} | {new['noise']:g} | {_fmt(old.get('rel_err'))} | {_fmt(new.get('rel_err'))} | "
-                  f"{_terms(old)} | {_terms(new)} |")
-    return md
+          f"were (batch {SECOND_LOOK_BATCH} and later ran with it).", ""]
+    return md + _before_after(pairs)
 
 
 # Since this commit a variable whose unit is an angle also gets its harmonics sin(n a + phase) (kind "periodic");
@@ -482,12 +478,15 @@ def _periodic_section(records: list[dict]) -> list[str]:
           f"(`check_selection_unchanged.py --cases NAME --noise LEVEL --into {PERIODIC_CHECKS}`): "
           f"{len(same)} select the same terms with the same values, and the {len(rerun)} others were run again "
           f"end to end at {PERIODIC_SINCE} (before: the records at {BEFORE_PERIODIC}). Batch {PERIODIC_BATCH}, the "
-          "first written after them, ran with them.", "",
-          "| system | noise | rel_err before | after | terms before | after |", "|---|---|---|---|---|---|"]
-    for new, old in rerun:
-        md.append(f"| {new['system']} | {new['noise']:g} | {_fmt(old.get('rel_err'))} | {_fmt(new.get('rel_err'))} | "
-                  f"{_terms(old)} | {_terms(new)} |")
-    return md
+          "first written after them, ran with them.", ""]
+    return md + _before_after(rerun)
+
+
+def _before_after(pairs: list[tuple[dict, dict]]) -> list[str]:
+    """The table of records run again: each (record, its record before) as rel_err and terms, before and after."""
+    return (["| system | noise | rel_err before | after | terms before | after |", "|---|---|---|---|---|---|"]
+            + [f"| {new['system']} | {new['noise']:g} | {_fmt(old.get('rel_err'))} | {_fmt(new.get('rel_err'))} | "
+               f"{_terms(old)} | {_terms(new)} |" for new, old in pairs])
 
 
 def _git(*args: str) -> subprocess.CompletedProcess:

@@ -171,11 +171,15 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
             "base_errors": base_errors, "errors": errors, "seconds": time.perf_counter() - start_time}
 
 
+# A candidate gets a second look when the first split's z is above this (and its gain is enough).
+_SECOND_LOOK_Z = 2.0
+
+
 def _promising(verdict: dict, min_gain: float) -> bool:
     """Worth a second look: the gain is enough and z above 2. With 12 validation samples a useless
     term gets there about once in 28 candidates (Student's t, 11 degrees of freedom): often enough to
     be worth the folds' refits, far too often to be a term."""
-    return verdict["gain"] >= min_gain and verdict["z"] > 2.0
+    return verdict["gain"] >= min_gain and verdict["z"] > _SECOND_LOOK_Z
 
 
 def _second_look(recheck: Judge, tried: list, current, theta: dict, added: list, steps: list,
