@@ -22,9 +22,14 @@ def test_an_angle_unit_gives_radians_per_unit(unit, factor):
     assert angle_factor(unit) == pytest.approx(factor)
 
 
-@pytest.mark.parametrize("unit", ["rad/s", "m", "", "radius", "1", "V"])
+@pytest.mark.parametrize("unit", ["rad/s", "m", "", "radius", "1", "V", None, 3])
 def test_other_units_are_not_angles(unit):
     assert angle_factor(unit) is None
+
+
+def test_a_unit_that_is_not_a_string_still_only_labels_the_report():
+    terms = physics_terms(["x"], np.linspace(-1, 1, 20)[:, None], {"x": 3})
+    assert not [t for t in terms if t.kind == "periodic"] and "x^2" in {t.name for t in terms}
 
 
 def test_only_angles_get_harmonics_and_a_scaled_unit_is_turned_into_radians():

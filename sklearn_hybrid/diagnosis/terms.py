@@ -146,7 +146,9 @@ _ANGLE_UNIT = re.compile(r"^\s*(?P<scale>[0-9]*\.?[0-9]+(?:[eE][-+]?[0-9]+)?)?\s
 
 def angle_factor(unit: str) -> float | None:
     """Radians per unit of a variable whose unit is an angle (``"rad"``, ``"deg"``, ``"0.1 rad"``), else None."""
-    match = _ANGLE_UNIT.match(unit or "")
+    if not isinstance(unit, str):  # a unit given as something else only labels the report, as before
+        return None
+    match = _ANGLE_UNIT.match(unit)
     if match is None:
         return None
     scale = float(match["scale"]) if match["scale"] else 1.0
