@@ -25,21 +25,9 @@ import torch
 from torch import nn
 
 from . import _fast
-from .engine import TrainConfig, _Batches, gradients_at_perturbed, make_optimizer
-from .methods import asam_perturbation, fsam_perturbation, sam_perturbation
+from .engine import TrainConfig, MiniBatches, make_optimizer, step_gradients
 
-__all__ = ["train_batched", "BATCHABLE_METHODS"]
-
-BATCHABLE_METHODS = ("erm", "p-reg", "sam", "asam", "fsam")
-
-
-def _perturbation(method, params, grads, is_weight, rho):
-    """The method's ascent step with a per-member radius ``rho`` of shape (K,)."""
-    if method.name == "sam":
-        return sam_perturbation(grads, rho, n_batch_dims=1)
-    if method.name == "asam":
-        return asam_perturbation(params, grads, rho, method.eta, is_weight, n_batch_dims=1)
-    return fsam_perturbation(grads, rho, method.eta, n_batch_dims=1)
+__all__ = ["train_batched", "evaluate_members"]
 
 
 class _StackedModel:
@@ -104,90 +92,117 @@ class _StackedModel:
             return torch.func.vmap(member)(self.params, *inputs)
 
 
-def _member_loss(pred, y):
-    """Mean squared error per member (the data loss of :func:`engine.data_loss`)."""
-    return (pred.reshape(y.shape) - y).pow(2).reshape(len(y), -1).mean(1)
+def _member_loss(pred, y, weight=None):
+    """Mean squared error per member (the data loss of :func:`engine.data_loss`), each sample
+    weighted by its member's ``weight`` (K, batch) when given."""
+    per_sample = (pred.reshape(y.shape) - y).pow(2).reshape(*y.shape[:2], -1).mean(-1)
+    if weight is None:
+        return per_sample.mean(1)
+    return (per_sample * weight).sum(1) / weight.sum(1)
+
+
+def _check_stackable(method):
+    if not method.stackable:
+        raise ValueError(
+            f"Method {method.name!r} cannot train as stacked members (its penalty needs the whole "
+            "model); fit the configurations separately.")
+
+
+def _trained_groups(stacked, config, held):
+    """theta and phi tensors of the stacked model, the perturbed ones, and a gradient mask per
+    held theta (a profile holds one parameter at a grid value in every member)."""
+    theta, phi = stacked.group("science."), stacked.group("residual.")
+    perturbed = phi + theta if config.perturb == "all" else phi
+    residual_names = [n for n in stacked.names if n.startswith("residual.") and stacked.params[n].requires_grad]
+    is_weight = ["weight" in n for n in residual_names] + [False] * (len(perturbed) - len(phi))
+    names = [n for n in stacked.names if n.startswith("science.") and stacked.params[n].requires_grad]
+    masks = {}
+    for name, mask in (held or {}).items():
+        key = f"science.raw.{name}"
+        if key in names:
+            masks[names.index(key)] = (~torch.as_tensor(mask, dtype=torch.bool)).to(theta[0].dtype)
+    return theta, phi, perturbed, is_weight, masks
 
 
 def train_batched(models: list, method, inputs: tuple, y: torch.Tensor, config: TrainConfig,
-                  generators: list, rho: np.ndarray, lam: np.ndarray) -> dict:
+                  generators: list, sample_weight: torch.Tensor | None = None,
+                  held: dict | None = None) -> dict:
     """Train K member models (built as separate fits would build them) as one.
 
     Parameters
     ----------
     models : list of HybridModule
-        The K members, freshly initialised; their parameters receive the result.
+        The K members, freshly initialised or warm-started from a fit; their
+        parameters receive the result.
     method : Method
-        The shared training method (its ``rho``/``lam`` are replaced per member).
+        The training method, its hyperparameters one value for all members or
+        one per member (:meth:`Method.for_members`).
     inputs : tuple of Tensor
         Structure inputs shared by the members, samples first.
     y : Tensor
         Targets, samples first.
     config : TrainConfig
-        Shared optimisation settings.
+        Shared optimisation settings (``verbose`` shows a progress bar).
     generators : list of torch.Generator
         Each member's mini-batch generator (seeded as a separate fit seeds it).
-    rho, lam : ndarray of shape (K,)
-        Per-member SAM radius and penalty weight.
+    sample_weight : Tensor of shape (K, n_samples), optional
+        Each member's weights of the samples (a bootstrap resample per member).
+    held : dict of str to bool array, optional
+        ``name -> mask`` over a science parameter's entries held at their
+        value in every member (a profile: the members start at different
+        values of the held entries, which receive no update).
 
     Returns
     -------
     dict
-        ``"loss"``: (max_iter, K); ``"theta"``: name -> (max_iter, K, ...);
-        ``"diverged_at"``: (K,) first iteration with a non-finite loss, or -1.
-        A diverged member's values go on as NaN without touching the others;
-        training stops early when every member has diverged.
+        ``"loss"``: (max_iter, K) the training objective; ``"theta"``: name ->
+        (max_iter, K, ...); ``"diverged_at"``: (K,) first iteration with a
+        non-finite loss, or -1.  A diverged member's values go on as NaN
+        without touching the others; training stops early when every member
+        has diverged.
     """
-    if method.name not in BATCHABLE_METHODS:
-        raise ValueError(
-            f"Batched training supports methods {list(BATCHABLE_METHODS)}, not "
-            f"{method.name!r} (its penalty is model-specific); fit the configurations separately."
-        )
+    _check_stackable(method)
     K = len(models)
     stacked = _StackedModel(models, inputs)
-    theta, phi = stacked.group("science."), stacked.group("residual.")
+    theta, phi, perturbed, is_weight, masks = _trained_groups(stacked, config, held)
     params = theta + phi
-    perturbed = phi + theta if config.perturb == "all" else phi
-    residual_names = [n for n in stacked.names if n.startswith("residual.")]
-    is_weight = ["weight" in n for n in residual_names] + [False] * (len(perturbed) - len(phi))
-    dtype = y.dtype
-    rho_t = torch.as_tensor(rho, dtype=dtype, device=y.device)
-    lam_t = torch.as_tensor(lam, dtype=dtype, device=y.device)
 
     optimizer, scheduler = make_optimizer(theta, phi, config)
-    batches = [_Batches(len(y), config.batch_size, g) for g in generators]
+    batches = [MiniBatches(len(y), config.batch_size, g) for g in generators]
     science = stacked.base.science
     losses = np.empty((config.max_iter, K))
     thetas = {n: np.empty((config.max_iter, K, *science.shapes[n])) for n in science.names}
     diverged = np.full(K, -1)
-    full = tuple(t.expand(K, *t.shape) for t in inputs), y.expand(K, *y.shape)
+    weight = None if sample_weight is None else torch.as_tensor(sample_weight, dtype=y.dtype, device=y.device)
+    full = tuple(t.expand(K, *t.shape) for t in inputs), y.expand(K, *y.shape), weight
 
-    def loss_and_grads(xb, yb, wrt):
-        pred = stacked.predictions(xb)
-        loss = _member_loss(pred, yb)
-        if method.name == "p-reg":
-            loss = loss + lam_t * sum(p.pow(2).reshape(K, -1).sum(1) for p in phi)
+    def loss_and_grads(xb, yb, wb, wrt):
+        loss = _member_loss(stacked.predictions(xb), yb, wb) + method.parameter_penalty(phi, n_batch_dims=1)
         grads = torch.autograd.grad(loss.sum(), wrt, allow_unused=True)
         return loss.detach(), [torch.zeros_like(p) if g is None else g for p, g in zip(wrt, grads)]
 
-    for it in range(config.max_iter):
+    from tqdm.auto import tqdm
+
+    bar = tqdm(range(config.max_iter), disable=not config.verbose, desc=f"{K} members")
+    for it in bar:
         idx = [b.next() for b in batches]
         if idx[0] is None:
-            xb, yb = full
+            xb, yb, wb = full
         else:
             idx = torch.stack(idx)
             xb, yb = tuple(t[idx] for t in inputs), y[idx]
+            wb = None if weight is None else torch.gather(weight, 1, idx)
         # the SAM family needs only the perturbed tensors' gradients at the first point
-        loss, grads = loss_and_grads(xb, yb, perturbed if method.perturbs else params)
+        loss, grads = loss_and_grads(xb, yb, wb, perturbed if method.perturbs else params)
         bad = ~torch.isfinite(loss).numpy() & (diverged < 0)
         diverged[bad] = it
         if (diverged >= 0).all():  # nothing left to train
             losses[it:], thetas = np.nan, {n: np.full_like(v, np.nan) for n, v in thetas.items()}
             break
-        if method.perturbs:
-            with torch.no_grad():
-                eps = _perturbation(method, perturbed, grads, is_weight, rho_t)
-            _, grads = gradients_at_perturbed(perturbed, eps, lambda: loss_and_grads(xb, yb, params))
+        grads = step_gradients(method, perturbed, grads, is_weight,
+                               lambda: loss_and_grads(xb, yb, wb, params), n_batch_dims=1)
+        for i, mask in masks.items():  # held entries: no gradient, so Adam leaves them exactly
+            grads[i] = grads[i] * mask
         for p, g in zip(params, grads):
             p.grad = g
         optimizer.step()
@@ -196,9 +211,48 @@ def train_batched(models: list, method, inputs: tuple, y: torch.Tensor, config: 
         with torch.no_grad():
             for n in science.names:
                 thetas[n][it] = science.transforms[n](stacked.params[f"science.raw.{n}"]).numpy()
+    bar.close()
 
     with torch.no_grad():  # hand each member its slice
         for k, model in enumerate(models):
             for name, p in model.named_parameters():
                 p.copy_(stacked.params[name][k])
     return {"loss": losses, "theta": thetas, "diverged_at": diverged}
+
+
+def evaluate_members(models: list, method, inputs: tuple, y: torch.Tensor, config: TrainConfig,
+                     sample_weight: torch.Tensor | None = None) -> dict:
+    """Each member's data loss and training objective on every sample (full batch).
+
+    The objective is what the method minimises: the data loss plus its
+    penalty, or for the SAM family the loss at the perturbed network (one
+    ascent step of the method's rule from the full-batch gradient), the
+    sharpness-aware loss.
+
+    Returns
+    -------
+    dict
+        ``"loss"`` and ``"objective"``: ndarrays of shape (K,).
+    """
+    _check_stackable(method)
+    K = len(models)
+    stacked = _StackedModel(models, inputs)
+    theta, phi, perturbed, is_weight, _ = _trained_groups(stacked, config, None)
+    xb, yb = tuple(t.expand(K, *t.shape) for t in inputs), y.expand(K, *y.shape)
+    wb = None if sample_weight is None else torch.as_tensor(sample_weight, dtype=y.dtype, device=y.device)
+    data = _member_loss(stacked.predictions(xb), yb, wb)
+    objective = data + method.parameter_penalty(phi, n_batch_dims=1)
+    if method.perturbs:
+        grads = torch.autograd.grad(objective.sum(), perturbed, allow_unused=True)
+        grads = [torch.zeros_like(p) if g is None else g for p, g in zip(perturbed, grads)]
+        with torch.no_grad():
+            eps = method.perturbation(perturbed, grads, is_weight, n_batch_dims=1)
+            saved = [p.detach().clone() for p in perturbed]
+            for p, e in zip(perturbed, eps):
+                p.add_(e)
+            try:
+                objective = _member_loss(stacked.predictions(xb), yb, wb)
+            finally:
+                for p, s in zip(perturbed, saved):
+                    p.copy_(s)
+    return {"loss": data.detach().numpy().astype(float), "objective": objective.detach().numpy().astype(float)}

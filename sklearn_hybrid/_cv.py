@@ -14,8 +14,9 @@ from sklearn.base import BaseEstimator, RegressorMixin, clone
 from sklearn.metrics import check_scoring
 from sklearn.utils.validation import check_is_fitted, validate_data
 
-from ._batched import BATCHABLE_METHODS, train_batched
+from ._batched import train_batched
 from ._estimator import HybridRegressor
+from .methods import Method, make_method, stackable_methods
 from ._validation import set_feature_info, torch_threads, validate_into_copy
 from ._kernels import reusing_buffers
 from ._memory import check_fit_memory
@@ -39,17 +40,29 @@ def _values(name, values, default, kind=numbers.Real, positive=True):
     return values
 
 
-def _train_group(models, method, inputs, y, config, seeds, rho, lam, n_threads):
+def train_group(models, method, inputs, y, config, seeds, n_threads, sample_weight=None, held=None):
     """Train one group of members as one stacked model; returns its history and the models.
 
     Run in a worker process when ``n_jobs > 1`` (processes, not threads: the
     stage loop dispatches thousands of small operations, and threads would
-    queue for the interpreter lock between them).
+    queue for the interpreter lock between them).  ``method`` holds the
+    group's per-member hyperparameters; ``sample_weight`` and ``held`` are
+    those of :func:`~sklearn_hybrid._batched.train_batched`.
     """
     with torch_threads(n_threads), reusing_buffers():
         history = train_batched(models, method, inputs, y, config,
-                                [torch.Generator().manual_seed(s) for s in seeds], rho=rho, lam=lam)
+                                [torch.Generator().manual_seed(s) for s in seeds],
+                                sample_weight=sample_weight, held=held)
     return history, models
+
+
+def member_estimator(estimator, rho, lam, seed):
+    """A clone of ``estimator`` with one member's settings; a method given as an object gets
+    its ``rho`` / ``lam`` replaced in a copy (the estimator's own ``rho`` / ``lam`` are not read then)."""
+    member = clone(estimator).set_params(random_state=seed)
+    if isinstance(estimator.method, Method):
+        return member.set_params(method=estimator.method.for_members(rho=rho, lam=lam))
+    return member.set_params(rho=rho, lam=lam)
 
 
 def _train_member(model, method, inputs, y, config, seed, n_threads):
@@ -166,16 +179,17 @@ class HybridRegressorCV(RegressorMixin, BaseEstimator):
                 f"estimator must be a HybridRegressor, got {type(est).__name__}; e.g. "
                 "HybridRegressorCV(HybridRegressor(science=f), rhos=[0.01, 0.1])."
             )
-        if est.method not in BATCHABLE_METHODS:
+        method = make_method(est.method, rho=est.rho, lam=est.lam, eta=est.eta)
+        if not method.stackable:
             raise ValueError(
-                f"HybridRegressorCV trains methods {list(BATCHABLE_METHODS)}; for "
-                f"{est.method!r} use GridSearchCV over HybridRegressor."
+                f"HybridRegressorCV trains methods {stackable_methods()}; for "
+                f"{method.name!r} use GridSearchCV over HybridRegressor."
             )
         default_seed = 0 if est.random_state is None else est.random_state
         if not isinstance(default_seed, numbers.Integral):
             raise ValueError("With a RandomState as the estimator's random_state, give seeds=[...].")
-        rhos = _values("rhos", self.rhos, est.rho)
-        lams = _values("lams", self.lams, est.lam)
+        rhos = _values("rhos", self.rhos, getattr(method, "rho", est.rho))
+        lams = _values("lams", self.lams, getattr(method, "lam", est.lam))
         seeds = _values("seeds", self.seeds, default_seed, kind=numbers.Integral, positive=False)
         if not all(0 <= s < 2**32 for s in seeds):  # numpy's seeding range
             raise ValueError(f"seeds must be integers in [0, 2**32 - 1], got {seeds}.")
@@ -225,7 +239,7 @@ class HybridRegressorCV(RegressorMixin, BaseEstimator):
             allow_nd=True, multi_output=True, y_numeric=True)
         X_arr = np.asarray(X)
         train_idx, val_idx = self._split(len(X_arr), params[0]["random_state"])
-        members = [clone(self.estimator).set_params(**p) for p in params]
+        members = [member_estimator(self.estimator, p["rho"], p["lam"], p["random_state"]) for p in params]
         setups = [m._setup_fit(X_arr[train_idx], y_arr[train_idx]) for m in members]
         # the members share shapes: measure one, count those in memory at once (all of them
         # when stacked, one per worker when members with an encoder train one by one)
@@ -301,9 +315,9 @@ class HybridRegressorCV(RegressorMixin, BaseEstimator):
                               for n in histories[0]["theta"]},
                     "diverged_at": np.array([h["diverged_at"] for h in histories])}
         parts = Parallel(n_jobs=len(groups))(
-            delayed(_train_group)([setups[k].model for k in group], first.method, first.inputs,
-                                  first.y, first.config, [setups[k].seed for k in group],
-                                  rho[group], lam[group], threads)
+            delayed(train_group)([setups[k].model for k in group],
+                                 first.method.for_members(rho=rho[group], lam=lam[group]), first.inputs,
+                                 first.y, first.config, [setups[k].seed for k in group], threads)
             for group in groups)
         for group, (_, models) in zip(groups, parts):
             for k, model in zip(group, models):  # trained copies when they come from a worker

@@ -51,14 +51,18 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
     residual : str, dict or callable, default="mlp"
         Specification of the network g_phi (see
         :func:`sklearn_hybrid.residual.build_residual`); built inside ``fit``.
-    method : {"erm", "p-reg", "f-reg", "sam", "asam", "fsam"}, default="fsam"
-        Training method.  The SAM family perturbs the network parameters only.
+    method : {"erm", "p-reg", "f-reg", "sam", "asam", "fsam"} or Method, default="fsam"
+        Training method, by name (its hyperparameters from ``rho``, ``lam``,
+        ``eta``) or as an object of :mod:`sklearn_hybrid.methods` such as
+        ``FisherSAM(rho=0.1)``, which carries its own.  The SAM family
+        perturbs the network parameters only.
     rho : float, default=0.05
-        Perturbation radius of the SAM family.
+        Perturbation radius of the SAM family (a method given by name).
     lam : float, default=1e-3
-        Penalty weight of ``p-reg`` and ``f-reg``.
+        Penalty weight of ``p-reg`` and ``f-reg`` (a method given by name).
     eta : float or None, default=None
-        ASAM offset (default 0.01) or Fisher-SAM damping (default 1.0).
+        ASAM offset (default 0.01) or Fisher-SAM damping (default 1.0) (a
+        method given by name).
     perturb : {"residual", "all"}, default="residual"
         Perturb the network only (the paper's method) or every parameter
         (ordinary SAM, the paper's Table 2).

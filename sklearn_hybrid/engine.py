@@ -20,7 +20,8 @@ from torch import nn
 from . import _fast
 from ._stopping import EarlyStopping, SpikeGuard
 
-__all__ = ["TrainConfig", "train", "DivergenceError", "data_loss", "make_optimizer",
+__all__ = ["TrainConfig", "train", "DivergenceError", "data_loss", "make_optimizer", "step_gradients",
+           "gradients_at_perturbed", "MiniBatches",
            "explain_nonfinite", "cosine_lr", "theta_drift"]
 
 
@@ -132,6 +133,25 @@ def gradients_at_perturbed(perturbed: list, eps: list, loss_and_grads):
                 p.copy_(s)
 
 
+def step_gradients(method, perturbed: list, grads: list, is_weight: list, recompute,
+                   n_batch_dims: int = 0) -> list:
+    """The gradients a training step takes: the one place a method's perturbation is applied.
+
+    For erm and the penalty methods these are ``grads`` themselves (of every
+    trained parameter).  For the SAM family ``grads`` are the gradients of the
+    perturbed parameters alone; they give the ascent step ``eps``, and the
+    gradients of every trained parameter are taken at ``perturbed + eps`` by
+    ``recompute()`` (which returns ``(loss, grads)``), the parameters then being
+    restored exactly.  A single fit (:func:`train`) and the stacked members of
+    a sweep or profile (``n_batch_dims=1``, one norm per member) both step here.
+    """
+    if not method.perturbs:
+        return grads
+    with torch.no_grad():
+        eps = method.perturbation(perturbed, grads, is_weight, n_batch_dims=n_batch_dims)
+    return gradients_at_perturbed(perturbed, eps, recompute)[1]
+
+
 def data_loss(pred: torch.Tensor, y: torch.Tensor, sample_weight: torch.Tensor | None = None
               ) -> torch.Tensor:
     """Mean squared error over every output value (what all methods minimise).
@@ -218,7 +238,7 @@ def _loss_and_grads(model, method, inputs, y, params, weight=None):
     return loss.detach(), [torch.zeros_like(p) if g is None else g for p, g in zip(params, grads)]
 
 
-class _Batches:
+class MiniBatches:
     """Mini-batch indices from a private generator (full batch when size is None)."""
 
     def __init__(self, n, batch_size, generator):
@@ -294,7 +314,7 @@ def train(model: nn.Module, method, inputs: tuple[torch.Tensor, ...], y: torch.T
     is_weight += [False] * (n_perturbed - len(is_weight))
 
     optimizer, scheduler = make_optimizer(theta, phi + extra, config)
-    batches = _Batches(len(y), config.batch_size, generator)
+    batches = MiniBatches(len(y), config.batch_size, generator)
     names = model.science.names
     losses = np.empty(config.max_iter)
     thetas = {n: np.empty((config.max_iter, *model.science.shapes[n])) for n in names}
@@ -338,12 +358,11 @@ def train(model: nn.Module, method, inputs: tuple[torch.Tensor, ...], y: torch.T
                        if guard.halved_at else "") + ". " + (cause or (
                         "Lower lr or rho, check the data scale, or bound theta with theta_bounds.")))
         guard.accept(it, loss_value)  # out of halvings, a finite spike is trained through
-        if method.perturbs:
-            with torch.no_grad():
-                eps = method.perturbation(perturbed, grads, is_weight)
+        def at_perturbed():
             with _frozen_batchnorm_stats(model):
-                _, grads = gradients_at_perturbed(
-                    perturbed, eps, lambda: _loss_and_grads(model, method, xb, yb, params, wb))
+                return _loss_and_grads(model, method, xb, yb, params, wb)
+
+        grads = step_gradients(method, perturbed, grads, is_weight, at_perturbed)
         for p, g in zip(params, grads):
             p.grad = g
         optimizer.step()

@@ -207,3 +207,69 @@ def test_perturbed_pass_leaves_batchnorm_statistics_alone(momentum):
     assert int(sam.num_batches_tracked) == int(plain.num_batches_tracked) == 3
     torch.testing.assert_close(sam.running_mean, plain.running_mean)
     torch.testing.assert_close(sam.running_var, plain.running_var)
+
+
+def test_a_new_method_registered_once_trains_alike_alone_and_stacked(monkeypatch):
+    """A method is called at one site: registered once, it trains a sweep member exactly as a
+    single fit, with its own rule (not another method's) and its per-member radius."""
+    from dataclasses import dataclass
+
+    from sklearn.base import clone
+
+    from sklearn_hybrid import HybridRegressor, HybridRegressorCV
+    from sklearn_hybrid.methods import Method, per_member
+    from sklearn_hybrid.models import pendulum_f
+
+    @dataclass
+    class SignSAM(Method):  # ascent along sign(g): a rule no built-in method has
+        rho: float = 0.05
+        name = "sign-sam"
+        perturbs = True
+
+        def perturbation(self, params, grads, is_weight, n_batch_dims=0):
+            return [per_member(self.rho, g) * torch.sign(g) * 1e-2 for g in grads]
+
+    monkeypatch.setitem(METHODS, "sign-sam", SignSAM)
+    rng = np.random.default_rng(0)
+    X = rng.uniform(-1, 1, (10, 2))
+    y = np.stack([X * np.cos(0.5 * k) for k in range(1, 4)], axis=1)
+    base = HybridRegressor(science=pendulum_f, method="sign-sam", dt=0.2, max_iter=6,
+                           residual={"hidden": (8,)}, dtype="float64")
+    cv = HybridRegressorCV(base, rhos=[0.5, 5.0], seeds=[3], validation_fraction=None).fit(X, y)
+    thetas = []
+    for params, member in zip(cv.cv_results_["params"], cv.estimators_):
+        alone = clone(base).set_params(**params).fit(X, y)
+        np.testing.assert_allclose(member.theta_["omega"], alone.theta_["omega"], rtol=1e-12)
+        np.testing.assert_allclose(member.history_["loss"], alone.history_["loss"], rtol=1e-12)
+        thetas.append(alone.theta_["omega"])
+    assert thetas[0] != thetas[1]  # the radius reached each member
+    fsam = clone(base).set_params(method="fsam", rho=5.0).fit(X, y)
+    assert fsam.theta_["omega"] != thetas[1]  # not trained with another method's rule
+
+
+def test_method_given_as_an_object():
+    from sklearn.base import clone
+
+    from sklearn_hybrid import HybridRegressor, HybridRegressorCV
+    from sklearn_hybrid.methods import FisherSAM
+    from sklearn_hybrid.models import pendulum_f
+
+    rng = np.random.default_rng(1)
+    X = rng.uniform(-1, 1, (10, 2))
+    y = np.stack([X * np.cos(0.5 * k) for k in range(1, 4)], axis=1)
+    common = dict(science=pendulum_f, dt=0.2, max_iter=5, residual={"hidden": (8,)}, random_state=0)
+    by_object = HybridRegressor(method=FisherSAM(rho=0.2, eta=2.0), **common).fit(X, y)
+    by_name = HybridRegressor(method="fsam", rho=0.2, eta=2.0, **common).fit(X, y)
+    assert by_object.theta_ == by_name.theta_
+    assert "FisherSAM(rho=0.2, eta=2.0)" in by_object.fit_report()
+    assert clone(by_object).method == FisherSAM(rho=0.2, eta=2.0)
+    # a sweep over an object's rho replaces it in a copy, member by member
+    cv = HybridRegressorCV(HybridRegressor(method=FisherSAM(rho=0.2), **common), rhos=[0.2, 0.4],
+                           validation_fraction=None).fit(X, y)
+    assert [m.method.rho for m in cv.estimators_] == [0.2, 0.4]
+    assert cv.estimators_[0].theta_ == pytest.approx(
+        HybridRegressor(method=FisherSAM(rho=0.2), **common).fit(X, y).theta_)
+    with pytest.raises(ValueError, match="FisherSAM.rho must be a positive number"):
+        HybridRegressor(method=FisherSAM(rho=-1.0), **common).fit(X, y)
+    with pytest.raises(TypeError, match="method must be a name"):
+        HybridRegressor(method=3, **common).fit(X, y)

@@ -1,19 +1,26 @@
 """Training methods, by name: ``erm``, ``p-reg``, ``f-reg``, ``sam``, ``asam``, ``fsam``.
 
 Each method is one small object (see :class:`Method`); adding a method means
-adding one class and one registry entry.
+adding one class and one registry entry.  The estimators take a name
+(``method="fsam"``, with ``rho``/``lam``/``eta`` beside it) or the object
+itself (``method=FisherSAM(rho=0.1)``), as scikit-learn takes
+``kernel="rbf"`` or ``kernel=RBF()``.
 """
 
 from __future__ import annotations
 
+import dataclasses
+import math
+
 from .._validation import check_positive
-from ._base import Method
+from ._base import Method, per_member
 from .regularized import ERM, FunctionalRegularization, ParameterRegularization
 from .sharpness import (ASAM, SAM, FisherSAM, asam_perturbation, fsam_perturbation,
                         sam_perturbation)
 
-__all__ = ["METHODS", "make_method", "Method", "sam_perturbation", "asam_perturbation",
-           "fsam_perturbation"]
+__all__ = ["METHODS", "make_method", "stackable_methods", "Method", "ERM",
+           "ParameterRegularization", "FunctionalRegularization", "SAM", "ASAM", "FisherSAM",
+           "per_member", "sam_perturbation", "asam_perturbation", "fsam_perturbation"]
 
 METHODS: dict[str, type[Method]] = {
     "erm": ERM,
@@ -30,14 +37,20 @@ def _positive(name, value):
     return float(value)
 
 
-def make_method(name: str, *, rho: float = 0.05, lam: float = 1e-3,
+def stackable_methods() -> list[str]:
+    """Names of the registered methods that train as stacked members (sweeps, profiles)."""
+    return [name for name, cls in METHODS.items() if cls.stackable]
+
+
+def make_method(name: str | Method, *, rho: float = 0.05, lam: float = 1e-3,
                 eta: float | None = None) -> Method:
     """Build the method ``name`` with the hyperparameters it uses.
 
     Parameters
     ----------
-    name : str
-        One of :data:`METHODS`.
+    name : str or Method
+        One of :data:`METHODS`, or a method object, which is returned as a copy
+        (its own hyperparameters are used; ``rho``, ``lam`` and ``eta`` are ignored).
     rho : float
         Perturbation radius of the SAM family.
     lam : float
@@ -49,6 +62,17 @@ def make_method(name: str, *, rho: float = 0.05, lam: float = 1e-3,
     -------
     Method
     """
+    if isinstance(name, Method):
+        for field in dataclasses.fields(name):  # a hyperparameter of the object, checked as the names' are
+            value = getattr(name, field.name)
+            if field.name in ("rho", "lam", "eta") and not (
+                    isinstance(value, (int, float)) and not isinstance(value, bool)
+                    and math.isfinite(value) and value > 0):
+                raise ValueError(f"{type(name).__name__}.{field.name} must be a positive number, got {value!r}.")
+        return dataclasses.replace(name)
+    if not isinstance(name, str):
+        raise TypeError(f"method must be a name ({list(METHODS)}) or a Method object such as "
+                        f"FisherSAM(rho=0.05), got {type(name).__name__}.")
     if name not in METHODS:
         raise ValueError(f"Unknown method {name!r}; choose one of {list(METHODS)}.")
     cls = METHODS[name]

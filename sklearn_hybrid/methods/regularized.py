@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ._base import Method
+from ._base import Method, per_member
 
 __all__ = ["ERM", "ParameterRegularization", "FunctionalRegularization"]
 
@@ -23,8 +23,9 @@ class ParameterRegularization(Method):
     lam: float = 1e-3
     name = "p-reg"
 
-    def penalty(self, model, pred, extras, sample_weight=None):
-        return self.lam * sum(p.pow(2).sum() for p in model.residual.parameters())
+    def parameter_penalty(self, phi, n_batch_dims=0):
+        squares = sum(p.pow(2).reshape(*p.shape[:n_batch_dims], -1).sum(-1) for p in phi)
+        return per_member(self.lam, squares) * squares
 
 
 @dataclass
@@ -35,11 +36,13 @@ class FunctionalRegularization(Method):
     prediction visits.  Non-additive ones (Phys-VAE style): ``lam * mean
     ||h(x) - A f_theta(x)||^2`` with a learnable linear map ``A`` (identity when
     the science output and ``y`` share a shape).  The mean weighs the samples by
-    ``sample_weight``, as the data loss does.
+    ``sample_weight``, as the data loss does.  Not stackable: the penalty needs
+    the structure's forward pass and the learnable map of one model.
     """
 
     lam: float = 1e-3
     name = "f-reg"
+    stackable = False
 
     def penalty(self, model, pred, extras, sample_weight=None):
         per_sample = model.structure.functional_penalty(model, pred, extras)

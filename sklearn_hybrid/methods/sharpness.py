@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import torch
 
-from ._base import Method
+from ._base import Method, per_member
 
 __all__ = ["SAM", "ASAM", "FisherSAM", "sam_perturbation", "asam_perturbation",
            "fsam_perturbation"]
@@ -24,15 +24,15 @@ def _member_sum(tensors, n_batch_dims):
     return sum(t.reshape(*t.shape[:n_batch_dims], -1).sum(-1) for t in tensors)
 
 
-def _per_member(scale, like, n_batch_dims):
-    scale = torch.as_tensor(scale, dtype=like.dtype, device=like.device)
-    return scale.reshape(scale.shape + (1,) * (like.dim() - scale.dim()))
+def _radius(rho, like):
+    """``rho`` as a tensor: a number, or one radius per member of shape ``(K,)``."""
+    return torch.as_tensor(rho, dtype=like.dtype, device=like.device)
 
 
 def sam_perturbation(grads, rho, *, n_batch_dims=0):
     """SAM: ``eps = rho * g / ||g||``."""
-    scale = rho / (_member_sum([g * g for g in grads], n_batch_dims).sqrt() + _XI)
-    return [g * _per_member(scale, g, n_batch_dims) for g in grads]
+    scale = _radius(rho, grads[0]) / (_member_sum([g * g for g in grads], n_batch_dims).sqrt() + _XI)
+    return [g * per_member(scale, g) for g in grads]
 
 
 def asam_perturbation(params, grads, rho, eta, is_weight, *, n_batch_dims=0):
@@ -42,16 +42,16 @@ def asam_perturbation(params, grads, rho, eta, is_weight, *, n_batch_dims=0):
     """
     scales = [p.abs() + eta if w else torch.ones_like(p) for p, w in zip(params, is_weight)]
     norm = _member_sum([(t * g) ** 2 for t, g in zip(scales, grads)], n_batch_dims).sqrt()
-    scale = rho / (norm + _XI)
-    return [t * t * g * _per_member(scale, g, n_batch_dims) for t, g in zip(scales, grads)]
+    scale = _radius(rho, norm) / (norm + _XI)
+    return [t * t * g * per_member(scale, g) for t, g in zip(scales, grads)]
 
 
 def fsam_perturbation(grads, rho, eta, *, n_batch_dims=0):
     """Fisher SAM: ``eps = rho * F^-1 g / sqrt(g^T F^-1 g)``, ``F = diag(1 + eta g^2)``."""
     scaled = [g / (1.0 + eta * g * g) for g in grads]
     denom = _member_sum([g * u for g, u in zip(grads, scaled)], n_batch_dims).sqrt()
-    scale = rho / (denom + _XI)
-    return [u * _per_member(scale, u, n_batch_dims) for u in scaled]
+    scale = _radius(rho, denom) / (denom + _XI)
+    return [u * per_member(scale, u) for u in scaled]
 
 
 @dataclass
@@ -62,8 +62,8 @@ class SAM(Method):
     name = "sam"
     perturbs = True
 
-    def perturbation(self, params, grads, is_weight):
-        return sam_perturbation(grads, self.rho)
+    def perturbation(self, params, grads, is_weight, n_batch_dims=0):
+        return sam_perturbation(grads, self.rho, n_batch_dims=n_batch_dims)
 
 
 @dataclass
@@ -75,8 +75,8 @@ class ASAM(Method):
     name = "asam"
     perturbs = True
 
-    def perturbation(self, params, grads, is_weight):
-        return asam_perturbation(params, grads, self.rho, self.eta, is_weight)
+    def perturbation(self, params, grads, is_weight, n_batch_dims=0):
+        return asam_perturbation(params, grads, self.rho, self.eta, is_weight, n_batch_dims=n_batch_dims)
 
 
 @dataclass
@@ -88,5 +88,5 @@ class FisherSAM(Method):
     name = "fsam"
     perturbs = True
 
-    def perturbation(self, params, grads, is_weight):
-        return fsam_perturbation(grads, self.rho, self.eta)
+    def perturbation(self, params, grads, is_weight, n_batch_dims=0):
+        return fsam_perturbation(grads, self.rho, self.eta, n_batch_dims=n_batch_dims)
