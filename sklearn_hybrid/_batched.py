@@ -24,10 +24,14 @@ import numpy as np
 import torch
 from torch import nn
 
+from joblib import Parallel, delayed
+
 from . import _fast
+from ._kernels import reusing_buffers
+from ._validation import torch_threads
 from .engine import TrainConfig, MiniBatches, make_optimizer, step_gradients
 
-__all__ = ["train_batched", "evaluate_members"]
+__all__ = ["train_batched", "train_members", "evaluate_members"]
 
 
 class _StackedModel:
@@ -256,3 +260,58 @@ def evaluate_members(models: list, method, inputs: tuple, y: torch.Tensor, confi
                 for p, s in zip(perturbed, saved):
                     p.copy_(s)
     return {"loss": data.detach().numpy().astype(float), "objective": objective.detach().numpy().astype(float)}
+
+
+def _train_group(models, method, inputs, y, config, seeds, n_threads, sample_weight, held):
+    """Train one group of members as one stacked model; returns its history and the models.
+
+    Run in a worker process when there are several groups (processes, not
+    threads: the stage loop dispatches thousands of small operations, and
+    threads would queue for the interpreter lock between them).
+    """
+    with torch_threads(n_threads), reusing_buffers():
+        history = train_batched(models, method, inputs, y, config,
+                                [torch.Generator().manual_seed(s) for s in seeds],
+                                sample_weight=sample_weight, held=held)
+    return history, models
+
+
+def _member_slice(value, group):
+    """A per-member hyperparameter (array) restricted to a group; a shared one as it is."""
+    return value[group] if isinstance(value, np.ndarray) and value.ndim else value
+
+
+def train_members(models: list, method, inputs: tuple, y: torch.Tensor, config: TrainConfig,
+                  seeds: list, *, sample_weight=None, held: dict | None = None, n_jobs: int = 1,
+                  n_threads: int | None = 1) -> tuple[dict, list]:
+    """Train K members in ``n_jobs`` stacked groups at once, through joblib.
+
+    Each group is one :func:`train_batched` call in its own worker process
+    (under ``joblib.parallel_backend("dask")``, on a Dask cluster); the
+    members' per-member settings (the method's hyperparameters,
+    ``sample_weight`` rows, ``held`` masks of shape ``(K, ...)``) travel
+    with their group.
+
+    Returns
+    -------
+    history : dict
+        As :func:`train_batched` returns it, over all K members in order.
+    models : list of HybridModule
+        The trained members (copies when they come from a worker process).
+    """
+    groups = [g for g in np.array_split(np.arange(len(models)), max(1, n_jobs)) if len(g)]
+    fields = [f for f in ("rho", "lam") if hasattr(method, f)]
+
+    def part(group):
+        member_method = method.for_members(**{f: _member_slice(getattr(method, f), group) for f in fields})
+        weight = None if sample_weight is None else sample_weight[group]
+        masks = None if held is None else {n: m[group] for n, m in held.items()}
+        return ([models[k] for k in group], member_method, inputs, y, config, [seeds[k] for k in group],
+                n_threads, weight, masks)
+
+    parts = Parallel(n_jobs=len(groups))(delayed(_train_group)(*part(g)) for g in groups)
+    history = {"loss": np.concatenate([h["loss"] for h, _ in parts], axis=1),
+               "theta": {n: np.concatenate([h["theta"][n] for h, _ in parts], axis=1)
+                         for n in parts[0][0]["theta"]},
+               "diverged_at": np.concatenate([h["diverged_at"] for h, _ in parts])}
+    return history, [m for _, group_models in parts for m in group_models]

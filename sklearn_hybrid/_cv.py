@@ -14,7 +14,7 @@ from sklearn.base import BaseEstimator, RegressorMixin, clone
 from sklearn.metrics import check_scoring
 from sklearn.utils.validation import check_is_fitted, validate_data
 
-from ._batched import train_batched
+from ._batched import train_members
 from ._estimator import HybridRegressor
 from .methods import Method, make_method, stackable_methods
 from ._validation import set_feature_info, torch_threads, validate_into_copy
@@ -38,22 +38,6 @@ def _values(name, values, default, kind=numbers.Real, positive=True):
     if len(set(values)) < len(values):  # a repeated seed would report a spread of 0 as if measured
         raise ValueError(f"{name} holds a value more than once: {values}.")
     return values
-
-
-def train_group(models, method, inputs, y, config, seeds, n_threads, sample_weight=None, held=None):
-    """Train one group of members as one stacked model; returns its history and the models.
-
-    Run in a worker process when ``n_jobs > 1`` (processes, not threads: the
-    stage loop dispatches thousands of small operations, and threads would
-    queue for the interpreter lock between them).  ``method`` holds the
-    group's per-member hyperparameters; ``sample_weight`` and ``held`` are
-    those of :func:`~sklearn_hybrid._batched.train_batched`.
-    """
-    with torch_threads(n_threads), reusing_buffers():
-        history = train_batched(models, method, inputs, y, config,
-                                [torch.Generator().manual_seed(s) for s in seeds],
-                                sample_weight=sample_weight, held=held)
-    return history, models
 
 
 def member_estimator(estimator, rho, lam, seed):
@@ -300,8 +284,7 @@ class HybridRegressorCV(RegressorMixin, BaseEstimator):
         first = setups[0]
         rho, lam = np.array([p["rho"] for p in params]), np.array([p["lam"] for p in params])
         n_jobs = self._n_groups()
-        groups = [g for g in np.array_split(np.arange(len(setups)), n_jobs) if len(g)]
-        threads = self.estimator.n_threads if len(groups) == 1 else 1
+        threads = self.estimator.n_threads if min(n_jobs, len(setups)) == 1 else 1
         if self.estimator.theta_encoder is not None:  # member by member (see Notes)
             parts = Parallel(n_jobs=min(n_jobs, len(setups)))(
                 delayed(_train_member)(s.model, s.method, s.inputs, s.y, s.config, s.seed,
@@ -314,19 +297,12 @@ class HybridRegressorCV(RegressorMixin, BaseEstimator):
                     "theta": {n: np.stack([h["theta"][n] for h in histories], axis=1)
                               for n in histories[0]["theta"]},
                     "diverged_at": np.array([h["diverged_at"] for h in histories])}
-        parts = Parallel(n_jobs=len(groups))(
-            delayed(train_group)([setups[k].model for k in group],
-                                 first.method.for_members(rho=rho[group], lam=lam[group]), first.inputs,
-                                 first.y, first.config, [setups[k].seed for k in group], threads)
-            for group in groups)
-        for group, (_, models) in zip(groups, parts):
-            for k, model in zip(group, models):  # trained copies when they come from a worker
-                setups[k].model = model
-        histories = [history for history, _ in parts]
-        return {"loss": np.concatenate([h["loss"] for h in histories], axis=1),
-                "theta": {n: np.concatenate([h["theta"][n] for h in histories], axis=1)
-                          for n in histories[0]["theta"]},
-                "diverged_at": np.concatenate([h["diverged_at"] for h in histories])}
+        method = first.method.for_members(rho=rho, lam=lam)
+        history, models = train_members([s.model for s in setups], method, first.inputs, first.y, first.config,
+                                        [s.seed for s in setups], n_jobs=n_jobs, n_threads=threads)
+        for setup, model in zip(setups, models):  # trained copies when they come from a worker
+            setup.model = model
+        return history
 
     def _results(self, params, scores, diverged):
         results = {"params": params, "score": scores, "diverged_at": diverged}
