@@ -1,0 +1,297 @@
+"""Profiles of theta through a hybrid fit: is each parameter identified by the data?
+
+For a parameter theta_i the profile is ``J(theta_i) = min L(theta_i, theta_rest, phi)``
+over the other parameters *and the network*: with a flexible network it can be
+flat, and then no regulariser makes the data pin theta_i down; the method only
+picks one value in the flat set.  Each grid value is a member of one stacked
+training, warm-started from the fit with theta_i held there; one more member
+retrains everything from the fit, so that every point had the same budget.
+
+The threshold is lmfit's F-test (``conf_interval``) on the profile of the mean
+squared error, counted in *samples* (trajectories), not output values: the
+errors along one trajectory are correlated (noise in its initial state runs
+through all of its steps), so each trajectory is one observation.  The verdict
+follows Raue et al. (2009): an interval where the profile crosses the
+threshold on both sides; *practically non-identifiable* where it stays under
+it beyond a bound on one or both sides; *structurally non-identifiable*
+(flat) where it stays under it over the whole profiled range.
+"""
+
+from __future__ import annotations
+
+import copy
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import stats
+
+from .._batched import evaluate_members, train_members
+from .._validation import torch_threads
+from ._members import (bounds_of, check_level, check_n_jobs, entry_values, fitted_problem, member_config,
+                       parameter_entries, set_entry)
+
+__all__ = ["profile_theta", "ThetaProfile", "plot_profile", "IDENTIFIED", "PRACTICAL", "STRUCTURAL"]
+
+IDENTIFIED = "identified"
+PRACTICAL = "practically non-identifiable"
+STRUCTURAL = "structurally non-identifiable"
+
+
+@dataclass
+class ThetaProfile:
+    """Profiles of the parameters of a fit, with an interval and a verdict each.
+
+    Attributes
+    ----------
+    estimate : dict of str to float
+        The fit's value of each profiled entry (``name`` or ``name[k]``).
+    values, loss, objective : dict of str to ndarray
+        The profile of each entry: its values (sorted), the data loss (mean
+        squared error) and the method's own objective there (the loss plus
+        p-reg's penalty, or the sharpness-aware loss of the SAM family).
+    threshold : float
+        Data loss under which a value is inside the interval at ``level``.
+    intervals : dict of str to tuple
+        ``(low, high)``; a side where the profile stays under the threshold to
+        the end of the profiled range is ``-inf`` / ``inf``.
+    verdicts : dict of str to str
+        ``"identified"``, ``"practically non-identifiable"`` or
+        ``"structurally non-identifiable"``.
+    objective_minimum : dict of str to float
+        Where the method's objective is lowest along the profile: the value of
+        theta the regulariser prefers.
+    """
+
+    estimate: dict
+    values: dict
+    loss: dict
+    objective: dict
+    threshold: float
+    best_loss: float
+    level: float
+    n_samples: int
+    n_iter: int
+    method: str
+    intervals: dict = field(default_factory=dict)
+    verdicts: dict = field(default_factory=dict)
+    objective_minimum: dict = field(default_factory=dict)
+
+    def report(self) -> str:
+        """A text report: per parameter the verdict, the interval and what would identify it."""
+        lines = [f"[[Profiles]]  ({100 * self.level:.0f} %, F-test on {self.n_samples} samples; at each value "
+                 f"the other parameters and the network re-trained from the fit, {self.n_iter} iterations)"]
+        for label, verdict in self.verdicts.items():
+            low, high = self.intervals[label]
+            span = f"[{_fmt(self.values[label][0])}, {_fmt(self.values[label][-1])}]"
+            if verdict == IDENTIFIED:
+                text = f"identified, {100 * self.level:.0f} % interval [{_fmt(low)}, {_fmt(high)}]"
+            elif verdict == STRUCTURAL:
+                text = (f"NOT IDENTIFIED: the data fit equally well over the whole profiled range {span} "
+                        "(the network can take over what this parameter does)")
+            else:
+                text = (f"NOT IDENTIFIED: bounded only on one side, [{_fmt(low)}, {_fmt(high)}] within the "
+                        f"profiled range {span}")
+            lines.append(f"    {label}: {_fmt(self.estimate[label])}  {text}; the {self.method} objective is "
+                         f"lowest at {_fmt(self.objective_minimum[label])}")
+        if any(v != IDENTIFIED for v in self.verdicts.values()):
+            lines.append("    (a parameter the data do not identify is the regulariser's choice, not a measurement: "
+                         "close_the_loop names what the science misses and refits it without the network; or "
+                         "fix a parameter known from elsewhere (theta_fixed), declare exact equations, or "
+                         "collect data that vary what the parameter does)")
+        return "\n".join(lines)
+
+    def __str__(self) -> str:
+        return self.report()
+
+    def plot(self, ax=None):
+        """Plot the profiles (see :func:`plot_profile`)."""
+        return plot_profile(self, ax=ax)
+
+
+def _fmt(value) -> str:
+    return f"{float(value):.5g}"
+
+
+def profile_theta(estimator, X, y, params=None, *, grid=None, span=0.5, n_points=9, level=0.95,
+                  max_iter=None, lr=None, n_jobs=None, verbose=False) -> ThetaProfile:
+    """Profile each parameter of a fitted hybrid model: an interval and a verdict per parameter.
+
+    Parameters
+    ----------
+    estimator : HybridRegressor
+        A fitted estimator (any stackable method: erm, p-reg, sam, asam, fsam).
+    X, y : array-like
+        The data it was fitted on (or other data of the same layout).
+    params : str or list of str, optional
+        Parameters to profile (every entry of a vector parameter); default all free ones.
+    grid : dict, optional
+        ``label -> values`` to profile at instead of the default grid (values
+        strictly inside the parameter's bounds).
+    span : float, default=0.5
+        The default grid spans the estimate +/- ``span`` times its magnitude
+        (at most to 99 % of the way to a bound).
+    n_points : int, default=9
+        Points of the default grid.
+    level : float, default=0.95
+        Confidence level of the intervals.
+    max_iter : int, optional
+        Iterations of every member from the fit (default: as many as the fit
+        took, ``n_iter_``: each point of the profile gets the training the
+        estimate got; the network can take over more of a parameter the
+        longer it trains, so a shorter profile reads narrower).
+    lr : float, optional
+        Learning rate of the members (default: the fit's ``lr`` and ``lr_theta``).
+    n_jobs : int, optional
+        Train the members in this many worker processes (joblib; under
+        ``joblib.parallel_backend("dask")`` on a Dask cluster).
+    verbose : bool, default=False
+        A progress bar over the members' iterations.
+
+    Returns
+    -------
+    ThetaProfile
+    """
+    level = check_level(level)
+    n_jobs = check_n_jobs(n_jobs)
+    if not (isinstance(span, (int, float)) and not isinstance(span, bool) and span > 0 and np.isfinite(span)):
+        raise ValueError(f"span must be a positive number, got {span!r}.")
+    if not (isinstance(n_points, (int, np.integer)) and not isinstance(n_points, bool) and n_points >= 3):
+        raise ValueError(f"n_points must be an integer of at least 3, got {n_points!r}.")
+    problem = fitted_problem(estimator, X, y)
+    science = problem.model.science
+    entries = parameter_entries(science, params)
+    config = member_config(problem.fit, estimator.n_iter_ if max_iter is None else max_iter, lr, verbose)
+    grids = _grids(science, entries, grid, span, n_points)
+    n_free = sum(int(np.prod(science.shapes[n])) for n in science.names if science.raw[n].requires_grad)
+    dof = problem.n_samples - n_free
+    if dof < 1:
+        raise ValueError(f"{problem.n_samples} samples for {n_free} free parameters: no degrees of freedom left.")
+
+    models, held = [copy.deepcopy(problem.model)], {}  # the first member retrains everything
+    owner = [None]
+    for label, (name, k) in ((lab, (n, k)) for n, k, lab in entries):
+        for value in grids[label]:
+            member = copy.deepcopy(problem.model)
+            set_entry(member.science, name, k, value)
+            models.append(member)
+            owner.append((label, name, k))
+    for i, who in enumerate(owner):
+        if who is not None:
+            held.setdefault(who[1], np.zeros((len(models), *science.shapes[who[1]]), dtype=bool))
+            held[who[1]].reshape(len(models), -1)[i, who[2]] = True
+    n_threads = estimator.n_threads if n_jobs == 1 else 1
+    with torch_threads(n_threads):
+        history, models = train_members(models, problem.method, problem.inputs, problem.y, config,
+                                        [0] * len(models), held=held, n_jobs=n_jobs, n_threads=n_threads)
+        scores = evaluate_members(models, problem.method, problem.inputs, problem.y, config)
+    loss = np.where(np.isfinite(scores["loss"]) & (history["diverged_at"] < 0), scores["loss"], np.inf)
+    objective = np.where(np.isfinite(loss), scores["objective"], np.inf)
+    best = float(np.min(loss))
+    threshold = best * (1 + stats.f.ppf(level, 1, dof) / dof)
+    out = ThetaProfile(estimate={}, values={}, loss={}, objective={}, threshold=threshold, best_loss=best,
+                       level=level, n_samples=problem.n_samples, n_iter=config.max_iter, method=problem.method.name)
+    for name, k, label in entries:
+        rows = [i for i, who in enumerate(owner) if who is not None and who[0] == label]
+        free_value = entry_values(models[0].science, name)[k]
+        values = np.array([entry_values(models[i].science, name)[k] for i in rows] + [free_value])
+        order = np.argsort(values)
+        out.estimate[label] = float(entry_values(science, name)[k])
+        out.values[label] = values[order]
+        out.loss[label] = np.append(loss[rows], loss[0])[order]
+        out.objective[label] = np.append(objective[rows], objective[0])[order]
+        out.intervals[label], out.verdicts[label] = _interval(out.values[label], out.loss[label], threshold)
+        out.objective_minimum[label] = float(out.values[label][np.argmin(out.objective[label])])
+    return out
+
+
+def _grids(science, entries, grid, span, n_points):
+    grids = {}
+    grid = dict(grid or {})
+    unknown = sorted(set(grid) - {label for _, _, label in entries} - {name for name, _, _ in entries})
+    if unknown:
+        raise ValueError(f"grid names {unknown}, which are not profiled; profiled: {[e[2] for e in entries]}.")
+    for name, k, label in entries:
+        low, high = bounds_of(science, name, k)
+        centre = float(entry_values(science, name)[k])
+        given = grid.get(label, grid.get(name) if science.shapes[name] == () else None)
+        if given is not None:
+            values = np.asarray(given, dtype=float).ravel()
+            if values.size < 2 or not np.all(np.isfinite(values)):
+                raise ValueError(f"grid[{label!r}] must hold at least two finite values.")
+            outside = values[(values <= low) | (values >= high)]
+            if outside.size:
+                raise ValueError(f"grid[{label!r}] holds {outside.tolist()}, outside the bounds ({low}, {high}) "
+                                 f"of {name!r}; profile values strictly inside them.")
+        else:
+            half = span * max(abs(centre), 1e-3)
+            lo = max(centre - half, centre - 0.99 * (centre - low)) if np.isfinite(low) else centre - half
+            hi = min(centre + half, centre + 0.99 * (high - centre)) if np.isfinite(high) else centre + half
+            values = np.concatenate([np.linspace(lo, centre, n_points // 2 + 1)[:-1],
+                                     np.linspace(centre, hi, n_points - n_points // 2)[1:]])
+        grids[label] = values
+    return grids
+
+
+def _interval(values, loss, threshold):
+    """The interval where the profile ``loss`` over sorted ``values`` stays under ``threshold``
+    around its minimum (linear interpolation at the crossings), and the verdict."""
+    m = int(np.argmin(loss))
+    sides = []
+    for step, end in ((-1, -1), (1, len(values))):
+        i = m
+        while i + step != end and loss[i + step] <= threshold:
+            i += step
+        if i + step == end:
+            sides.append(None)  # under the threshold to the end of the range
+            continue
+        a, b = loss[i], loss[i + step]
+        t = 1.0 if not np.isfinite(b) else (threshold - a) / (b - a)
+        sides.append(values[i] + t * (values[i + step] - values[i]))
+    low = -np.inf if sides[0] is None else float(sides[0])
+    high = np.inf if sides[1] is None else float(sides[1])
+    open_sides = (sides[0] is None) + (sides[1] is None)
+    verdict = IDENTIFIED if open_sides == 0 else STRUCTURAL if open_sides == 2 else PRACTICAL
+    return (low, high), verdict
+
+
+def plot_profile(profile: ThetaProfile, ax=None):
+    """Plot each profile: the data loss and the method's objective against the parameter.
+
+    The threshold of the interval is drawn as a horizontal line, the fit's
+    estimate and the interval as vertical ones.  Needs matplotlib (the
+    ``plot`` extra).
+
+    Parameters
+    ----------
+    profile : ThetaProfile
+    ax : matplotlib Axes or array of Axes, optional
+        One axes per profiled entry (new ones by default).
+
+    Returns
+    -------
+    array of matplotlib Axes
+    """
+    try:
+        import matplotlib.pyplot as plt
+    except ImportError as error:  # an optional dependency
+        raise ImportError("plot_profile needs matplotlib: pip install 'sklearn_hybrid[plot]'.") from error
+    labels = list(profile.verdicts)
+    if ax is None:
+        _, ax = plt.subplots(1, len(labels), figsize=(4 * len(labels), 3.2), squeeze=False)
+    axes = np.ravel(ax)
+    if len(axes) != len(labels):
+        raise ValueError(f"ax holds {len(axes)} axes for {len(labels)} profiles.")
+    for a, label in zip(axes, labels):
+        values = profile.values[label]
+        a.plot(values, profile.loss[label], "o-", label="data loss")
+        a.plot(values, profile.objective[label], "s--", alpha=0.7, label=f"{profile.method} objective")
+        a.axhline(profile.threshold, color="grey", lw=1, label=f"{100 * profile.level:.0f} % threshold")
+        a.axvline(profile.estimate[label], color="k", lw=1, ls=":", label="fit")
+        for side in profile.intervals[label]:
+            if np.isfinite(side):
+                a.axvline(side, color="C2", lw=1)
+        a.set_xlabel(label)
+        a.set_title(profile.verdicts[label], fontsize=9)
+    axes[0].set_ylabel("mean squared error")
+    axes[0].legend(fontsize=7)
+    return axes

@@ -1,0 +1,141 @@
+"""Intervals of a model without a network, such as the closed loop's ``science_only``.
+
+Least squares with the errors of one sample (a trajectory) correlated, as
+noise in a trajectory's initial state makes them: the cluster-robust
+("sandwich") covariance with one cluster per sample,
+
+    A = sum_i J_i^T J_i,    B = sum_i (J_i^T r_i)(J_i^T r_i)^T,
+    cov(theta) = n / (n - p) * A^-1 B A^-1,
+
+with ``J_i`` the derivative of sample i's predictions by theta and ``r_i``
+its residuals, and Student's t with ``n - p`` degrees of freedom.  The
+Gauss-Newton standard error ``s^2 A^-1`` (lmfit, ``curve_fit``) assumes every
+output value independent and is too narrow here.
+"""
+
+from __future__ import annotations
+
+import copy
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+from scipy import stats
+
+from .._validation import torch_threads
+from ._members import check_level
+
+__all__ = ["science_intervals", "ScienceIntervals"]
+
+
+@dataclass
+class ScienceIntervals:
+    """Estimates, cluster-robust standard errors, intervals and verdicts of a network-free model.
+
+    A parameter whose direction the data do not inform (``A`` singular there,
+    or a standard error beyond its estimate's magnitude) is ``"not identified"``.
+    """
+
+    estimate: dict
+    std: dict
+    intervals: dict
+    verdicts: dict
+    level: float
+    n_samples: int
+
+    def report(self) -> str:
+        lines = [f"[[Parameters of the network-free model]]  ({100 * self.level:.0f} % intervals, cluster-robust "
+                 f"over {self.n_samples} samples)"]
+        for label, verdict in self.verdicts.items():
+            low, high = self.intervals[label]
+            if verdict == "identified":
+                lines.append(f"    {label}: {self.estimate[label]:.6g} +/- {self.std[label]:.3g}, "
+                             f"{100 * self.level:.0f} % interval [{low:.6g}, {high:.6g}]")
+            else:
+                lines.append(f"    {label}: {self.estimate[label]:.6g}  NOT IDENTIFIED by these data")
+        return "\n".join(lines)
+
+    def __str__(self) -> str:
+        return self.report()
+
+
+def science_intervals(estimator, X, y, level=0.95) -> ScienceIntervals:
+    """Intervals of the parameters of a fitted model without a network.
+
+    Parameters
+    ----------
+    estimator : HybridRegressor
+        Fitted with ``residual=ZeroResidual()`` (no network), such as
+        ``close_the_loop(...).science_only``.  Its fixed parameters are
+        intervals too: the closed loop fixes them at the least-squares values.
+    X, y : array-like
+        The data the parameters were fitted on.
+    level : float, default=0.95
+
+    Returns
+    -------
+    ScienceIntervals
+    """
+    from sklearn.utils.validation import check_is_fitted
+
+    from .._validation import check_target_layout
+
+    level = check_level(level)
+    check_is_fitted(estimator)
+    from ..diagnosis import ZeroResidual
+
+    model = estimator.model_
+    if not isinstance(estimator._fitted_params["residual"], ZeroResidual):
+        raise ValueError("science_intervals is for models without a network (close_the_loop's science_only); "
+                         "for a hybrid fit use profile_theta, which re-trains the network.")
+    X = estimator._fitted_X(X)
+    y = check_target_layout(y, np.empty((len(X), *estimator.y_shape_))).reshape(len(X), -1)
+    model = copy.deepcopy(model).to(torch.float64).eval()
+    science = model.science
+    with torch_threads(estimator.n_threads), torch.no_grad():
+        inputs = estimator._inputs(X, torch.float64, estimator.device_)
+
+        def predict():
+            return model(*inputs)[0].reshape(len(X), -1).cpu().numpy()
+
+        base = predict()
+        columns, labels = [], []
+        for name in science.names:
+            value = science.as_dict()[name]
+            flat = np.ravel(np.asarray(value, dtype=float))
+            for k in range(flat.size):
+                h = 1e-6 * max(abs(flat[k]), 1.0)
+                preds = []
+                for step in (h, -h):
+                    moved = flat.copy()
+                    moved[k] += step
+                    raw = science.transforms[name].inverse(moved.reshape(science.shapes[name]))
+                    saved = science.raw[name].detach().clone()
+                    science.raw[name].copy_(torch.as_tensor(np.asarray(raw), dtype=torch.float64))
+                    preds.append(predict())
+                    science.raw[name].copy_(saved)
+                columns.append((preds[0] - preds[1]) / (2 * h))
+                labels.append((name, k, name if science.shapes[name] == () else f"{name}[{k}]"))
+    J = np.stack(columns, axis=-1)  # (n, m, p)
+    r = y - base
+    n, p = len(X), J.shape[-1]
+    A = np.einsum("nmp,nmq->pq", J, J)
+    score = np.einsum("nmp,nm->np", J, r)
+    B = score.T @ score
+    dof = max(n - p, 1)
+    t = stats.t.ppf(0.5 + level / 2, dof)
+    try:
+        cond_ok = np.linalg.cond(A) < 1e12
+        A_inv = np.linalg.inv(A)
+    except np.linalg.LinAlgError:
+        cond_ok, A_inv = False, np.full_like(A, np.nan)
+    cov = n / dof * A_inv @ B @ A_inv
+    out = ScienceIntervals(estimate={}, std={}, intervals={}, verdicts={}, level=level, n_samples=n)
+    for j, (name, k, label) in enumerate(labels):
+        value = float(np.ravel(np.asarray(science.as_dict()[name], dtype=float))[k])
+        std = float(np.sqrt(cov[j, j])) if cov[j, j] >= 0 else float("nan")
+        identified = cond_ok and np.isfinite(std) and std < max(abs(value), 1e-12)
+        out.estimate[label], out.std[label] = value, std
+        out.intervals[label] = (value - t * std, value + t * std) if identified else (-np.inf, np.inf)
+        out.verdicts[label] = "identified" if identified else "not identified"
+    return out
