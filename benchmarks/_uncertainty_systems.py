@@ -1,0 +1,132 @@
+"""Systems of the uncertainty benchmark (bench_uncertainty.py): data, science model, true theta.
+
+Kept out of the tests.  Two come from the paper (pendulum without its damping,
+Duffing without its cubic force); four were written for this benchmark, each
+from another field and with another kind of missing effect; one has a
+parameter the network can absorb exactly (a constant heat input, which the
+network's output bias reproduces), one a complete science model.  Every
+repeat draws new initial states and noise; noise is added to X (the measured
+initial states) and to y, as in the paper's generators.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+import torch
+from scipy.integrate import solve_ivp
+
+from sklearn_hybrid.datasets import make_duffing, make_pendulum
+from sklearn_hybrid.models import duffing_f, pendulum_f
+
+
+@dataclass
+class System:
+    name: str
+    field: str
+    missing: str
+    science: Callable
+    theta_true: dict
+    theta_init: dict
+    make: Callable  # repeat -> (X, y, dt)
+    state_names: list
+    units: dict
+    not_identifiable: tuple = ()  # parameters a network can absorb exactly (hybrid fits)
+    complete: bool = False
+    extra: dict = field(default_factory=dict)
+
+
+def _simulate(rhs, x0, dt, n_steps):
+    t = dt * np.arange(n_steps + 1)
+    out = [solve_ivp(lambda _, v: rhs(v), (0, t[-1]), x, t_eval=t, rtol=1e-10, atol=1e-12).y.T for x in x0]
+    return np.stack(out)  # (n, n_steps + 1, d)
+
+
+def _noisy(states, noise, rng):
+    X = states[:, 0] + noise * rng.standard_normal(states[:, 0].shape)
+    y = states[:, 1:] + noise * rng.standard_normal(states[:, 1:].shape)
+    return X, y
+
+
+N_TRAIN = 20
+
+
+def _pendulum(repeat):
+    d = make_pendulum(n_train=N_TRAIN, n_val=1, n_test=1, random_state=1000 + repeat)
+    return d.X_train, d.y_train, d.dt
+
+
+def _duffing(repeat):
+    d = make_duffing(n_train=N_TRAIN, n_val=1, n_test=1, random_state=2000 + repeat)
+    return d.X_train, d.y_train, d.dt
+
+
+def logistic_f(v, r=0.65, K=10.5):
+    return r * v * (1 - v / K)
+
+
+def _grazed_logistic(repeat):  # population: logistic growth, grazed at a saturating rate
+    rng = np.random.default_rng(3000 + repeat)
+    x0 = rng.uniform(0.5, 9.0, (N_TRAIN, 1))
+    states = _simulate(lambda v: 0.9 * v * (1 - v / 8.0) - 0.6 * v / (1 + v), x0, 0.5, 12)
+    X, y = _noisy(states, 0.03, rng)
+    return X, y, 0.5
+
+
+def reaction_f(v, k1=0.55, k2=0.4):
+    a, b = v[:, 0], v[:, 1]
+    return torch.stack([-k1 * a, k1 * a - k2 * b], dim=-1)
+
+
+def _autocatalysis(repeat):  # chemistry: A -> B -> out, the autocatalytic A + B -> 2 B missing
+    rng = np.random.default_rng(4000 + repeat)
+    x0 = rng.uniform(0.0, 2.0, (N_TRAIN, 2))
+
+    def rhs(v):
+        a, b = v
+        return [-0.8 * a - 0.3 * a * b, 0.8 * a + 0.3 * a * b - 0.3 * b]
+
+    X, y = _noisy(_simulate(rhs, x0, 0.4, 12), 0.01, rng)
+    return X, y, 0.4
+
+
+def heated_body_f(v, k=0.35, q=0.8):
+    return -k * (v - 1.0) + q
+
+
+def _heated_body(repeat):  # heat: Newton cooling plus a constant heater; a quadratic loss missing
+    rng = np.random.default_rng(5000 + repeat)
+    x0 = rng.uniform(0.5, 3.0, (N_TRAIN, 1))
+    X, y = _noisy(_simulate(lambda v: -0.5 * (v - 1.0) + 0.6 - 0.08 * v ** 2, x0, 0.5, 10), 0.01, rng)
+    return X, y, 0.5
+
+
+def spring_f(v, k=1.5, c=0.2):
+    return torch.stack([v[:, 1], -k * v[:, 0] - c * v[:, 1]], dim=-1)
+
+
+def _damped_spring(repeat):  # mechanics: the science is complete
+    rng = np.random.default_rng(6000 + repeat)
+    x0 = rng.uniform(-1.0, 1.0, (N_TRAIN, 2))
+    X, y = _noisy(_simulate(lambda v: [v[1], -2.0 * v[0] - 0.3 * v[1]], x0, 0.2, 15), 0.01, rng)
+    return X, y, 0.2
+
+
+SYSTEMS = {s.name: s for s in [
+    System("pendulum", "mechanics (paper)", "damping -0.5 v_dot", pendulum_f, {"omega": 2 / 3}, {"omega": 0.5},
+           _pendulum, ["v", "v_dot"], {"v": "rad", "v_dot": "rad/s"}),
+    System("duffing", "mechanics (paper)", "cubic force +x^3", duffing_f, {"alpha": 1.0}, {"alpha": 0.7},
+           _duffing, ["x", "x_dot"], {"x": "m", "x_dot": "m/s"}),
+    System("grazed_logistic", "population", "grazing -0.6 x/(1 + x)", logistic_f, {"r": 0.9, "K": 8.0},
+           {"r": 0.65, "K": 10.5}, _grazed_logistic, ["x"], {"x": "1e3 animals"}),
+    System("autocatalysis", "chemistry", "autocatalysis 0.3 A B (both balances)", reaction_f,
+           {"k1": 0.8, "k2": 0.3}, {"k1": 0.55, "k2": 0.4}, _autocatalysis, ["A", "B"],
+           {"A": "mol/l", "B": "mol/l"}),
+    System("heated_body", "heat", "loss -0.08 T^2; the heater q is a constant the network absorbs",
+           heated_body_f, {"k": 0.5, "q": 0.6}, {"k": 0.35, "q": 0.8}, _heated_body, ["T"], {"T": "100 K"},
+           not_identifiable=("q",)),
+    System("damped_spring", "mechanics", "nothing (complete science)", spring_f, {"k": 2.0, "c": 0.3},
+           {"k": 1.5, "c": 0.2}, _damped_spring, ["x", "x_dot"], {"x": "m", "x_dot": "m/s"}, complete=True),
+]}

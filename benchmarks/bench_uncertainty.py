@@ -1,0 +1,228 @@
+"""Is theta identified, and do the intervals hold the truth?  Coverage over repeated data sets.
+
+For every system of ``_uncertainty_systems.py`` and every repeat (new initial
+states and noise): hybrid fits with erm, fsam and p-reg, each profiled
+(``profile_theta``: verdict and interval), fsam also bootstrapped
+(``bootstrap_theta``), and the closed loop's network-free refit
+(``close_the_loop(...).science_only``, intervals by ``science_intervals``).
+Each repeat is cached as ``results/uncertainty_runs/<system>/<repeat>.json``
+as soon as it ends; a rerun resumes.  ``--render`` writes
+``results/uncertainty.md`` and ``.json``.
+
+Sizes are cut for a 2-core CPU (20 trajectories, a 32x32 network, at most 500
+iterations, 7-point profiles, 10 bootstrap members); the package's defaults
+are larger.
+
+Targets (issue "Is theta identified?"): where the verdict is "identified" the
+interval holds the truth in at least 90 % of repeats; an interval that misses
+while the verdict says identified in at most 5 % of all repeats; on the
+parameter a network absorbs exactly the verdict says so in at least 90 %;
+where identified, mean width at most 4 times the RMS error.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _common import PACKAGE_COMMIT, RESULTS, write_results  # noqa: E402
+from _uncertainty_systems import SYSTEMS  # noqa: E402
+
+RUNS = RESULTS / "uncertainty_runs"
+HYBRID_METHODS = ("erm", "fsam", "p-reg")
+SETTINGS = {"residual": {"hidden": (32, 32)}, "max_iter": 500, "n_threads": 1}
+PROFILE = {"n_points": 7, "span": 0.5}
+N_RESAMPLES = 10
+
+
+def _profile_record(prof):
+    return {label: {"values": prof.values[label].tolist(), "loss": prof.loss[label].tolist(),
+                    "objective": prof.objective[label].tolist(), "interval": list(prof.intervals[label]),
+                    "verdict": prof.verdicts[label], "objective_minimum": prof.objective_minimum[label]}
+            for label in prof.verdicts} | {"_threshold": prof.threshold}
+
+
+def run_repeat(system, repeat):
+    import torch
+
+    from sklearn_hybrid import HybridRegressor
+    from sklearn_hybrid.diagnosis import close_the_loop
+    from sklearn_hybrid.identifiability import bootstrap_theta, profile_theta, science_intervals
+
+    torch.set_num_threads(1)
+    X, y, dt = system.make(repeat)
+    out = {"system": system.name, "repeat": repeat, "package_commit": PACKAGE_COMMIT, "methods": {}}
+    for method in HYBRID_METHODS:
+        start = time.perf_counter()
+        est = HybridRegressor(science=system.science, dt=dt, method=method, theta_init=system.theta_init,
+                              random_state=repeat, **SETTINGS)
+        record = {}
+        try:
+            est.fit(X, y)
+        except Exception as error:  # noqa: BLE001 -- a failed fit is a result of the benchmark
+            out["methods"][method] = {"error": f"{type(error).__name__}: {error}"}
+            continue
+        record.update(theta=est.theta_, n_iter=est.n_iter_, fit_s=time.perf_counter() - start)
+        start = time.perf_counter()
+        record["profile"] = _profile_record(profile_theta(est, X, y, **PROFILE))
+        record["profile_s"] = time.perf_counter() - start
+        if method == "fsam":
+            start = time.perf_counter()
+            boot = bootstrap_theta(est, X, y, n_resamples=N_RESAMPLES, random_state=repeat)
+            record["bootstrap"] = {label: {"interval": list(boot.intervals[label]), "std": boot.std[label]}
+                                   for label in boot.intervals}
+            record["bootstrap_s"] = time.perf_counter() - start
+        out["methods"][method] = record
+    start = time.perf_counter()
+    loop = close_the_loop(HybridRegressor(science=system.science, dt=dt, method="erm",
+                                          theta_init=system.theta_init, random_state=repeat, max_iter=500,
+                                          n_threads=1),
+                          X, y, state_names=system.state_names, units=system.units, random_state=repeat)
+    loop_s = time.perf_counter() - start
+    ci = science_intervals(loop.science_only, X, y)
+    out["methods"]["loop"] = {
+        "theta": {k: loop.science_theta[k] for k in system.theta_true},
+        "added": [f"{t['term']} [{', '.join(map(str, t['output']))}]" for t in loop.added],
+        "intervals": {k: list(ci.intervals[k]) for k in system.theta_true},
+        "verdicts": {k: ci.verdicts[k] for k in system.theta_true},
+        "std": {k: ci.std[k] for k in system.theta_true}, "fit_s": loop_s}
+    return out
+
+
+def run(systems, repeats):
+    for name in systems:
+        folder = RUNS / name
+        folder.mkdir(parents=True, exist_ok=True)
+        for repeat in range(repeats):
+            path = folder / f"{repeat:02d}.json"
+            if path.exists():
+                continue
+            start = time.perf_counter()
+            result = run_repeat(SYSTEMS[name], repeat)
+            path.write_text(json.dumps(result, indent=1, default=float) + "\n")
+            verdicts = {m: (r.get("profile", {}) or {}) for m, r in result["methods"].items()}
+            print(f"{name} {repeat}: {time.perf_counter() - start:.0f} s; "
+                  + "; ".join(f"{m} " + ",".join(f"{k}={v['verdict'][:5]}" for k, v in p.items() if k[0] != "_")
+                              for m, p in verdicts.items() if p)
+                  + f"; loop {result['methods']['loop']['theta']}", flush=True)
+
+
+def _interval_of(record, method, label):
+    if method == "loop":
+        return record["intervals"][label], record["verdicts"][label] == "identified", record["theta"][label]
+    if method == "fsam bootstrap":
+        return record["bootstrap"][label]["interval"], None, record["theta"][label]
+    prof = record["profile"][label]
+    return prof["interval"], prof["verdict"] == "identified", record["theta"][label]
+
+
+def summarise(records, system):
+    rows = []
+    for method in (*HYBRID_METHODS, "fsam bootstrap", "loop"):
+        key = "fsam" if method == "fsam bootstrap" else method
+        got = [r["methods"][key] for r in records if "error" not in r["methods"].get(key, {"error": 1})]
+        if not got:
+            continue
+        for label, true in system.theta_true.items():
+            rows.append(_row(system, method, label, true, got))
+    return rows
+
+
+def _row(system, method, label, true, got):
+    intervals, identified, estimates = zip(*(_interval_of(r, method, label) for r in got))
+    low, high = np.array([i[0] for i in intervals]), np.array([i[1] for i in intervals])
+    est = np.array(estimates)
+    covered = (low <= true) & (true <= high)
+    rms = float(np.sqrt(np.mean((est - true) ** 2)))
+    seconds = [r.get("fit_s", 0) + r.get("profile_s", 0) + (r.get("bootstrap_s", 0) if method == "fsam bootstrap"
+                                                               else 0) for r in got]
+    row = {"system": system.name, "method": method, "param": label, "true": true, "n": len(got),
+           "mean_rel_error": float(np.mean(np.abs(est - true)) / abs(true)), "rms_error": rms,
+           "seconds": float(np.mean(seconds)), "coverage_all": float(covered.mean())}
+    if identified[0] is None:  # the bootstrap gives an interval, no verdict
+        finite = np.isfinite(high - low)
+        row.update(verdict_identified=None, coverage_identified=None, miss_identified=None,
+                   width_over_rms=float(np.mean((high - low)[finite]) / rms) if finite.any() and rms > 0 else None)
+        return row
+    ident = np.array(identified)
+    row.update(verdict_identified=int(ident.sum()), verdict_not=int((~ident).sum()),
+               coverage_identified=float(covered[ident].mean()) if ident.any() else None,
+               miss_identified=float((ident & ~covered).mean()),
+               width_over_rms=float(np.mean((high - low)[ident]) / rms) if ident.any() and rms > 0 else None,
+               expected_not_identified=label in system.not_identifiable and method != "loop")
+    return row
+
+
+def _fmt(v, pct=False):
+    if v is None:
+        return ""
+    return f"{100 * v:.0f}%" if pct else (f"{v:.3g}" if isinstance(v, float) else str(v))
+
+
+def render():
+    rows, counts = [], {}
+    for name, system in SYSTEMS.items():
+        files = sorted((RUNS / name).glob("*.json"))
+        records = [json.loads(p.read_text()) for p in files]
+        counts[name] = len(records)
+        if records:
+            rows += summarise(records, system)
+    head = ("| system | method | param | repeats | identified / not | coverage where identified | "
+            "misses called identified | coverage, all | mean width / RMS error | mean rel. error | s per fit |")
+    lines = ["# Is theta identified? Coverage of the intervals on repeated data sets", "",
+             "Each repeat: new initial states and noise; hybrid fits (erm, fsam, p-reg: a 32x32 MLP, at most 500 "
+             "iterations, early stopping) profiled with `profile_theta` (7 points, +/- 50 %, as many iterations "
+             "as the fit took); fsam also with `bootstrap_theta` (10 members); the closed loop "
+             "(`close_the_loop`, defaults) and `science_intervals` of its network-free refit. "
+             "Systems: `benchmarks/_uncertainty_systems.py` (kept out of the tests).", "",
+             "Repeats run: " + ", ".join(f"{k} {v}" for k, v in counts.items()), "", head,
+             "|" + "---|" * 11]
+    for r in rows:
+        flag = " (absorbable)" if r.get("expected_not_identified") else ""
+        lines.append(f"| {r['system']} | {r['method']} | {r['param']}{flag} | {r['n']} | "
+                     f"{_fmt(r.get('verdict_identified'))} / {_fmt(r.get('verdict_not'))} | "
+                     f"{_fmt(r['coverage_identified'], True)} | {_fmt(r['miss_identified'], True)} | "
+                     f"{_fmt(r['coverage_all'], True)} | {_fmt(r['width_over_rms'])} | "
+                     f"{_fmt(r['mean_rel_error'])} | {r['seconds']:.0f} |")
+    lines += ["", _targets(rows)]
+    write_results("uncertainty", {"rows": rows, "repeats": counts}, "\n".join(lines))
+
+
+def _targets(rows):
+    judged = [r for r in rows if r.get("verdict_identified") is not None]
+    n_all = sum(r["n"] for r in judged)
+    misses = sum(r["miss_identified"] * r["n"] for r in judged)
+    ident = [r for r in judged if r["verdict_identified"]]
+    n_ident = sum(r["verdict_identified"] for r in ident)
+    held = sum(r["coverage_identified"] * r["verdict_identified"] for r in ident)
+    absorbable = [r for r in judged if r.get("expected_not_identified")]
+    said = sum(r["verdict_not"] for r in absorbable)
+    n_abs = sum(r["n"] for r in absorbable)
+    wide = [f"{r['system']}/{r['method']}/{r['param']} {r['width_over_rms']:.1f}" for r in ident
+            if r["width_over_rms"] is not None and r["width_over_rms"] > 4]
+    return "\n".join([
+        "Targets, over every system, method and parameter with a verdict:",
+        f"- coverage where the verdict is identified: {held:.0f} of {n_ident} "
+        f"({100 * held / max(n_ident, 1):.0f} %; target at least 90 %)",
+        f"- an interval that misses while the verdict says identified: {misses:.0f} of {n_all} repeats "
+        f"({100 * misses / max(n_all, 1):.1f} %; target at most 5 %)",
+        f"- the parameter a network absorbs exactly called not identified: {said} of {n_abs} "
+        f"({100 * said / max(n_abs, 1):.0f} %; target at least 90 %)",
+        "- mean width over RMS error above 4 where identified: " + (", ".join(wide) or "none")])
+
+
+if __name__ == "__main__":
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--systems", nargs="*", default=list(SYSTEMS), choices=list(SYSTEMS))
+    parser.add_argument("--repeats", type=int, default=20)
+    parser.add_argument("--render", action="store_true", help="only write the results page")
+    args = parser.parse_args()
+    if not args.render:
+        run(args.systems, args.repeats)
+    render()
