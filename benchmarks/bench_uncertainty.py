@@ -79,6 +79,8 @@ def run_repeat(system, repeat):
                                    for label in boot.intervals}
             record["bootstrap_s"] = time.perf_counter() - start
         out["methods"][method] = record
+        print(f"  {system.name} {repeat} {method}: fit {record['fit_s']:.0f} s ({est.n_iter_} iterations), "
+              f"profile {record['profile_s']:.0f} s", flush=True)
     start = time.perf_counter()
     loop = close_the_loop(HybridRegressor(science=system.science, dt=dt, method="erm",
                                           theta_init=system.theta_init, random_state=repeat, max_iter=500,

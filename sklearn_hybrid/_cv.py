@@ -332,11 +332,14 @@ class HybridRegressorCV(RegressorMixin, BaseEstimator):
         lines = [f"members: {len(self.estimators_)} (rho x lam x {n_seeds} seed(s)), "
                  f"{best.max_iter} iterations each",
                  f"best: {self.best_params_}, score {self.cv_results_['score'][self.best_index_]:.4g}"]
-        how = (f"uncertainty: standard deviation across the {n_seeds} seed(s) of the best "
-               "configuration" + (" (one seed: no spread measured)" if n_seeds < 2 else ""))
+        how = (f"spread: standard deviation across the {n_seeds} seed(s) of the best configuration"
+               + (" (one seed: no spread measured)" if n_seeds < 2 else "")
+               + "; the spread between training runs, not an interval of theta: profile_theta says whether "
+               "the data identify it")
         from ._report import format_report
 
-        return format_report("Hybrid sweep", lines, self.theta_, self.theta_std_, how)
+        return format_report("Hybrid sweep", lines, self.theta_, self.theta_std_, how,
+                             std_label=f"spread across {n_seeds} seed(s)")
 
     def predict(self, X):
         """Predict with the best member.

@@ -236,21 +236,24 @@ class EstimatorExtras:
             raise ValueError("u contains NaN or infinite values.")
         return u, u.shape[1] - 1
 
-    def fit_report(self) -> str:
-        """A text report of the fit: settings, iterations, and theta with standard errors.
+    def fit_report(self, profile=None) -> str:
+        """A text report of the fit: settings, iterations, and theta with what is known of it.
 
-        The standard errors (``theta_std_``) come from the Gauss-Newton
-        approximation of the data loss in theta around the fit, with the
-        network held at its fitted weights: ``cov = s^2 (J^T W J)^-1`` with
-        ``J`` the derivative of every predicted value with respect to theta,
-        ``s^2`` the weighted residual variance over ``N - p`` degrees of
-        freedom.  The intervals are ``theta +/- 1.96 std`` (95 % for a normal
-        estimate).  They measure the effect of the noise in the data, not the
-        bias a misspecified science model leaves (the network may absorb part
-        of the physics) nor the spread between training runs, and assume
-        independent errors in ``y``: on the pendulum they held the true value in
-        40 % of the fits of the science model alone and in none of the hybrid
-        fits (``benchmarks/results/coverage.md``).  Read them as a lower bound.
+        Theta is the estimate at the end of training.  Whether the data
+        identify it is a separate question, answered by a profile
+        (:func:`~sklearn_hybrid.identifiability.profile_theta`): pass it as
+        ``profile`` and the report gives per parameter the verdict and, where
+        identified, the interval whose coverage ``benchmarks/bench_uncertainty.py``
+        measures.  The standard error shown beside theta (``theta_std_``) is
+        the Gauss-Newton one of lmfit and ``curve_fit`` with the network held
+        fixed: the part of the uncertainty that noise in ``y`` alone makes.
+        It misses what the network trades with theta, so no interval is built
+        from it.
+
+        Parameters
+        ----------
+        profile : ThetaProfile, optional
+            ``profile_theta(est, X, y)`` of this fit.
 
         Returns
         -------
@@ -289,6 +292,33 @@ class EstimatorExtras:
         if inferred:
             how = "no standard errors: theta is inferred per sample; predict_theta(X) gives it for each"
             return format_report("Hybrid fit", lines, self.theta_, None, how, extra=notes)
-        how = ("standard errors: Gauss-Newton, s^2 (J^T W J)^-1 with the network held fixed; "
-               "noise only, not the bias of a misspecified science model")
-        return format_report("Hybrid fit", lines, self.theta_, self.theta_std_, how, extra=notes)
+        verdicts, after = _profile_verdicts(profile, science.names)
+        how = ("noise-only standard error: Gauss-Newton with the network held fixed, not an interval of theta, "
+               "since the network can trade with theta")
+        if profile is None:
+            after = ["(whether the data identify theta, and an interval that holds the truth: "
+                     "est.fit_report(profile=profile_theta(est, X, y)), from sklearn_hybrid.identifiability)"]
+        return format_report("Hybrid fit", lines, self.theta_, self.theta_std_, how,
+                             std_label="noise-only standard error", extra=notes, verdicts=verdicts,
+                             notes_after=after)
+
+
+def _profile_verdicts(profile, names) -> tuple[dict | None, list[str]]:
+    """The verdict text of each parameter from a ``ThetaProfile`` (entries of a vector joined),
+    and the lines the report prints after the table."""
+    if profile is None:
+        return None, []
+    from .identifiability.profile import ADVICE, IDENTIFIED, ThetaProfile
+
+    if not isinstance(profile, ThetaProfile):
+        raise TypeError(f"profile must be the ThetaProfile of profile_theta(est, X, y), got {type(profile).__name__}.")
+    verdicts = {}
+    for name in names:
+        labels = [label for label in profile.verdicts if label == name or label.startswith(name + "[")]
+        if labels:
+            verdicts[name] = "; ".join((f"{label}: " if label != name else "") + profile.verdict_text(label)
+                                       for label in labels)
+    after = [f"(profiles: {profile.how()})"]
+    if any(v != IDENTIFIED for v in profile.verdicts.values()):
+        after.append(f"({ADVICE})")
+    return verdicts, after

@@ -129,9 +129,14 @@ def _fmt(value) -> str:
     return np.array2string(np.asarray(value, float), precision=5, separator=", ")
 
 
-def format_report(title: str, lines: list[str], theta: dict, std: dict | None, how: str,
-                  z: float = 1.96, extra: dict | None = None) -> str:
-    """Text of a fit report: a header, key facts, and theta with standard errors and intervals.
+def format_report(title: str, lines: list[str], theta: dict, std: dict | None, how: str, *,
+                  std_label: str = "standard error", extra: dict | None = None,
+                  verdicts: dict | None = None, notes_after: list[str] | None = None) -> str:
+    """Text of a fit report: a header, key facts, and theta with what is known of its uncertainty.
+
+    No interval is printed here from ``std``: an interval is printed only
+    where a verdict (``verdicts``, from a profile whose coverage the
+    benchmark measured) gives one.
 
     Parameters
     ----------
@@ -140,33 +145,28 @@ def format_report(title: str, lines: list[str], theta: dict, std: dict | None, h
     lines : list of str
         ``key: value`` facts about the fit.
     theta, std : dict
-        Values and standard errors by name (``std`` None: no uncertainty).
+        Values and a spread by name (``std`` None: none).
     how : str
-        How the uncertainty was computed (printed under the table).
-    z : float
-        Half-width of the interval in standard errors (1.96: 95 % for a normal estimate).
+        What the spread is (printed under the table).
+    std_label : str
+        Its name on each parameter's line.
     extra : dict, optional
-        name -> note printed after a parameter (e.g. ``"fixed"``, ``"bounds (0, 2)"``).
+        name -> note printed after a parameter (e.g. ``"(fixed)"``).
+    verdicts : dict, optional
+        name -> what a profile says of it (identified, with its interval, or not).
+    notes_after : list of str, optional
+        Lines printed after ``how``.
     """
     out = [f"[[{title}]]", *(f"    {line}" for line in lines), "[[Parameters]]"]
     for name, value in theta.items():
-        note = (extra or {}).get(name, "")
-        if std is None:
-            out.append(f"    {name}: {_fmt(value)}{'  ' + note if note else ''}")
-            continue
-        s = std[name]
-        lo = np.asarray(value) - z * np.asarray(s)
-        hi = np.asarray(value) + z * np.asarray(s)
-        rel = ""
-        if np.ndim(value) == 0 and value != 0 and s > 0:
-            rel = f" ({abs(s / value):.2%})"
-        out.append(f"    {name}: {_fmt(value)} +/- {_fmt(s)}{rel}, {100 * _coverage(z):.0f} % "
-                   f"interval [{_fmt(lo)}, {_fmt(hi)}]{'  ' + note if note else ''}")
+        parts = [f"{name}: {_fmt(value)}"]
+        if verdicts and name in verdicts:
+            parts.append(verdicts[name])
+        if std is not None:
+            parts.append(f"({std_label} {_fmt(std[name])})")
+        if (extra or {}).get(name):
+            parts.append(extra[name])
+        out.append("    " + "  ".join(parts))
     out.append(f"    ({how})")
+    out += [f"    {line}" for line in notes_after or ()]
     return "\n".join(out)
-
-
-def _coverage(z: float) -> float:
-    from math import erf, sqrt
-
-    return erf(z / sqrt(2))

@@ -6,6 +6,7 @@ flat, and then no regulariser makes the data pin theta_i down; the method only
 picks one value in the flat set.  Each grid value is a member of one stacked
 training, warm-started from the fit with theta_i held there; one more member
 retrains everything from the fit, so that every point had the same budget.
+A second, smaller round places members near each crossing of the threshold.
 
 The threshold is lmfit's F-test (``conf_interval``) on the profile of the mean
 squared error, counted in *samples* (trajectories), not output values: the
@@ -30,7 +31,13 @@ from .._validation import torch_threads
 from ._members import (bounds_of, check_level, check_n_jobs, entry_values, fitted_problem, member_config,
                        parameter_entries, set_entry)
 
-__all__ = ["profile_theta", "ThetaProfile", "plot_profile", "IDENTIFIED", "PRACTICAL", "STRUCTURAL"]
+__all__ = ["profile_theta", "ThetaProfile", "plot_profile", "IDENTIFIED", "PRACTICAL", "STRUCTURAL", "ADVICE"]
+
+#: What would identify a parameter the data leave open, said wherever a verdict is.
+ADVICE = ("a parameter the data do not identify is the regulariser's choice, not a measurement: close_the_loop "
+          "names what the science misses and refits it without the network (science_intervals gives its "
+          "intervals); or fix a parameter known from elsewhere (theta_fixed), declare exact equations, or "
+          "collect data that vary what the parameter does")
 
 IDENTIFIED = "identified"
 PRACTICAL = "practically non-identifiable"
@@ -76,29 +83,35 @@ class ThetaProfile:
     verdicts: dict = field(default_factory=dict)
     objective_minimum: dict = field(default_factory=dict)
 
+    def verdict_text(self, label: str) -> str:
+        """What the profile says of one entry, in words, with its interval where identified."""
+        low, high = self.intervals[label]
+        span = f"[{_fmt(self.values[label][0])}, {_fmt(self.values[label][-1])}]"
+        if self.verdicts[label] == IDENTIFIED:
+            outside = not low <= self.estimate[label] <= high
+            return (f"identified, {100 * self.level:.0f} % interval [{_fmt(low)}, {_fmt(high)}] (profile)"
+                    + (" -- the estimate lies outside it: more training moved theta, refit with a larger "
+                       "max_iter" if outside else ""))
+        if self.verdicts[label] == STRUCTURAL:
+            return (f"NOT IDENTIFIED: the data fit as well over the whole profiled range {span} "
+                    "(the network takes over what this parameter does)")
+        return (f"NOT IDENTIFIED: bounded on one side only, [{_fmt(low)}, {_fmt(high)}] within the "
+                f"profiled range {span}")
+
     def report(self) -> str:
         """A text report: per parameter the verdict, the interval and what would identify it."""
-        lines = [f"[[Profiles]]  ({100 * self.level:.0f} %, F-test on {self.n_samples} samples; at each value "
-                 f"the other parameters and the network re-trained from the fit, {self.n_iter} iterations)"]
-        for label, verdict in self.verdicts.items():
-            low, high = self.intervals[label]
-            span = f"[{_fmt(self.values[label][0])}, {_fmt(self.values[label][-1])}]"
-            if verdict == IDENTIFIED:
-                text = f"identified, {100 * self.level:.0f} % interval [{_fmt(low)}, {_fmt(high)}]"
-            elif verdict == STRUCTURAL:
-                text = (f"NOT IDENTIFIED: the data fit equally well over the whole profiled range {span} "
-                        "(the network can take over what this parameter does)")
-            else:
-                text = (f"NOT IDENTIFIED: bounded only on one side, [{_fmt(low)}, {_fmt(high)}] within the "
-                        f"profiled range {span}")
-            lines.append(f"    {label}: {_fmt(self.estimate[label])}  {text}; the {self.method} objective is "
-                         f"lowest at {_fmt(self.objective_minimum[label])}")
+        lines = [f"[[Profiles]]  ({self.how()})"]
+        for label in self.verdicts:
+            lines.append(f"    {label}: {_fmt(self.estimate[label])}  {self.verdict_text(label)}; the "
+                         f"{self.method} objective is lowest at {_fmt(self.objective_minimum[label])}")
         if any(v != IDENTIFIED for v in self.verdicts.values()):
-            lines.append("    (a parameter the data do not identify is the regulariser's choice, not a measurement: "
-                         "close_the_loop names what the science misses and refits it without the network; or "
-                         "fix a parameter known from elsewhere (theta_fixed), declare exact equations, or "
-                         "collect data that vary what the parameter does)")
+            lines.append(f"    ({ADVICE})")
         return "\n".join(lines)
+
+    def how(self) -> str:
+        """How the profiles were made, in one line."""
+        return (f"{100 * self.level:.0f} %, F-test on {self.n_samples} samples; at each value the other parameters "
+                f"and the network re-trained from the fit, {self.n_iter} iterations")
 
     def __str__(self) -> str:
         return self.report()
@@ -113,7 +126,7 @@ def _fmt(value) -> str:
 
 
 def profile_theta(estimator, X, y, params=None, *, grid=None, span=0.5, n_points=9, level=0.95,
-                  max_iter=None, lr=None, n_jobs=None, verbose=False) -> ThetaProfile:
+                  max_iter=None, lr=None, refine=True, n_jobs=None, verbose=False) -> ThetaProfile:
     """Profile each parameter of a fitted hybrid model: an interval and a verdict per parameter.
 
     Parameters
@@ -141,6 +154,11 @@ def profile_theta(estimator, X, y, params=None, *, grid=None, span=0.5, n_points
         longer it trains, so a shorter profile reads narrower).
     lr : float, optional
         Learning rate of the members (default: the fit's ``lr`` and ``lr_theta``).
+    refine : bool, default=True
+        Train a second round of members near each crossing of the threshold
+        (three per side, placed by a parabola through the first round), so
+        that an interval narrower than the grid's step is not interpolated
+        across it.
     n_jobs : int, optional
         Train the members in this many worker processes (joblib; under
         ``joblib.parallel_backend("dask")`` on a Dask cluster).
@@ -167,40 +185,92 @@ def profile_theta(estimator, X, y, params=None, *, grid=None, span=0.5, n_points
     if dof < 1:
         raise ValueError(f"{problem.n_samples} samples for {n_free} free parameters: no degrees of freedom left.")
 
-    models, held = [copy.deepcopy(problem.model)], {}  # the first member retrains everything
-    owner = [None]
-    for label, (name, k) in ((lab, (n, k)) for n, k, lab in entries):
-        for value in grids[label]:
-            member = copy.deepcopy(problem.model)
-            set_entry(member.science, name, k, value)
-            models.append(member)
-            owner.append((label, name, k))
-    for i, who in enumerate(owner):
-        if who is not None:
-            held.setdefault(who[1], np.zeros((len(models), *science.shapes[who[1]]), dtype=bool))
-            held[who[1]].reshape(len(models), -1)[i, who[2]] = True
     n_threads = estimator.n_threads if n_jobs == 1 else 1
+    points = [(label, name, k, v) for name, k, label in entries for v in grids[label]]
+    found, free = _train_points(problem, points, config, n_jobs, n_threads, with_free=True)
+    for name, k, label in entries:  # the free member is a point of every profile, at its own theta
+        found[label].append((free["theta"][name][k], free["loss"], free["objective"]))
+    threshold_of = lambda best: best * (1 + stats.f.ppf(level, 1, dof) / dof)  # noqa: E731
+    if refine:
+        best = min(p[1] for rows in found.values() for p in rows)
+        extra = [(label, name, k, v) for name, k, label in entries
+                 for v in _refinement(found[label], threshold_of(best))]
+        if extra:
+            for label, rows in _train_points(problem, extra, config, n_jobs, n_threads)[0].items():
+                found[label] += rows
+    best = float(min(p[1] for rows in found.values() for p in rows))
+    out = ThetaProfile(estimate={}, values={}, loss={}, objective={}, threshold=threshold_of(best), best_loss=best,
+                       level=level, n_samples=problem.n_samples, n_iter=config.max_iter, method=problem.method.name)
+    for name, k, label in entries:
+        values, loss, objective = (np.array(c) for c in zip(*sorted(found[label])))
+        out.estimate[label] = float(entry_values(science, name)[k])
+        out.values[label], out.loss[label], out.objective[label] = values, loss, objective
+        out.intervals[label], out.verdicts[label] = _interval(values, loss, out.threshold)
+        out.objective_minimum[label] = float(values[np.argmin(objective)])
+    return out
+
+
+def _train_points(problem, points, config, n_jobs, n_threads, with_free=False):
+    """Train one member per ``(label, name, k, value)`` point, entry ``k`` of ``name`` held at ``value``,
+    warm-started from the fit (and, ``with_free``, one member that holds nothing).
+
+    Returns ``{label: [(value, loss, objective), ...]}`` and the free member's ``theta`` (name ->
+    flat values), ``loss`` and ``objective`` (None without it).  A member whose training diverged
+    has an infinite loss.
+    """
+    science = problem.model.science
+    models = [copy.deepcopy(problem.model)] if with_free else []
+    for _, name, k, value in points:
+        member = copy.deepcopy(problem.model)
+        set_entry(member.science, name, k, value)
+        models.append(member)
+    offset = len(models) - len(points)
+    held = {}
+    for i, (_, name, k, _) in enumerate(points):
+        held.setdefault(name, np.zeros((len(models), *science.shapes[name]), dtype=bool))
+        held[name].reshape(len(models), -1)[offset + i, k] = True
     with torch_threads(n_threads):
         history, models = train_members(models, problem.method, problem.inputs, problem.y, config,
                                         [0] * len(models), held=held, n_jobs=n_jobs, n_threads=n_threads)
         scores = evaluate_members(models, problem.method, problem.inputs, problem.y, config)
     loss = np.where(np.isfinite(scores["loss"]) & (history["diverged_at"] < 0), scores["loss"], np.inf)
     objective = np.where(np.isfinite(loss), scores["objective"], np.inf)
-    best = float(np.min(loss))
-    threshold = best * (1 + stats.f.ppf(level, 1, dof) / dof)
-    out = ThetaProfile(estimate={}, values={}, loss={}, objective={}, threshold=threshold, best_loss=best,
-                       level=level, n_samples=problem.n_samples, n_iter=config.max_iter, method=problem.method.name)
-    for name, k, label in entries:
-        rows = [i for i, who in enumerate(owner) if who is not None and who[0] == label]
-        free_value = entry_values(models[0].science, name)[k]
-        values = np.array([entry_values(models[i].science, name)[k] for i in rows] + [free_value])
-        order = np.argsort(values)
-        out.estimate[label] = float(entry_values(science, name)[k])
-        out.values[label] = values[order]
-        out.loss[label] = np.append(loss[rows], loss[0])[order]
-        out.objective[label] = np.append(objective[rows], objective[0])[order]
-        out.intervals[label], out.verdicts[label] = _interval(out.values[label], out.loss[label], threshold)
-        out.objective_minimum[label] = float(out.values[label][np.argmin(out.objective[label])])
+    found = {}
+    for i, (label, name, k, value) in enumerate(points):
+        found.setdefault(label, []).append((float(value), float(loss[offset + i]), float(objective[offset + i])))
+    free = None
+    if with_free:
+        free = {"theta": {n: entry_values(models[0].science, n) for n in science.names},
+                "loss": float(loss[0]), "objective": float(objective[0])}
+    return found, free
+
+
+def _refinement(rows, threshold):
+    """Values that pin the profile's crossings of ``threshold`` between two coarse points.
+
+    Near its minimum a profile is a parabola; through the minimum and the first
+    point beyond the threshold on a side it puts the crossing at ``c``; the
+    points ``c`` and ``c +/- 10 %`` of its distance from the minimum (inside
+    the bracket) are trained next, so that the crossing is interpolated
+    between near points rather than across a coarse grid step.
+    """
+    values, loss, _ = (np.array(c) for c in zip(*sorted(rows)))
+    m = int(np.argmin(loss))
+    out = []
+    for step in (-1, 1):
+        i = m
+        while 0 <= i + step < len(values) and loss[i + step] <= threshold:
+            i += step
+        if not 0 <= i + step < len(values) or not np.isfinite(loss[i + step]):
+            continue  # open on this side, or a diverged member beyond: nothing to pin
+        inside, outside = values[i], values[i + step]
+        curvature = (loss[i + step] - loss[m]) / (outside - values[m]) ** 2
+        if curvature <= 0:
+            continue
+        c = values[m] + step * np.sqrt(max(threshold - loss[m], 0.0) / curvature)
+        lo, hi = sorted((inside, outside))
+        delta = 0.1 * abs(c - values[m])
+        out += [v for v in (c - delta, c, c + delta) if lo < v < hi]
     return out
 
 

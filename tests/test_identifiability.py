@@ -1,0 +1,195 @@
+"""Profiles, the bootstrap and network-free intervals: verdicts that can be wrong, and are not."""
+
+import distributed
+import joblib
+import matplotlib
+import numpy as np
+import pytest
+import torch
+from sklearn.base import clone
+from sklearn.exceptions import NotFittedError
+
+from sklearn_hybrid import HybridRegressor
+from sklearn_hybrid.diagnosis import ZeroResidual
+from sklearn_hybrid.identifiability import (IDENTIFIED, STRUCTURAL, ThetaProfile, bootstrap_theta, plot_profile,
+                                            profile_theta, science_intervals)
+
+matplotlib.use("Agg")
+
+
+def line_f(x, a=1.5, b=0.2):
+    return a * x[:, 0] + b
+
+
+class Offset(torch.nn.Module):
+    """A network that can only add a learnable constant: it absorbs ``b`` exactly, never ``a``."""
+
+    def __init__(self):
+        super().__init__()
+        self.c = torch.nn.Parameter(torch.zeros(()))
+
+    def forward(self, x):
+        return self.c.expand(len(x))
+
+
+@pytest.fixture(scope="module")
+def line_data():
+    rng = np.random.default_rng(0)
+    X = rng.uniform(-1, 1, (40, 1))
+    y = 2.0 * X[:, 0] + 0.5 + 0.1 * rng.normal(size=40)
+    return X, y
+
+
+@pytest.fixture(scope="module")
+def offset_fit(line_data):
+    X, y = line_data
+    est = HybridRegressor(science=line_f, structure="additive", residual=lambda i, o: Offset(), method="erm",
+                          lr=5e-2, max_iter=300, tol=None, dtype="float64", random_state=0)
+    return est.fit(X, y)
+
+
+@pytest.fixture(scope="module")
+def offset_profile(offset_fit, line_data):
+    return profile_theta(offset_fit, *line_data, n_points=7, max_iter=150)
+
+
+def test_a_parameter_the_network_absorbs_exactly_is_not_identified(offset_profile, offset_fit):
+    """b trades exactly with the network's constant: flat. a is pinned, and its interval is the
+    F-test interval of least squares (the network's constant stands in for b)."""
+    prof = offset_profile
+    assert prof.verdicts["b"] == STRUCTURAL
+    assert prof.intervals["b"] == (-np.inf, np.inf)
+    assert np.ptp(prof.loss["b"]) < 1e-3 * prof.best_loss
+    assert prof.verdicts["a"] == IDENTIFIED
+    low, high = prof.intervals["a"]
+    assert low < offset_fit.theta_["a"] < high
+    assert "NOT IDENTIFIED" in prof.verdict_text("b") and "close_the_loop" in prof.report()
+
+
+def test_the_identified_interval_is_the_least_squares_profile_interval(offset_profile, line_data):
+    from scipy import stats
+
+    X, y = line_data
+    n = len(y)
+    A = np.column_stack([X[:, 0], np.ones(n)])
+    coef, rss, *_ = np.linalg.lstsq(A, y, rcond=None)
+    # J(a) = min_b mean (y - a x - b)^2 is a parabola: J_min + (a - a_hat)^2 * Sxx / n
+    sxx = np.sum((X[:, 0] - X[:, 0].mean()) ** 2)
+    dof = n - 2  # a and b are the free parameters the F-test counts
+    threshold = rss[0] / n * (1 + stats.f.ppf(0.95, 1, dof) / dof)
+    half = np.sqrt((threshold - rss[0] / n) * n / sxx)
+    low, high = offset_profile.intervals["a"]
+    # the grid is linear between points: a parabola's crossing is found to within its curvature
+    assert low == pytest.approx(coef[0] - half, abs=0.02)
+    assert high == pytest.approx(coef[0] + half, abs=0.02)
+    assert offset_profile.threshold == pytest.approx(threshold, rel=1e-3)
+
+
+def test_report_prints_the_verdict_and_no_interval_without_a_profile(offset_fit, offset_profile):
+    plain = offset_fit.fit_report()
+    assert "interval" not in plain.replace("not an interval of theta", "").replace(
+        "an interval that holds the truth", "")
+    assert "noise-only standard error" in plain and "profile_theta" in plain
+    report = offset_fit.fit_report(profile=offset_profile)
+    a_line = next(line for line in report.splitlines() if line.strip().startswith("a:"))
+    b_line = next(line for line in report.splitlines() if line.strip().startswith("b:"))
+    assert "identified, 95 % interval" in a_line and "NOT IDENTIFIED" in b_line
+    with pytest.raises(TypeError, match="ThetaProfile"):
+        offset_fit.fit_report(profile={"a": (1, 2)})
+
+
+def test_plot_profile(offset_profile):
+    axes = plot_profile(offset_profile)
+    assert len(axes) == 2 and axes[0].get_xlabel() == "a"
+    assert isinstance(offset_profile, ThetaProfile) and len(offset_profile.plot()) == 2
+
+
+def test_bad_input(offset_fit, line_data):
+    X, y = line_data
+    with pytest.raises(ValueError, match="Unknown parameter 'c'.*'a', 'b'"):
+        profile_theta(offset_fit, X, y, params=["c"])
+    with pytest.raises(ValueError, match="outside the bounds"):
+        bounded = clone(offset_fit).set_params(theta_bounds={"a": (0, 3)}, max_iter=2).fit(X, y)
+        profile_theta(bounded, X, y, grid={"a": [1.0, 3.5]})
+    with pytest.raises(ValueError, match="'b' is fixed"):
+        fixed = clone(offset_fit).set_params(theta_fixed=["b"], max_iter=2).fit(X, y)
+        profile_theta(fixed, X, y, params="b")
+    for level in (0, 1, 1.5, "95%"):
+        with pytest.raises(ValueError, match="level must be a number in"):
+            profile_theta(offset_fit, X, y, level=level)
+    with pytest.raises(NotFittedError):
+        profile_theta(clone(offset_fit), X, y)
+    with pytest.raises(ValueError, match="the model predicts"):
+        profile_theta(offset_fit, X, y[:, None, None].repeat(2, axis=1))
+    with pytest.raises(ValueError, match="f-reg"):
+        freg = HybridRegressor(science=line_f, structure="additive", method="f-reg", max_iter=2,
+                               residual={"hidden": (4,)}).fit(X, y)
+        profile_theta(freg, X, y)
+    with pytest.raises(ValueError, match="models without a network"):
+        science_intervals(offset_fit, X, y)
+
+
+def test_profile_leaves_the_fit_alone(offset_fit, line_data):
+    before = {k: p.detach().clone() for k, p in offset_fit.model_.named_parameters()}
+    X, y = line_data
+    X0, y0 = X.copy(), y.copy()
+    profile_theta(offset_fit, X, y, params="a", n_points=3, max_iter=5)
+    for k, p in offset_fit.model_.named_parameters():
+        assert torch.equal(p, before[k])
+    np.testing.assert_array_equal(X, X0)
+    np.testing.assert_array_equal(y, y0)
+
+
+def test_bootstrap_member_is_a_weighted_fit_with_its_seed(line_data):
+    """A member of the stacked bootstrap takes the steps of a separate fit on its resample."""
+    X, y = line_data
+    est = HybridRegressor(science=line_f, structure="additive", residual={"hidden": (8,)}, method="fsam",
+                          max_iter=20, tol=None, dtype="float64", random_state=0).fit(X, y)
+    boot = bootstrap_theta(est, X, y, n_resamples=3, random_state=7)
+    rng = np.random.default_rng(7)
+    seeds = [int(s) for s in rng.integers(0, 2**31 - 1, 3)]
+    weights = rng.multinomial(len(y), np.full(len(y), 1 / len(y)), size=3).astype(float)
+    alone = clone(est).set_params(random_state=seeds[1]).fit(X, y, sample_weight=weights[1])
+    assert boot.samples["a"][1] == pytest.approx(alone.theta_["a"], rel=1e-9)
+    assert np.ptp(boot.samples["a"]) > 0
+    low, high = boot.intervals["a"]
+    assert low < est.theta_["a"] < high and "3 fits on resampled samples" in boot.report()
+
+
+def test_science_intervals_are_cluster_robust(line_data):
+    """Errors shared by the values of one sample: the interval counts samples, not values."""
+    rng = np.random.default_rng(3)
+    n, m = 30, 8
+    x = rng.uniform(-1, 1, (n, m))
+    y = 2.0 * x + 0.5 + 0.3 * rng.normal(size=(n, 1)) + 0.05 * rng.normal(size=(n, m))
+
+    def line_m(x, a=1.0, b=0.0):
+        return a * x + b
+
+    est = HybridRegressor(science=line_m, structure="additive", residual=ZeroResidual(), method="erm", lr=5e-2,
+                          max_iter=600, tol=None, dtype="float64", random_state=0).fit(x, y)
+    ci = science_intervals(est, x, y)
+    A = np.column_stack([x.ravel(), np.ones(n * m)])
+    coef = np.linalg.lstsq(A, y.ravel(), rcond=None)[0]
+    assert est.theta_["a"] == pytest.approx(coef[0], abs=1e-4)
+    r = (y.ravel() - A @ coef).reshape(n, m)
+    bread = np.linalg.inv(A.T @ A)
+    scores = np.stack([A.reshape(n, m, 2)[i].T @ r[i] for i in range(n)])
+    cov = n / (n - 2) * bread @ scores.T @ scores @ bread
+    assert ci.std["b"] == pytest.approx(np.sqrt(cov[1, 1]), rel=1e-3)
+    assert ci.std["b"] > 2 * est.theta_std_["b"]  # the Gauss-Newton error counts every value as independent
+    assert ci.verdicts == {"a": "identified", "b": "identified"}
+    assert ci.intervals["b"][0] < 0.5 < ci.intervals["b"][1]
+
+
+def test_profile_on_a_dask_cluster_matches_local(offset_fit, line_data):
+    X, y = line_data
+    local = profile_theta(offset_fit, X, y, params="a", n_points=3, max_iter=10)
+    two = profile_theta(offset_fit, X, y, params="a", n_points=3, max_iter=10, n_jobs=2)
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=False,
+                                  dashboard_address=None) as cluster, distributed.Client(cluster):
+        with joblib.parallel_backend("dask"):
+            remote = profile_theta(offset_fit, X, y, params="a", n_points=3, max_iter=10, n_jobs=2)
+    for other in (two, remote):
+        np.testing.assert_allclose(other.loss["a"], local.loss["a"], rtol=1e-10)
+        assert other.intervals == local.intervals
