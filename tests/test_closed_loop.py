@@ -72,6 +72,11 @@ def test_close_the_loop_pendulum(pendulum):
     # The network-free refit of the augmented science finds the damping and the frequency.
     assert out.science_theta["c_damping"] == pytest.approx(-0.5, rel=0.05)
     assert out.science_theta["omega"] == pytest.approx(2 / 3, rel=0.02)
+    # its intervals, cluster-robust over the trajectories, hold the truth
+    assert out.intervals.verdicts == {"omega": "identified", "c_damping": "identified"}
+    low, high = out.intervals.intervals["c_damping"]
+    assert low < -0.5 < high and high - low < 0.1
+    assert out.intervals.estimate["omega"] == pytest.approx(out.science_theta["omega"], rel=1e-6)  # float32
     before, after, alone = out.table
     assert after["theta"]["c_damping"] == pytest.approx(-0.5, rel=0.1)
     assert after["theta_error"]["omega"] < 0.03

@@ -228,7 +228,8 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         ``before``, ``after`` (hybrid refitted with the augmented science; None when nothing was
         added or the refit failed), ``science`` (the augmented function, or None), ``science_theta``
         (fitted values of every parameter of the final science model, without the network),
-        ``science_only`` (an estimator holding that model), ``added`` (the accepted terms),
+        ``science_only`` (an estimator holding that model), ``intervals`` (its parameters' intervals and
+        verdicts, :func:`~sklearn_hybrid.identifiability.science_intervals`), ``added`` (the accepted terms),
         ``steps`` (every candidate tried, with its validation error and verdict), ``exact``
         (the exact components), ``unexplained`` (what the final science model still misses:
         ``share`` per output and binned ``profiles``; see :func:`plot_unexplained`), ``table``,
@@ -329,6 +330,9 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
             X = np.array(X, dtype=float)
             X[:, :fit.initial_states.shape[1]] = fit.initial_states
         alone = _fixed_science(before, final, science_theta, X, y)
+        from ..identifiability import science_intervals  # the identifiability package reads this one's results
+
+        intervals = science_intervals(alone, X, y)
         log("scoring the network-free model ..." if scoring.executor is None else
             "scoring the network-free model in a worker process ...")
         alone_row = scoring.submit(alone)  # with a worker, scored during the refit
@@ -360,7 +364,7 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
                           unit=unit)
     log(report)
     return Bunch(before=before, after=after, science=augmented, science_theta=science_theta, science_only=alone,
-                 added=added, steps=sel["steps"], exact=[] if uncertain is None else
+                 intervals=intervals, added=added, steps=sel["steps"], exact=[] if uncertain is None else
                  [j for j in range(base.shape[1]) if j not in uncertain],
                  unexplained=unexplained, table=rows, report=report, seconds=time.perf_counter() - start)
 
