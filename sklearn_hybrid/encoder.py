@@ -38,7 +38,7 @@ from typing import Sequence
 import torch
 from torch import nn
 
-from .residual import _activation, from_registry, new_module
+from .residual import make_activation, from_registry, new_module
 
 __all__ = ["ThetaEncoder", "PerSampleScience", "build_encoder", "make_theta_encoder", "ENCODERS",
            "MLPEncoder", "ConvEncoder"]
@@ -65,7 +65,7 @@ class MLPEncoder(nn.Module):
         widths = [math.prod(in_shape), *hidden]
         layers = []
         for n_in, n_hid in zip(widths[:-1], widths[1:]):
-            layers += [nn.Linear(n_in, n_hid), _activation(activation)]
+            layers += [nn.Linear(n_in, n_hid), make_activation(activation)]
         self.body = nn.Sequential(*layers)
         self.head = nn.Linear(widths[-1], n_out)
 
@@ -112,12 +112,12 @@ class ConvEncoder(nn.Module):
         layers = []
         for c_in, c_out in zip(channels[:-1], channels[1:]):
             layers += [nn.Conv2d(c_in, c_out, 3, padding=1, padding_mode=padding_mode),
-                       nn.BatchNorm2d(c_out), _activation(activation)]
+                       nn.BatchNorm2d(c_out), make_activation(activation)]
         self.body = nn.Sequential(*layers)
         widths = [channels[-1], *dense]
         head = []
         for n_in, n_hid in zip(widths[:-1], widths[1:]):
-            head += [nn.Linear(n_in, n_hid), _activation(activation)]
+            head += [nn.Linear(n_in, n_hid), make_activation(activation)]
         self.dense = nn.Sequential(*head)
         self.head = nn.Linear(widths[-1], n_out)
 

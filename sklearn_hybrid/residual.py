@@ -20,7 +20,7 @@ _ACTIVATIONS = {"relu": nn.ReLU, "tanh": nn.Tanh, "elu": nn.ELU, "gelu": nn.GELU
                 "silu": nn.SiLU, "leaky_relu": nn.LeakyReLU, "softplus": nn.Softplus}
 
 
-def _activation(name: str) -> nn.Module:
+def make_activation(name: str) -> nn.Module:
     try:
         return _ACTIVATIONS[name]()
     except KeyError:
@@ -54,7 +54,7 @@ class MLP(nn.Module):
         for i, (n_in, n_out) in enumerate(zip(widths[:-1], widths[1:])):
             layers.append(nn.Linear(n_in, n_out))
             if i < len(widths) - 2:
-                layers.append(_activation(activation))
+                layers.append(make_activation(activation))
         self.net = nn.Sequential(*layers)
 
     def forward(self, *inputs: torch.Tensor) -> torch.Tensor:
@@ -124,7 +124,7 @@ class ConvNet(nn.Module):
             layers.append(nn.Conv2d(c_in, c_out, 3, padding=1, padding_mode=padding_mode))
             if i < len(channels) - 2:
                 layers += [nn.BatchNorm2d(c_out, track_running_stats=False)] if batch_norm else []
-                layers.append(_activation(activation))
+                layers.append(make_activation(activation))
         self.net = nn.Sequential(*layers)
 
     def forward(self, *inputs: torch.Tensor) -> torch.Tensor:

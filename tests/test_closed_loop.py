@@ -437,7 +437,7 @@ def test_selection_judges_each_candidate_on_its_own_evidence():
     """The lowest held-out error without evidence must not hide a candidate that passed (the real
     pendulum's |theta_dot| at z 4.8 was dropped behind a hinge at z 2.9), and among those that
     passed and are within min_gain of the best, the simplest wins."""
-    from sklearn_hybrid.diagnosis.candidates import _interleave
+    from sklearn_hybrid.diagnosis.candidates import interleave
     from sklearn_hybrid.diagnosis.stepwise import _simplest_of_the_best
 
     def tried(term, kind, shape, mse, accepted):
@@ -452,7 +452,7 @@ def test_selection_judges_each_candidate_on_its_own_evidence():
     smooth = tried("tanh(x/w)", "dry_friction", {"w": 1.0}, 1.0, True)
     assert _simplest_of_the_best([smooth, cubic, drag], 0.05) is cubic
     ranked = [{"component": 1, "gain": g} for g in (0.9, 0.8, 0.7)] + [{"component": 0, "gain": 0.1}]
-    assert [c["component"] for c in _interleave(ranked, 3)] == [1, 0, 1]
+    assert [c["component"] for c in interleave(ranked, 3)] == [1, 0, 1]
 
 
 def test_report_states_the_thresholds_used():
@@ -550,7 +550,7 @@ def test_a_term_the_converged_test_drops_at_once_is_not_proposed_again(pendulum,
         if added[-1]["term"] != "v_dot":  # the disagreeing test, for every term but the damping
             return current, added, theta, errors
         rest = added[:-1]
-        reduced = candidates._augment(science, rest, NAMES, 2, None)
+        reduced = candidates.augment_with(science, rest, NAMES, 2, None)
         return reduced, rest, {k: v for k, v in theta.items() if k != added[-1]["param"]}, errors
 
     monkeypatch.setattr(stepwise, "_drop_dispensable", drop_the_newest)
@@ -583,7 +583,7 @@ def _on_v_dot(pendulum, names, coef=0.0):
 
 def test_a_term_made_dispensable_by_a_later_one_is_dropped(pendulum):
     """Drag v_dot|v_dot| stands in for linear damping until v_dot itself is in; then it goes."""
-    from sklearn_hybrid.diagnosis.candidates import _augment, _with_fitted
+    from sklearn_hybrid.diagnosis.candidates import augment_with, with_fitted
     from sklearn_hybrid.diagnosis.stepwise import _drop_dispensable
 
     judge = _held_out_judge(pendulum)
@@ -592,9 +592,9 @@ def test_a_term_made_dispensable_by_a_later_one_is_dropped(pendulum):
                "bounds": t.shape, "coef": 0.0, "gain": 0.0} for t in terms if t.name in ("v_dot|v_dot|", "v_dot")]
     assert [p["term"] for p in placed] == ["v_dot", "v_dot|v_dot|"]
     placed = placed[::-1]  # the stand-in first
-    full = _augment(pendulum_f, placed, NAMES, 2, None)
+    full = augment_with(pendulum_f, placed, NAMES, 2, None)
     theta = judge.fit(full, {"omega": 0.6})
-    added = [_with_fitted(p, full, theta, k) for k, p in enumerate(placed)]
+    added = [with_fitted(p, full, theta, k) for k, p in enumerate(placed)]
     steps = []
     current, kept, theta, errors = _drop_dispensable(pendulum_f, full, added, theta, judge.errors(full, theta),
                                                      judge, NAMES, 2, None, 3.0, 0.05, steps, lambda s: None)
@@ -607,11 +607,11 @@ def test_a_screening_refit_that_gets_lost_starts_again_from_the_model_it_extends
     """A ranked coefficient that makes the simulation blow up leaves least squares stuck far from any
     minimum; the candidate is then refitted from its new coefficient at zero (the current model).
     (From 1e3 the plain refit recovers since diverged residuals are bounded; from 1e4 it stays put.)"""
-    from sklearn_hybrid.diagnosis.candidates import _augment
+    from sklearn_hybrid.diagnosis.candidates import augment_with
     from sklearn_hybrid.diagnosis.stepwise import _screen
 
     judge = _held_out_judge(pendulum)
-    damped = _augment(pendulum_f, _on_v_dot(pendulum, ["v_dot"], coef=1e4), NAMES, 2, None)
+    damped = augment_with(pendulum_f, _on_v_dot(pendulum, ["v_dot"], coef=1e4), NAMES, 2, None)
     start = {"omega": 0.6, damped.terms[0][2]: 1e4}
     lost = judge.fit(damped, start, {}, screening=True)
     assert judge.training_error(damped, lost) > 1e6  # the plain refit does not recover
@@ -624,11 +624,11 @@ def test_a_screening_refit_that_raises_starts_again_from_the_model_it_extends(pe
     """Seen on a Brusselator (benchmark rerun): from its ranked coefficient, least squares raised
     ("array must not contain infs or NaNs") for the right term in every step, so the term was never
     judged. A refit that raises is tried again from the new coefficient at zero."""
-    from sklearn_hybrid.diagnosis.candidates import _augment
+    from sklearn_hybrid.diagnosis.candidates import augment_with
     from sklearn_hybrid.diagnosis.stepwise import _screen
 
     judge = _held_out_judge(pendulum)
-    damped = _augment(pendulum_f, _on_v_dot(pendulum, ["v_dot"], coef=3.0), NAMES, 2, None)
+    damped = augment_with(pendulum_f, _on_v_dot(pendulum, ["v_dot"], coef=3.0), NAMES, 2, None)
     coef = damped.terms[0][2]
     plain_fit, starts = judge.fit, []
 
@@ -855,13 +855,13 @@ def test_a_flux_between_two_components_is_added_to_both_at_once():
 
 
 def test_a_group_is_preferred_only_when_clearly_better_than_its_single_terms():
-    from sklearn_hybrid.diagnosis.candidates import _groups
+    from sklearn_hybrid.diagnosis.candidates import candidate_groups
     from sklearn_hybrid.diagnosis.stepwise import _simplest_of_the_best
 
     single = {"component": 1, "term": "A*B", "kind": "polynomial", "shape": {}, "gain": 0.5, "coef": 1.0}
     other = {**single, "component": 0, "coef": -1.0}
     hinge = {**single, "term": "max(0, B - knot)", "kind": "hinge", "shape": {"knot": 0.3}}
-    group, = _groups([single, hinge, other])
+    group, = candidate_groups([single, hinge, other])
     assert group["component"] == [1, 0] and group["group"] == [single, other]
 
     def tried(cand, mse):
@@ -1007,22 +1007,22 @@ def test_a_drop_refits_the_reduced_model_from_its_fit_on_the_path_too(pendulum):
     values, which without the dropped term made the simulation overflow; least squares stalled there, the
     drop test (is the term significantly better?) let the term go on the scattered errors, and the loop
     crashed later on a diverging model. The reduced model's fit on the path is now a second start."""
-    from sklearn_hybrid.diagnosis.candidates import _augment, _with_fitted
+    from sklearn_hybrid.diagnosis.candidates import augment_with, with_fitted
     from sklearn_hybrid.diagnosis.stepwise import _drop_dispensable, _key, _refit_from_best
 
     judge = _held_out_judge(pendulum)
     placed = _on_v_dot(pendulum, ["v_dot", "v_dot|v_dot|"])
-    damped = _augment(pendulum_f, placed[:1], NAMES, 2, None)
+    damped = augment_with(pendulum_f, placed[:1], NAMES, 2, None)
     coef = damped.terms[0][2]
     lost_start, good_start = {"omega": 0.6, coef: 1e4}, {"omega": 0.6, coef: 0.0}
     assert judge.training_error(damped, judge.fit(damped, lost_start)) > 1e6  # the plain refit stays lost
     best = _refit_from_best(judge, damped, [lost_start, good_start], {})
     assert best[coef] == pytest.approx(-0.5, rel=0.1)
 
-    full = _augment(pendulum_f, placed, NAMES, 2, None)
+    full = augment_with(pendulum_f, placed, NAMES, 2, None)
     good_full = judge.fit(full, {"omega": 0.6})
     lost_full = {**good_full, full.terms[0][2]: 1e4}  # values from which the model without drag is lost
-    added = [_with_fitted(p, full, lost_full, k) for k, p in enumerate(placed)]
+    added = [with_fitted(p, full, lost_full, k) for k, p in enumerate(placed)]
     known = {_key(added[:1]): judge.fit(damped, good_start)}
     current, kept, theta, _ = _drop_dispensable(pendulum_f, full, added, lost_full, judge.errors(full, good_full),
                                                 judge, NAMES, 2, None, 3.0, 0.05, [], lambda s: None, known)

@@ -87,7 +87,7 @@ def test_a_term_accepted_on_a_second_look_is_dropped_by_the_same_judge(pendulum)
     is judged on the training folds, and its row says so."""
     from test_closed_loop import NAMES, _held_out_judge, pendulum_f
 
-    from sklearn_hybrid.diagnosis.candidates import _augment, _with_fitted
+    from sklearn_hybrid.diagnosis.candidates import augment_with, with_fitted
 
     judge = _held_out_judge(pendulum)
     fit = ScienceFit(pendulum[1], pendulum[0].X_train, pendulum[0].y_train)
@@ -97,9 +97,9 @@ def test_a_term_accepted_on_a_second_look_is_dropped_by_the_same_judge(pendulum)
     placed = [{"component": 1, "term": name, "kind": terms[name].kind, "unit": terms[name].unit,
                "function": terms[name].func, "shape": {}, "bounds": terms[name].shape, "coef": 0.0, "gain": 0.0}
               for name in ("v_dot|v_dot|", "v_dot")]
-    full = _augment(pendulum_f, placed, NAMES, 2, None)
+    full = augment_with(pendulum_f, placed, NAMES, 2, None)
     theta = judge.fit(full, {"omega": 0.6})
-    added = [{**_with_fitted(p, full, theta, k), "second_look": k == 0} for k, p in enumerate(placed)]
+    added = [{**with_fitted(p, full, theta, k), "second_look": k == 0} for k, p in enumerate(placed)]
     steps = []
     _, kept, _, errors = stepwise._drop_dispensable(pendulum_f, full, added, theta, judge.errors(full, theta), judge,
                                                     NAMES, 2, None, 3.0, 0.05, steps, lambda s: None, None, recheck)

@@ -64,9 +64,9 @@ LT_FEATURES = ["red", "green", "blue", "pol_1", "pol_2"]
 WT_SPLIT, LT_SPLIT = (600, 150, 235), (6000, 1000, 2500)
 WT_SAMPLE_PERIOD = 0.1  # s, approximate time between two steps of the protocol (simulator only)
 
-_CITE = ("Gamella, Peters, Buehlmann, 'Causal chambers as a real-world physical testbed for AI "
+CITATION = ("Gamella, Peters, Buehlmann, 'Causal chambers as a real-world physical testbed for AI "
          "methodology', Nat. Mach. Intell. 2025; data CC BY 4.0.")
-_WT_DESCR = """Wind tunnel ({kind}), wt_walks_v1 / loads_hatch_mix_fast_run_*
+WIND_TUNNEL_DESCR = """Wind tunnel ({kind}), wt_walks_v1 / loads_hatch_mix_fast_run_*
 ==============================================================
 {origin}
 X : (n, window, 3) windows of load_in, load_out (fan loads in [0, 1]) and hatch (degrees, 0..45);
@@ -80,7 +80,7 @@ next to a split boundary share up to 150 samples with the neighbouring split.
 theta_reference = {{'r': 0.7}} as used by the hybrid paper; the publisher's code uses r = 0.75.
 A1+C2 ignore the hatch (model C3) and the fan dynamics (model A2). {cite}
 """
-_LT_DESCR = """Light tunnel ({kind}), lt_camera_v1 / uniform_ap_1.8_iso_500.0_ss_0.005
+LIGHT_TUNNEL_DESCR = """Light tunnel ({kind}), lt_camera_v1 / uniform_ap_1.8_iso_500.0_ss_0.005
 =======================================================================
 {origin}
 X : (n, 5) red, green, blue (LED levels 0..254) and pol_1, pol_2 (polarizer angles, degrees),
@@ -111,7 +111,7 @@ def _split(n: int, sizes: tuple[int, ...]) -> dict[str, slice]:
     return {k: slice(int(a), int(b)) for k, a, b in zip(names, bounds, bounds[1:])}
 
 
-def _check_window(window: int, stride: int) -> None:
+def check_window(window: int, stride: int) -> None:
     for name, v in (("window", window), ("stride", stride)):
         if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
             raise ValueError(f"{name} must be a positive integer, got {v!r}.")
@@ -125,9 +125,9 @@ def _windows(a: np.ndarray, window: int, stride: int) -> np.ndarray:
     return np.ascontiguousarray(np.moveaxis(view, -1, 1))
 
 
-def _wt_bunch(runs: list[dict], window: int, stride: int, descr: str, simulated: bool) -> Bunch:
+def wind_tunnel_bunch(runs: list[dict], window: int, stride: int, descr: str, simulated: bool) -> Bunch:
     """Window each run (dict of 1-D columns), concatenate in time order and split."""
-    _check_window(window, stride)
+    check_window(window, stride)
     parts = {"X": [], "y": [], "pressure_ambient": [], "run": [], "start": []}
     for k, cols in enumerate(runs, start=1):
         feats = np.column_stack([cols[c] for c in WT_FEATURES])
@@ -147,7 +147,7 @@ def _wt_bunch(runs: list[dict], window: int, stride: int, descr: str, simulated:
     return data
 
 
-def _lt_bunch(X: np.ndarray, images: np.ndarray, descr: str, simulated: bool) -> Bunch:
+def light_tunnel_bunch(X: np.ndarray, images: np.ndarray, descr: str, simulated: bool) -> Bunch:
     data = Bunch(X=X, images=images, splits=_split(len(X), LT_SPLIT),
                  feature_names=list(LT_FEATURES), image_size=images.shape[-1],
                  theta_reference={"w": W_WHITE_BALANCE.copy(), "t_p": T_PARALLEL.copy(),
@@ -213,8 +213,8 @@ def fetch_wind_tunnel(
         raise FileNotFoundError(f"No file {WT_EXPERIMENT}_<k>.csv in {folder}.")
     names = WT_FEATURES + ["pressure_downwind", "pressure_ambient"]
     runs = [read_csv_columns(p, names) for _, p in files]
-    descr = _WT_DESCR.format(kind="measured", origin=_REAL, cite=_CITE)
-    data = _wt_bunch(runs, window, stride, descr, simulated=False)
+    descr = WIND_TUNNEL_DESCR.format(kind="measured", origin=_REAL, cite=CITATION)
+    data = wind_tunnel_bunch(runs, window, stride, descr, simulated=False)
     data.run = np.asarray([files[k - 1][0] for k in data.run], dtype=int)  # publisher's numbers
     return data
 
@@ -269,7 +269,7 @@ def fetch_light_tunnel(
         if pixels.shape[:2] != (image_size, image_size):
             raise ValueError(f"{img_dir / name} is {pixels.shape[:2]}, not {image_size} px square.")
         images[i] = pixels.transpose(2, 0, 1) / np.float32(255)
-    return _lt_bunch(X, images, _LT_DESCR.format(kind="measured", origin=_REAL, cite=_CITE), False)
+    return light_tunnel_bunch(X, images, LIGHT_TUNNEL_DESCR.format(kind="measured", origin=_REAL, cite=CITATION), False)
 
 
 def hexagon_mask(image_size: int) -> np.ndarray:

@@ -13,11 +13,11 @@ from __future__ import annotations
 import numpy as np
 from sklearn.utils import Bunch, check_random_state
 
-from ._causal_chamber import (_CITE, _LT_DESCR, _WT_DESCR, BAROMETER_PRECISION, C3_BETA, C3_R0, C_MAX, C_MIN,
+from ._causal_chamber import (CITATION, LIGHT_TUNNEL_DESCR, WIND_TUNNEL_DESCR, BAROMETER_PRECISION, C3_BETA, C3_R0, C_MAX, C_MIN,
                               FAN_DRAG_K, FAN_INERTIA, HEX_CENTER_X, HEX_CENTER_Y, HEX_RADIUS, L_MIN, OMEGA_MAX,
-                              S_MAX, TORQUE_T, WT_SAMPLE_PERIOD, _check_window, _lt_bunch, _wt_bunch, hexagon_mask,
+                              S_MAX, TORQUE_T, WT_SAMPLE_PERIOD, check_window, light_tunnel_bunch, wind_tunnel_bunch, hexagon_mask,
                               model_f3_colour)
-from ._synthetic import _check_float, _check_int
+from ._synthetic import check_float, check_int
 
 __all__ = ["light_tunnel_inputs", "make_light_tunnel_simulated", "make_wind_tunnel_simulated", "wind_tunnel_inputs"]
 
@@ -93,10 +93,10 @@ def make_wind_tunnel_simulated(
     data : Bunch
         Same fields as :func:`fetch_wind_tunnel`, ``simulated=True``.
     """
-    _check_window(window, stride)
-    n_runs, n_steps = _check_int("n_runs", n_runs, 1), _check_int("n_steps", n_steps, window)
-    dt = _check_float("dt", dt, 0.0, strict=True)
-    ambient_pressure = _check_float("ambient_pressure", ambient_pressure)
+    check_window(window, stride)
+    n_runs, n_steps = check_int("n_runs", n_runs, 1), check_int("n_steps", n_steps, window)
+    dt = check_float("dt", dt, 0.0, strict=True)
+    ambient_pressure = check_float("ambient_pressure", ambient_pressure)
     rng = check_random_state(random_state)
     u = wind_tunnel_inputs(n_steps)
     w_in, w_out = _fan_speed(u["load_in"], dt), _fan_speed(u["load_out"], dt)
@@ -108,8 +108,8 @@ def make_wind_tunnel_simulated(
         runs.append({**u, "pressure_ambient": amb + rng.normal(0, BAROMETER_PRECISION, n_steps),
                      "pressure_downwind": amb + dp + rng.normal(0, BAROMETER_PRECISION, n_steps)})
     origin = _SIM_WT.format(dt=dt)
-    return _wt_bunch(runs, window, stride, _WT_DESCR.format(kind="SIMULATED", origin=origin,
-                                                            cite=_CITE), simulated=True)
+    return wind_tunnel_bunch(runs, window, stride, WIND_TUNNEL_DESCR.format(kind="SIMULATED", origin=origin,
+                                                            cite=CITATION), simulated=True)
 
 
 def light_tunnel_inputs(n_samples: int = 10000) -> np.ndarray:
@@ -144,7 +144,7 @@ def make_light_tunnel_simulated(
     """
     from scipy.ndimage import gaussian_filter
 
-    n_samples, image_size = _check_int("n_samples", n_samples, 1), _check_int("image_size", image_size, 1)
+    n_samples, image_size = check_int("n_samples", n_samples, 1), check_int("image_size", image_size, 1)
     rng = check_random_state(random_state)
     X = light_tunnel_inputs(n_samples)
     colour = model_f3_colour(X).astype(np.float32)
@@ -158,5 +158,5 @@ def make_light_tunnel_simulated(
         lin = colour[a:a + 500, :, None, None] * profile
         noisy = lin ** (1 / 2.2) + rng.normal(0, 0.01, lin.shape).astype(np.float32)
         images[a:a + 500] = np.clip(noisy, 0, 1)
-    descr = _LT_DESCR.format(kind="SIMULATED", origin=_SIM_LT, cite=_CITE)
-    return _lt_bunch(X, images, descr, simulated=True)
+    descr = LIGHT_TUNNEL_DESCR.format(kind="SIMULATED", origin=_SIM_LT, cite=CITATION)
+    return light_tunnel_bunch(X, images, descr, simulated=True)

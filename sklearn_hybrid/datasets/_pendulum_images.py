@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 from sklearn.utils import Bunch, check_random_state
 
-from ._synthetic import (ParamSpec, _check_common, _check_float, _check_int, _draw_param, _finish,
-                         _pendulum_states, _split, _times)
+from ._synthetic import (ParamSpec, check_common, check_float, check_int, draw_param, finish_bunch,
+                         pendulum_states, split_samples, output_times)
 
 # Geometry as fractions of the image side: the bob's outer edge stays ~3 px inside the border at any angle.
 _ROD_LENGTH = 0.34
@@ -40,7 +40,7 @@ def render_pendulum(angles: np.ndarray, image_size: int = 48) -> np.ndarray:
     -------
     images : ndarray of float32, shape ``S + (image_size, image_size)``
     """
-    size = _check_int("image_size", image_size, 8)
+    size = check_int("image_size", image_size, 8)
     angles = np.asarray(angles, dtype=float)
     if not np.all(np.isfinite(angles)):
         raise ValueError("angles must be finite.")
@@ -97,14 +97,14 @@ def make_pendulum_images(n_train: int = 200, n_val: int = 200, n_test: int = 200
         ``{"omega": value or (low, high)}``; ``theta_train/val/test`` ``{"omega": (n,) array}``; ``params``;
         ``DESCR``.
     """
-    sizes, dt, n_steps, n_input_steps, noise = _check_common(n_train, n_val, n_test, dt, n_steps,
+    sizes, dt, n_steps, n_input_steps, noise = check_common(n_train, n_val, n_test, dt, n_steps,
                                                              n_input_steps, noise)
-    gamma = _check_float("gamma", gamma, 0.0)
-    image_size = _check_int("image_size", image_size, 8)
+    gamma = check_float("gamma", gamma, 0.0)
+    image_size = check_int("image_size", image_size, 8)
     rng = check_random_state(random_state)
     n = sum(sizes)
-    omegas, omega_spec = _draw_param("omega", omega, n, rng, strict=True)
-    angles = _pendulum_states(rng, n, omegas, gamma, dt, n_input_steps + n_steps)[..., 0]
+    omegas, omega_spec = draw_param("omega", omega, n, rng, strict=True)
+    angles = pendulum_states(rng, n, omegas, gamma, dt, n_input_steps + n_steps)[..., 0]
     images = render_pendulum(angles, image_size)
     if noise > 0:
         images = np.clip(images + noise * rng.standard_normal(images.shape), 0.0, 1.0).astype(np.float32)
@@ -113,7 +113,7 @@ def make_pendulum_images(n_train: int = 200, n_val: int = 200, n_test: int = 200
               "theta": {"omega": omegas}}
     params = dict(omega=omega_spec, gamma=gamma, dt=dt, n_steps=n_steps, n_input_steps=n_input_steps,
                   image_size=image_size, noise=noise, initial_state_range=(-np.pi / 2, np.pi / 2))
-    t, t_input = _times(dt, n_steps, n_input_steps)
-    return _finish(_split(arrays, sizes), dt=dt, t=t, t_input=t_input, theta_true={"omega": omega_spec},
+    t, t_input = output_times(dt, n_steps, n_input_steps)
+    return finish_bunch(split_samples(arrays, sizes), dt=dt, t=t, t_input=t_input, theta_true={"omega": omega_spec},
                    params=params, title="Damped pendulum rendered as grey images",
                    equation="v'' + gamma v' + (2 pi omega)^2 sin v = 0; pivot at the centre, angle 0 = down")

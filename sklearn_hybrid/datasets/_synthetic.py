@@ -33,13 +33,13 @@ ParamSpec = float | tuple[float, float]
 
 
 # ----------------------------------------------------------------------------------------- validation helpers
-def _check_int(name: str, value, minimum: int) -> int:
+def check_int(name: str, value, minimum: int) -> int:
     if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < minimum:
         raise ValueError(f"{name} must be an integer >= {minimum}, got {value!r}.")
     return int(value)
 
 
-def _check_float(name: str, value, minimum: float | None = None, strict: bool = False) -> float:
+def check_float(name: str, value, minimum: float | None = None, strict: bool = False) -> float:
     try:
         out = float(value)
     except (TypeError, ValueError):
@@ -51,20 +51,20 @@ def _check_float(name: str, value, minimum: float | None = None, strict: bool = 
     return out
 
 
-def _check_common(n_train, n_val, n_test, dt, n_steps, n_input_steps, noise) -> tuple:
-    sizes = tuple(_check_int(k, v, 1) for k, v in zip(("n_train", "n_val", "n_test"), (n_train, n_val, n_test)))
-    return (sizes, _check_float("dt", dt, 0.0, strict=True), _check_int("n_steps", n_steps, 1),
-            _check_int("n_input_steps", n_input_steps, 1), _check_float("noise", noise, 0.0))
+def check_common(n_train, n_val, n_test, dt, n_steps, n_input_steps, noise) -> tuple:
+    sizes = tuple(check_int(k, v, 1) for k, v in zip(("n_train", "n_val", "n_test"), (n_train, n_val, n_test)))
+    return (sizes, check_float("dt", dt, 0.0, strict=True), check_int("n_steps", n_steps, 1),
+            check_int("n_input_steps", n_input_steps, 1), check_float("noise", noise, 0.0))
 
 
-def _draw_param(name: str, value, n: int, rng, strict: bool) -> tuple[np.ndarray, ParamSpec]:
+def draw_param(name: str, value, n: int, rng, strict: bool) -> tuple[np.ndarray, ParamSpec]:
     """Per-sample values of a parameter given as a number or a ``(low, high)`` range (non-negative)."""
     if np.ndim(value) == 0:
-        spec = _check_float(name, value, 0.0, strict=strict)
+        spec = check_float(name, value, 0.0, strict=strict)
         return np.full(n, spec), spec
     if np.ndim(value) != 1 or len(value) != 2:
         raise ValueError(f"{name} must be a number or a (low, high) pair, got {value!r}.")
-    low, high = (_check_float(f"{name} {side}", v, 0.0) for side, v in zip(("low", "high"), value))
+    low, high = (check_float(f"{name} {side}", v, 0.0) for side, v in zip(("low", "high"), value))
     if not low < high:
         raise ValueError(f"{name} range must satisfy low < high, got {value!r}.")
     return rng.uniform(low, high, n), (low, high)
@@ -91,14 +91,14 @@ def _simulate_oscillator(accel: Callable, state0: np.ndarray, n_points: int, dt:
     return _integrate(rhs, state0.T, n_points, dt, _ODE_TOL).reshape(2, n, n_points).transpose(1, 2, 0)
 
 
-def _pendulum_states(rng, n: int, omega: np.ndarray, gamma: float, dt: float, n_points: int) -> np.ndarray:
+def pendulum_states(rng, n: int, omega: np.ndarray, gamma: float, dt: float, n_points: int) -> np.ndarray:
     """Damped pendulum trajectories (n, n_points, 2) whose first state is U(-pi/2, pi/2) in angle and velocity."""
     state0 = rng.uniform(-np.pi / 2, np.pi / 2, size=(n, 2))
     stiffness = (2 * np.pi * omega) ** 2
     return _simulate_oscillator(lambda v, w: -gamma * w - stiffness * np.sin(v), state0, n_points, dt)
 
 
-def _times(dt: float, n_steps: int, n_input_steps: int) -> tuple[np.ndarray, np.ndarray]:
+def output_times(dt: float, n_steps: int, n_input_steps: int) -> tuple[np.ndarray, np.ndarray]:
     return dt * np.arange(1, n_steps + 1), dt * np.arange(1 - n_input_steps, 1)
 
 
@@ -112,7 +112,7 @@ def _window(states: np.ndarray, n_input_steps: int, rng, noise: float) -> tuple[
     return X, y
 
 
-def _split(arrays: dict, sizes: tuple) -> Bunch:
+def split_samples(arrays: dict, sizes: tuple) -> Bunch:
     """Bunch with ``<key>_train/_val/_test`` for every array (first axis = samples) or dict of arrays."""
     cuts = np.cumsum(sizes)[:-1]
     out = Bunch()
@@ -131,7 +131,7 @@ def _shape_lines(bunch: Bunch) -> str:
     return "\n".join(f"  {k}: {bunch[k].shape}" for k in ("X_train", "y_train", "X_val", "X_test"))
 
 
-def _finish(bunch: Bunch, *, dt, t, t_input, theta_true, params, title, equation, feature_names=None) -> Bunch:
+def finish_bunch(bunch: Bunch, *, dt, t, t_input, theta_true, params, title, equation, feature_names=None) -> Bunch:
     bunch.update(t=t, t_input=t_input, dt=dt, theta_true=theta_true, params=params)
     if feature_names is not None:
         bunch["feature_names"] = feature_names
@@ -178,18 +178,18 @@ def make_pendulum(n_train: int = 25, n_val: int = 25, n_test: int = 25, *, omega
         ``{"omega": value or (low, high)}``; ``theta_train/val/test`` ``{"omega": (n,) array}``; ``params``;
         ``feature_names``; ``DESCR``.
     """
-    sizes, dt, n_steps, n_input_steps, noise = _check_common(n_train, n_val, n_test, dt, n_steps,
+    sizes, dt, n_steps, n_input_steps, noise = check_common(n_train, n_val, n_test, dt, n_steps,
                                                              n_input_steps, noise)
-    gamma = _check_float("gamma", gamma, 0.0)
+    gamma = check_float("gamma", gamma, 0.0)
     rng = check_random_state(random_state)
     n = sum(sizes)
-    omegas, omega_spec = _draw_param("omega", omega, n, rng, strict=True)
-    states = _pendulum_states(rng, n, omegas, gamma, dt, n_input_steps + n_steps)
+    omegas, omega_spec = draw_param("omega", omega, n, rng, strict=True)
+    states = pendulum_states(rng, n, omegas, gamma, dt, n_input_steps + n_steps)
     X, y = _window(states, n_input_steps, rng, noise)
     params = dict(omega=omega_spec, gamma=gamma, dt=dt, n_steps=n_steps, n_input_steps=n_input_steps,
                   noise=noise, initial_state_range=(-np.pi / 2, np.pi / 2), solver="RK45", tol=_ODE_TOL)
-    return _finish(_split({"X": X, "y": y, "theta": {"omega": omegas}}, sizes), dt=dt,
-                   t=_times(dt, n_steps, n_input_steps)[0], t_input=_times(dt, n_steps, n_input_steps)[1],
+    return finish_bunch(split_samples({"X": X, "y": y, "theta": {"omega": omegas}}, sizes), dt=dt,
+                   t=output_times(dt, n_steps, n_input_steps)[0], t_input=output_times(dt, n_steps, n_input_steps)[1],
                    theta_true={"omega": omega_spec}, params=params, title="Damped pendulum time series",
                    equation="v'' + gamma v' + (2 pi omega)^2 sin v = 0, state [v, v']",
                    feature_names=["angle", "angular_velocity"])
@@ -246,21 +246,21 @@ def make_duffing(n_train: int = 100, n_val: int = 100, n_test: int = 100, *, alp
         ``t_input``, ``dt``; ``theta_true`` ``{"alpha": value or (low, high)}``; ``theta_train/val/test``
         ``{"alpha": (n,) array}``; ``params``; ``feature_names``; ``DESCR``.
     """
-    sizes, dt, n_steps, n_input_steps, noise = _check_common(n_train, n_val, n_test, dt, n_steps,
+    sizes, dt, n_steps, n_input_steps, noise = check_common(n_train, n_val, n_test, dt, n_steps,
                                                              n_input_steps, noise)
-    beta = _check_float("beta", beta, 0.0, strict=True)
-    gamma = _check_float("gamma", gamma, 0.0)
+    beta = check_float("beta", beta, 0.0, strict=True)
+    gamma = check_float("gamma", gamma, 0.0)
     rng = check_random_state(random_state)
     n = sum(sizes)
-    alphas, alpha_spec = _draw_param("alpha", alpha, n, rng, strict=True)
+    alphas, alpha_spec = draw_param("alpha", alpha, n, rng, strict=True)
     state0 = _duffing_initial_states(rng, alphas, beta)
     states = _simulate_oscillator(lambda v, w: -gamma * w - alphas * v + beta * v**3, state0,
                                   n_input_steps + n_steps, dt)
     X, y = _window(states, n_input_steps, rng, noise)
     params = dict(alpha=alpha_spec, beta=beta, gamma=gamma, dt=dt, n_steps=n_steps, n_input_steps=n_input_steps,
                   noise=noise, initial_energy_fraction=_DUFFING_ENERGY_FRACTION, solver="RK45", tol=_ODE_TOL)
-    t, t_input = _times(dt, n_steps, n_input_steps)
-    return _finish(_split({"X": X, "y": y, "theta": {"alpha": alphas}}, sizes), dt=dt, t=t, t_input=t_input,
+    t, t_input = output_times(dt, n_steps, n_input_steps)
+    return finish_bunch(split_samples({"X": X, "y": y, "theta": {"alpha": alphas}}, sizes), dt=dt, t=t, t_input=t_input,
                    theta_true={"alpha": alpha_spec}, params=params, title="Duffing oscillator time series",
                    equation="v'' + gamma v' + alpha v - beta v^3 = 0, state [v, v']",
                    feature_names=["position", "velocity"])
@@ -312,16 +312,16 @@ def make_reaction_diffusion(n_train: int = 100, n_val: int = 100, n_test: int = 
         ``t_input``, ``dt``; ``theta_true`` ``{"a": ..., "b": ...}``; ``theta_train/val/test`` with per-sample
         ``a`` and ``b``; ``params``; ``feature_names`` (the channel names); ``DESCR``.
     """
-    sizes, dt, n_steps, n_input_steps, noise = _check_common(n_train, n_val, n_test, dt, n_steps,
+    sizes, dt, n_steps, n_input_steps, noise = check_common(n_train, n_val, n_test, dt, n_steps,
                                                              n_input_steps, noise)
-    k = _check_float("k", k)
-    grid = _check_int("grid_size", grid_size, 3)
+    k = check_float("k", k)
+    grid = check_int("grid_size", grid_size, 3)
     if boundary not in ("periodic", "neumann"):
         raise ValueError(f"boundary must be 'periodic' or 'neumann', got {boundary!r}.")
     rng = check_random_state(random_state)
     n = sum(sizes)
-    a_values, a_spec = _draw_param("a", a, n, rng, strict=False)
-    b_values, b_spec = _draw_param("b", b, n, rng, strict=False)
+    a_values, a_spec = draw_param("a", a, n, rng, strict=False)
+    b_values, b_spec = draw_param("b", b, n, rng, strict=False)
     state0 = rng.uniform(0.0, 1.0, size=(n, 2, grid, grid))
     dx = 2.0 / grid
     diffusion = np.stack([a_values, b_values], axis=1)[:, :, None, None]  # (n, 2, 1, 1)
@@ -341,8 +341,8 @@ def make_reaction_diffusion(n_train: int = 100, n_val: int = 100, n_test: int = 
     params = dict(a=a_spec, b=b_spec, k=k, grid_size=grid, dx=dx, dt=dt, n_steps=n_steps,
                   n_input_steps=n_input_steps, noise=noise, boundary=boundary, initial_state_range=(0.0, 1.0),
                   solver="RK45", tol=_PDE_TOL)
-    t, t_input = _times(dt, n_steps, n_input_steps)
-    return _finish(_split({"X": X, "y": y, "theta": {"a": a_values, "b": b_values}}, sizes), dt=dt, t=t,
+    t, t_input = output_times(dt, n_steps, n_input_steps)
+    return finish_bunch(split_samples({"X": X, "y": y, "theta": {"a": a_values, "b": b_values}}, sizes), dt=dt, t=t,
                    t_input=t_input, theta_true={"a": a_spec, "b": b_spec}, params=params,
                    title="FitzHugh-Nagumo reaction-diffusion on [-1, 1]^2",
                    equation="u_t = a lap(u) + u - u^3 - k - v,  v_t = b lap(v) + u - v",

@@ -11,11 +11,11 @@ from numbers import Real
 import numpy as np
 
 from ..science import read_signature
-from .candidates import _free_columns
-from .residual import _names, parameter_jacobian
+from .candidates import free_columns
+from .residual import state_labels, parameter_jacobian
 
 
-def _check_options(validation_fraction, max_terms, n_candidates, cv, z, min_gain, n_jobs, X_test, y_test,
+def check_options(validation_fraction, max_terms, n_candidates, cv, z, min_gain, n_jobs, X_test, y_test,
                    second_look):
     fraction = validation_fraction
     if isinstance(fraction, bool) or not isinstance(fraction, Real) or not 0 < fraction < 1:
@@ -38,7 +38,7 @@ def _check_options(validation_fraction, max_terms, n_candidates, cv, z, min_gain
         raise ValueError("X_test and y_test go together: give both, or neither.")
 
 
-def _check_refit_params(estimator, refit_params) -> None:
+def check_refit_params(estimator, refit_params) -> None:
     """``refit_params`` are ``set_params`` keys of the estimator, checked now rather than after the selection."""
     keys = set(refit_params or {})
     owned = sorted(keys & {"science", "theta_init"})  # the loop sets these itself for the refit
@@ -51,7 +51,7 @@ def _check_refit_params(estimator, refit_params) -> None:
                          f"(see its get_params()).")
 
 
-def _check_param_names(param_names, term_names) -> None:
+def check_param_names(param_names, term_names) -> None:
     """Each key of ``param_names`` names a candidate term, each value a valid parameter name."""
     unknown = [k for k in (param_names or {}) if k not in term_names]
     if unknown:
@@ -63,13 +63,13 @@ def _check_param_names(param_names, term_names) -> None:
         raise ValueError(f"param_names must map terms to valid Python identifiers, got {invalid}.")
 
 
-def _uncertain_components(estimator, X, y, exact, state_names) -> list[int] | None:
+def uncertain_components(estimator, X, y, exact, state_names) -> list[int] | None:
     """Output components that may receive terms (None: all of them)."""
     if exact is None or estimator.structure != "ode":
         return None
     X, y = np.asarray(X, dtype=float), np.asarray(y)
     n_inputs = estimator.n_inputs or 0
-    d = _n_states(estimator, X, y)
+    d = count_states(estimator, X, y)
     if isinstance(exact, str):
         if exact != "auto":
             raise ValueError(f"exact must be 'auto', None or a list of state names or indices, got {exact!r}.")
@@ -78,21 +78,21 @@ def _uncertain_components(estimator, X, y, exact, state_names) -> list[int] | No
         sample = X[: min(len(X), 64)]
         args = [sample[:, :d]] + ([sample[:, d:d + n_inputs]] if n_inputs else [])
         # an equation whose only parameters are fixed (theta_fixed) has nothing to estimate either
-        jac = _free_columns(*parameter_jacobian(estimator.science, theta, args), set(estimator.theta_fixed or ()))
+        jac = free_columns(*parameter_jacobian(estimator.science, theta, args), set(estimator.theta_fixed or ()))
         if jac.shape[-1] == 0:
             return None
         fixed = [j for j in range(jac.shape[1]) if not np.any(np.abs(jac[:, j, :]) > 1e-12)]
     else:
-        fixed = _state_indices(exact, _names(state_names, d, "x", "state_names"), "exact")
+        fixed = _state_indices(exact, state_labels(state_names, d, "x", "state_names"), "exact")
     uncertain = [j for j in range(d) if j not in fixed]
     if not uncertain:
         raise ValueError("Every component is exact: there is nothing for the network or the diagnosis to do.")
     return uncertain if fixed else None
 
 
-def _offset_states(estimator, X, y, offsets, state_names) -> list[int]:
+def offset_states(estimator, X, y, offsets, state_names) -> list[int]:
     """Indices of the states named in ``offsets``; in an ODE only measured states can have a sensor offset."""
-    names = _names(state_names, _n_variables(estimator, X, y), "x", "state_names")
+    names = state_labels(state_names, _n_variables(estimator, X, y), "x", "state_names")
     out = _state_indices([offsets] if isinstance(offsets, (str, int)) else offsets, names, "offsets")
     unmeasured = [names[j] for j in out if estimator.structure == "ode" and estimator.observed is not None
                   and j not in estimator.observed]
@@ -104,7 +104,7 @@ def _offset_states(estimator, X, y, offsets, state_names) -> list[int]:
     return out
 
 
-def _check_names(estimator, X, y, state_names, input_names, units, user_terms,
+def check_names(estimator, X, y, state_names, input_names, units, user_terms,
                  positive) -> tuple[list[str], np.ndarray]:
     """Every name an option gives must name something, and no two things one name: a misspelt name
     would lose its unit or its positivity silently, and a shared one would label a term with the
@@ -116,8 +116,8 @@ def _check_names(estimator, X, y, state_names, input_names, units, user_terms,
     if input_names is not None and not n_inputs:
         raise ValueError(f"input_names {list(input_names)} given, but the estimator has no inputs "
                          f"(n_inputs={estimator.n_inputs}, structure={estimator.structure!r}).")
-    variables = (_names(state_names, n, "x", "state_names")
-                 + (_names(input_names, n_inputs, "u", "input_names") if n_inputs else []))
+    variables = (state_labels(state_names, n, "x", "state_names")
+                 + (state_labels(input_names, n_inputs, "u", "input_names") if n_inputs else []))
     names = variables + list(user_terms or {})
     twice = sorted({name for name in names if names.count(name) > 1})
     if twice:
@@ -145,7 +145,7 @@ def _state_indices(items, names: list[str], option: str) -> list[int]:
     return out
 
 
-def _n_states(estimator, X, y) -> int:
+def count_states(estimator, X, y) -> int:
     """States of an ODE estimator's ``X``: its columns less the packed inputs (one per output time and 0)."""
     X, y = np.asarray(X), np.asarray(y)
     n_inputs = estimator.n_inputs or 0
@@ -154,4 +154,4 @@ def _n_states(estimator, X, y) -> int:
 
 def _n_variables(estimator, X, y) -> int:
     """The states of an ODE estimator, the features of any other."""
-    return _n_states(estimator, X, y) if estimator.structure == "ode" else int(np.prod(np.shape(X)[1:]))
+    return count_states(estimator, X, y) if estimator.structure == "ode" else int(np.prod(np.shape(X)[1:]))

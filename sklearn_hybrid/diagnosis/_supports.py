@@ -2,7 +2,7 @@
 
 Candidate supports come from the lasso path (LARS) and from backward elimination of the full
 least-squares fit; one is chosen by an information criterion or K-fold CV and negligible terms are
-pruned. Everything is computed from Gram matrices (:func:`_stats`), so a bootstrap resample
+pruned. Everything is computed from Gram matrices (:func:`support_stats`), so a bootstrap resample
 (integer row weights) or a fold costs a few small matrix products, not a pass over the data.
 """
 
@@ -34,7 +34,7 @@ class _Stats(NamedTuple):
         return _Stats(self.G - other.G, self.B - other.B, self.yy - other.yy, self.n - other.n)
 
 
-def _stats(X: np.ndarray, Y: np.ndarray, w: np.ndarray) -> _Stats:
+def support_stats(X: np.ndarray, Y: np.ndarray, w: np.ndarray) -> _Stats:
     Xw = X * w[:, None]
     return _Stats(X.T @ Xw, Xw.T @ Y, (w[:, None] * Y**2).sum(axis=0), float(w.sum()))
 
@@ -84,7 +84,7 @@ def _candidate_supports(G: np.ndarray, b: np.ndarray, n: float, max_terms: int |
     return [s for s in ordered if max_terms is None or len(s) <= max_terms]
 
 
-def _shares(G: np.ndarray, b: np.ndarray, yy: float, S: tuple[int, ...]) -> np.ndarray:
+def support_shares(G: np.ndarray, b: np.ndarray, yy: float, S: tuple[int, ...]) -> np.ndarray:
     """Fraction of ``sum(r^2)`` each term of ``S`` explains; they add up to the support's R^2.
 
     Exact Shapley values (the LMG decomposition) for up to ``_MAX_SHAPLEY`` terms, otherwise Pratt's
@@ -137,7 +137,7 @@ def _penalty(criterion: str, k: int, n: float, p: int) -> float:
     return k * np.log(n) + 2.0 * (gammaln(p + 1) - gammaln(k + 1) - gammaln(p - k + 1))
 
 
-def _select(total: _Stats, folds: list[_Stats], j: int, params: dict) -> tuple[int, ...]:
+def select_support(total: _Stats, folds: list[_Stats], j: int, params: dict) -> tuple[int, ...]:
     """Support chosen for output ``j``: criterion over the candidate supports, then relevance pruning."""
     G, b, yy, n = total.G, total.B[:, j], float(total.yy[j]), total.n
     if yy <= 0:

@@ -22,7 +22,7 @@ import numpy as np
 import torch
 
 from ..science import read_signature
-from .terms import SCIENCE_OUTPUT, _abs, _drag, constant, monomial
+from .terms import SCIENCE_OUTPUT, abs_term, drag_term, constant, monomial
 
 __all__ = ["augment_science", "AugmentedScience", "term_to_torch", "parameter_name"]
 
@@ -63,10 +63,10 @@ def term_to_torch(term: str, variables: Sequence[str],
         return partial(_elementary, x=match.group(2), name=match.group(1))
     match = re.fullmatch(r"\|(.+)\|", term)
     if match and match.group(1) in known:
-        return partial(_abs, x=match.group(1))
+        return partial(abs_term, x=match.group(1))
     match = re.fullmatch(r"(.+)\|(.+)\|", term)
     if match and match.group(1) == match.group(2) and match.group(1) in known:
-        return partial(_drag, x=match.group(1))
+        return partial(drag_term, x=match.group(1))
     factors = []
     for part in term.split("*"):
         name, _, power = part.partition("^")

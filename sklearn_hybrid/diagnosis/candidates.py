@@ -1,9 +1,9 @@
 """Candidates of a selection step: the terms' columns, the two rankings, and how a candidate becomes a model.
 
 A candidate is a dict: the ``component`` (output index, or a list of them for a group) it is placed
-on, its ``term`` name, ``kind``, ``function``, starting ``shape`` and ``coef``. :func:`_rank` ranks
-them by the residual the network still carries, :func:`_rank_by_fit` by the network-free model's
-training error they would remove; :func:`_augment` turns the placed candidates into an augmented
+on, its ``term`` name, ``kind``, ``function``, starting ``shape`` and ``coef``. :func:`rank_by_residual` ranks
+them by the residual the network still carries, :func:`rank_by_fit` by the network-free model's
+training error they would remove; :func:`augment_with` turns the placed candidates into an augmented
 science function (:func:`~sklearn_hybrid.diagnosis.augment_science`) for
 :mod:`~sklearn_hybrid.diagnosis.stepwise` to refit and judge.
 """
@@ -23,7 +23,7 @@ from .residual import finite_differences
 from .terms import Term
 
 
-def _term_columns(terms: Sequence[Term], variables: dict[str, torch.Tensor]) -> list[tuple]:
+def term_columns(terms: Sequence[Term], variables: dict[str, torch.Tensor]) -> list[tuple]:
     """``(term, shape, values)`` of every term at every starting shape, on the visited states.
 
     Finite and not identically zero only; the states do not change during the selection, so this is
@@ -42,7 +42,7 @@ def _term_columns(terms: Sequence[Term], variables: dict[str, torch.Tensor]) -> 
     return out
 
 
-def _rank(columns: list[tuple], remaining: np.ndarray, jac: np.ndarray, components: Sequence[int],
+def rank_by_residual(columns: list[tuple], remaining: np.ndarray, jac: np.ndarray, components: Sequence[int],
           taken: set) -> list[dict]:
     """Every (component, term) scored by the share of the remaining residual it explains.
 
@@ -80,7 +80,7 @@ def _rank(columns: list[tuple], remaining: np.ndarray, jac: np.ndarray, componen
     return sorted(ranked, key=lambda t: -t["gain"])
 
 
-def _rank_by_fit(columns: list[tuple], science: Callable, current: Callable, added: list[dict],
+def rank_by_fit(columns: list[tuple], science: Callable, current: Callable, added: list[dict],
                  theta: Mapping[str, Any], fit: ScienceFit, scale: np.ndarray, components: Sequence[int],
                  taken: set, names: Sequence[str], n_states: int,
                  param_names: Mapping[str, str] | None) -> list[dict]:
@@ -90,12 +90,12 @@ def _rank_by_fit(columns: list[tuple], science: Callable, current: Callable, add
     term's coefficient (forward difference at 0), made orthogonal to the sensitivities of the
     parameters already there, explains a share of the remaining training error. This does not rely
     on the network having learned the missing effect well: where the hybrid fit traded the effect
-    between theta and the network, the ranking by its residual (:func:`_rank`) misleads.
+    between theta and the network, the ranking by its residual (:func:`rank_by_residual`) misleads.
     ``current`` is ``science`` with the ``added`` terms.
     """
     base = fit.predict(current, theta).ravel()
     r = fit.y.ravel() - base
-    J = _free_columns(*finite_differences(lambda values: fit.predict(current, values).ravel(), theta), fit.fixed)
+    J = free_columns(*finite_differences(lambda values: fit.predict(current, values).ravel(), theta), fit.fixed)
     J = J[:, np.all(np.isfinite(J), axis=0)]
     Q = np.linalg.qr(J)[0] if J.shape[1] else np.zeros((len(base), 0))
     r = r - Q @ (Q.T @ r)
@@ -111,8 +111,8 @@ def _rank_by_fit(columns: list[tuple], science: Callable, current: Callable, add
             h = 1e-4 * scale[j] / size
             cand = {"component": j, "term": term.name, "kind": term.kind, "unit": term.unit,
                     "function": term.func, "shape": shape, "bounds": term.shape, "coef": h}
-            augmented = _augment(science, [*added, cand], names, n_states, param_names)
-            start = {**theta, **_initial_values(augmented, [*added, cand])}
+            augmented = augment_with(science, [*added, cand], names, n_states, param_names)
+            start = {**theta, **initial_values(augmented, [*added, cand])}
             with np.errstate(all="ignore"):
                 col = (fit.predict(augmented, start).ravel() - base) / h
             if not np.all(np.isfinite(col)):
@@ -127,12 +127,12 @@ def _rank_by_fit(columns: list[tuple], science: Callable, current: Callable, add
     return sorted(best.values(), key=lambda t: -t["gain"])
 
 
-def _free_columns(jac: np.ndarray, names: Sequence[str], fixed: set) -> np.ndarray:
+def free_columns(jac: np.ndarray, names: Sequence[str], fixed: set) -> np.ndarray:
     """The sensitivities of the parameters a refit may move: a fixed one cannot absorb a shift."""
     return jac[..., [i for i, name in enumerate(names) if name.split("[")[0] not in fixed]]
 
 
-def _interleave(ranked: list[dict], n: int) -> list[dict]:
+def interleave(ranked: list[dict], n: int) -> list[dict]:
     """The ``n`` best candidates, taken in turn from each component's own ranking.
 
     Shares are compared within a component only: a large residual on one component (say the
@@ -150,7 +150,7 @@ def _interleave(ranked: list[dict], n: int) -> list[dict]:
     return out
 
 
-def _groups(ranked: list[dict]) -> list[dict]:
+def candidate_groups(ranked: list[dict]) -> list[dict]:
     """One candidate per term that stands on two or more components among ``ranked``: the term on all of
     them at once, each with its own coefficient.
 
@@ -167,12 +167,12 @@ def _groups(ranked: list[dict]) -> list[dict]:
              "ranked_by": "group"} for entries in by_term.values() if len(entries) > 1]
 
 
-def _entries(cand: dict) -> list[dict]:
+def term_entries(cand: dict) -> list[dict]:
     """The single terms a candidate places: its group's, or itself."""
     return cand.get("group", [cand])
 
 
-def _where(cand: dict) -> str:
+def where_acts(cand: dict) -> str:
     components = cand["component"]
     if cand["kind"] == "offset":
         return f"the sensor of state {components}"
@@ -180,12 +180,12 @@ def _where(cand: dict) -> str:
             else f"component {components}")
 
 
-def _n_parameters(cand: dict) -> int:
+def count_parameters(cand: dict) -> int:
     """Coefficients and shape parameters a candidate adds."""
-    return sum(1 + len(e["shape"]) for e in _entries(cand))
+    return sum(1 + len(e["shape"]) for e in term_entries(cand))
 
 
-def _merge(*rankings: list[dict]) -> list[dict]:
+def merge_rankings(*rankings: list[dict]) -> list[dict]:
     """The candidates of several rankings, taken in turn, each (component, term) once."""
     out, seen = [], set()
     for group in zip_longest(*rankings):
@@ -196,20 +196,20 @@ def _merge(*rankings: list[dict]) -> list[dict]:
     return out
 
 
-def _offset(state: int, variables: Sequence[str]) -> dict:
+def offset_candidate(state: int, variables: Sequence[str]) -> dict:
     """The candidate "the sensor of this state reads with a constant offset", starting at zero."""
     return {"component": state, "term": f"offset({variables[state]})", "kind": "offset", "unit": "",
             "function": None, "shape": {}, "bounds": {}, "coef": 0.0, "gain": float("nan"), "ranked_by": "declared"}
 
 
-def _augment(science, placed, variables, n_states, param_names):
+def augment_with(science, placed, variables, n_states, param_names):
     terms = [{"component": t["component"], "term": t["term"], "kind": t["kind"], "coef": t["coef"],
               "function": t["function"], "shape": t["shape"], "param": (param_names or {}).get(t["term"])}
              for t in placed]
     return augment_science(science, terms, variables, n_states=n_states)
 
 
-def _initial_values(augmented, placed, newest: int = 1) -> dict:
+def initial_values(augmented, placed, newest: int = 1) -> dict:
     """Starting values of the coefficients and shape parameters of the ``newest`` terms."""
     out = {}
     for i in range(len(placed) - newest, len(placed)):
@@ -218,12 +218,12 @@ def _initial_values(augmented, placed, newest: int = 1) -> dict:
     return out
 
 
-def _shape_bounds(augmented, placed) -> dict:
+def shape_bounds(augmented, placed) -> dict:
     return {glob: t["bounds"][local][1] for t, names in zip(placed, augmented.shape_names)
             for local, glob in names.items()}
 
 
-def _with_fitted(cand, augmented, theta, i) -> dict:
+def with_fitted(cand, augmented, theta, i) -> dict:
     """The accepted term with its fitted coefficient and shape values."""
     _, _, coef_name = augmented.terms[i]
     shape = {local: float(theta[glob]) for local, glob in augmented.shape_names[i].items()}
@@ -231,6 +231,6 @@ def _with_fitted(cand, augmented, theta, i) -> dict:
             "shape_params": dict(augmented.shape_names[i])}
 
 
-def _public(cand: dict) -> dict:
+def public_record(cand: dict) -> dict:
     return {"ranked_by": cand.get("ranked_by", "residual"),
             **{k: cand[k] for k in ("component", "term", "kind", "gain", "shape")}}

@@ -22,11 +22,11 @@ from torch import nn
 from ..engine import DivergenceError
 from ..residual import MLP, MaskedMLP
 from ..science import read_signature
-from ._arguments import (_check_names, _check_options, _check_param_names, _check_refit_params, _n_states,
-                         _offset_states, _uncertain_components)
+from ._arguments import (check_names, check_options, check_param_names, check_refit_params, count_states,
+                         offset_states, uncertain_components)
 from .evidence import held_out_splits
 from .report import Scoring, format_table, residual_profile
-from .residual import _names, science_output
+from .residual import state_labels, science_output
 from .science_fit import ScienceFit
 from .stepwise import forward_selection
 from .terms import Term, physics_terms
@@ -240,7 +240,7 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         if verbose:
             print(message if message.startswith(("  ", "|")) or "\n" in message
                   else f"[{time.perf_counter() - start:4.0f} s] {message}", flush=True)
-    _check_options(validation_fraction, max_terms, n_candidates, cv, z, min_gain, n_jobs, X_test, y_test,
+    check_options(validation_fraction, max_terms, n_candidates, cv, z, min_gain, n_jobs, X_test, y_test,
                    second_look)
     # the held-out split checks the groups and its own limits before anything is fitted
     splits, codes = held_out_splits(len(y), validation_fraction, cv, groups)
@@ -250,18 +250,18 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
     if getattr(estimator, "theta_encoder", None) is not None:
         raise ValueError("close_the_loop does not support theta_encoder: its network-free refits judge each term "
                          "with one theta shared by every sample. Close the loop on a model with a shared theta.")
-    uncertain = _uncertain_components(estimator, X, y, exact, state_names)
-    offsets = _offset_states(estimator, X, y, offsets, state_names)
-    variables, first_values = _check_names(estimator, X, y, state_names, input_names, units, user_terms, positive)
+    uncertain = uncertain_components(estimator, X, y, exact, state_names)
+    offsets = offset_states(estimator, X, y, offsets, state_names)
+    variables, first_values = check_names(estimator, X, y, state_names, input_names, units, user_terms, positive)
     # the user's terms are tried on the data's first states before anything is fitted
-    n_states = _n_states(estimator, X, y) if estimator.structure == "ode" else None
+    n_states = count_states(estimator, X, y) if estimator.structure == "ode" else None
     # an ODE's uncertain equations may have a parameter that varies with the state or an input: f_j(x) * x_k
     scaled = (None if n_states is None else
               {j: variables[j] for j in (range(n_states) if uncertain is None else uncertain)})
     library = physics_terms(variables, first_values, units, term_kinds, user_terms, positive, scaled,
                             n_states) if terms is None else terms
-    _check_param_names(param_names, {t.name for t in library} | {f"offset({variables[j]})" for j in offsets})
-    _check_refit_params(estimator, refit_params)
+    check_param_names(param_names, {t.name for t in library} | {f"offset({variables[j]})" for j in offsets})
+    check_refit_params(estimator, refit_params)
     try:
         check_is_fitted(estimator, "model_")
         before = estimator
@@ -288,8 +288,8 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
                          f"{residual.shape[1]}: close_the_loop needs a science model shaped like the target.")
     learned = base + residual
     n_states = points[0].size
-    states = _names(state_names, n_states, "x", "state_names")
-    variables = states + ([] if inputs is None else _names(input_names, inputs.shape[1], "u", "input_names"))
+    states = state_labels(state_names, n_states, "x", "state_names")
+    variables = states + ([] if inputs is None else state_labels(input_names, inputs.shape[1], "u", "input_names"))
     outputs = [f"g[{s}]" for s in states] if before.structure == "ode" else [f"g[{j}]" for j in range(base.shape[1])]
     components = list(range(base.shape[1])) if uncertain is None else uncertain
     values = np.hstack([a.reshape(len(a), -1) for a in args])

@@ -13,7 +13,7 @@ from joblib.externals.loky import ProcessPoolExecutor
 from threadpoolctl import threadpool_limits
 
 from .evidence import critical_value
-from .residual import _rms, science_sensitivities
+from .residual import root_mean_square, science_sensitivities
 
 __all__ = ["prediction_metrics", "format_table", "residual_profile", "plot_unexplained"]
 
@@ -50,7 +50,7 @@ def prediction_metrics(y: np.ndarray, y_hybrid: np.ndarray, y_science: np.ndarra
     change if the network were switched off.
     """
     def rms(a):
-        return float(_rms(a, axis=None))
+        return float(root_mean_square(a, axis=None))
 
     return {"rmse": rms(y_hybrid - y), "rmse_science_only": rms(y_science - y),
             "network_share": rms(y_hybrid - y_science) / max(rms(y_hybrid), 1e-300)}
@@ -137,8 +137,8 @@ def residual_profile(remaining: np.ndarray, learned: np.ndarray, values: np.ndar
     and ``profiles`` (per explained output and variable: bin centres and the mean remainder in
     each quantile bin of that variable), which show the shape of a missing effect.
     """
-    total = _rms(learned)
-    share = _rms(remaining) / np.where(total > 0, total, np.nan)
+    total = root_mean_square(learned)
+    share = root_mean_square(remaining) / np.where(total > 0, total, np.nan)
     profiles = {}
     for j in components:
         for i, name in enumerate(variables):

@@ -35,7 +35,7 @@ _CONTAINED_R2 = 0.99  # a library term this well explained by the parameter sens
 _SENS = "df/d"
 
 
-def _names(given: Sequence[str] | None, size: int, prefix: str, label: str) -> list[str]:
+def state_labels(given: Sequence[str] | None, size: int, prefix: str, label: str) -> list[str]:
     if given is None:
         return [f"{prefix}{i}" for i in range(size)]
     names = [given] if isinstance(given, str) else list(given)
@@ -44,7 +44,7 @@ def _names(given: Sequence[str] | None, size: int, prefix: str, label: str) -> l
     return names
 
 
-def _rms(a: np.ndarray, axis=0) -> np.ndarray:
+def root_mean_square(a: np.ndarray, axis=0) -> np.ndarray:
     return np.sqrt(np.mean(np.square(a), axis=axis))
 
 
@@ -217,11 +217,11 @@ class ResidualDiagnosis(BaseEstimator):
             keep = np.sort(rng.choice(len(points), self.max_points, replace=False))
             points, residual = points[keep], residual[keep]
             inputs = None if inputs is None else inputs[keep]
-        states = _names(self.state_names, points.shape[1], "x", "state_names")
+        states = state_labels(self.state_names, points.shape[1], "x", "state_names")
         names = list(states)
         Z, args = points, [points.reshape(len(points), *trace["points"].shape[1:])]
         if inputs is not None:
-            names += _names(self.input_names, inputs.shape[1], "u", "input_names")
+            names += state_labels(self.input_names, inputs.shape[1], "u", "input_names")
             Z, args = np.hstack([points, inputs]), args + [inputs]
         if len(set(names)) != len(names):
             raise ValueError(f"State and input names must be unique, got {names}.")
@@ -233,8 +233,8 @@ class ResidualDiagnosis(BaseEstimator):
         f, jac, pnames = science_sensitivities(estimator, args)
         same_shape = f.shape == residual.shape
         self.science_ = f if same_shape else None
-        total = _rms(f + residual) if same_shape else np.full(residual.shape[1], np.nan)
-        self.residual_share_ = _rms(residual) / np.where(total > 0, total, np.nan)
+        total = root_mean_square(f + residual) if same_shape else np.full(residual.shape[1], np.nan)
+        self.residual_share_ = root_mean_square(residual) / np.where(total > 0, total, np.nan)
         if self.components is None:
             chosen = [j for j in range(residual.shape[1])
                       if not (self.residual_share_[j] < self.min_residual) and np.any(residual[:, j] != 0)]
@@ -349,7 +349,7 @@ class ResidualDiagnosis(BaseEstimator):
         for j, name in enumerate(self.output_names_):
             share = self.residual_share_[j]
             status = "explained below" if j in self.components_ else "skipped (science explains it)"
-            lines.append(f"{name}: residual RMS {_rms(self.residual_[:, j]):.4g}"
+            lines.append(f"{name}: residual RMS {root_mean_square(self.residual_[:, j]):.4g}"
                          + ("" if np.isnan(share) else f" = {share:.1%} of science + network") + f", {status}")
         for j in self.components_:
             lines.append(self.regressions_[j].summary())

@@ -21,7 +21,7 @@ from sklearn.utils import check_random_state
 from sklearn.utils.validation import check_is_fitted, validate_data
 from threadpoolctl import threadpool_limits
 
-from ._supports import _select, _shares, _stats
+from ._supports import select_support, support_shares, support_stats
 
 __all__ = ["SparseTermRegression"]
 
@@ -139,7 +139,7 @@ class SparseTermRegression(RegressorMixin, BaseEstimator):
         # Hundreds of tiny solves: BLAS threads only add overhead (and stall on a busy machine).
         with threadpool_limits(limits=1, user_api="blas"):
             supports = self._select_all(Xs, R, np.ones(n), fold_of)
-            total = _stats(Xs, R, np.ones(n))
+            total = support_stats(Xs, R, np.ones(n))
             self.coef_, self.explained_fraction_ = np.zeros((m, p)), np.zeros((m, p))
             self.support_ = np.zeros((m, p), dtype=bool)
             for j, S in enumerate(supports):
@@ -149,7 +149,7 @@ class SparseTermRegression(RegressorMixin, BaseEstimator):
                     # would drop a column a million times smaller than another (x in mm beside v in m/s)
                     refit = LinearRegression(fit_intercept=False).fit(Xs[:, list(S)], R[:, j])
                     self.coef_[j, cols] = refit.coef_ / scale[cols]
-                    self.explained_fraction_[j, cols] = _shares(total.G, total.B[:, j], float(total.yy[j]), S)
+                    self.explained_fraction_[j, cols] = support_shares(total.G, total.B[:, j], float(total.yy[j]), S)
             fitted = Theta @ self.coef_.T
             yy = np.sum(R**2, axis=0)
             self.r2_ = np.where(yy > 0, 1.0 - np.sum((R - fitted) ** 2, axis=0) / np.where(yy > 0, yy, 1.0), 0.0)
@@ -175,11 +175,11 @@ class SparseTermRegression(RegressorMixin, BaseEstimator):
         """Selected support (indices into ``Xs``'s columns) of every output, rows weighted by ``w``."""
         folds = []
         if fold_of is not None:
-            folds = [_stats(Xs[fold_of == f], R[fold_of == f], w[fold_of == f]) for f in np.unique(fold_of)]
+            folds = [support_stats(Xs[fold_of == f], R[fold_of == f], w[fold_of == f]) for f in np.unique(fold_of)]
             folds = [f for f in folds if f.n > 0]
-        total = _stats(Xs, R, w)
+        total = support_stats(Xs, R, w)
         params = {"criterion": self.criterion, "max_terms": self.max_terms, "min_explained": self.min_explained}
-        return [_select(total, folds, j, params) for j in range(R.shape[1])]
+        return [select_support(total, folds, j, params) for j in range(R.shape[1])]
 
     def predict(self, X: Any) -> np.ndarray:
         """Residual predicted by the sparse model.

@@ -26,9 +26,9 @@ import torch
 
 from ..science import read_signature
 from ._judge import FIT_FAILURES, Judge, training_folds
-from .candidates import (_augment, _entries, _free_columns, _groups, _initial_values, _interleave, _merge,
-                         _n_parameters, _offset, _public, _rank, _rank_by_fit, _shape_bounds, _term_columns, _where,
-                         _with_fitted)
+from .candidates import (augment_with, term_entries, free_columns, candidate_groups, initial_values, interleave, merge_rankings,
+                         count_parameters, offset_candidate, public_record, rank_by_residual, rank_by_fit, shape_bounds, term_columns, where_acts,
+                         with_fitted)
 from .evidence import evidence
 from .report import format_gain
 from .residual import parameter_jacobian, science_output
@@ -95,7 +95,7 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
     tensors = {name: torch.as_tensor(np.asarray(col, dtype=float))
                for name, col in zip(variables, np.hstack([np.asarray(a).reshape(len(a), -1) for a in args]).T)}
     tensors[SCIENCE_OUTPUT] = torch.as_tensor(science_output(science, theta, args), dtype=torch.float64)
-    columns = _term_columns(terms, tensors)
+    columns = term_columns(terms, tensors)
     judge = Judge(fit, splits, groups)
     recheck = training_folds(fit, splits, groups, second_look)
     current, theta_now = science, judge.fit(science, theta)
@@ -114,31 +114,31 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
     while len(added) < max_terms:
         step += 1
         remaining = learned - science_output(current, theta_now, args)
-        jac = _free_columns(*parameter_jacobian(current, theta_now, args), fit.fixed)
+        jac = free_columns(*parameter_jacobian(current, theta_now, args), fit.fixed)
         taken = {(t["component"], t["term"]) for t in added} | rejected
-        by_residual = _interleave(_rank(columns, remaining, jac, components, taken), n_candidates)
-        by_fit = _rank_by_fit(columns, science, current, added, theta_now, judge.screen, scale, components, taken,
+        by_residual = interleave(rank_by_residual(columns, remaining, jac, components, taken), n_candidates)
+        by_fit = rank_by_fit(columns, science, current, added, theta_now, judge.screen, scale, components, taken,
                               variables, n_states, param_names)[:n_candidates]
-        declared = [_offset(k, variables) for k in offsets]
-        ranked = _merge(by_residual, by_fit) + [c for c in declared if (c["component"], c["term"]) not in taken]
+        declared = [offset_candidate(k, variables) for k in offsets]
+        ranked = merge_rankings(by_residual, by_fit) + [c for c in declared if (c["component"], c["term"]) not in taken]
         if not ranked:
             break
         tried = []
-        together = [g for g in _groups(ranked) if len(added) + len(g["group"]) <= max_terms]
+        together = [g for g in candidate_groups(ranked) if len(added) + len(g["group"]) <= max_terms]
         for cand in ranked + together:
-            placed = [*added, *_entries(cand)]
-            candidate_science = _augment(science, placed, variables, n_states, param_names)
-            start = {**theta_now, **_initial_values(candidate_science, placed, len(_entries(cand)))}
+            placed = [*added, *term_entries(cand)]
+            candidate_science = augment_with(science, placed, variables, n_states, param_names)
+            start = {**theta_now, **initial_values(candidate_science, placed, len(term_entries(cand)))}
             try:
-                bounds = _shape_bounds(candidate_science, placed)
-                fitted = _screen(judge, candidate_science, start, bounds, len(placed) - len(_entries(cand)))
+                bounds = shape_bounds(candidate_science, placed)
+                fitted = _screen(judge, candidate_science, start, bounds, len(placed) - len(term_entries(cand)))
                 cand_errors = judge.errors(candidate_science, fitted, bounds, screening=True)
             except FIT_FAILURES as exc:  # a term that breaks the simulation
-                steps.append({"step": step, **_public(cand), "failed": repr(exc), "accepted": False})
+                steps.append({"step": step, **public_record(cand), "failed": repr(exc), "accepted": False})
                 continue
             verdict = evidence(errors, cand_errors, z=z, min_gain=min_gain)
-            steps.append({"step": step, **_public(cand), **verdict, "accepted": False})
-            log(f"  step {step}: {cand['term']} on {_where(cand)}: validation MSE "
+            steps.append({"step": step, **public_record(cand), **verdict, "accepted": False})
+            log(f"  step {step}: {cand['term']} on {where_acts(cand)}: validation MSE "
                 f"{verdict['mse_after']:.4g} (gain {format_gain(verdict['gain'])}, z {verdict['z']:.1f})")
             tried.append((cand, fitted, verdict, cand_errors, candidate_science, len(steps) - 1))
         best = _simplest_of_the_best(tried, min_gain)
@@ -148,19 +148,19 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
             break
         cand, theta_now, _, errors, current, index = best
         # the screen may have stopped early: converge, so that the next step's gains are the terms'
-        bounds = _shape_bounds(current, [*added, *_entries(cand)])
+        bounds = shape_bounds(current, [*added, *term_entries(cand)])
         theta_now = judge.fit(current, theta_now, bounds)
         errors = judge.errors(current, theta_now, bounds)
         steps[index]["accepted"] = True
-        added += [{**_with_fitted(entry, current, theta_now, len(added) + k), "second_look": "second_look" in cand}
-                  for k, entry in enumerate(_entries(cand))]
-        log(f"  accepted {cand['term']} on {_where(cand)}")
+        added += [{**with_fitted(entry, current, theta_now, len(added) + k), "second_look": "second_look" in cand}
+                  for k, entry in enumerate(term_entries(cand))]
+        log(f"  accepted {cand['term']} on {where_acts(cand)}")
         known[_key(added)] = theta_now
         current, added, theta_now, errors = _drop_dispensable(
             science, current, added, theta_now, errors, judge, variables, n_states, param_names,
             z, min_gain, steps, log, known, recheck)
         model = frozenset((t["component"], t["term"]) for t in added)
-        dropped_at_once = {(e["component"], e["term"]) for e in _entries(cand)} - model
+        dropped_at_once = {(e["component"], e["term"]) for e in term_entries(cand)} - model
         rejected |= dropped_at_once
         if not dropped_at_once and model in visited:  # drops and additions that lead back to a model already left
             log("  stopped: the selection came back to a model it had left")
@@ -201,17 +201,17 @@ def _second_look(recheck: Judge, tried: list, current, theta: dict, added: list,
     if not promising:
         return None
     recheck.settle(current, theta)
-    base = recheck.errors(current, theta, _shape_bounds(current, added) if added else None)
+    base = recheck.errors(current, theta, shape_bounds(current, added) if added else None)
     looked = []
     for cand, fitted, _, _, candidate_science, index in promising:
         try:
-            bounds = _shape_bounds(candidate_science, [*added, *_entries(cand)])
+            bounds = shape_bounds(candidate_science, [*added, *term_entries(cand)])
             errors = recheck.errors(candidate_science, fitted, bounds, screening=True)
         except FIT_FAILURES:
             continue
         verdict = evidence(base, errors, z=z, min_gain=min_gain)
         steps.append({**steps[index], **verdict, "step": f"{steps[index]['step']}, second look", "accepted": False})
-        log(f"  second look at {cand['term']} on {_where(cand)}: training-fold MSE {verdict['mse_after']:.4g} "
+        log(f"  second look at {cand['term']} on {where_acts(cand)}: training-fold MSE {verdict['mse_after']:.4g} "
             f"(gain {format_gain(verdict['gain'])}, z {verdict['z']:.1f})")
         looked.append(({**cand, "second_look": True}, fitted, verdict, errors, candidate_science, len(steps) - 1))
     return _simplest_of_the_best(looked, min_gain)
@@ -261,20 +261,20 @@ def _drop_dispensable(science, current, added, theta, errors, judge, variables, 
         on_folds = None  # the current model's errors on the second look's folds, when a term needs them
         for i in range(len(added)):
             rest = added[:i] + added[i + 1:]
-            reduced = _augment(science, rest, variables, n_states, param_names)
+            reduced = augment_with(science, rest, variables, n_states, param_names)
             start = {k: v for k, v in theta.items() if k in original}
             for k, t in enumerate(rest):  # the kept terms' latest values, under the reduced model's names
                 start[reduced.terms[k][2]] = theta[t["param"]]
                 start.update({glob: theta[t["shape_params"][loc]] for loc, glob in reduced.shape_names[k].items()})
             starts = [start] + ([{**start, **known[_key(rest)]}] if known and _key(rest) in known else [])
             try:
-                bounds = _shape_bounds(reduced, rest)
+                bounds = shape_bounds(reduced, rest)
                 fitted = _refit_from_best(judge, reduced, starts, bounds)
                 reduced_errors = judge.errors(reduced, fitted, bounds)
                 with_it, without = errors, reduced_errors  # the judged errors with and without the term
                 if added[i].get("second_look"):
                     if on_folds is None:
-                        on_folds = recheck.errors(current, theta, _shape_bounds(current, added))
+                        on_folds = recheck.errors(current, theta, shape_bounds(current, added))
                     with_it, without = on_folds, recheck.errors(reduced, fitted, bounds)
             except FIT_FAILURES:
                 continue
@@ -284,10 +284,10 @@ def _drop_dispensable(science, current, added, theta, errors, judge, variables, 
             break
         _, i, rest, reduced, fitted, reduced_errors, with_it, without = min(trials, key=lambda t: t[0])
         label = "drop, second look" if added[i].get("second_look") else "drop"  # which judge's errors the row holds
-        steps.append({"step": label, **_public(added[i]), **evidence(with_it, without, z=z, min_gain=min_gain),
+        steps.append({"step": label, **public_record(added[i]), **evidence(with_it, without, z=z, min_gain=min_gain),
                       "accepted": False, "dropped": True})
         log(f"  dropped {added[i]['term']} on component {added[i]['component']}: the later terms explain it")
-        added = [_with_fitted(t, reduced, fitted, k) for k, t in enumerate(rest)]
+        added = [with_fitted(t, reduced, fitted, k) for k, t in enumerate(rest)]
         current, theta, errors = reduced, fitted, reduced_errors
     return current, added, theta, errors
 
@@ -321,6 +321,6 @@ def _simplest_of_the_best(tried: list, min_gain: float) -> tuple | None:
         return None
     best = min(passed, key=lambda t: t[2]["mse_after"])
     alike = [t for t in passed if t[2]["mse_after"] <= (1 + min_gain) * best[2]["mse_after"]]
-    return min(alike, key=lambda t: (_n_parameters(t[0]), t[0]["kind"] != "polynomial", t[2]["mse_after"]))
+    return min(alike, key=lambda t: (count_parameters(t[0]), t[0]["kind"] != "polynomial", t[2]["mse_after"]))
 
 

@@ -100,11 +100,11 @@ def _scaled(d, component, factors):
     return d[SCIENCE_OUTPUT][..., component] * monomial(d, factors)
 
 
-def _drag(d, x):
+def drag_term(d, x):
     return d[x] * d[x].abs()
 
 
-def _abs(d, x):
+def abs_term(d, x):
     return d[x].abs()
 
 
@@ -285,8 +285,8 @@ def _single_variable(x: str, col: np.ndarray, scale: float, unit: str, kinds: Se
     out = []
     wide = (1e-6 * scale, 1e3 * scale)
     if "drag" in kinds:
-        out.append(Term(f"{x}|{x}|", partial(_drag, x=x), "drag", unit=_power(unit, 2)))
-        out.append(Term(f"|{x}|", partial(_abs, x=x), "drag", unit=unit))
+        out.append(Term(f"{x}|{x}|", partial(drag_term, x=x), "drag", unit=_power(unit, 2)))
+        out.append(Term(f"|{x}|", partial(abs_term, x=x), "drag", unit=unit))
     if "dry_friction" in kinds:  # sign(x) smoothed over a fitted width w (-> sign as w -> 0)
         out.append(Term(f"tanh({x}/w)", partial(_dry_friction, x=x), "dry_friction",
                         {"w": ([0.01 * scale, 0.1 * scale, 0.5 * scale], wide)}))

@@ -1,0 +1,32 @@
+"""The house rules that hold by themselves: no module reaches into another's private names."""
+
+import ast
+from pathlib import Path
+
+PACKAGE = Path(__file__).resolve().parents[1] / "sklearn_hybrid"
+
+
+def _private_imports():
+    """``(module, imported name)`` for every private name (not a private module) one package module
+    imports from another: what one module needs of another gets a public name."""
+    modules = {p.relative_to(PACKAGE).with_suffix("").as_posix() for p in PACKAGE.rglob("*.py")}
+    found = []
+    for path in sorted(PACKAGE.rglob("*.py")):
+        here = path.relative_to(PACKAGE).with_suffix("").as_posix()
+        package = here.rsplit("/", 1)[0] if "/" in here else ""
+        for node in ast.walk(ast.parse(path.read_text())):
+            if not isinstance(node, ast.ImportFrom) or node.level == 0:
+                continue
+            base = package.split("/") if package else []
+            base = base[:len(base) - (node.level - 1)] if node.level > 1 else base
+            source = "/".join(base + (node.module.split(".") if node.module else []))
+            for alias in node.names:
+                name = alias.name
+                is_module = f"{source}/{name}".lstrip("/") in modules or f"{source}/{name}/__init__".lstrip("/") in modules
+                if name.startswith("_") and not name.startswith("__") and not is_module:
+                    found.append((here, f"{source or '.'}:{name}"))
+    return found
+
+
+def test_no_module_imports_another_modules_private_names():
+    assert _private_imports() == []
