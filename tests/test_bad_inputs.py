@@ -8,6 +8,7 @@ theta, feature count and predictions.
 
 import copy
 import functools
+import warnings
 from dataclasses import dataclass
 from types import SimpleNamespace
 from typing import Callable
@@ -16,8 +17,10 @@ import numpy as np
 import pytest
 import torch
 
+from sklearn.exceptions import ConvergenceWarning
+
 from sklearn_hybrid import DivergenceError, HybridRegressor, HybridRegressorCV
-from sklearn_hybrid.datasets import get_data_home
+from sklearn_hybrid.datasets import get_data_home, make_pendulum
 from sklearn_hybrid.models import pendulum_f
 
 FAST = dict(max_iter=3, residual={"hidden": (8,)}, random_state=0, dt=0.2)
@@ -122,6 +125,12 @@ def cv(**params):
     def run(est, X, y):
         HybridRegressorCV(est, **params).fit(X, y)
     return Call({"method": "erm"}, run)
+
+
+def pendulum(X, y):
+    """The package's pendulum task in place of the table's data (the issue's cases)."""
+    data = make_pendulum(random_state=0)
+    return data.X_train, data.y_train
 
 
 def with_nan(where):
@@ -238,6 +247,12 @@ CASES = [
      ValueError, "returns (3,) per sample"),
     ("score on transposed y", Call({}, lambda est, X, y: est.score(X, np.swapaxes(y, 1, 2))),
      ValueError, "y has shape (6, 2, 5); the model predicts (6, 5, 2)"),
+    # audit 4 (issue 40): a training that went bad is no fit
+    ("lr=10: the loss ends 1e22 times its start", fit(lr=10, max_iter=30),
+     DivergenceError, "The training diverged: the training loss ended at"),
+    ("sam, lr=1 on the pendulum: trained through its spikes", fit_on(pendulum, method="sam", lr=1, max_iter=50,
+                                                                    residual="mlp"),
+     DivergenceError, "Lower lr (lr=1) or rho"),
 ]
 
 
@@ -278,7 +293,7 @@ def test_bad_input_is_named_and_changes_nothing(earlier, what, call, error, phra
 
 def test_table_size():
     """The closing note quotes this count; keep it in step with CASES."""
-    assert len(CASES) == 57
+    assert len(CASES) == 59
 
 
 def test_data_home_that_is_a_file(tmp_path, monkeypatch):
@@ -309,3 +324,47 @@ def test_partial_binds_a_constant():
     X, y = _data()
     est = HybridRegressor(science=functools.partial(scaled, k=2.0), **FAST).fit(X, y)
     assert set(est.theta_) == {"omega"}
+
+
+def test_training_that_never_moved_theta_is_not_usable():
+    """fsam with rho=10 ends without error, but omega never leaves its start and R^2 < 0: the fit
+    is returned with a ConvergenceWarning, and its report says first that it is not usable."""
+    X, y = pendulum(None, None)
+    est = HybridRegressor(science=pendulum_f, method="fsam", rho=10, max_iter=10, dt=0.2, random_state=0)
+    with pytest.warns(ConvergenceWarning, match=r"not usable: its training R\^2 is -.*theta never moved "
+                                                r"from its start \(omega=0.5\)"):
+        est.fit(X, y)
+    assert est.theta_["omega"] == 0.5
+    report = est.fit_report().splitlines()
+    assert report[1].strip().startswith("NOT USABLE: the training went bad: its training R^2 is")
+
+
+def test_a_short_healthy_fit_is_not_flagged():
+    X, y = pendulum(None, None)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", ConvergenceWarning)
+        est = HybridRegressor(science=pendulum_f, max_iter=30, dt=0.2, random_state=0).fit(X, y)
+    assert "NOT USABLE" not in est.fit_report()
+
+
+@pytest.mark.parametrize("start, halved, phrase", [
+    (0.1, [], "times its start"),          # ended above twice its start
+    (10.0, [1, 2, 3, 4, 5], "after the loss spiked 5 times"),  # the guard's halvings spent
+    (10.0, [1], None),                     # a short fit on noise: R^2 < 0 but nothing went bad
+])
+def test_verdict_on_a_model_worse_than_the_mean(start, halved, phrase):
+    """The verdict's rules, on a short fit to noise (training R^2 < 0) with the history it read."""
+    from sklearn_hybrid._verdict import judge_training
+
+    X, y = _data()
+    est = HybridRegressor(science=pendulum_f, **FAST).fit(X, y)
+    inputs = est.model_.structure.tensors(X, torch.float32)
+    y_t = torch.tensor(y.reshape(len(y), -1), dtype=torch.float32)
+    history = {"loss": np.array([start, 1.0]), "theta": {"omega": np.array([0.49, 0.48])},
+               "lr_halved_at": halved}
+    verdict = judge_training(est.model_, history, inputs, y_t, theta_start={"omega": 0.5})
+    assert verdict.r2 < 0
+    if phrase is None:
+        assert verdict.usable
+    else:
+        assert not verdict.usable and phrase in verdict.summary()
