@@ -68,8 +68,11 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
         Initial values overriding the science function's defaults.
     theta_bounds : dict, optional
         ``name -> (low, high)``, enforced by a smooth reparametrisation.
-    theta_fixed : list of str, optional
-        Parameters kept at their initial value.
+    theta_fixed : list of str or dict, optional
+        Parameters kept constant: a list keeps them at their initial value
+        (``theta_init`` or the default); a dict ``{"omega": 0.6}`` fixes each
+        at its value (as lmfit's ``vary=False`` with a value; a value given
+        in both ``theta_init`` and ``theta_fixed`` must agree).
     theta_encoder : str, dict, callable or None, default=None
         Theta that varies from sample to sample: an encoder network reads each
         sample ``X[i]`` and outputs that sample's free parameters, trained

@@ -206,6 +206,12 @@ CASES = [
      ValueError, "theta_init['omega'] has shape (1,), the default has shape (): give a number"),
     ("initial value outside bounds", fit(theta_init={"omega": 3.0}, theta_bounds={"omega": (0, 2)}),
      ValueError, "outside its bounds"),
+    ("theta_fixed and theta_init disagree", fit(theta_init={"omega": 0.5}, theta_fixed={"omega": 0.6}),
+     ValueError, "theta_init['omega'] = 0.5 and theta_fixed['omega'] = 0.6 disagree"),
+    ("theta_fixed value not a number", fit(theta_fixed={"omega": "0.6"}),
+     ValueError, "theta_fixed['omega'] must be a number"),
+    ("theta_fixed value outside bounds", fit(theta_fixed={"omega": 3.0}, theta_bounds={"omega": (0, 2)}),
+     ValueError, "outside its bounds"),
     # item 9: raw or misleading messages
     ("observed=[]", fit(observed=[]), ValueError, "observed must list the observed state"),
     ("observed=[0, 0]", fit(observed=[0, 0]), ValueError, "lists a component twice"),
@@ -293,7 +299,7 @@ def test_bad_input_is_named_and_changes_nothing(earlier, what, call, error, phra
 
 def test_table_size():
     """The closing note quotes this count; keep it in step with CASES."""
-    assert len(CASES) == 59
+    assert len(CASES) == 62
 
 
 def test_data_home_that_is_a_file(tmp_path, monkeypatch):
@@ -368,3 +374,15 @@ def test_verdict_on_a_model_worse_than_the_mean(start, halved, phrase):
         assert verdict.usable
     else:
         assert not verdict.usable and phrase in verdict.summary()
+
+
+@pytest.mark.parametrize("fixed, omega", [({"omega": 0.6}, 0.6), ({"omega": None}, 0.5), (["omega"], 0.5)])
+def test_theta_fixed_dict_fixes_at_its_value(fixed, omega):
+    """theta_fixed={"omega": 0.6} holds omega at 0.6 (lmfit's vary=False with a value), not at the default."""
+    X, y = _data()
+    before = copy.deepcopy(fixed)
+    est = HybridRegressor(science=pendulum_f, theta_fixed=fixed, **FAST).fit(X, y)
+    assert est.theta_["omega"] == pytest.approx(omega, rel=1e-6)
+    assert np.all(est.history_["theta"]["omega"] == est.theta_["omega"])
+    assert "(fixed)" in est.fit_report()
+    assert fixed == before
