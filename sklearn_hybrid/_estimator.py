@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import copy
 import math
 import numbers
 import threading
@@ -18,11 +19,12 @@ from sklearn.utils.validation import check_is_fitted, validate_data
 from ._device import resolve_device
 from ._kernels import reusing_buffers
 from . import encoder as _encoder
-from .engine import TrainConfig, cosine_lr, explain_nonfinite, theta_drift, train
+from .engine import DivergenceError, TrainConfig, cosine_lr, explain_nonfinite, theta_drift, train
 from ._extras import EstimatorExtras, _check_sample_weight, _holdout
 from ._memory import check_fit_memory, explained_memory_errors
-from ._verdict import judge_training
-from ._validation import check_positive, check_target_layout, set_feature_info, torch_threads, validate_into_copy
+from ._verdict import explain_start, judge_training
+from ._validation import (check_dtype_range, check_positive, check_target_layout, set_feature_info, torch_threads,
+                          validate_into_copy)
 from ._report import theta_uncertainty
 from .methods import make_method
 from .residual import build_residual
@@ -309,10 +311,17 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
         science = setup.model.science
         theta_start = None if setup.model.encoder is not None else {
             name: value for name, value in science.as_dict().items() if science.raw[name].requires_grad}
+        initial = copy.deepcopy(setup.model.state_dict())  # for the diagnosis of a start that blows up
         with torch_threads(self.n_threads), reusing_buffers(), explained_memory_errors(setup):
-            history = train(setup.model, setup.method, inputs, y_t, setup.config,
-                            torch.Generator().manual_seed(setup.seed), sample_weight=weight,
-                            validation=validation.get("data"))
+            try:
+                history = train(setup.model, setup.method, inputs, y_t, setup.config,
+                                torch.Generator().manual_seed(setup.seed), sample_weight=weight,
+                                validation=validation.get("data"))
+            except DivergenceError as error:  # a lower lr cannot help a model that blows up at its start
+                cause = explain_start(setup.model, initial, inputs, y_t, setup.samples_per_pass)
+                if cause is None:
+                    raise
+                raise DivergenceError(cause) from error
             # a run that diverged is refused here, before it can replace an earlier fit
             verdict = judge_training(setup.model, history, inputs, y_t, weight, theta_start=theta_start,
                                      batch_size=self.batch_size, chunk=setup.samples_per_pass,
@@ -346,6 +355,7 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
                                               y_numeric=True, dtype=np.float64, order="C")
         y = np.ascontiguousarray(y)  # order= reaches X only
         dtype, device = _DTYPES[self.dtype], resolve_device(self.device)
+        check_dtype_range(dtype, X, y)
         try:
             seed = int(check_random_state(self.random_state).randint(np.iinfo(np.int32).max))
         except ValueError as error:  # numpy's message names neither the argument nor its value

@@ -17,9 +17,9 @@ import numpy as np
 import torch
 
 from ._stopping import SpikeGuard
-from .engine import DivergenceError, data_loss
+from .engine import DivergenceError, data_loss, explain_nonfinite
 
-__all__ = ["TrainingVerdict", "judge_training"]
+__all__ = ["TrainingVerdict", "judge_training", "explain_start"]
 
 #: A final training loss this many times above the larger of the loss at the start and the
 #: variance of y (a training R^2 below about -(factor - 1)) is a diverged run: refused.
@@ -194,3 +194,53 @@ def _never_moved(history, theta_start) -> list[str]:
         if np.array_equal(path, np.broadcast_to(np.asarray(start, dtype=float).reshape(1, -1), path.shape)):
             still.append(f"{name}={np.asarray(start).tolist()}")
     return still
+
+
+def _blows_up(pred, y) -> bool:
+    """Predictions that are not finite, whose squared errors are not, or that exceed the range of
+    ``y`` a thousandfold (an integration that grew without bound, still finite in float32)."""
+    scale = float(y.abs().max())
+    return (not torch.isfinite(pred).all() or not np.isfinite(float(data_loss(pred, y)))
+            or (scale > 0 and float(pred.abs().max()) > _BLOWN_UP * scale))
+
+
+#: Predictions this many times beyond the largest target have blown up.
+_BLOWN_UP = 1e3
+
+
+def explain_start(model, initial_state: dict, inputs, y, chunk=512) -> str | None:
+    """Why a training diverged, if its model blew up before any step; None otherwise.
+
+    The training loop can only say that the loss was not finite and suggest a
+    lower learning rate, which cannot help when the model at its start already
+    blows up.  Restored to ``initial_state``, the model is run on the training
+    ``inputs``: if the science part alone blows up, an ODE's integration step
+    (``dt / n_substeps``) is too long for the dynamics (or theta's start makes
+    them unstable); if only the hybrid does, the network's random start blows
+    a long integration up.  A science function that is itself not finite at
+    finite inputs is named by the loop already (None here).
+    """
+    model.load_state_dict(initial_state)
+    model.eval()
+    s = model.structure
+    if not hasattr(s, "n_steps"):  # not an ODE: nothing integrated, the loop's message stands
+        return None
+    if not _blows_up(_predict(model, inputs, chunk), y) or explain_nonfinite(model, inputs) is not None:
+        return None
+    science_blows_up = _blows_up(_predict(model, inputs, chunk, use_residual=False), y)
+    span = (f"{s.n_steps} steps of dt={s.dt:g} ({s.n_steps * s.dt:.4g} time units; solver={s.solver!r}, "
+            f"n_substeps={s.n_substeps}: integration steps of {s.dt / s.n_substeps:.3g})")
+    if science_blows_up:
+        return (f"The science model alone, with its initial theta {model.science.as_dict()}, blows up along "
+                f"the training trajectories before any training step (integrated over {span}, it grows "
+                f"beyond {_BLOWN_UP:g} times the largest |y|), although the science function is finite "
+                "wherever it is called. The integration step is too long for these dynamics: give dt as "
+                "the time between the samples of y, in the time unit of the science function, or raise "
+                "n_substeps (or start theta where the dynamics are stable, with theta_init).")
+    return (f"The hybrid model blows up along the training trajectories before any training step, while "
+            f"the science model alone does not: the network's random start adds a force that the "
+            f"integration over {span} amplifies beyond {_BLOWN_UP:g} times the largest |y|. Trajectories "
+            "this long are hard to train from any start (their gradients blow up too): cut them into "
+            "shorter windows (sklearn_hybrid.datasets.make_windows), or start the network at zero, so that "
+            "training starts from the science model alone (residual={'kind': 'mlp', 'zero_init': True, "
+            "'activation': 'tanh'}).")

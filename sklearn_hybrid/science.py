@@ -56,7 +56,16 @@ def read_signature(func: Callable) -> tuple[list[str], dict[str, np.ndarray]]:
     # functools.partial(f, k=1.0) is how users fix a constant: its keywords are not theta
     bound = set(func.keywords) if isinstance(func, functools.partial) else set()
     inputs, defaults = [], {}
-    for p in inspect.signature(func).parameters.values():
+    params = list(inspect.signature(func).parameters.values())
+    qualname = getattr(func, "__qualname__", "")
+    if params and params[0].name == "self" and "." in qualname.replace(".<locals>.", ""):
+        # Pend.f taken from the class: 'self' would be read as the state and 'v' as an input u
+        owner, name = qualname.replace(".<locals>.", ":").rsplit(":", 1)[-1].rsplit(".", 1)
+        raise TypeError(
+            f"science={owner}.{name} is a method taken from its class, so its first argument 'self' "
+            f"has no value. Pass it from an instance, science={owner}(...).{name}, or make it a "
+            "@staticmethod without 'self'.")
+    for p in params:
         if p.kind in (p.VAR_POSITIONAL, p.VAR_KEYWORD) or p.name in bound:
             continue
         if p.default is p.empty:

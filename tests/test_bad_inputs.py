@@ -17,11 +17,12 @@ import numpy as np
 import pytest
 import torch
 
-from sklearn.exceptions import ConvergenceWarning
+from sklearn.exceptions import ConvergenceWarning, NotFittedError
 
 from sklearn_hybrid import DivergenceError, HybridRegressor, HybridRegressorCV
 from sklearn_hybrid.datasets import get_data_home, make_pendulum
 from sklearn_hybrid.models import pendulum_f
+from sklearn_hybrid.residual import MLP
 
 FAST = dict(max_iter=3, residual={"hidden": (8,)}, random_state=0, dt=0.2)
 
@@ -95,6 +96,28 @@ def scalar_of_x(x, k=1.0):  # one value per sample, for a y of shape (n, 1)
 
 def transposed_composition(x, f, g):
     return (f(x) + g(x)).T
+
+
+class Pend:
+    def f(self, v, omega=0.5):  # passed as Pend.f, unbound
+        return pendulum_f(v, omega)
+
+
+def loud_network(in_shapes, out_shape):
+    """A network whose random start is ten times the usual: its force blows the integration up."""
+    net = MLP(in_shapes, out_shape, hidden=(8,))
+    with torch.no_grad():
+        for p in net.parameters():
+            p.mul_(10.0)
+    return net
+
+
+def one_large(where, value):
+    def transform(X, y):
+        X, y = X.copy(), y.copy()
+        (X if where == "X" else y)[0, 0] = value
+        return X, y
+    return transform
 
 
 # --- the table -----------------------------------------------------------------------------
@@ -259,6 +282,23 @@ CASES = [
     ("sam, lr=1 on the pendulum: trained through its spikes", fit_on(pendulum, method="sam", lr=1, max_iter=50,
                                                                     residual="mlp"),
      DivergenceError, "Lower lr (lr=1) or rho"),
+    # audit 4: errors that blamed the wrong thing
+    ("y * 1e300 in float32", fit_on(lambda X, y: (X, y * 1e300)),
+     ValueError, "y holds values up to 9.94e+299, which overflow float32 (largest number 3.4e+38). Rescale y"),
+    ("an X entry of 1e39 in float32", fit_on(one_large("X", 1e39)),
+     ValueError, "X holds values up to 1e+39, which overflow float32 (largest number 3.4e+38). Fit with "
+                 "dtype='float64'"),
+    ("a y entry whose square overflows float32", fit_on(one_large("y", 1e20)),
+     ValueError, "make the squared errors of the loss overflow float32"),
+    ("dt=1e6: the science alone explodes", fit(dt=1e6),
+     DivergenceError, "The integration step is too long for these dynamics"),
+    ("a network start that blows 25 steps up", fit_on(lambda X, y: (X, np.repeat(y, 5, axis=1)),
+                                                     residual=loud_network),
+     DivergenceError, "the network's random start adds a force"),
+    ("science=Pend.f, an unbound method", fit(science=Pend.f),
+     TypeError, "science=Pend.f is a method taken from its class"),
+    ("HybridRegressorCV.predict before fit", Call({}, lambda est, X, y: HybridRegressorCV(est).predict(X)),
+     NotFittedError, "is not fitted yet"),
 ]
 
 
@@ -299,7 +339,7 @@ def test_bad_input_is_named_and_changes_nothing(earlier, what, call, error, phra
 
 def test_table_size():
     """The closing note quotes this count; keep it in step with CASES."""
-    assert len(CASES) == 62
+    assert len(CASES) == 69
 
 
 def test_data_home_that_is_a_file(tmp_path, monkeypatch):
@@ -386,3 +426,12 @@ def test_theta_fixed_dict_fixes_at_its_value(fixed, omega):
     assert np.all(est.history_["theta"]["omega"] == est.theta_["omega"])
     assert "(fixed)" in est.fit_report()
     assert fixed == before
+
+
+def test_zero_started_network_starts_from_the_science_alone():
+    """residual={"zero_init": True}, offered where a random start blows a long integration up."""
+    from sklearn_hybrid.residual import build_residual
+
+    net = build_residual({"kind": "mlp", "zero_init": True}, ((2,),), (2,))
+    assert torch.count_nonzero(net(torch.randn(4, 2))) == 0
+    assert any(torch.count_nonzero(p) for p in net.parameters())  # the hidden layers are random
