@@ -171,7 +171,22 @@ class OdeStructure:
             self.obs_shape = tuple(self.state_shape)
         per_step = y_shape[1:]
         if per_step != self.obs_shape and not (per_step == () and self.obs_shape == (1,)):
-            raise ValueError(self._layout_message(y_shape, n_state))
+            raise ValueError(self._layout_message(y_shape, n_state) + self._packing_note(X))
+
+    def _packing_note(self, X) -> str:
+        """How the columns of a forced system's X were split, counted from y's steps (empty unforced).
+
+        The state's size is what remains of X after the inputs that y's steps need: an X packed with
+        more input samples than that gives the state extra components (one per surplus column).
+        """
+        if not self.n_inputs:
+            return ""
+        samples = self.n_steps + 1
+        return (f" X has {X.shape[1]} columns: y's {self.n_steps} steps need {samples} input samples of "
+                f"{self.n_inputs} input(s) (times 0 to {self.n_steps} dt), {samples * self.n_inputs} "
+                f"columns, which leaves {self.state_shape[0]} for the state. If the state has fewer "
+                f"components, X holds more input samples than y's steps need: pack u with "
+                f"{samples} samples, pack_inputs(x0, u[:, :{samples}]).")
 
     def _layout_message(self, y_shape, n_state):
         """Say which layout ``y`` needs, what it has, and the likely fix."""
@@ -223,8 +238,14 @@ class OdeStructure:
         batch = probe_batch(inputs, self.state_shape)
         v = batch[0]
         u = batch[1][:, 0] if self.n_inputs else None
-        call_science(science, self._args(v, u), v.shape,
-                      "states" + (" and inputs" if u is not None else ""), differentiable=True)
+        try:
+            call_science(science, self._args(v, u), v.shape,
+                         "states" + (" and inputs" if u is not None else ""), differentiable=True)
+        except ValueError as error:  # a state size taken wrongly from X shows as an output of the wrong shape
+            if not self.n_inputs or "the structure needs" not in str(error):
+                raise
+            n = self.state_shape[0]
+            raise ValueError(str(error) + self._packing_note(np.empty((0, n + (self.n_steps + 1) * self.n_inputs))))
 
     def residual_shapes(self):
         ins = (tuple(self.state_shape),) + (((self.n_inputs,),) if self.n_inputs else ())

@@ -19,7 +19,7 @@ import torch
 
 from sklearn.exceptions import ConvergenceWarning, NotFittedError
 
-from sklearn_hybrid import DivergenceError, HybridRegressor, HybridRegressorCV
+from sklearn_hybrid import DivergenceError, HybridRegressor, HybridRegressorCV, pack_inputs
 from sklearn_hybrid.datasets import get_data_home, make_pendulum
 from sklearn_hybrid.models import pendulum_f
 from sklearn_hybrid.residual import MLP
@@ -96,6 +96,18 @@ def scalar_of_x(x, k=1.0):  # one value per sample, for a y of shape (n, 1)
 
 def transposed_composition(x, f, g):
     return (f(x) + g(x)).T
+
+
+def forced_two_states(v, u, k=1.0):
+    return torch.stack([v[:, 1], -k * v[:, 0] + u[:, 0]], dim=-1)
+
+
+def packed_with(n_samples):
+    """X of a forced system with n_samples input samples per trajectory (y's 5 steps need 6)."""
+    def transform(X, y):
+        u = np.linspace(-1, 1, len(X) * n_samples).reshape(len(X), n_samples, 1)
+        return pack_inputs(X, u), y
+    return transform
 
 
 class Pend:
@@ -297,6 +309,12 @@ CASES = [
      DivergenceError, "the network's random start adds a force"),
     ("science=Pend.f, an unbound method", fit(science=Pend.f),
      TypeError, "science=Pend.f is a method taken from its class"),
+    ("forced X packed with 8 input samples where y's 5 steps need 6", fit_on(packed_with(8), n_inputs=1,
+                                                                          science=forced_two_states),
+     ValueError, "y's 5 steps need 6 input samples of 1 input(s) (times 0 to 5 dt), 6 columns, which leaves 4"),
+    ("the same, y observing one component", fit_on(lambda X, y: (packed_with(8)(X, y)[0], y[..., :1]),
+                                                   n_inputs=1, observed=[0], science=forced_two_states),
+     ValueError, "X holds more input samples than y's steps need"),
     ("HybridRegressorCV.predict before fit", Call({}, lambda est, X, y: HybridRegressorCV(est).predict(X)),
      NotFittedError, "is not fitted yet"),
 ]
@@ -339,7 +357,7 @@ def test_bad_input_is_named_and_changes_nothing(earlier, what, call, error, phra
 
 def test_table_size():
     """The closing note quotes this count; keep it in step with CASES."""
-    assert len(CASES) == 69
+    assert len(CASES) == 71
 
 
 def test_data_home_that_is_a_file(tmp_path, monkeypatch):
