@@ -21,6 +21,7 @@ from sklearn.exceptions import ConvergenceWarning, NotFittedError
 
 from sklearn_hybrid import DivergenceError, HybridRegressor, HybridRegressorCV, pack_inputs
 from sklearn_hybrid.datasets import get_data_home, make_pendulum
+from sklearn_hybrid.diagnosis import close_the_loop
 from sklearn_hybrid.models import pendulum_f
 from sklearn_hybrid.residual import MLP
 
@@ -315,6 +316,8 @@ CASES = [
     ("the same, y observing one component", fit_on(lambda X, y: (packed_with(8)(X, y)[0], y[..., :1]),
                                                    n_inputs=1, observed=[0], science=forced_two_states),
      ValueError, "X holds more input samples than y's steps need"),
+    ("close_the_loop with y of another horizon", Call({}, lambda est, X, y: close_the_loop(est, X, y[:, :3])),
+     ValueError, "y has per-sample shape (3, 2); the estimator was fitted on y of per-sample shape (5, 2)"),
     ("HybridRegressorCV.predict before fit", Call({}, lambda est, X, y: HybridRegressorCV(est).predict(X)),
      NotFittedError, "is not fitted yet"),
 ]
@@ -357,7 +360,7 @@ def test_bad_input_is_named_and_changes_nothing(earlier, what, call, error, phra
 
 def test_table_size():
     """The closing note quotes this count; keep it in step with CASES."""
-    assert len(CASES) == 71
+    assert len(CASES) == 72
 
 
 def test_data_home_that_is_a_file(tmp_path, monkeypatch):
@@ -453,3 +456,33 @@ def test_zero_started_network_starts_from_the_science_alone():
     net = build_residual({"kind": "mlp", "zero_init": True}, ((2,),), (2,))
     assert torch.count_nonzero(net(torch.randn(4, 2))) == 0
     assert any(torch.count_nonzero(p) for p in net.parameters())  # the hidden layers are random
+
+
+def test_data_file_replaced_by_a_folder(tmp_path):
+    from sklearn_hybrid.datasets._base import RemoteFile, fetch_file
+
+    (tmp_path / "sub" / "data.csv").mkdir(parents=True)
+    with pytest.raises(IsADirectoryError, match=r"data.csv is a folder .* where the data file sub/data.csv should be"):
+        fetch_file(RemoteFile("sub/data.csv", "https://example.invalid/data.csv", "0" * 64), tmp_path)
+    assert (tmp_path / "sub" / "data.csv").is_dir()
+
+
+def test_offline_download_fails_within_seconds(tmp_path, monkeypatch):
+    """Offline, name resolution can hang for tens of seconds per address: the addresses get one short
+    deadline together, and the same clear line comes at once."""
+    import socket
+    import time
+
+    from sklearn_hybrid.datasets import _base
+
+    def hangs(*args, **kwargs):
+        time.sleep(60)
+
+    monkeypatch.setattr(socket, "create_connection", hangs)
+    remote = _base.RemoteFile("sub/data.csv", "https://example.invalid/a.csv", "0" * 64,
+                              mirrors=("https://mirror.invalid/a.csv",))
+    start = time.monotonic()
+    with pytest.raises(FileNotFoundError, match=r"none of its 2 address\(es\) answered within 3 s"):
+        _base.fetch_file(remote, tmp_path / "home")
+    assert time.monotonic() - start < 2 * _base._REACH_TIMEOUT_S
+    assert not (tmp_path / "home").exists()
