@@ -116,6 +116,10 @@ def _check_observed(observed) -> list[int]:
     return [int(i) for i in values]
 
 
+#: Most integration steps per output interval: beyond it one iteration costs minutes.
+N_SUBSTEPS_MAX = 1000
+
+
 class OdeStructure:
     """Hybrid neural ODE, optionally forced by inputs and partially observed.
 
@@ -132,6 +136,11 @@ class OdeStructure:
                  input_interp="cubic", solver_options=None):
         check_positive("dt", dt)
         check_positive("n_substeps", n_substeps, integer=True)
+        if n_substeps > N_SUBSTEPS_MAX:  # the memory check and every iteration would integrate them all
+            raise ValueError(
+                f"n_substeps must be at most {N_SUBSTEPS_MAX}, got {n_substeps!r}: every output interval is "
+                "integrated in n_substeps steps, each kept for the backward pass. Dynamics that need more "
+                "are stiff for RK4: use an adaptive solver (solver='dopri5'), or give y at a shorter dt.")
         if input_interp not in INPUT_INTERPOLATIONS:
             raise ValueError(f"Unknown input_interp {input_interp!r}; choose one of {INPUT_INTERPOLATIONS}.")
         self.dt, self.n_substeps, self.solver = float(dt), int(n_substeps), solver

@@ -316,6 +316,8 @@ CASES = [
     ("the same, y observing one component", fit_on(lambda X, y: (packed_with(8)(X, y)[0], y[..., :1]),
                                                    n_inputs=1, observed=[0], science=forced_two_states),
      ValueError, "X holds more input samples than y's steps need"),
+    ("n_substeps=10**6 (hung in the memory check)", fit(n_substeps=10**6),
+     ValueError, "n_substeps must be at most 1000, got 1000000"),
     ("close_the_loop with y of another horizon", Call({}, lambda est, X, y: close_the_loop(est, X, y[:, :3])),
      ValueError, "y has per-sample shape (3, 2); the estimator was fitted on y of per-sample shape (5, 2)"),
     ("HybridRegressorCV.predict before fit", Call({}, lambda est, X, y: HybridRegressorCV(est).predict(X)),
@@ -360,7 +362,7 @@ def test_bad_input_is_named_and_changes_nothing(earlier, what, call, error, phra
 
 def test_table_size():
     """The closing note quotes this count; keep it in step with CASES."""
-    assert len(CASES) == 72
+    assert len(CASES) == 73
 
 
 def test_data_home_that_is_a_file(tmp_path, monkeypatch):
