@@ -399,7 +399,7 @@ def test_training_that_never_moved_theta_is_not_usable():
     """fsam with rho=10 ends without error, but omega never leaves its start and R^2 < 0: the fit
     is returned with a ConvergenceWarning, and its report says first that it is not usable."""
     X, y = pendulum(None, None)
-    est = HybridRegressor(science=pendulum_f, method="fsam", rho=10, max_iter=10, dt=0.2, random_state=0)
+    est = HybridRegressor(science=pendulum_f, method="fsam", rho=10, max_iter=30, dt=0.2, random_state=0)
     with pytest.warns(ConvergenceWarning, match=r"not usable: its training R\^2 is -.*theta never moved "
                                                 r"from its start \(omega=0.5\)"):
         est.fit(X, y)
@@ -429,7 +429,7 @@ def test_verdict_on_a_model_worse_than_the_mean(start, halved, phrase):
     est = HybridRegressor(science=pendulum_f, **FAST).fit(X, y)
     inputs = est.model_.structure.tensors(X, torch.float32)
     y_t = torch.tensor(y.reshape(len(y), -1), dtype=torch.float32)
-    history = {"loss": np.array([start, 1.0]), "theta": {"omega": np.array([0.49, 0.48])},
+    history = {"loss": np.r_[start, np.ones(29)], "theta": {"omega": np.linspace(0.49, 0.48, 30)},
                "lr_halved_at": halved}
     verdict = judge_training(est.model_, history, inputs, y_t, theta_start={"omega": 0.5})
     assert verdict.r2 < 0
@@ -488,3 +488,15 @@ def test_offline_download_fails_within_seconds(tmp_path, monkeypatch):
         _base.fetch_file(remote, tmp_path / "home")
     assert time.monotonic() - start < 2 * _base._REACH_TIMEOUT_S
     assert not (tmp_path / "home").exists()
+
+
+def test_a_smoke_test_of_two_iterations_is_not_judged():
+    """One step on y = 0 may raise the loss a hundredfold from a start near zero: no divergence, no warning."""
+    from sklearn_hybrid._verdict import judge_training
+
+    X, y = _data()
+    est = HybridRegressor(science=pendulum_f, **FAST).fit(X, y)
+    inputs = est.model_.structure.tensors(X, torch.float32)
+    y_t = torch.tensor(y.reshape(len(y), -1), dtype=torch.float32)
+    history = {"loss": np.array([1e-6, 1e-6]), "theta": {"omega": np.array([0.5, 0.5])}, "lr_halved_at": []}
+    assert judge_training(est.model_, history, inputs, y_t, theta_start={"omega": 0.5}).usable
