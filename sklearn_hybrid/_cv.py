@@ -353,15 +353,18 @@ class HybridRegressorCV(RegressorMixin, BaseEstimator):
         ndarray of shape (n_samples, ...)
             Shaped as ``y`` in ``fit``.
         """
-        return self.best_estimator_.predict(self._fitted_X(X))
+        X = self._fitted_X(X)  # first: NotFittedError before best_estimator_ is looked up
+        return self.best_estimator_.predict(X)
 
     def predict_theta(self, X):
         """Each sample's theta according to the best member (see ``HybridRegressor.predict_theta``)."""
-        return self.best_estimator_.predict_theta(self._fitted_X(X))
+        X = self._fitted_X(X)
+        return self.best_estimator_.predict_theta(X)
 
     def score(self, X, y, sample_weight=None):
         """R^2 of the best member (targets flattened per sample)."""
-        return self.best_estimator_.score(self._fitted_X(X), y, sample_weight=sample_weight)
+        X = self._fitted_X(X)
+        return self.best_estimator_.score(X, y, sample_weight=sample_weight)
 
     def _fitted_X(self, X):
         """``X`` checked against the fit's feature names and count (the members were fitted on arrays)."""

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import copy
 import math
 import numbers
 import threading
@@ -10,6 +11,7 @@ import warnings
 import numpy as np
 import torch
 from sklearn.base import BaseEstimator, RegressorMixin
+from sklearn.exceptions import ConvergenceWarning
 from sklearn.metrics import r2_score
 from sklearn.utils import Bunch, check_random_state
 from sklearn.utils.validation import check_is_fitted, validate_data
@@ -17,10 +19,12 @@ from sklearn.utils.validation import check_is_fitted, validate_data
 from ._device import resolve_device
 from ._kernels import reusing_buffers
 from . import encoder as _encoder
-from .engine import TrainConfig, cosine_lr, explain_nonfinite, theta_drift, train
+from .engine import DivergenceError, TrainConfig, cosine_lr, explain_nonfinite, theta_drift, train
 from ._extras import EstimatorExtras, _check_sample_weight, _holdout
 from ._memory import check_fit_memory, explained_memory_errors
-from ._validation import check_positive, check_target_layout, set_feature_info, torch_threads, validate_into_copy
+from ._verdict import explain_start, judge_training
+from ._validation import (check_dtype_range, check_positive, check_target_layout, set_feature_info, torch_threads,
+                          validate_into_copy)
 from ._report import theta_uncertainty
 from .methods import make_method
 from .residual import build_residual
@@ -70,8 +74,11 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
         Initial values overriding the science function's defaults.
     theta_bounds : dict, optional
         ``name -> (low, high)``, enforced by a smooth reparametrisation.
-    theta_fixed : list of str, optional
-        Parameters kept at their initial value.
+    theta_fixed : list of str or dict, optional
+        Parameters kept constant: a list keeps them at their initial value
+        (``theta_init`` or the default); a dict ``{"omega": 0.6}`` fixes each
+        at its value (as lmfit's ``vary=False`` with a value; a value given
+        in both ``theta_init`` and ``theta_fixed`` must agree).
     theta_encoder : str, dict, callable or None, default=None
         Theta that varies from sample to sample: an encoder network reads each
         sample ``X[i]`` and outputs that sample's free parameters, trained
@@ -305,12 +312,35 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
         weight = _check_sample_weight(sample_weight, len(setup.y), setup.y.dtype, setup.y.device)
         inputs, y_t, validation = _holdout(setup, weight, self.validation_fraction)
         weight = validation.pop("train_weight")
+        science = setup.model.science
+        theta_start = None if setup.model.encoder is not None else {
+            name: value for name, value in science.as_dict().items() if science.raw[name].requires_grad}
+        initial = copy.deepcopy(setup.model.state_dict())  # for the diagnosis of a start that blows up
         with torch_threads(self.n_threads), reusing_buffers(), explained_memory_errors(setup):
-            history = train(setup.model, setup.method, inputs, y_t, setup.config,
-                            torch.Generator().manual_seed(setup.seed), sample_weight=weight,
-                            validation=validation.get("data"))
-        self._set_fitted(setup, history, (inputs, y_t, weight))
+            try:
+                history = train(setup.model, setup.method, inputs, y_t, setup.config,
+                                torch.Generator().manual_seed(setup.seed), sample_weight=weight,
+                                validation=validation.get("data"))
+            except DivergenceError as error:  # a lower lr cannot help a model that blows up at its start
+                cause = explain_start(setup.model, initial, inputs, y_t, setup.samples_per_pass)
+                if cause is None:
+                    raise
+                raise DivergenceError(cause) from error
+            # a run that diverged is refused here, before it can replace an earlier fit
+            verdict = judge_training(setup.model, history, inputs, y_t, weight, theta_start=theta_start,
+                                     batch_size=self.batch_size, chunk=setup.samples_per_pass,
+                                     advice=self._training_advice(setup.method))
+        self._set_fitted(setup, history, (inputs, y_t, weight), verdict=verdict)
+        if not verdict.usable:
+            warnings.warn(f"The fitted model is not usable: {verdict.summary()}. "
+                          f"{self._training_advice(setup.method)} fit_report() says so too.",
+                          ConvergenceWarning, stacklevel=2)
         return self
+
+    def _training_advice(self, method):
+        """What to change after a training that went bad."""
+        rho = f" or rho (rho={self.rho})" if method.perturbs else ""
+        return f"Lower lr (lr={self.lr}){rho}, check the data scale, or bound theta with theta_bounds."
 
     def _setup_fit(self, X, y):
         """Validate the data and build everything ``fit`` trains (shared with HybridRegressorCV).
@@ -329,6 +359,7 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
                                               y_numeric=True, dtype=np.float64, order="C")
         y = np.ascontiguousarray(y)  # order= reaches X only
         dtype, device = _DTYPES[self.dtype], resolve_device(self.device)
+        check_dtype_range(dtype, X, y)
         try:
             seed = int(check_random_state(self.random_state).randint(np.iinfo(np.int32).max))
         except ValueError as error:  # numpy's message names neither the argument nor its value
@@ -384,13 +415,15 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
             inputs = inputs + (torch.tensor(X, dtype=dtype),)
         return tuple(t.to(device) for t in inputs)
 
-    def _set_fitted(self, setup, history, data=None):
+    def _set_fitted(self, setup, history, data=None, verdict=None):
         """Store a trained model as this estimator's fitted state.
 
         With a theta encoder, ``theta_`` is the mean of the per-sample theta
         over the training inputs ``setup.inputs``.  ``data`` is ``(inputs, y,
         sample_weight)`` of the trained samples, for the standard errors of
-        theta (default: all samples of ``setup``, unweighted).
+        theta (default: all samples of ``setup``, unweighted).  ``verdict``
+        (see :func:`~sklearn_hybrid._verdict.judge_training`) says whether the
+        model is usable; ``fit_report`` repeats its reason.
         """
         model = setup.model
         model.eval()
@@ -418,6 +451,7 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
                 f"The training loss spiked at iterations {history['lr_halved_at']}; each time the last "
                 "good state was restored and the learning rates halved. A lower lr would train more smoothly.",
                 UserWarning, stacklevel=3)
+        self._not_usable = None if verdict is None or verdict.usable else verdict.summary()
         self._fitted_params = self.get_params(deep=False)  # what the report and the structure check read
         set_feature_info(self, setup.features)
 

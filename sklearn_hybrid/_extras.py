@@ -270,6 +270,8 @@ class EstimatorExtras:
         lines = [f"science: {func}, structure: {fit['structure']}, method: {fit['method']}",
                  f"iterations: {self.n_iter_} of max_iter={fit['max_iter']} ({stop})",
                  f"training loss (last iteration): {self.history_['loss'][-1]:.4g}"]
+        if getattr(self, "_not_usable", None):  # first, before any number a reader might trust
+            lines.insert(0, f"NOT USABLE: the training went bad: {self._not_usable}")
         if "validation_loss" in self.history_ and len(self.history_["validation_loss"]):
             lines.append(f"validation loss (last check): {self.history_['validation_loss'][-1]:.4g}")
         drift = getattr(self, "theta_drift_", None)  # absent from fits made before it existed

@@ -12,7 +12,8 @@ import numpy as np
 import torch
 from sklearn.utils.validation import validate_data
 
-__all__ = ["torch_threads", "validate_into_copy", "set_feature_info", "check_positive", "check_target_layout"]
+__all__ = ["torch_threads", "validate_into_copy", "set_feature_info", "check_positive", "check_target_layout",
+           "check_dtype_range"]
 
 
 @contextmanager
@@ -70,3 +71,28 @@ def check_target_layout(y, pred: np.ndarray, name: str = "y") -> np.ndarray:
         raise ValueError(f"{name} has shape {y.shape}; the model predicts {pred.shape} for these X "
                          f"({flat} flattened per sample is accepted too).")
     return y.reshape(pred.shape)
+
+
+def check_dtype_range(dtype: torch.dtype, X, y) -> None:
+    """Refuse data that the fit's floating point type cannot hold (X, y), nor square (y).
+
+    A value beyond ``finfo.max`` becomes infinite on conversion, and a target
+    beyond ``sqrt(finfo.max)`` (1.8e19 in float32) makes the squared errors
+    of the loss infinite at once; either used to surface as a non-finite
+    training loss at iteration 0, blamed on the learning rate or the science
+    function.
+    """
+    info = torch.finfo(dtype)
+    name = str(dtype).removeprefix("torch.")
+    for what, a, limit in (("X", X, info.max), ("y", y, math.sqrt(info.max))):
+        largest = float(np.max(np.abs(a))) if np.size(a) else 0.0
+        if largest <= limit:
+            continue
+        how = (f"overflow {name} (largest number {info.max:.3g})" if largest > info.max else
+               f"make the squared errors of the loss overflow {name} (beyond {limit:.2g})")
+        wide = torch.finfo(torch.float64).max
+        wider = wide if what == "X" else math.sqrt(wide)  # the same limit in float64
+        fix = "Fit with dtype='float64', or rescale" if dtype != torch.float64 and largest <= wider else "Rescale"
+        raise ValueError(
+            f"{what} holds values up to {largest:.3g}, which {how}. {fix} {what} (divide it by a "
+            "typical magnitude and express theta in the matching units).")

@@ -43,10 +43,14 @@ class MLP(nn.Module):
         Hidden layer widths.
     activation : str
         Activation between layers.
+    zero_init : bool, default=False
+        Start the last layer at zero, so that a hybrid ODE starts from the
+        science model alone: over a long integration a random start can add a
+        force that blows the trajectories up before any training step.
     """
 
     def __init__(self, in_shapes: Sequence[tuple], out_shape: tuple,
-                 hidden: Sequence[int] = (128, 128), activation: str = "relu"):
+                 hidden: Sequence[int] = (128, 128), activation: str = "relu", zero_init: bool = False):
         super().__init__()
         self.out_shape = tuple(out_shape)
         widths = [sum(math.prod(s) for s in in_shapes), *hidden, math.prod(out_shape)]
@@ -56,6 +60,10 @@ class MLP(nn.Module):
             if i < len(widths) - 2:
                 layers.append(make_activation(activation))
         self.net = nn.Sequential(*layers)
+        if zero_init:  # after the random initialisation: the seeded draws of the other layers stay the same
+            with torch.no_grad():
+                self.net[-1].weight.zero_()
+                self.net[-1].bias.zero_()
 
     def forward(self, *inputs: torch.Tensor) -> torch.Tensor:
         batch = inputs[0].shape[0]

@@ -13,6 +13,7 @@ from __future__ import annotations
 import functools
 import inspect
 import numbers
+from collections.abc import Mapping
 from typing import Callable
 
 import numpy as np
@@ -55,7 +56,16 @@ def read_signature(func: Callable) -> tuple[list[str], dict[str, np.ndarray]]:
     # functools.partial(f, k=1.0) is how users fix a constant: its keywords are not theta
     bound = set(func.keywords) if isinstance(func, functools.partial) else set()
     inputs, defaults = [], {}
-    for p in inspect.signature(func).parameters.values():
+    params = list(inspect.signature(func).parameters.values())
+    qualname = getattr(func, "__qualname__", "")
+    if params and params[0].name == "self" and "." in qualname.replace(".<locals>.", ""):
+        # Pend.f taken from the class: 'self' would be read as the state and 'v' as an input u
+        owner, name = qualname.replace(".<locals>.", ":").rsplit(":", 1)[-1].rsplit(".", 1)
+        raise TypeError(
+            f"science={owner}.{name} is a method taken from its class, so its first argument 'self' "
+            f"has no value. Pass it from an instance, science={owner}(...).{name}, or make it a "
+            "@staticmethod without 'self'.")
+    for p in params:
         if p.kind in (p.VAR_POSITIONAL, p.VAR_KEYWORD) or p.name in bound:
             continue
         if p.default is p.empty:
@@ -126,8 +136,11 @@ class ScienceModel(nn.Module):
         Initial values overriding the signature defaults.
     theta_bounds : dict, optional
         ``name -> (low, high)``; use ``None`` or ``inf`` for an open side.
-    theta_fixed : iterable of str, optional
-        Names kept at their initial value during training.
+    theta_fixed : iterable of str or dict, optional
+        Parameters kept constant during training: names, kept at their
+        initial value (``theta_init`` or the default), or ``name -> value``,
+        kept at that value (lmfit's ``vary=False`` with a value; ``None``
+        keeps the initial value).
     dtype : torch.dtype
         Floating point type of the parameters.
     """
@@ -144,6 +157,8 @@ class ScienceModel(nn.Module):
                 "theta to estimate. Declare them as e.g. `def f(v, omega=1.0): ...`."
             )
         theta_init, theta_bounds = dict(theta_init or {}), dict(theta_bounds or {})
+        # a dict's values are where to fix (a list would keep only its keys and drop them silently)
+        fixed_at = {k: v for k, v in theta_fixed.items() if v is not None} if isinstance(theta_fixed, Mapping) else {}
         theta_fixed = [theta_fixed] if isinstance(theta_fixed, str) else list(theta_fixed or [])
         for what, names in (("theta_init", theta_init), ("theta_bounds", theta_bounds),
                             ("theta_fixed", theta_fixed)):
@@ -153,22 +168,34 @@ class ScienceModel(nn.Module):
                     f"{what} names unknown parameter(s) {unknown}; the science function's "
                     f"parameters are {sorted(defaults)}."
                 )
+        for name, value in fixed_at.items():
+            if name in theta_init and not np.array_equal(np.asarray(theta_init[name], dtype=object),
+                                                         np.asarray(value, dtype=object)):
+                raise ValueError(
+                    f"theta_init[{name!r}] = {theta_init[name]!r} and theta_fixed[{name!r}] = {value!r} "
+                    "disagree: give the value once, in theta_fixed.")
+        theta_init.update(fixed_at)
         self.names = list(defaults)
         self.shapes = {}
         self.raw = nn.ParameterDict()
         self.transforms = nn.ModuleDict()
         for name, default in defaults.items():
             given = theta_init.get(name, default)
+            source = "theta_fixed" if name in fixed_at else "theta_init"  # where the value was given
             if given is None or isinstance(given, (str, bool)):  # np.asarray would make None a NaN, "0.5" a number
-                raise ValueError(f"theta_init[{name!r}] must be a number (or an array of numbers), got {given!r}.")
-            value = np.asarray(given, dtype=float)
+                raise ValueError(f"{source}[{name!r}] must be a number (or an array of numbers), got {given!r}.")
+            try:
+                value = np.asarray(given, dtype=float)
+            except (TypeError, ValueError):
+                raise ValueError(f"{source}[{name!r}] must be a number (or an array of numbers), "
+                                 f"got {given!r}.") from None
             if value.shape != default.shape:  # a scalar given as [0.6] would turn theta_[name] into an array
                 raise ValueError(
-                    f"theta_init[{name!r}] has shape {value.shape}, the default has shape "
+                    f"{source}[{name!r}] has shape {value.shape}, the default has shape "
                     f"{default.shape}" + (": give a number." if default.ndim == 0 else ".")
                 )
             if not np.all(np.isfinite(value)):
-                raise ValueError(f"theta_init[{name!r}] = {value} is not finite.")
+                raise ValueError(f"{source}[{name!r}] = {value} is not finite.")
             low, high = self._bounds(name, theta_bounds.get(name), value)
             transform = _Bounded(low, high)
             raw = torch.as_tensor(transform.inverse(value), dtype=dtype)

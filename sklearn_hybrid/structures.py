@@ -116,6 +116,10 @@ def _check_observed(observed) -> list[int]:
     return [int(i) for i in values]
 
 
+#: Most integration steps per output interval: beyond it one iteration costs minutes.
+N_SUBSTEPS_MAX = 1000
+
+
 class OdeStructure:
     """Hybrid neural ODE, optionally forced by inputs and partially observed.
 
@@ -132,6 +136,11 @@ class OdeStructure:
                  input_interp="cubic", solver_options=None):
         check_positive("dt", dt)
         check_positive("n_substeps", n_substeps, integer=True)
+        if n_substeps > N_SUBSTEPS_MAX:  # the memory check and every iteration would integrate them all
+            raise ValueError(
+                f"n_substeps must be at most {N_SUBSTEPS_MAX}, got {n_substeps!r}: every output interval is "
+                "integrated in n_substeps steps, each kept for the backward pass. Dynamics that need more "
+                "are stiff for RK4: use an adaptive solver (solver='dopri5'), or give y at a shorter dt.")
         if input_interp not in INPUT_INTERPOLATIONS:
             raise ValueError(f"Unknown input_interp {input_interp!r}; choose one of {INPUT_INTERPOLATIONS}.")
         self.dt, self.n_substeps, self.solver = float(dt), int(n_substeps), solver
@@ -171,7 +180,22 @@ class OdeStructure:
             self.obs_shape = tuple(self.state_shape)
         per_step = y_shape[1:]
         if per_step != self.obs_shape and not (per_step == () and self.obs_shape == (1,)):
-            raise ValueError(self._layout_message(y_shape, n_state))
+            raise ValueError(self._layout_message(y_shape, n_state) + self._packing_note(X))
+
+    def _packing_note(self, X) -> str:
+        """How the columns of a forced system's X were split, counted from y's steps (empty unforced).
+
+        The state's size is what remains of X after the inputs that y's steps need: an X packed with
+        more input samples than that gives the state extra components (one per surplus column).
+        """
+        if not self.n_inputs:
+            return ""
+        samples = self.n_steps + 1
+        return (f" X has {X.shape[1]} columns: y's {self.n_steps} steps need {samples} input samples of "
+                f"{self.n_inputs} input(s) (times 0 to {self.n_steps} dt), {samples * self.n_inputs} "
+                f"columns, which leaves {self.state_shape[0]} for the state. If the state has fewer "
+                f"components, X holds more input samples than y's steps need: pack u with "
+                f"{samples} samples, pack_inputs(x0, u[:, :{samples}]).")
 
     def _layout_message(self, y_shape, n_state):
         """Say which layout ``y`` needs, what it has, and the likely fix."""
@@ -223,8 +247,14 @@ class OdeStructure:
         batch = probe_batch(inputs, self.state_shape)
         v = batch[0]
         u = batch[1][:, 0] if self.n_inputs else None
-        call_science(science, self._args(v, u), v.shape,
-                      "states" + (" and inputs" if u is not None else ""), differentiable=True)
+        try:
+            call_science(science, self._args(v, u), v.shape,
+                         "states" + (" and inputs" if u is not None else ""), differentiable=True)
+        except ValueError as error:  # a state size taken wrongly from X shows as an output of the wrong shape
+            if not self.n_inputs or "the structure needs" not in str(error):
+                raise
+            n = self.state_shape[0]
+            raise ValueError(str(error) + self._packing_note(np.empty((0, n + (self.n_steps + 1) * self.n_inputs))))
 
     def residual_shapes(self):
         ins = (tuple(self.state_shape),) + (((self.n_inputs,),) if self.n_inputs else ())

@@ -8,6 +8,7 @@ theta, feature count and predictions.
 
 import copy
 import functools
+import warnings
 from dataclasses import dataclass
 from types import SimpleNamespace
 from typing import Callable
@@ -16,9 +17,13 @@ import numpy as np
 import pytest
 import torch
 
-from sklearn_hybrid import DivergenceError, HybridRegressor, HybridRegressorCV
-from sklearn_hybrid.datasets import get_data_home
+from sklearn.exceptions import ConvergenceWarning, NotFittedError
+
+from sklearn_hybrid import DivergenceError, HybridRegressor, HybridRegressorCV, pack_inputs
+from sklearn_hybrid.datasets import get_data_home, make_pendulum
+from sklearn_hybrid.diagnosis import close_the_loop
 from sklearn_hybrid.models import pendulum_f
+from sklearn_hybrid.residual import MLP
 
 FAST = dict(max_iter=3, residual={"hidden": (8,)}, random_state=0, dt=0.2)
 
@@ -94,6 +99,40 @@ def transposed_composition(x, f, g):
     return (f(x) + g(x)).T
 
 
+def forced_two_states(v, u, k=1.0):
+    return torch.stack([v[:, 1], -k * v[:, 0] + u[:, 0]], dim=-1)
+
+
+def packed_with(n_samples):
+    """X of a forced system with n_samples input samples per trajectory (y's 5 steps need 6)."""
+    def transform(X, y):
+        u = np.linspace(-1, 1, len(X) * n_samples).reshape(len(X), n_samples, 1)
+        return pack_inputs(X, u), y
+    return transform
+
+
+class Pend:
+    def f(self, v, omega=0.5):  # passed as Pend.f, unbound
+        return pendulum_f(v, omega)
+
+
+def loud_network(in_shapes, out_shape):
+    """A network whose random start is ten times the usual: its force blows the integration up."""
+    net = MLP(in_shapes, out_shape, hidden=(8,))
+    with torch.no_grad():
+        for p in net.parameters():
+            p.mul_(10.0)
+    return net
+
+
+def one_large(where, value):
+    def transform(X, y):
+        X, y = X.copy(), y.copy()
+        (X if where == "X" else y)[0, 0] = value
+        return X, y
+    return transform
+
+
 # --- the table -----------------------------------------------------------------------------
 
 @dataclass
@@ -122,6 +161,12 @@ def cv(**params):
     def run(est, X, y):
         HybridRegressorCV(est, **params).fit(X, y)
     return Call({"method": "erm"}, run)
+
+
+def pendulum(X, y):
+    """The package's pendulum task in place of the table's data (the issue's cases)."""
+    data = make_pendulum(random_state=0)
+    return data.X_train, data.y_train
 
 
 def with_nan(where):
@@ -197,6 +242,12 @@ CASES = [
      ValueError, "theta_init['omega'] has shape (1,), the default has shape (): give a number"),
     ("initial value outside bounds", fit(theta_init={"omega": 3.0}, theta_bounds={"omega": (0, 2)}),
      ValueError, "outside its bounds"),
+    ("theta_fixed and theta_init disagree", fit(theta_init={"omega": 0.5}, theta_fixed={"omega": 0.6}),
+     ValueError, "theta_init['omega'] = 0.5 and theta_fixed['omega'] = 0.6 disagree"),
+    ("theta_fixed value not a number", fit(theta_fixed={"omega": "0.6"}),
+     ValueError, "theta_fixed['omega'] must be a number"),
+    ("theta_fixed value outside bounds", fit(theta_fixed={"omega": 3.0}, theta_bounds={"omega": (0, 2)}),
+     ValueError, "outside its bounds"),
     # item 9: raw or misleading messages
     ("observed=[]", fit(observed=[]), ValueError, "observed must list the observed state"),
     ("observed=[0, 0]", fit(observed=[0, 0]), ValueError, "lists a component twice"),
@@ -238,6 +289,39 @@ CASES = [
      ValueError, "returns (3,) per sample"),
     ("score on transposed y", Call({}, lambda est, X, y: est.score(X, np.swapaxes(y, 1, 2))),
      ValueError, "y has shape (6, 2, 5); the model predicts (6, 5, 2)"),
+    # audit 4 (issue 40): a training that went bad is no fit
+    ("lr=10: the loss ends 1e22 times its start", fit(lr=10, max_iter=30),
+     DivergenceError, "The training diverged: the training loss ended at"),
+    ("sam, lr=1 on the pendulum: trained through its spikes", fit_on(pendulum, method="sam", lr=1, max_iter=50,
+                                                                    residual="mlp"),
+     DivergenceError, "Lower lr (lr=1) or rho"),
+    # audit 4: errors that blamed the wrong thing
+    ("y * 1e300 in float32", fit_on(lambda X, y: (X, y * 1e300)),
+     ValueError, "y holds values up to 9.94e+299, which overflow float32 (largest number 3.4e+38). Rescale y"),
+    ("an X entry of 1e39 in float32", fit_on(one_large("X", 1e39)),
+     ValueError, "X holds values up to 1e+39, which overflow float32 (largest number 3.4e+38). Fit with "
+                 "dtype='float64'"),
+    ("a y entry whose square overflows float32", fit_on(one_large("y", 1e20)),
+     ValueError, "make the squared errors of the loss overflow float32"),
+    ("dt=1e6: the science alone explodes", fit(dt=1e6),
+     DivergenceError, "The integration step is too long for these dynamics"),
+    ("a network start that blows 25 steps up", fit_on(lambda X, y: (X, np.repeat(y, 5, axis=1)),
+                                                     residual=loud_network),
+     DivergenceError, "the network's random start adds a force"),
+    ("science=Pend.f, an unbound method", fit(science=Pend.f),
+     TypeError, "science=Pend.f is a method taken from its class"),
+    ("forced X packed with 8 input samples where y's 5 steps need 6", fit_on(packed_with(8), n_inputs=1,
+                                                                          science=forced_two_states),
+     ValueError, "y's 5 steps need 6 input samples of 1 input(s) (times 0 to 5 dt), 6 columns, which leaves 4"),
+    ("the same, y observing one component", fit_on(lambda X, y: (packed_with(8)(X, y)[0], y[..., :1]),
+                                                   n_inputs=1, observed=[0], science=forced_two_states),
+     ValueError, "X holds more input samples than y's steps need"),
+    ("n_substeps=10**6 (hung in the memory check)", fit(n_substeps=10**6),
+     ValueError, "n_substeps must be at most 1000, got 1000000"),
+    ("close_the_loop with y of another horizon", Call({}, lambda est, X, y: close_the_loop(est, X, y[:, :3])),
+     ValueError, "y has per-sample shape (3, 2); the estimator was fitted on y of per-sample shape (5, 2)"),
+    ("HybridRegressorCV.predict before fit", Call({}, lambda est, X, y: HybridRegressorCV(est).predict(X)),
+     NotFittedError, "is not fitted yet"),
 ]
 
 
@@ -278,7 +362,7 @@ def test_bad_input_is_named_and_changes_nothing(earlier, what, call, error, phra
 
 def test_table_size():
     """The closing note quotes this count; keep it in step with CASES."""
-    assert len(CASES) == 57
+    assert len(CASES) == 73
 
 
 def test_data_home_that_is_a_file(tmp_path, monkeypatch):
@@ -309,3 +393,110 @@ def test_partial_binds_a_constant():
     X, y = _data()
     est = HybridRegressor(science=functools.partial(scaled, k=2.0), **FAST).fit(X, y)
     assert set(est.theta_) == {"omega"}
+
+
+def test_training_that_never_moved_theta_is_not_usable():
+    """fsam with rho=10 ends without error, but omega never leaves its start and R^2 < 0: the fit
+    is returned with a ConvergenceWarning, and its report says first that it is not usable."""
+    X, y = pendulum(None, None)
+    est = HybridRegressor(science=pendulum_f, method="fsam", rho=10, max_iter=30, dt=0.2, random_state=0)
+    with pytest.warns(ConvergenceWarning, match=r"not usable: its training R\^2 is -.*theta never moved "
+                                                r"from its start \(omega=0.5\)"):
+        est.fit(X, y)
+    assert est.theta_["omega"] == 0.5
+    report = est.fit_report().splitlines()
+    assert report[1].strip().startswith("NOT USABLE: the training went bad: its training R^2 is")
+
+
+def test_a_short_healthy_fit_is_not_flagged():
+    X, y = pendulum(None, None)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", ConvergenceWarning)
+        est = HybridRegressor(science=pendulum_f, max_iter=30, dt=0.2, random_state=0).fit(X, y)
+    assert "NOT USABLE" not in est.fit_report()
+
+
+@pytest.mark.parametrize("start, halved, phrase", [
+    (0.1, [], "times its start"),          # ended above twice its start
+    (10.0, [1, 2, 3, 4, 5], "after the loss spiked 5 times"),  # the guard's halvings spent
+    (10.0, [1], None),                     # a short fit on noise: R^2 < 0 but nothing went bad
+])
+def test_verdict_on_a_model_worse_than_the_mean(start, halved, phrase):
+    """The verdict's rules, on a short fit to noise (training R^2 < 0) with the history it read."""
+    from sklearn_hybrid._verdict import judge_training
+
+    X, y = _data()
+    est = HybridRegressor(science=pendulum_f, **FAST).fit(X, y)
+    inputs = est.model_.structure.tensors(X, torch.float32)
+    y_t = torch.tensor(y.reshape(len(y), -1), dtype=torch.float32)
+    history = {"loss": np.r_[start, np.ones(29)], "theta": {"omega": np.linspace(0.49, 0.48, 30)},
+               "lr_halved_at": halved}
+    verdict = judge_training(est.model_, history, inputs, y_t, theta_start={"omega": 0.5})
+    assert verdict.r2 < 0
+    if phrase is None:
+        assert verdict.usable
+    else:
+        assert not verdict.usable and phrase in verdict.summary()
+
+
+@pytest.mark.parametrize("fixed, omega", [({"omega": 0.6}, 0.6), ({"omega": None}, 0.5), (["omega"], 0.5)])
+def test_theta_fixed_dict_fixes_at_its_value(fixed, omega):
+    """theta_fixed={"omega": 0.6} holds omega at 0.6 (lmfit's vary=False with a value), not at the default."""
+    X, y = _data()
+    before = copy.deepcopy(fixed)
+    est = HybridRegressor(science=pendulum_f, theta_fixed=fixed, **FAST).fit(X, y)
+    assert est.theta_["omega"] == pytest.approx(omega, rel=1e-6)
+    assert np.all(est.history_["theta"]["omega"] == est.theta_["omega"])
+    assert "(fixed)" in est.fit_report()
+    assert fixed == before
+
+
+def test_zero_started_network_starts_from_the_science_alone():
+    """residual={"zero_init": True}, offered where a random start blows a long integration up."""
+    from sklearn_hybrid.residual import build_residual
+
+    net = build_residual({"kind": "mlp", "zero_init": True}, ((2,),), (2,))
+    assert torch.count_nonzero(net(torch.randn(4, 2))) == 0
+    assert any(torch.count_nonzero(p) for p in net.parameters())  # the hidden layers are random
+
+
+def test_data_file_replaced_by_a_folder(tmp_path):
+    from sklearn_hybrid.datasets._base import RemoteFile, fetch_file
+
+    (tmp_path / "sub" / "data.csv").mkdir(parents=True)
+    with pytest.raises(IsADirectoryError, match=r"data.csv is a folder .* where the data file sub/data.csv should be"):
+        fetch_file(RemoteFile("sub/data.csv", "https://example.invalid/data.csv", "0" * 64), tmp_path)
+    assert (tmp_path / "sub" / "data.csv").is_dir()
+
+
+def test_offline_download_fails_within_seconds(tmp_path, monkeypatch):
+    """Offline, name resolution can hang for tens of seconds per address: the addresses get one short
+    deadline together, and the same clear line comes at once."""
+    import socket
+    import time
+
+    from sklearn_hybrid.datasets import _base
+
+    def hangs(*args, **kwargs):
+        time.sleep(60)
+
+    monkeypatch.setattr(socket, "create_connection", hangs)
+    remote = _base.RemoteFile("sub/data.csv", "https://example.invalid/a.csv", "0" * 64,
+                              mirrors=("https://mirror.invalid/a.csv",))
+    start = time.monotonic()
+    with pytest.raises(FileNotFoundError, match=r"none of its 2 address\(es\) answered within 3 s"):
+        _base.fetch_file(remote, tmp_path / "home")
+    assert time.monotonic() - start < 2 * _base._REACH_TIMEOUT_S
+    assert not (tmp_path / "home").exists()
+
+
+def test_a_smoke_test_of_two_iterations_is_not_judged():
+    """One step on y = 0 may raise the loss a hundredfold from a start near zero: no divergence, no warning."""
+    from sklearn_hybrid._verdict import judge_training
+
+    X, y = _data()
+    est = HybridRegressor(science=pendulum_f, **FAST).fit(X, y)
+    inputs = est.model_.structure.tensors(X, torch.float32)
+    y_t = torch.tensor(y.reshape(len(y), -1), dtype=torch.float32)
+    history = {"loss": np.array([1e-6, 1e-6]), "theta": {"omega": np.array([0.5, 0.5])}, "lr_halved_at": []}
+    assert judge_training(est.model_, history, inputs, y_t, theta_start={"omega": 0.5}).usable

@@ -12,7 +12,11 @@ import hashlib
 import http.client
 import os
 import shutil
+import socket
 import tempfile
+import threading
+import time
+import urllib.parse
 import urllib.request
 import zipfile
 from dataclasses import dataclass
@@ -33,6 +37,8 @@ __all__ = [
 DATA_HOME_ENV = "SKLEARN_HYBRID_DATA"
 _CHUNK = 1 << 20
 _TIMEOUT_S = 60
+#: Seconds to wait for a download address to answer before counting it offline.
+_REACH_TIMEOUT_S = 3
 
 
 class ChecksumError(OSError):
@@ -167,6 +173,35 @@ def _missing_message(path: Path, remote: RemoteFile, reason: str) -> str:
     )
 
 
+def _answering(urls) -> set:
+    """The addresses whose host resolves and accepts a connection within ``_REACH_TIMEOUT_S``.
+
+    Checked in parallel daemon threads with one deadline for all: name resolution has no timeout of
+    its own, and offline it can wait tens of seconds per address before failing.
+    """
+    answered = set()
+
+    def probe(url):
+        parts = urllib.parse.urlsplit(url)
+        if parts.scheme not in ("http", "https") or not parts.hostname:
+            answered.add(url)  # file:// and the like: let the download itself say
+            return
+        try:
+            port = parts.port or (443 if parts.scheme == "https" else 80)
+            socket.create_connection((parts.hostname, port), timeout=_REACH_TIMEOUT_S).close()
+        except (OSError, ValueError):
+            return
+        answered.add(url)
+
+    threads = [threading.Thread(target=probe, args=(url,), daemon=True) for url in urls]
+    for t in threads:
+        t.start()
+    deadline = time.monotonic() + _REACH_TIMEOUT_S
+    for t in threads:
+        t.join(max(0.0, deadline - time.monotonic()))
+    return set(answered)
+
+
 def _download(url: str, target: Path, algorithm: str) -> str:
     """Stream ``url`` into ``target``; return the digest of what was written."""
     hasher = hashlib.new(algorithm)
@@ -210,6 +245,11 @@ def fetch_file(
     if path.is_file():
         _check_digest(path, remote)
         return path
+    if path.exists():  # a folder (or another non-file) where the file should be: no download can replace it
+        raise IsADirectoryError(
+            _missing_message(path, remote, f"{path} is a folder (or another thing that is not a file) where the "
+                                           f"data file {remote.filename} should be: remove or rename it.")
+        )
     if not download_if_missing:
         raise FileNotFoundError(
             _missing_message(path, remote, f"{remote.filename} is not in the data home and "
@@ -231,7 +271,16 @@ def fetch_file(
 def _download_checked(remote: RemoteFile, path: Path) -> Path:
     """Try the addresses of ``remote`` in order; move the first verified download to ``path``."""
     errors, mismatches = [], []
-    for url in (remote.url, *remote.mirrors):
+    urls = (remote.url, *remote.mirrors)
+    answering = _answering(urls)
+    if not answering:  # offline: say so at once rather than after every address's timeouts
+        raise FileNotFoundError(_missing_message(
+            path, remote, f"Could not download {remote.filename}: none of its {len(urls)} address(es) answered "
+                          f"within {_REACH_TIMEOUT_S} s (no network?)."))
+    for url in urls:
+        if url not in answering:
+            errors.append(f"  {url}: no answer within {_REACH_TIMEOUT_S} s")
+            continue
         # A temporary file in the same folder, renamed only once verified: no partial files.
         fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".part", dir=path.parent)
         os.close(fd)

@@ -97,6 +97,19 @@ class ZeroResidual:
         return "ZeroResidual()"
 
 
+def _check_fitted_horizon(estimator: Any, y: Any) -> None:
+    """A fitted estimator predicts y's per-sample shape of its fit: refuse another (torch would say
+    only that a shape is invalid, deep inside a refit)."""
+    fitted = getattr(estimator, "y_shape_", None)
+    if fitted is None or not hasattr(estimator, "model_"):
+        return
+    shape = tuple(np.shape(y)[1:])
+    if shape != tuple(fitted) and shape != (math.prod(fitted),):
+        raise ValueError(f"y has per-sample shape {shape}; the estimator was fitted on y of per-sample shape "
+                         f"{tuple(fitted)}. Close the loop on data of the fitted horizon, or pass an unfitted "
+                         "estimator (sklearn.base.clone(est)), which close_the_loop fits on these data.")
+
+
 def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: Any = None, *,
                    state_names: Sequence[str] | None = None, input_names: Sequence[str] | None = None,
                    units: Mapping[str, str] | None = None, exact: str | Sequence[Any] | None = "auto",
@@ -244,6 +257,7 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
                    second_look)
     # the held-out split checks the groups and its own limits before anything is fitted
     splits, codes = held_out_splits(len(y), validation_fraction, cv, groups)
+    _check_fitted_horizon(estimator, y)
     if fit_initial_states and (estimator.structure != "ode" or estimator.observed is None):
         raise ValueError("fit_initial_states=True needs an estimator with structure='ode' and observed=[...] "
                          "leaving some states unmeasured: only their initial values are fitted.")
