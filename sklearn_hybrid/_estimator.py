@@ -20,7 +20,7 @@ from ._device import resolve_device
 from ._kernels import reusing_buffers
 from . import encoder as _encoder
 from .engine import DivergenceError, TrainConfig, cosine_lr, explain_nonfinite, theta_drift, train
-from ._extras import EstimatorExtras, _check_sample_weight, _holdout
+from ._extras import EstimatorExtras, check_sample_weight, split_holdout
 from ._memory import check_fit_memory, explained_memory_errors
 from ._verdict import explain_start, judge_training
 from ._validation import (check_dtype_range, check_positive, check_target_layout, set_feature_info, torch_threads,
@@ -309,8 +309,8 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
         setup = self._setup_fit(X, y)
         with torch_threads(self.n_threads):
             setup.samples_per_pass = check_fit_memory(setup)
-        weight = _check_sample_weight(sample_weight, len(setup.y), setup.y.dtype, setup.y.device)
-        inputs, y_t, validation = _holdout(setup, weight, self.validation_fraction)
+        weight = check_sample_weight(sample_weight, len(setup.y), setup.y.dtype, setup.y.device)
+        inputs, y_t, validation = split_holdout(setup, weight, self.validation_fraction)
         weight = validation.pop("train_weight")
         science = setup.model.science
         theta_start = None if setup.model.encoder is not None else {

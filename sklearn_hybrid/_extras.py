@@ -34,7 +34,7 @@ def _same(a, b) -> bool:
         return False
 
 
-def _check_sample_weight(sample_weight, n: int, dtype: torch.dtype, device=None) -> torch.Tensor | None:
+def check_sample_weight(sample_weight, n: int, dtype: torch.dtype, device=None) -> torch.Tensor | None:
     """Validate per-sample weights: shape (n,), finite, non-negative, not all zero."""
     if sample_weight is None:
         return None
@@ -50,7 +50,7 @@ def _check_sample_weight(sample_weight, n: int, dtype: torch.dtype, device=None)
     return torch.as_tensor(w, dtype=dtype, device=device)
 
 
-def _holdout(setup, weight, fraction):
+def split_holdout(setup, weight, fraction):
     """Split the samples of a fit setup into trained and validation parts.
 
     Returns ``(inputs, y, info)``; ``info["train_weight"]`` is the weight of the
