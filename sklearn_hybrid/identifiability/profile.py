@@ -125,7 +125,7 @@ def _fmt(value) -> str:
     return f"{float(value):.5g}"
 
 
-def profile_theta(estimator, X, y, params=None, *, grid=None, span=0.5, n_points=9, level=0.95,
+def profile_theta(estimator, X, y, params=None, *, grid=None, span=0.5, n_points=5, level=0.95,
                   max_iter=None, lr=None, refine=True, n_jobs=None, verbose=False) -> ThetaProfile:
     """Profile each parameter of a fitted hybrid model: an interval and a verdict per parameter.
 
@@ -143,8 +143,10 @@ def profile_theta(estimator, X, y, params=None, *, grid=None, span=0.5, n_points
     span : float, default=0.5
         The default grid spans the estimate +/- ``span`` times its magnitude
         (at most to 99 % of the way to a bound).
-    n_points : int, default=9
-        Points of the default grid.
+    n_points : int, default=5
+        Points of the default grid (with ``refine``, up to six more near the
+        crossings: the setting whose coverage ``benchmarks/bench_uncertainty.py``
+        measures).
     level : float, default=0.95
         Confidence level of the intervals.
     max_iter : int, optional
