@@ -193,11 +193,13 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
         zero over the last 10 % of them.  With a ``theta_encoder``, of the
         per-iteration batch mean.
     theta_std_ : dict
-        Standard error of each parameter (0 for fixed ones), from the
-        Gauss-Newton approximation of the data loss in theta with the network
-        held fixed (see :meth:`fit_report`); it reflects independent noise in
-        ``y`` only, not the bias of the network taking part of the physics: a
-        lower bound (``benchmarks/results/coverage.md``).
+        Noise-only standard error of each parameter (0 for fixed ones), from
+        the Gauss-Newton approximation of the data loss in theta with the
+        network held fixed (see :meth:`fit_report`): the part of the
+        uncertainty that independent noise in ``y`` makes, not what the
+        network trades with theta, so no interval is built from it
+        (``benchmarks/results/coverage.md``).  Whether the data identify
+        theta, with an interval: :func:`~sklearn_hybrid.identifiability.profile_theta`.
     theta_cov_ : ndarray of shape (p, p)
         Covariance of the free parameters, flattened in the order of ``theta_``.
     y_shape_ : tuple

@@ -13,8 +13,9 @@ This is the standard error lmfit and ``scipy.optimize.curve_fit`` report. It
 measures what independent noise in ``y`` does to theta; it does not measure
 noise in ``X`` carried along a trajectory, the bias that remains when the
 network absorbs part of the physics, nor the spread between training runs
-(``benchmarks/results/coverage.md``: a lower bound) (for that, fit several seeds with
-:class:`~sklearn_hybrid.HybridRegressorCV`, whose ``theta_std_`` is that spread).
+(``benchmarks/results/coverage.md``).  The report therefore prints it as the
+noise-only part and builds no interval from it: intervals and the verdict
+whether theta is identified come from :mod:`sklearn_hybrid.identifiability`.
 """
 
 from __future__ import annotations
