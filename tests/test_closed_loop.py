@@ -77,6 +77,9 @@ def test_close_the_loop_pendulum(pendulum):
     low, high = out.intervals.intervals["c_damping"]
     assert low < -0.5 < high and high - low < 0.1
     assert out.intervals.estimate["omega"] == pytest.approx(out.science_theta["omega"], rel=1e-6)  # float32
+    # the result prints its report with those intervals, and plots what is left unexplained
+    assert str(out).startswith(out.report) and "[[Parameters of the network-free model]]" in str(out)
+    assert out.plot().shape == (1, 2)
     before, after, alone = out.table
     assert after["theta"]["c_damping"] == pytest.approx(-0.5, rel=0.1)
     assert after["theta_error"]["omega"] < 0.03

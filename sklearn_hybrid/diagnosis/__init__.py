@@ -13,7 +13,7 @@ from .evidence import critical_value, evidence
 from .library import CandidateLibrary
 from .loop import MLPOn, ZeroResidual, close_the_loop
 from .records import fit_initial_state, free_run
-from .report import format_table, plot_unexplained, prediction_metrics
+from .report import LoopResult, format_table, plot_unexplained, prediction_metrics
 from .residual import ResidualDiagnosis, science_sensitivities
 from .science_fit import ScienceFit
 from .sparse import SparseTermRegression
@@ -21,6 +21,6 @@ from .terms import SCIENCE_OUTPUT, TERM_KINDS, Term, physics_terms
 
 __all__ = ["CandidateLibrary", "SparseTermRegression", "ResidualDiagnosis", "science_sensitivities",
            "augment_science", "AugmentedScience", "term_to_torch", "parameter_name", "close_the_loop", "free_run",
-           "fit_initial_state", "MLPOn", "ZeroResidual", "prediction_metrics", "format_table",
+           "fit_initial_state", "MLPOn", "ZeroResidual", "LoopResult", "prediction_metrics", "format_table",
            "plot_unexplained", "Term", "physics_terms", "TERM_KINDS", "SCIENCE_OUTPUT", "ScienceFit", "evidence",
            "critical_value"]

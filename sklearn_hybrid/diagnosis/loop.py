@@ -25,7 +25,7 @@ from ..science import read_signature
 from ._arguments import (check_names, check_options, check_param_names, check_refit_params, count_states,
                          offset_states, uncertain_components)
 from .evidence import held_out_splits
-from .report import Scoring, format_table, residual_profile
+from .report import LoopResult, Scoring, format_table, residual_profile
 from .residual import state_labels, science_output
 from .science_fit import ScienceFit
 from .stepwise import forward_selection
@@ -121,7 +121,7 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
                    z: float = 3.0, min_gain: float = 0.05, param_names: Mapping[str, str] | None = None,
                    refit_params: Mapping[str, Any] | None = None, theta_true: Mapping[str, Any] | None = None,
                    test_scorer: Callable | None = None, n_jobs: int | None = None, random_state: Any = 0,
-                   verbose: bool = False) -> Bunch:
+                   verbose: bool = False) -> LoopResult:
     """Fit, find the residual, add the missing terms that held-out data support, refit, compare.
 
     1. The hybrid model is fitted (unless it already is). With exact components (below) and the
@@ -237,7 +237,7 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
 
     Returns
     -------
-    Bunch
+    LoopResult
         ``before``, ``after`` (hybrid refitted with the augmented science; None when nothing was
         added or the refit failed), ``science`` (the augmented function, or None), ``science_theta``
         (fitted values of every parameter of the final science model, without the network),
@@ -377,7 +377,7 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
     report = format_table(rows, added, sel["steps"], unexplained, n_val, z=z, min_gain=min_gain, cv=cv,
                           unit=unit)
     log(report)
-    return Bunch(before=before, after=after, science=augmented, science_theta=science_theta, science_only=alone,
+    return LoopResult(before=before, after=after, science=augmented, science_theta=science_theta, science_only=alone,
                  intervals=intervals, added=added, steps=sel["steps"], exact=[] if uncertain is None else
                  [j for j in range(base.shape[1]) if j not in uncertain],
                  unexplained=unexplained, table=rows, report=report, seconds=time.perf_counter() - start)

@@ -10,12 +10,13 @@ import numpy as np
 import torch
 from joblib import effective_n_jobs
 from joblib.externals.loky import ProcessPoolExecutor
+from sklearn.utils import Bunch
 from threadpoolctl import threadpool_limits
 
 from .evidence import critical_value
 from .residual import root_mean_square, science_sensitivities
 
-__all__ = ["prediction_metrics", "format_table", "residual_profile", "plot_unexplained"]
+__all__ = ["prediction_metrics", "format_table", "residual_profile", "plot_unexplained", "LoopResult"]
 
 KIND_WORDS = {"polynomial": "polynomial", "drag": "drag (v|v|, |v|)", "dry_friction": "dry friction",
               "hinge": "hinge / stop / overflow", "sqrt": "square root (Torricelli)",
@@ -266,3 +267,17 @@ def format_table(rows: list[dict], added: Sequence[dict] = (), steps: Sequence[d
                            if k in unexplained["components"])
         lines.append(f"Not explained by the final science model (RMS share of what the hybrid learned): {shares}.")
     return "\n".join(lines)
+
+
+class LoopResult(Bunch):
+    """What :func:`~sklearn_hybrid.diagnosis.close_the_loop` returns: its fields by name (a Bunch, as
+    before), ``print(result)`` for the report with the network-free model's intervals, and
+    :meth:`plot` for what the final science model still misses."""
+
+    def __str__(self) -> str:
+        intervals = self.get("intervals")
+        return self["report"] + ("" if intervals is None else "\n\n" + intervals.report())
+
+    def plot(self, axes: Any = None) -> np.ndarray:
+        """The remaining residual against every variable (:func:`plot_unexplained`)."""
+        return plot_unexplained(self, axes)
