@@ -101,10 +101,11 @@ def run_repeat(system, repeat):
 
 
 def run(systems, repeats):
-    for name in systems:
-        folder = RUNS / name
-        folder.mkdir(parents=True, exist_ok=True)
-        for repeat in range(repeats):
+    # repeat by repeat across the systems: a run cut short leaves every system with as many repeats
+    for repeat in range(repeats):
+        for name in systems:
+            folder = RUNS / name
+            folder.mkdir(parents=True, exist_ok=True)
             path = folder / f"{repeat:02d}.json"
             if path.exists():
                 continue
