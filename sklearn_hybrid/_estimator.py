@@ -37,6 +37,22 @@ _DTYPES = {"float32": torch.float32, "float64": torch.float64}
 _SEEDED_INIT = threading.Lock()  # torch's global generator is shared by all threads
 
 
+def _standard_error_rows(model, n: int, n_iter: int, batch_size, seed: int):
+    """Rows of a random subset for the standard errors, or None for all samples.
+
+    They take ``1 + 2 p`` forward passes over their samples (central
+    differences in the ``p`` free parameters); a training of ``n_iter``
+    iterations of ``batch_size`` samples made about ``n_iter * batch_size``
+    passes.  Their cost is kept to a tenth of that, with at least 32 samples.
+    """
+    p = sum(r.numel() for r in model.science.raw.values() if r.requires_grad)
+    passes = n_iter * min(batch_size or n, n)
+    m = max(32, int(0.1 * passes / (1 + 2 * p)))
+    if m >= n:
+        return None
+    return torch.as_tensor(np.sort(np.random.default_rng(seed).choice(n, m, replace=False)))
+
+
 class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
     """Hybrid model ``science + neural network`` that estimates the science parameters.
 
@@ -429,9 +445,18 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
         """
         model = setup.model
         model.eval()
+        inputs, y, weight = data or (setup.inputs, setup.y, None)
+        rows = _standard_error_rows(model, len(y), len(history["loss"]), self.batch_size, setup.seed)
+        if rows is not None:  # the standard errors' passes over every sample would outweigh a short training
+            inputs, y = tuple(t[rows] for t in inputs), y[rows]
+            weight = None if weight is None else weight[rows]
         with torch_threads(self.n_threads):  # first: an error here must leave an earlier fit whole
-            std, cov, _ = theta_uncertainty(model, *(data or (setup.inputs, setup.y, None)),
-                                            chunk=setup.samples_per_pass)
+            std, cov, _ = theta_uncertainty(model, inputs, y, weight, chunk=setup.samples_per_pass)
+        if rows is not None:  # J^T W J grows with the samples: the subset's covariance, scaled to all of them
+            scale = len(rows) / len(setup.y if data is None else data[1])
+            cov = cov * scale
+            std = {k: v * np.sqrt(scale) for k, v in std.items()}
+        self._standard_error_samples = None if rows is None else (len(rows), len(data[1] if data else setup.y))
         self.model_, self.residual_ = model, model.residual
         self.theta_, self.history_ = model.science.as_dict(), history
         if model.encoder is not None:

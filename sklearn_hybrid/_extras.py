@@ -297,6 +297,9 @@ class EstimatorExtras:
         verdicts, after = _profile_verdicts(profile, science.names)
         how = ("noise-only standard error: Gauss-Newton with the network held fixed, not an interval of theta, "
                "since the network can trade with theta")
+        subset = getattr(self, "_standard_error_samples", None)
+        if subset:
+            how += f"; from {subset[0]} of {subset[1]} samples, scaled to all (a short training)"
         if profile is None:
             after = ["(whether the data identify theta, and an interval that holds the truth: "
                      "est.fit_report(profile=profile_theta(est, X, y)), from sklearn_hybrid.identifiability)"]
