@@ -1032,3 +1032,19 @@ def test_a_drop_refits_the_reduced_model_from_its_fit_on_the_path_too(pendulum):
     assert [t["term"] for t in kept] == ["v_dot"]
     assert theta[kept[0]["param"]] == pytest.approx(-0.5, rel=0.1)
     assert judge.training_error(current, theta) < 1e-2
+
+
+def test_intervals_not_backed_while_a_candidate_is_left_open():
+    """A term that gains at the last step without passing the evidence leaves the model possibly
+    incomplete: its network-free intervals are not printed as identified."""
+    from sklearn_hybrid.diagnosis.loop import _open_question
+
+    steps = [{"step": 1, "term": "v_dot", "gain": 0.9, "z": 12.0, "accepted": True},
+             {"step": 2, "term": "v^3", "gain": 0.01, "z": 2.5, "accepted": False}]
+    assert _open_question(steps, 0.05) is None  # a negligible gain is no question
+    steps.append({"step": 2, "term": "T^2", "gain": 0.4, "z": 1.7, "accepted": False})
+    assert "T^2" in _open_question(steps, 0.05) and "40%" in _open_question(steps, 0.05)
+    steps[-1]["z"] = 0.5  # a gain the noise explains as well
+    assert _open_question(steps, 0.05) is None
+    steps.append({"step": "2, second look", "term": "T^2", "gain": 0.3, "z": 2.4, "accepted": False})
+    assert "T^2" in _open_question(steps, 0.05)

@@ -193,3 +193,15 @@ def test_profile_on_a_dask_cluster_matches_local(offset_fit, line_data):
     for other in (two, remote):
         np.testing.assert_allclose(other.loss["a"], local.loss["a"], rtol=1e-10)
         assert other.intervals == local.intervals
+
+
+def test_science_intervals_of_a_possibly_incomplete_model_are_not_backed(line_data):
+    X, y = line_data
+    est = HybridRegressor(science=line_f, structure="additive", residual=ZeroResidual(), method="erm", lr=5e-2,
+                          max_iter=300, tol=None, dtype="float64", random_state=0).fit(X, y)
+    complete = science_intervals(est, X, y)
+    assert set(complete.verdicts.values()) == {"identified"}
+    ci = science_intervals(est, X, y, incomplete="a candidate gained 40 % at z 1.7")
+    assert set(ci.verdicts.values()) == {"not identified"}
+    assert ci.intervals["a"] == (-np.inf, np.inf) and ci.std == complete.std
+    assert "may be incomplete" in ci.report() and "40 %" in ci.report()

@@ -346,7 +346,7 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         alone = _fixed_science(before, final, science_theta, X, y)
         from ..identifiability import science_intervals  # the identifiability package reads this one's results
 
-        intervals = science_intervals(alone, X, y)
+        intervals = science_intervals(alone, X, y, incomplete=_open_question(sel["steps"], min_gain))
         log("scoring the network-free model ..." if scoring.executor is None else
             "scoring the network-free model in a worker process ...")
         alone_row = scoring.submit(alone)  # with a worker, scored during the refit
@@ -384,6 +384,26 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
 
 
 _MAX_POINTS = 5000  # visited states used to rank candidates: plenty for a handful of columns
+
+#: A candidate left at the last step that lowered the held-out error by ``min_gain`` at this z (one
+#: standard error) is evidence, short of the threshold, that the final model misses something.
+_OPEN_Z = 1.0
+
+
+def _open_question(steps: list[dict], min_gain: float) -> str | None:
+    """Why the final science model may be incomplete (a candidate of the last step, or of its second
+    look, that gained ``min_gain`` at z >= 1 without passing), or None."""
+    numbered = [s["step"] for s in steps if isinstance(s["step"], int)]
+    if not numbered:
+        return None
+    last = max(numbered)
+    open_ = [s for s in steps if s["step"] in (last, f"{last}, second look") and not s["accepted"]
+             and s.get("gain", -np.inf) >= min_gain and s.get("z", -np.inf) >= _OPEN_Z]
+    if not open_:
+        return None
+    best = max(open_, key=lambda s: s["gain"])
+    return (f"the selection ended with a candidate, {best['term']}, that lowered the held-out error by "
+            f"{best['gain']:.0%} at z {best['z']:.1f}, short of the evidence")
 
 
 def _is_default_network(residual) -> bool:

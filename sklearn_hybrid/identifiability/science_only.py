@@ -42,6 +42,7 @@ class ScienceIntervals:
     verdicts: dict
     level: float
     n_samples: int
+    incomplete: str | None = None
 
     def report(self) -> str:
         lines = [f"[[Parameters of the network-free model]]  ({100 * self.level:.0f} % intervals, cluster-robust "
@@ -51,15 +52,19 @@ class ScienceIntervals:
             if verdict == "identified":
                 lines.append(f"    {label}: {self.estimate[label]:.6g} +/- {self.std[label]:.3g}, "
                              f"{100 * self.level:.0f} % interval [{low:.6g}, {high:.6g}]")
+            elif self.incomplete:
+                lines.append(f"    {label}: {self.estimate[label]:.6g}  NOT IDENTIFIED: the model may be incomplete")
             else:
                 lines.append(f"    {label}: {self.estimate[label]:.6g}  NOT IDENTIFIED by these data")
+        if self.incomplete:
+            lines.append(f"    ({self.incomplete}; its intervals would assume a complete model)")
         return "\n".join(lines)
 
     def __str__(self) -> str:
         return self.report()
 
 
-def science_intervals(estimator, X, y, level=0.95) -> ScienceIntervals:
+def science_intervals(estimator, X, y, level=0.95, incomplete: str | None = None) -> ScienceIntervals:
     """Intervals of the parameters of a fitted model without a network.
 
     Parameters
@@ -71,6 +76,11 @@ def science_intervals(estimator, X, y, level=0.95) -> ScienceIntervals:
     X, y : array-like
         The data the parameters were fitted on.
     level : float, default=0.95
+    incomplete : str, optional
+        Why the model may miss something (``close_the_loop`` says so when a
+        candidate term lowered the held-out error without passing the
+        evidence): every verdict is then "not identified", since an interval
+        of a misspecified model holds its own best fit, not the truth.
 
     Returns
     -------
@@ -130,11 +140,12 @@ def science_intervals(estimator, X, y, level=0.95) -> ScienceIntervals:
     except np.linalg.LinAlgError:
         cond_ok, A_inv = False, np.full_like(A, np.nan)
     cov = n / dof * A_inv @ B @ A_inv
-    out = ScienceIntervals(estimate={}, std={}, intervals={}, verdicts={}, level=level, n_samples=n)
+    out = ScienceIntervals(estimate={}, std={}, intervals={}, verdicts={}, level=level, n_samples=n,
+                           incomplete=incomplete)
     for j, (name, k, label) in enumerate(labels):
         value = float(np.ravel(np.asarray(science.as_dict()[name], dtype=float))[k])
         std = float(np.sqrt(cov[j, j])) if cov[j, j] >= 0 else float("nan")
-        identified = cond_ok and np.isfinite(std) and std < max(abs(value), 1e-12)
+        identified = cond_ok and np.isfinite(std) and std < max(abs(value), 1e-12) and not incomplete
         out.estimate[label], out.std[label] = value, std
         out.intervals[label] = (value - t * std, value + t * std) if identified else (-np.inf, np.inf)
         out.verdicts[label] = "identified" if identified else "not identified"
