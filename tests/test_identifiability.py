@@ -50,7 +50,7 @@ def offset_fit(line_data):
 
 @pytest.fixture(scope="module")
 def offset_profile(offset_fit, line_data):
-    return profile_theta(offset_fit, *line_data, n_points=7, max_iter=150)
+    return profile_theta(offset_fit, *line_data, n_points=7, max_iter=150, objective=True)
 
 
 def test_a_parameter_the_network_absorbs_exactly_is_not_identified(offset_profile, offset_fit):
@@ -205,3 +205,16 @@ def test_science_intervals_of_a_possibly_incomplete_model_are_not_backed(line_da
     assert set(ci.verdicts.values()) == {"not identified"}
     assert ci.intervals["a"] == (-np.inf, np.inf) and ci.std == complete.std
     assert "may be incomplete" in ci.report() and "40 %" in ci.report()
+
+
+def test_the_objective_profile_trains_members_with_the_fit_s_method(line_data):
+    """The plain profile's members minimise the loss alone; the objective's, p-reg's loss plus
+    penalty, which the plain loss can only undercut."""
+    X, y = line_data
+    est = HybridRegressor(science=line_f, structure="additive", residual={"hidden": (8,)}, method="p-reg",
+                          lam=1e-2, max_iter=40, tol=None, dtype="float64", random_state=0).fit(X, y)
+    prof = profile_theta(est, X, y, params="a", n_points=3, max_iter=20, refine=False, objective=True)
+    assert len(prof.objective["a"]) == len(prof.values["a"])
+    assert np.all(prof.objective["a"] > prof.loss["a"])
+    assert prof.objective_minimum["a"] in prof.values["a"] and "p-reg objective is lowest" in prof.report()
+    assert profile_theta(est, X, y, params="a", n_points=3, max_iter=2, refine=False).objective == {}

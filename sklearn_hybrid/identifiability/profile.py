@@ -27,6 +27,7 @@ import numpy as np
 from scipy import stats
 
 from .._batched import evaluate_members, train_members
+from ..methods import ERM
 from .._validation import torch_threads
 from ._members import (bounds_of, check_level, check_n_jobs, entry_values, fitted_problem, member_config,
                        parameter_entries, set_entry)
@@ -52,10 +53,14 @@ class ThetaProfile:
     ----------
     estimate : dict of str to float
         The fit's value of each profiled entry (``name`` or ``name[k]``).
-    values, loss, objective : dict of str to ndarray
-        The profile of each entry: its values (sorted), the data loss (mean
-        squared error) and the method's own objective there (the loss plus
-        p-reg's penalty, or the sharpness-aware loss of the SAM family).
+    values, loss : dict of str to ndarray
+        The profile of each entry: its values (sorted) and the data loss (mean
+        squared error) of members that minimised the plain loss (erm) there:
+        what the data alone allow once the network may compensate.
+    objective : dict of str to ndarray
+        With ``objective=True``: the fit's own objective (the loss plus p-reg's
+        penalty, or the sharpness-aware loss of the SAM family) at the same
+        values, of members trained with the fit's method; empty otherwise.
     threshold : float
         Data loss under which a value is inside the interval at ``level``.
     intervals : dict of str to tuple
@@ -66,7 +71,7 @@ class ThetaProfile:
         ``"structurally non-identifiable"``.
     objective_minimum : dict of str to float
         Where the method's objective is lowest along the profile: the value of
-        theta the regulariser prefers.
+        theta the regulariser prefers (with ``objective=True``).
     """
 
     estimate: dict
@@ -102,8 +107,9 @@ class ThetaProfile:
         """A text report: per parameter the verdict, the interval and what would identify it."""
         lines = [f"[[Profiles]]  ({self.how()})"]
         for label in self.verdicts:
-            lines.append(f"    {label}: {_fmt(self.estimate[label])}  {self.verdict_text(label)}; the "
-                         f"{self.method} objective is lowest at {_fmt(self.objective_minimum[label])}")
+            where = (f"; the {self.method} objective is lowest at {_fmt(self.objective_minimum[label])}"
+                     if label in self.objective_minimum else "")
+            lines.append(f"    {label}: {_fmt(self.estimate[label])}  {self.verdict_text(label)}{where}")
         if any(v != IDENTIFIED for v in self.verdicts.values()):
             lines.append(f"    ({ADVICE})")
         return "\n".join(lines)
@@ -111,7 +117,7 @@ class ThetaProfile:
     def how(self) -> str:
         """How the profiles were made, in one line."""
         return (f"{100 * self.level:.0f} %, F-test on {self.n_samples} samples; at each value the other parameters "
-                f"and the network re-trained from the fit, {self.n_iter} iterations")
+                f"and the network re-trained from the fit on the plain loss, {self.n_iter} iterations")
 
     def __str__(self) -> str:
         return self.report()
@@ -126,7 +132,8 @@ def _fmt(value) -> str:
 
 
 def profile_theta(estimator, X, y, params=None, *, grid=None, span=0.5, n_points=5, level=0.95,
-                  max_iter=None, lr=None, refine=True, n_jobs=None, verbose=False) -> ThetaProfile:
+                  max_iter=None, lr=None, refine=True, objective=False, n_jobs=None,
+                  verbose=False) -> ThetaProfile:
     """Profile each parameter of a fitted hybrid model: an interval and a verdict per parameter.
 
     Parameters
@@ -161,6 +168,11 @@ def profile_theta(estimator, X, y, params=None, *, grid=None, span=0.5, n_points
         (three per side, placed by a parabola through the first round), so
         that an interval narrower than the grid's step is not interpolated
         across it.
+    objective : bool, default=False
+        Also profile the fit's own objective (the loss plus p-reg's penalty,
+        or the sharpness-aware loss): members trained with the fit's method at
+        the plain profile's values, a second stacked training.  Its minimum is
+        where the method's regulariser puts theta inside what the data allow.
     n_jobs : int, optional
         Train the members in this many worker processes (joblib; under
         ``joblib.parallel_backend("dask")`` on a Dask cluster).
@@ -188,37 +200,43 @@ def profile_theta(estimator, X, y, params=None, *, grid=None, span=0.5, n_points
         raise ValueError(f"{problem.n_samples} samples for {n_free} free parameters: no degrees of freedom left.")
 
     n_threads = estimator.n_threads if n_jobs == 1 else 1
+    plain = ERM()  # what the data alone allow: every member minimises the plain loss
     points = [(label, name, k, v) for name, k, label in entries for v in grids[label]]
-    found, free = _train_points(problem, points, config, n_jobs, n_threads, with_free=True)
+    found, free = _train_points(problem, plain, points, config, n_jobs, n_threads, with_free=True)
     for name, k, label in entries:  # the free member is a point of every profile, at its own theta
-        found[label].append((free["theta"][name][k], free["loss"], free["objective"]))
+        found[label].append((free["theta"][name][k], free["loss"]))
     threshold_of = lambda best: best * (1 + stats.f.ppf(level, 1, dof) / dof)  # noqa: E731
     if refine:
         best = min(p[1] for rows in found.values() for p in rows)
         extra = [(label, name, k, v) for name, k, label in entries
                  for v in _refinement(found[label], threshold_of(best))]
         if extra:
-            for label, rows in _train_points(problem, extra, config, n_jobs, n_threads)[0].items():
+            for label, rows in _train_points(problem, plain, extra, config, n_jobs, n_threads)[0].items():
                 found[label] += rows
     best = float(min(p[1] for rows in found.values() for p in rows))
     out = ThetaProfile(estimate={}, values={}, loss={}, objective={}, threshold=threshold_of(best), best_loss=best,
                        level=level, n_samples=problem.n_samples, n_iter=config.max_iter, method=problem.method.name)
     for name, k, label in entries:
-        values, loss, objective = (np.array(c) for c in zip(*sorted(found[label])))
+        values, loss = (np.array(c) for c in zip(*sorted(found[label])))
         out.estimate[label] = float(entry_values(science, name)[k])
-        out.values[label], out.loss[label], out.objective[label] = values, loss, objective
+        out.values[label], out.loss[label] = values, loss
         out.intervals[label], out.verdicts[label] = _interval(values, loss, out.threshold)
-        out.objective_minimum[label] = float(values[np.argmin(objective)])
+    if objective:  # the method's own objective, each member trained on it, at the plain profile's values
+        at = [(label, name, k, v) for name, k, label in entries for v in out.values[label]]
+        regularised, _ = _train_points(problem, problem.method, at, config, n_jobs, n_threads, objective=True)
+        for label, rows in regularised.items():
+            out.objective[label] = np.array([row[1] for row in sorted(rows)])
+            out.objective_minimum[label] = float(out.values[label][np.argmin(out.objective[label])])
     return out
 
 
-def _train_points(problem, points, config, n_jobs, n_threads, with_free=False):
-    """Train one member per ``(label, name, k, value)`` point, entry ``k`` of ``name`` held at ``value``,
-    warm-started from the fit (and, ``with_free``, one member that holds nothing).
+def _train_points(problem, method, points, config, n_jobs, n_threads, with_free=False, objective=False):
+    """Train one member per ``(label, name, k, value)`` point with ``method``, entry ``k`` of ``name``
+    held at ``value``, warm-started from the fit (and, ``with_free``, one member that holds nothing).
 
-    Returns ``{label: [(value, loss, objective), ...]}`` and the free member's ``theta`` (name ->
-    flat values), ``loss`` and ``objective`` (None without it).  A member whose training diverged
-    has an infinite loss.
+    Returns ``{label: [(value, loss), ...]}`` (the data loss, or with ``objective`` the method's
+    objective) and the free member's ``theta`` (name -> flat values) and ``loss`` (None without
+    it).  A member whose training diverged has an infinite loss.
     """
     science = problem.model.science
     models = [copy.deepcopy(problem.model)] if with_free else []
@@ -232,18 +250,17 @@ def _train_points(problem, points, config, n_jobs, n_threads, with_free=False):
         held.setdefault(name, np.zeros((len(models), *science.shapes[name]), dtype=bool))
         held[name].reshape(len(models), -1)[offset + i, k] = True
     with torch_threads(n_threads):
-        history, models = train_members(models, problem.method, problem.inputs, problem.y, config,
+        history, models = train_members(models, method, problem.inputs, problem.y, config,
                                         [0] * len(models), held=held, n_jobs=n_jobs, n_threads=n_threads)
-        scores = evaluate_members(models, problem.method, problem.inputs, problem.y, config)
-    loss = np.where(np.isfinite(scores["loss"]) & (history["diverged_at"] < 0), scores["loss"], np.inf)
-    objective = np.where(np.isfinite(loss), scores["objective"], np.inf)
+        scores = evaluate_members(models, method, problem.inputs, problem.y, config)
+    value = scores["objective" if objective else "loss"]
+    loss = np.where(np.isfinite(value) & (history["diverged_at"] < 0), value, np.inf)
     found = {}
-    for i, (label, name, k, value) in enumerate(points):
-        found.setdefault(label, []).append((float(value), float(loss[offset + i]), float(objective[offset + i])))
+    for i, (label, name, k, v) in enumerate(points):
+        found.setdefault(label, []).append((float(v), float(loss[offset + i])))
     free = None
     if with_free:
-        free = {"theta": {n: entry_values(models[0].science, n) for n in science.names},
-                "loss": float(loss[0]), "objective": float(objective[0])}
+        free = {"theta": {n: entry_values(models[0].science, n) for n in science.names}, "loss": float(loss[0])}
     return found, free
 
 
@@ -256,7 +273,7 @@ def _refinement(rows, threshold):
     the bracket) are trained next, so that the crossing is interpolated
     between near points rather than across a coarse grid step.
     """
-    values, loss, _ = (np.array(c) for c in zip(*sorted(rows)))
+    values, loss = (np.array(c) for c in zip(*sorted(rows)))
     m = int(np.argmin(loss))
     out = []
     for step in (-1, 1):
@@ -327,7 +344,7 @@ def _interval(values, loss, threshold):
 
 
 def plot_profile(profile: ThetaProfile, ax=None):
-    """Plot each profile: the data loss and the method's objective against the parameter.
+    """Plot each profile: the data loss (and the method's objective, if profiled) against the parameter.
 
     The threshold of the interval is drawn as a horizontal line, the fit's
     estimate and the interval as vertical ones.  Needs matplotlib (the
@@ -356,7 +373,8 @@ def plot_profile(profile: ThetaProfile, ax=None):
     for a, label in zip(axes, labels):
         values = profile.values[label]
         a.plot(values, profile.loss[label], "o-", label="data loss")
-        a.plot(values, profile.objective[label], "s--", alpha=0.7, label=f"{profile.method} objective")
+        if label in profile.objective:
+            a.plot(values, profile.objective[label], "s--", alpha=0.7, label=f"{profile.method} objective")
         a.axhline(profile.threshold, color="grey", lw=1, label=f"{100 * profile.level:.0f} % threshold")
         a.axvline(profile.estimate[label], color="k", lw=1, ls=":", label="fit")
         for side in profile.intervals[label]:
