@@ -205,8 +205,8 @@ def render():
             "misses called identified | coverage, all | mean width / RMS error | mean rel. error | s per fit |")
     lines = ["# Is theta identified? Coverage of the intervals on repeated data sets", "",
              "Each repeat: new initial states and noise; hybrid fits (erm, fsam, p-reg: a 32x32 MLP, at most 300 "
-             "iterations, early stopping) profiled with `profile_theta` (5 points, +/- 50 %, refined near each "
-             "crossing, as many iterations as the fit took); fsam also with `bootstrap_theta` (8 members); the "
+             "iterations, early stopping) profiled with `profile_theta` (the plain loss: members trained with erm from "
+             "the fit; 5 points, +/- 50 %, refined near each crossing, as many iterations as the fit took); fsam also with `bootstrap_theta` (8 members); the "
              "closed loop (`close_the_loop`, its first hybrid at most 300 iterations) and `science_intervals` of "
              "its network-free refit. "
              "Systems: `benchmarks/_uncertainty_systems.py` (kept out of the tests).", "",
