@@ -158,8 +158,9 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
     verbose : bool or "auto", default="auto"
         Show a progress bar on stderr with the loss, theta, the speed and the
         time left to ``max_iter`` (an early stop comes sooner): ``"auto"`` once
-        a fit has run 5 seconds, so that a short fit prints nothing and a long
-        one shows signs of life; True from the first iteration; False never.
+        a fit has run 5 seconds, in a terminal or a notebook (not in logs or
+        captured output), so that a short fit prints nothing and a long one
+        shows signs of life; True always, from the first iteration; False never.
 
     Attributes
     ----------

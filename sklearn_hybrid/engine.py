@@ -337,8 +337,9 @@ def train(model: nn.Module, method, inputs: tuple[torch.Tensor, ...], y: torch.T
                 thetas[n][it] = v.cpu().numpy()
     n_iter = config.max_iter
     stream = sys.stderr or sys.stdout  # both are None under pythonw and some services
-    bar = tqdm(range(config.max_iter), disable=not config.verbose or stream is None,
-               desc=method.name, file=stream, delay=AUTO_DELAY if config.verbose == "auto" else 0.0)
+    auto = config.verbose == "auto"
+    bar = tqdm(range(config.max_iter), disable=not (_interactive(stream) if auto else config.verbose),
+               desc=method.name, file=stream, delay=AUTO_DELAY if auto else 0.0)
     model.train()
     for it in bar:
         rate = optimizer.param_groups[0]["lr"]  # theta's, for theta_drift
@@ -389,6 +390,17 @@ def train(model: nn.Module, method, inputs: tuple[torch.Tensor, ...], y: torch.T
     if stopper is not None and validation is not None:
         history["validation_loss"] = np.array(stopper.validation_history)
     return history
+
+
+def _interactive(stream) -> bool:
+    """Whether a progress bar on ``stream`` is seen as it runs: a terminal or a notebook, not a log,
+    a captured output (pytest, a documentation build) or a missing stream (pythonw)."""
+    if stream is None:
+        return False
+    try:
+        return stream.isatty() or "ipykernel" in sys.modules
+    except (AttributeError, ValueError):  # a stream without isatty, or a closed one
+        return False
 
 
 def _make_stopper(model, config, y, validation):

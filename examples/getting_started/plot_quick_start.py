@@ -39,8 +39,7 @@ def pendulum_f(v, omega=0.5):  # keyword defaults are the unknown parameters the
 
 data = make_pendulum(random_state=0)
 X, y = data.X_train, data.y_train
-est = HybridRegressor(science=pendulum_f, dt=0.2, random_state=0, **({"max_iter": 20} if FAST else {}))
-est.fit(X, y)
+est = HybridRegressor(science=pendulum_f, dt=0.2, random_state=0, **({"max_iter": 20} if FAST else {})).fit(X, y)
 
 # %%
 # The fit against the data
