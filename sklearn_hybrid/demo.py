@@ -15,7 +15,8 @@ import torch
 
 
 def pendulum_f(v, omega=0.5):  # keyword defaults are the unknown parameters theta
-    return torch.stack([v[:, 1], -(2 * torch.pi * omega) ** 2 * torch.sin(v[:, 0])], dim=-1)
+    dv_dt = -(2 * torch.pi * omega) ** 2 * torch.sin(v[:, 0])  # the undamped pendulum
+    return torch.stack([v[:, 1], dv_dt], dim=-1)
 
 
 def main():
@@ -34,7 +35,8 @@ def main():
     X, y = data.X_train, data.y_train
     est = HybridRegressor(science=pendulum_f, dt=0.2, random_state=0).fit(X, y)
     print(est.fit_report(profile=profile_theta(est, X, y)))
-    print("test RMSE:", round(float(np.sqrt(((est.predict(data.X_test) - data.y_test) ** 2).mean())), 4))
+    rmse = np.sqrt(((est.predict(data.X_test) - data.y_test) ** 2).mean())
+    print("test RMSE:", round(float(rmse), 4))
     return est
 
 

@@ -34,12 +34,14 @@ if FAST:  # say so on the page: these numbers are not the method's results
 
 
 def pendulum_f(v, omega=0.5):  # keyword defaults are the unknown parameters theta
-    return torch.stack([v[:, 1], -(2 * torch.pi * omega) ** 2 * torch.sin(v[:, 0])], dim=-1)
+    dv_dt = -(2 * torch.pi * omega) ** 2 * torch.sin(v[:, 0])  # the undamped pendulum
+    return torch.stack([v[:, 1], dv_dt], dim=-1)
 
 
 data = make_pendulum(random_state=0)
 X, y = data.X_train, data.y_train
-est = HybridRegressor(science=pendulum_f, dt=0.2, random_state=0, **({"max_iter": 20} if FAST else {})).fit(X, y)
+settings = {"max_iter": 20} if FAST else {}  # the defaults, as in the Quick start
+est = HybridRegressor(science=pendulum_f, dt=0.2, random_state=0, **settings).fit(X, y)
 
 # %%
 # The fit against the data
@@ -60,6 +62,8 @@ plt.show()
 profile = profile_theta(est, X, y, **({"max_iter": 5, "n_points": 3, "refine": False} if FAST else {}))
 print(est.fit_report(profile=profile))
 print("true omega:", round(data.theta_true["omega"], 4))
-print("test RMSE:", round(float(np.sqrt(((est.predict(data.X_test) - data.y_test) ** 2).mean())), 4))
-profile.plot()
+rmse = np.sqrt(((est.predict(data.X_test) - data.y_test) ** 2).mean())
+print("test RMSE:", round(float(rmse), 4))
+axes = profile.plot()
+axes[0].figure.tight_layout()  # room for the axis labels
 plt.show()
