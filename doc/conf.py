@@ -93,8 +93,8 @@ html_theme = "alabaster"
 html_static_path = []
 html_theme_options = {
     "description": "Hybrid models that estimate the science",
-    "page_width": "1180px",
-    "sidebar_width": "230px",
+    "page_width": "1240px",
+    "sidebar_width": "220px",
     "fixed_sidebar": False,
 }
 html_sidebars = {"**": ["about.html", "navigation.html", "searchbox.html"]}

@@ -15,7 +15,7 @@ import torch
 
 
 def pendulum_f(v, omega=0.5):  # keyword defaults are the unknown parameters theta
-    dv_dt = -(2 * torch.pi * omega) ** 2 * torch.sin(v[:, 0])  # the undamped pendulum
+    dv_dt = -(2 * torch.pi * omega) ** 2 * torch.sin(v[:, 0])  # no damping
     return torch.stack([v[:, 1], dv_dt], dim=-1)
 
 

@@ -29,12 +29,12 @@ from sklearn_hybrid.identifiability import profile_theta
 
 FAST = os.environ.get("SKLEARN_HYBRID_FAST", "0") == "1"  # tiny run for tests
 if FAST:  # say so on the page: these numbers are not the method's results
-    print("FAST MODE (SKLEARN_HYBRID_FAST=1): a few iterations; the numbers below only show that the "
-          "pipeline runs. The full run is the README's Quick start.")
+    print("FAST MODE (SKLEARN_HYBRID_FAST=1): a few iterations; the numbers below only "
+          "show that the pipeline runs. The full run is the README's Quick start.")
 
 
 def pendulum_f(v, omega=0.5):  # keyword defaults are the unknown parameters theta
-    dv_dt = -(2 * torch.pi * omega) ** 2 * torch.sin(v[:, 0])  # the undamped pendulum
+    dv_dt = -(2 * torch.pi * omega) ** 2 * torch.sin(v[:, 0])  # no damping
     return torch.stack([v[:, 1], dv_dt], dim=-1)
 
 
@@ -49,7 +49,8 @@ est = HybridRegressor(science=pendulum_f, dt=0.2, random_state=0, **settings).fi
 # Three test trajectories (points), the hybrid's prediction (lines) and the
 # science part alone with the fitted omega (dashes): the shaded band between
 # them is what the network adds, here the damping.  Above, the residuals.
-fig = plot_fit(est, data.X_test, data.y_test, names=["angle (rad)", "angular velocity (rad/s)"])
+names = ["angle (rad)", "angular velocity (rad/s)"]
+fig = plot_fit(est, data.X_test, data.y_test, names=names)
 plt.show()
 
 # %%
@@ -59,7 +60,8 @@ plt.show()
 # (and any other parameter) at each; where the data fit significantly worse
 # (the horizontal threshold, an F-test) bounds the interval.  The report gives
 # the verdict and that interval.
-profile = profile_theta(est, X, y, **({"max_iter": 5, "n_points": 3, "refine": False} if FAST else {}))
+tiny = {"max_iter": 5, "n_points": 3, "refine": False} if FAST else {}  # defaults in full
+profile = profile_theta(est, X, y, **tiny)
 print(est.fit_report(profile=profile))
 print("true omega:", round(data.theta_true["omega"], 4))
 rmse = np.sqrt(((est.predict(data.X_test) - data.y_test) ** 2).mean())
