@@ -95,6 +95,7 @@ html_theme_options = {
     "description": "Hybrid models that estimate the science",
     "page_width": "1240px",
     "sidebar_width": "220px",
+    "body_max_width": "none",  # code of up to ~100 characters without a scrollbar at 1,280 px
     "fixed_sidebar": False,
 }
 html_sidebars = {"**": ["about.html", "navigation.html", "searchbox.html"]}
