@@ -338,7 +338,7 @@ def train(model: nn.Module, method, inputs: tuple[torch.Tensor, ...], y: torch.T
     n_iter = config.max_iter
     stream = sys.stderr or sys.stdout  # both are None under pythonw and some services
     auto = config.verbose == "auto"
-    bar = tqdm(range(config.max_iter), disable=not (_interactive(stream) if auto else config.verbose),
+    bar = tqdm(range(config.max_iter), disable=stream is None or not (_interactive(stream) if auto else config.verbose),
                desc=method.name, file=stream, delay=AUTO_DELAY if auto else 0.0)
     model.train()
     for it in bar:
