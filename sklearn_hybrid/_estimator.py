@@ -178,8 +178,12 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
         fit every time; None draws the seed from numpy's global random state
         (scikit-learn's convention), so repeated fits differ.  torch's global
         generator is never used or advanced.
-    verbose : bool, default=False
-        Show a progress bar with the loss and theta.
+    verbose : bool or "auto", default="auto"
+        Show a progress bar on stderr with the loss, theta, the speed and the
+        time left to ``max_iter`` (an early stop comes sooner): ``"auto"`` once
+        a fit has run 5 seconds, in a terminal or a notebook (not in logs or
+        captured output), so that a short fit prints nothing and a long one
+        shows signs of life; True always, from the first iteration; False never.
 
     Attributes
     ----------
@@ -237,7 +241,7 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
                  observed=None, n_inputs=0, input_interp="cubic", lr=1e-2, lr_theta=None,
                  max_iter=2000, tol=1e-3, n_iter_no_change=100, validation_fraction=None,
                  batch_size=None, weight_decay=1e-5, dtype="float32", device="cpu",
-                 n_threads=1, random_state=None, verbose=False):
+                 n_threads=1, random_state=None, verbose="auto"):
         self.science = science
         self.structure = structure
         self.residual = residual

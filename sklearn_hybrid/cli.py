@@ -51,7 +51,7 @@ def _parser() -> argparse.ArgumentParser:
     loop.add_argument("--quiet", action="store_true", help="print the table only (no progress bars)")
     loop.add_argument("--data-home", default=None,
                       help="folder of the measured data (default: $SKLEARN_HYBRID_DATA, else ~/sklearn_hybrid_data)")
-    sub.add_parser("demo", help="run sklearn_hybrid.demo (erm vs Fisher SAM on the pendulum)")
+    sub.add_parser("demo", help="run sklearn_hybrid.demo (the README's Quick start: the pendulum fit and its verdict)")
     return parser
 
 

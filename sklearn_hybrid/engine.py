@@ -25,6 +25,11 @@ __all__ = ["TrainConfig", "train", "DivergenceError", "data_loss", "make_optimiz
            "explain_nonfinite", "cosine_lr", "theta_drift"]
 
 
+#: Seconds a fit with ``verbose="auto"`` (the default) runs before its progress bar appears: a
+#: short fit prints nothing, a longer one shows signs of life and its estimated time.
+AUTO_DELAY = 5.0
+
+
 class DivergenceError(FloatingPointError):
     """The training loss became NaN or infinite."""
 
@@ -40,7 +45,7 @@ class TrainConfig:
     weight_decay: float = 1e-5
     perturb: str = "residual"
     min_lr: float = 1e-6
-    verbose: bool = False
+    verbose: bool | str = False  # "auto": a bar once the fit has run AUTO_DELAY seconds
     tol: float | None = None
     n_iter_no_change: int = 100
 
@@ -332,8 +337,9 @@ def train(model: nn.Module, method, inputs: tuple[torch.Tensor, ...], y: torch.T
                 thetas[n][it] = v.cpu().numpy()
     n_iter = config.max_iter
     stream = sys.stderr or sys.stdout  # both are None under pythonw and some services
-    bar = tqdm(range(config.max_iter), disable=not config.verbose or stream is None,
-               desc=method.name, file=stream)
+    auto = config.verbose == "auto"
+    bar = tqdm(range(config.max_iter), disable=stream is None or not (_interactive(stream) if auto else config.verbose),
+               desc=method.name, file=stream, delay=AUTO_DELAY if auto else 0.0)
     model.train()
     for it in bar:
         rate = optimizer.param_groups[0]["lr"]  # theta's, for theta_drift
@@ -369,7 +375,7 @@ def train(model: nn.Module, method, inputs: tuple[torch.Tensor, ...], y: torch.T
         scheduler.step()
         _record(it, loss_value, rate)
         if config.verbose and (it % 25 == 0 or it == config.max_iter - 1):
-            bar.set_postfix(loss=f"{loss_value:.3g}", **{
+            bar.set_postfix(refresh=False, loss=f"{loss_value:.3g}", **{  # a refresh would skip the delay
                 n: np.array2string(thetas[n][it], precision=4) for n in names})
         if stopper is not None and stopper.should_stop(
                 it, losses, np.concatenate([thetas[n][it].ravel() for n in names])):
@@ -384,6 +390,17 @@ def train(model: nn.Module, method, inputs: tuple[torch.Tensor, ...], y: torch.T
     if stopper is not None and validation is not None:
         history["validation_loss"] = np.array(stopper.validation_history)
     return history
+
+
+def _interactive(stream) -> bool:
+    """Whether a progress bar on ``stream`` is seen as it runs: a terminal or a notebook, not a log,
+    a captured output (pytest, a documentation build) or a missing stream (pythonw)."""
+    if stream is None:
+        return False
+    try:
+        return stream.isatty() or "ipykernel" in sys.modules
+    except (AttributeError, ValueError):  # a stream without isatty, or a closed one
+        return False
 
 
 def _make_stopper(model, config, y, validation):

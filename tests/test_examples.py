@@ -28,9 +28,18 @@ def _run_example(path, monkeypatch, tmp_path):
 
 def test_gallery_has_one_example_per_task():
     found = sorted({p.parent.name for p in EXAMPLES.glob("*/plot_*.py")})
-    assert found == sorted(TASKS + ["closed_loop"])
+    assert found == sorted(TASKS + ["closed_loop", "getting_started"])
     assert (EXAMPLES / "README.txt").is_file()
     assert all((EXAMPLES / t / "README.txt").is_file() for t in found)
+
+
+def test_quick_start_example_draws_the_fit_and_the_profile(monkeypatch, tmp_path, capsys):
+    """The gallery's Quick start: plot_fit's figure, the report with a verdict, the profile's figure."""
+    namespace, n_figures = _run_example("getting_started/plot_quick_start.py", monkeypatch, tmp_path)
+    out = capsys.readouterr().out
+    assert "FAST MODE" in out and "[[Parameters]]" in out and "(profiles:" in out
+    assert namespace["est"].n_iter_ == 20 and set(namespace["profile"].verdicts) == {"omega"}
+    assert n_figures == 2
 
 
 def test_closed_loop_example_runs_in_fast_mode(monkeypatch, tmp_path, capsys, shared_data):

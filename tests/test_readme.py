@@ -24,26 +24,50 @@ def numbers(text):
 
 def test_readme_has_the_snippets_it_promises():
     found = snippets()
-    assert len(found) >= 3  # quick start, sensitivity sweep, close the loop
-    assert "est.fit_report()" in found[0][0] and "simulate(" in found[0][0]
+    assert len(found) >= 2  # quick start, close the loop
+    assert "est.fit_report(profile=profile_theta(est, X, y))" in found[0][0]
+    assert "close_the_loop(" in found[1][0] and "science_intervals(result.science_only, X, y)" in found[1][0]
     assert all(output for _, output in found)  # every snippet shows what it prints
+
+
+def _statements(source):
+    """Code lines without comments, imports and indentation: what a snippet does."""
+    lines = (line.split("  #")[0].strip() for line in source.splitlines())
+    return [line for line in lines if line and not line.startswith(("import ", "from ", "#", '"""'))]
+
+
+def test_the_demo_runs_the_quick_start():
+    """One answer per task: ``python -m sklearn_hybrid.demo`` is the Quick start, line for line."""
+    demo = set(_statements((README.parent / "sklearn_hybrid" / "demo.py").read_text()))
+    missing = [line for line in _statements(snippets()[0][0]) if line not in demo]
+    assert not missing, f"the demo lacks these Quick start lines: {missing}"
 
 
 def tolerances(line):
     """(rel, abs) for each number of a documented output line.
 
     The same machine gives the same numbers. The project's machines are AMD EPYC and Intel Xeon, whose torch
-    kernels round differently, and a fit amplifies that: the same README run on both stopped at 600 and 500
-    iterations, with omega 0.6500 and 0.6512, and a spread over two seeds of 0.49 % and 0.54 %. Estimates and
-    errors are held to 2 %; the early stop to one check window (100 iterations); an uncertainty to 25 %.
+    kernels round differently, and a fit amplifies that: the same Quick start fit on both stopped at 600 and 500
+    iterations, with omega 0.6500 and 0.6512. Estimates, interval bounds and errors are held to 2 %; the early stop
+    (and the profile's iterations, which are the fit's) to one check window (100 iterations); a standard error to 25 %.
     """
     tol = [(0.02, 2e-3)] * len(numbers(line))
     if line.lstrip().startswith("iterations:"):
         tol[0] = (0.0, 100.0)
+    if line.lstrip().startswith("(profiles:"):
+        tol[-1] = (0.0, 100.0)
     if "+/-" in line:
         head = len(numbers(line.split("+/-")[0]))
         tol[head:head + 2] = [(0.25, 2e-3)] * 2  # the standard error and its percentage
+    if "standard error " in line:
+        head = len(numbers(line.split("standard error ")[0]))
+        tol[head:head + 1] = [(0.25, 2e-3)]
     return tol
+
+
+def verdicts(text):
+    """The identifiability verdicts of a report, in order (a line's words must match, not only its numbers)."""
+    return re.findall(r"NOT IDENTIFIED|(?<![a-z-])identified", text)
 
 
 def lines_with_numbers(text):
@@ -55,12 +79,17 @@ def test_tolerances_are_tight_except_where_another_cpu_moves_a_fit():
         [(0.02, 2e-3), (0.25, 2e-3), (0.25, 2e-3), (0.02, 2e-3), (0.02, 2e-3), (0.02, 2e-3)]
     assert tolerances("    iterations: 600 of max_iter=2000 (... tol=0.001 over 100 iterations)")[:2] == \
         [(0.0, 100.0), (0.02, 2e-3)]
+    assert tolerances("    omega: 0.65  identified, 95 % interval [0.59, 0.69] (profile)  (noise-only standard "
+                      "error 0.00016)")[-1] == (0.25, 2e-3)
+    assert tolerances("    (profiles: 95 %, F-test on 25 samples; ..., 600 iterations)")[-1] == (0.0, 100.0)
+    assert verdicts("a: 1 identified; b: 2 NOT IDENTIFIED; c: practically non-identifiable") == \
+        ["identified", "NOT IDENTIFIED"]
 
 
 def test_readme_snippets_run_and_print_their_documented_output(tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)
-    namespace = {"__name__": "__readme__"}
     for k, (code, documented) in enumerate(snippets()):
+        namespace = {"__name__": "__readme__"}  # each snippet runs alone, as pasted into a fresh session
         exec(compile(code, f"README.md python block {k + 1}", "exec"), namespace)
         printed = capsys.readouterr().out
         got, want = lines_with_numbers(printed), lines_with_numbers(documented)
@@ -68,6 +97,8 @@ def test_readme_snippets_run_and_print_their_documented_output(tmp_path, monkeyp
         for got_line, want_line in zip(got, want):
             g, w = numbers(got_line), numbers(want_line)
             assert len(g) == len(w), f"block {k + 1} printed\n{got_line}\nthe README shows\n{want_line}"
+            assert verdicts(got_line) == verdicts(want_line), \
+                f"block {k + 1} printed\n{got_line}\nthe README shows\n{want_line}"
             for value, shown, (rel, abs_) in zip(g, w, tolerances(want_line)):
                 assert value == pytest.approx(shown, rel=rel, abs=abs_), \
                     f"block {k + 1}: printed {value}, the README shows {shown}\n{printed}"

@@ -15,6 +15,15 @@ The last state of each window is the initial state of the ODE.
 over the training samples.  The SAM family perturbs the residual network
 only (the encoder is part of theta); ``perturb="all"`` perturbs the encoder
 too.
+
+Full-run results
+----------------
+A full run takes several minutes per method and seed on a 2-core machine,
+longer than the documentation build allows, so the build does not run this
+example: below are the committed full-run numbers
+(run it yourself with ``python examples/varying_theta/plot_varying_theta.py``).
+
+.. include:: /_generated/snippets/varying_theta.rst
 """
 
 # %%
