@@ -29,7 +29,7 @@ from joblib import Parallel, delayed
 from . import _fast
 from ._kernels import reusing_buffers
 from ._validation import torch_threads
-from .engine import TrainConfig, MiniBatches, make_optimizer, step_gradients
+from .engine import TrainConfig, MiniBatches, make_optimizer, progress_bar, step_gradients
 
 __all__ = ["train_batched", "train_members", "evaluate_members"]
 
@@ -185,9 +185,7 @@ def train_batched(models: list, method, inputs: tuple, y: torch.Tensor, config: 
         grads = torch.autograd.grad(loss.sum(), wrt, allow_unused=True)
         return loss.detach(), [torch.zeros_like(p) if g is None else g for p, g in zip(wrt, grads)]
 
-    from tqdm.auto import tqdm
-
-    bar = tqdm(range(config.max_iter), disable=not config.verbose, desc=f"{K} members")
+    bar = progress_bar(config.max_iter, config.verbose, f"{K} members")
     for it in bar:
         idx = [b.next() for b in batches]
         if idx[0] is None:

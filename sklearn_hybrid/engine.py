@@ -20,7 +20,7 @@ from torch import nn
 from . import _fast
 from ._stopping import EarlyStopping, SpikeGuard
 
-__all__ = ["TrainConfig", "train", "DivergenceError", "data_loss", "make_optimizer", "step_gradients",
+__all__ = ["TrainConfig", "train", "DivergenceError", "data_loss", "make_optimizer", "step_gradients", "progress_bar",
            "gradients_at_perturbed", "MiniBatches",
            "explain_nonfinite", "cosine_lr", "theta_drift"]
 
@@ -324,8 +324,6 @@ def train(model: nn.Module, method, inputs: tuple[torch.Tensor, ...], y: torch.T
     losses = np.empty(config.max_iter)
     thetas = {n: np.empty((config.max_iter, *model.science.shapes[n])) for n in names}
 
-    from tqdm.auto import tqdm
-
     stopper = _make_stopper(model, config, y, validation)
     guard = SpikeGuard(model, optimizer, scheduler)
     lr_theta = np.empty(config.max_iter)
@@ -336,10 +334,7 @@ def train(model: nn.Module, method, inputs: tuple[torch.Tensor, ...], y: torch.T
             for n, v in model.theta_values().items():
                 thetas[n][it] = v.cpu().numpy()
     n_iter = config.max_iter
-    stream = sys.stderr or sys.stdout  # both are None under pythonw and some services
-    auto = config.verbose == "auto"
-    bar = tqdm(range(config.max_iter), disable=stream is None or not (_interactive(stream) if auto else config.verbose),
-               desc=method.name, file=stream, delay=AUTO_DELAY if auto else 0.0)
+    bar = progress_bar(config.max_iter, config.verbose, method.name)
     model.train()
     for it in bar:
         rate = optimizer.param_groups[0]["lr"]  # theta's, for theta_drift
@@ -390,6 +385,22 @@ def train(model: nn.Module, method, inputs: tuple[torch.Tensor, ...], y: torch.T
     if stopper is not None and validation is not None:
         history["validation_loss"] = np.array(stopper.validation_history)
     return history
+
+
+def progress_bar(n_iter: int, verbose, desc: str):
+    """The iterations of a training, as a tqdm bar where ``verbose`` asks for one.
+
+    ``verbose=True`` shows it, ``False`` does not, ``"auto"`` shows it once
+    the training has run ``AUTO_DELAY`` seconds, and only where it is seen as
+    it runs (a terminal or a notebook).  A single fit and stacked members
+    (sweeps, profiles, the bootstrap) take it from here alike.
+    """
+    from tqdm.auto import tqdm
+
+    stream = sys.stderr or sys.stdout  # both are None under pythonw and some services
+    auto = verbose == "auto"
+    return tqdm(range(n_iter), disable=stream is None or not (_interactive(stream) if auto else verbose),
+                desc=desc, file=stream, delay=AUTO_DELAY if auto else 0.0)
 
 
 def _interactive(stream) -> bool:
