@@ -45,8 +45,7 @@ LOOP_FIT = {"max_iter": 300, "n_threads": 1}
 
 def _profile_record(prof):
     return {label: {"values": prof.values[label].tolist(), "loss": prof.loss[label].tolist(),
-                    "objective": prof.objective[label].tolist(), "interval": list(prof.intervals[label]),
-                    "verdict": prof.verdicts[label], "objective_minimum": prof.objective_minimum[label]}
+                    "interval": list(prof.intervals[label]), "verdict": prof.verdicts[label]}
             for label in prof.verdicts} | {"_threshold": prof.threshold}
 
 
