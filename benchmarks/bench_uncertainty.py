@@ -223,6 +223,14 @@ def render():
 
 
 def _targets(rows):
+    hybrid = [r for r in rows if r["method"] in HYBRID_METHODS]
+    loop = [r for r in rows if r["method"] == "loop"]
+    return "\n\n".join([_target_lines(rows, "every system, method and parameter with a verdict"),
+                          _target_lines(hybrid, "the hybrid fits' profiles (erm, fsam, p-reg)"),
+                          _target_lines(loop, "the closed loop's network-free intervals")])
+
+
+def _target_lines(rows, what):
     judged = [r for r in rows if r.get("verdict_identified") is not None]
     n_all = sum(r["n"] for r in judged)
     misses = sum(r["miss_identified"] * r["n"] for r in judged)
@@ -235,7 +243,7 @@ def _targets(rows):
     wide = [f"{r['system']}/{r['method']}/{r['param']} {r['width_over_rms']:.1f}" for r in ident
             if r["width_over_rms"] is not None and r["width_over_rms"] > 4]
     return "\n".join([
-        "Targets, over every system, method and parameter with a verdict:",
+        f"Targets, over {what}:",
         f"- coverage where the verdict is identified: {held:.0f} of {n_ident} "
         f"({100 * held / max(n_ident, 1):.0f} %; target at least 90 %)",
         f"- an interval that misses while the verdict says identified: {misses:.0f} of {n_all} repeats "

@@ -58,6 +58,9 @@ class ScienceIntervals:
                 lines.append(f"    {label}: {self.estimate[label]:.6g}  NOT IDENTIFIED by these data")
         if self.incomplete:
             lines.append(f"    ({self.incomplete}; its intervals would assume a complete model)")
+        elif any(v == "identified" for v in self.verdicts.values()):
+            lines.append("    (intervals of this model: they hold the truth only if it is complete; an effect it "
+                         "misses that its parameters can partly absorb leaves no trace in these data)")
         return "\n".join(lines)
 
     def __str__(self) -> str:
