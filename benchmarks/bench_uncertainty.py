@@ -193,11 +193,12 @@ def _fmt(v, pct=False):
 
 
 def render():
-    rows, counts = [], {}
+    rows, counts, commits = [], {}, set()
     for name, system in SYSTEMS.items():
         files = sorted((RUNS / name).glob("*.json"))
         records = [json.loads(p.read_text()) for p in files]
         counts[name] = len(records)
+        commits |= {r["package_commit"] for r in records}
         if records:
             rows += summarise(records, system)
     head = ("| system | method | param | repeats | identified / not | coverage where identified | "
@@ -209,7 +210,9 @@ def render():
              "closed loop (`close_the_loop`, its first hybrid at most 300 iterations) and `science_intervals` of "
              "its network-free refit. "
              "Systems: `benchmarks/_uncertainty_systems.py` (kept out of the tests).", "",
-             "Repeats run: " + ", ".join(f"{k} {v}" for k, v in counts.items()), "", head,
+             "Repeats run: " + ", ".join(f"{k} {v}" for k, v in counts.items())
+             + f" (records made at package commit {', '.join(sorted(commits))}; seconds are wall-clock on a "
+             "machine shared with other work)", "", head,
              "|" + "---|" * 11]
     for r in rows:
         flag = " (absorbable)" if r.get("expected_not_identified") else ""
