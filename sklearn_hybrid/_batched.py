@@ -29,7 +29,8 @@ from joblib import Parallel, delayed
 from . import _fast
 from ._kernels import reusing_buffers
 from ._validation import torch_threads
-from .engine import TrainConfig, MiniBatches, make_optimizer, progress_bar, step_gradients
+from .engine import (TrainConfig, MiniBatches, gradients_at_perturbed, make_optimizer, progress_bar,
+                     step_gradients)
 
 __all__ = ["train_batched", "train_members", "evaluate_members"]
 
@@ -249,14 +250,7 @@ def evaluate_members(models: list, method, inputs: tuple, y: torch.Tensor, confi
         grads = [torch.zeros_like(p) if g is None else g for p, g in zip(perturbed, grads)]
         with torch.no_grad():
             eps = method.perturbation(perturbed, grads, is_weight, n_batch_dims=1)
-            saved = [p.detach().clone() for p in perturbed]
-            for p, e in zip(perturbed, eps):
-                p.add_(e)
-            try:
-                objective = _member_loss(stacked.predictions(xb), yb, wb)
-            finally:
-                for p, s in zip(perturbed, saved):
-                    p.copy_(s)
+            objective = gradients_at_perturbed(perturbed, eps, lambda: _member_loss(stacked.predictions(xb), yb, wb))
     return {"loss": data.detach().numpy().astype(float), "objective": objective.detach().numpy().astype(float)}
 
 

@@ -9,7 +9,7 @@ import warnings
 
 import numpy as np
 import torch
-from joblib import Parallel, delayed, effective_n_jobs
+from joblib import Parallel, delayed
 from sklearn.base import BaseEstimator, RegressorMixin, clone
 from sklearn.metrics import check_scoring
 from sklearn.utils.validation import check_is_fitted, validate_data
@@ -17,7 +17,7 @@ from sklearn.utils.validation import check_is_fitted, validate_data
 from ._batched import train_members
 from ._estimator import HybridRegressor
 from .methods import Method, make_method, stackable_methods
-from ._validation import set_feature_info, torch_threads, validate_into_copy
+from ._validation import check_n_jobs, set_feature_info, torch_threads, validate_into_copy
 from ._kernels import reusing_buffers
 from ._memory import check_fit_memory
 from .metrics import make_flat_scorer
@@ -181,12 +181,7 @@ class HybridRegressorCV(RegressorMixin, BaseEstimator):
                 for r, lam, s in itertools.product(rhos, lams, seeds)]
 
     def _n_groups(self):
-        n_jobs = 1 if self.n_jobs is None else self.n_jobs
-        if not (isinstance(n_jobs, numbers.Integral) and not isinstance(n_jobs, bool)
-                and n_jobs != 0):
-            raise ValueError(
-                f"n_jobs must be a non-zero integer or None (-1: one group per core), got {n_jobs!r}.")
-        return effective_n_jobs(n_jobs)  # joblib's convention for negative values
+        return check_n_jobs(self.n_jobs)
 
     def _split(self, n, seed):
         frac = self.validation_fraction

@@ -96,3 +96,13 @@ def check_dtype_range(dtype: torch.dtype, X, y) -> None:
         raise ValueError(
             f"{what} holds values up to {largest:.3g}, which {how}. {fix} {what} (divide it by a "
             "typical magnitude and express theta in the matching units).")
+
+
+def check_n_jobs(n_jobs) -> int:
+    """The number of worker groups ``n_jobs`` asks for (None: 1; negative values as joblib reads them)."""
+    from joblib import effective_n_jobs
+
+    n_jobs = 1 if n_jobs is None else n_jobs
+    if not (isinstance(n_jobs, numbers.Integral) and not isinstance(n_jobs, bool) and n_jobs != 0):
+        raise ValueError(f"n_jobs must be a non-zero integer or None (-1: one group per core), got {n_jobs!r}.")
+    return effective_n_jobs(n_jobs)

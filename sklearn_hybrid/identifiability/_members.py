@@ -14,7 +14,7 @@ from .._validation import check_target_layout, torch_threads
 from ..engine import TrainConfig
 from ..methods import make_method, stackable_methods
 
-__all__ = ["fitted_problem", "member_config", "parameter_entries", "check_level", "check_n_jobs", "entry_values",
+__all__ = ["fitted_problem", "member_config", "parameter_entries", "check_level", "entry_values",
            "set_entry", "bounds_of"]
 
 
@@ -92,15 +92,6 @@ def check_level(level) -> float:
     if not (isinstance(level, numbers.Real) and not isinstance(level, bool) and 0 < level < 1):
         raise ValueError(f"level must be a number in (0, 1), e.g. 0.95, got {level!r}.")
     return float(level)
-
-
-def check_n_jobs(n_jobs) -> int:
-    from joblib import effective_n_jobs
-
-    n_jobs = 1 if n_jobs is None else n_jobs
-    if not (isinstance(n_jobs, numbers.Integral) and not isinstance(n_jobs, bool) and n_jobs != 0):
-        raise ValueError(f"n_jobs must be a non-zero integer or None (-1: one group per core), got {n_jobs!r}.")
-    return effective_n_jobs(n_jobs)
 
 
 def entry_values(science, name: str) -> np.ndarray:

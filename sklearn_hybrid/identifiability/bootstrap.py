@@ -19,8 +19,8 @@ from scipy import stats
 from sklearn.base import clone
 
 from .._batched import train_members
-from .._validation import torch_threads
-from ._members import check_level, check_n_jobs, fitted_problem, member_config, parameter_entries
+from .._validation import check_n_jobs, torch_threads
+from ._members import check_level, entry_values, fitted_problem, member_config, parameter_entries
 
 __all__ = ["bootstrap_theta", "ThetaBootstrap"]
 
@@ -111,8 +111,7 @@ def bootstrap_theta(estimator, X, y, params=None, *, n_resamples=20, level=0.95,
     t = stats.t.ppf(0.5 + level / 2, max(int(ok.sum()) - 1, 1))
     out = ThetaBootstrap(estimate={}, samples={}, std={}, intervals={}, level=level, n_iter=config.max_iter)
     for name, k, label in entries:
-        values = np.array([float(m.science.as_dict()[name] if np.ndim(m.science.as_dict()[name]) == 0
-                                 else np.ravel(m.science.as_dict()[name])[k]) for m in models])
+        values = np.array([entry_values(m.science, name)[k] for m in models])
         values[~ok] = np.nan
         centre = float(np.ravel(estimator.theta_[name])[k])
         spread = float(np.nanstd(values, ddof=1)) if ok.sum() > 1 else float("nan")

@@ -28,8 +28,8 @@ from scipy import stats
 
 from .._batched import evaluate_members, train_members
 from ..methods import ERM
-from .._validation import torch_threads
-from ._members import (bounds_of, check_level, check_n_jobs, entry_values, fitted_problem, member_config,
+from .._validation import check_n_jobs, torch_threads
+from ._members import (bounds_of, check_level, entry_values, fitted_problem, member_config,
                        parameter_entries, set_entry)
 
 __all__ = ["profile_theta", "ThetaProfile", "plot_profile", "IDENTIFIED", "PRACTICAL", "STRUCTURAL", "ADVICE"]

@@ -23,7 +23,7 @@ import torch
 from scipy import stats
 
 from .._validation import torch_threads
-from ._members import check_level
+from ._members import check_level, entry_values, set_entry
 
 __all__ = ["science_intervals", "ScienceIntervals"]
 
@@ -114,17 +114,13 @@ def science_intervals(estimator, X, y, level=0.95, incomplete: str | None = None
         base = predict()
         columns, labels = [], []
         for name in science.names:
-            value = science.as_dict()[name]
-            flat = np.ravel(np.asarray(value, dtype=float))
+            flat = entry_values(science, name)
             for k in range(flat.size):
                 h = 1e-6 * max(abs(flat[k]), 1.0)
                 preds = []
+                saved = science.raw[name].detach().clone()
                 for step in (h, -h):
-                    moved = flat.copy()
-                    moved[k] += step
-                    raw = science.transforms[name].inverse(moved.reshape(science.shapes[name]))
-                    saved = science.raw[name].detach().clone()
-                    science.raw[name].copy_(torch.as_tensor(np.asarray(raw), dtype=torch.float64))
+                    set_entry(science, name, k, flat[k] + step)
                     preds.append(predict())
                     science.raw[name].copy_(saved)
                 columns.append((preds[0] - preds[1]) / (2 * h))
