@@ -15,7 +15,7 @@ import numpy as np
 from scipy.stats import norm
 from scipy.stats import t as student_t
 
-__all__ = ["evidence", "critical_value"]
+__all__ = ["evidence", "critical_value", "holm"]
 
 
 def critical_value(z: float, n: int) -> float:
@@ -146,3 +146,45 @@ def evidence(errors_before: np.ndarray, errors_after: np.ndarray, z: float = 3.0
     gain = float(1.0 - after.mean() / before.mean()) if before.mean() > 0 else 0.0
     return {"mse_before": float(before.mean()), "mse_after": float(after.mean()), "gain": gain, "z": score,
             "threshold": threshold, "accepted": bool(score > threshold and gain >= min_gain)}
+
+
+def holm(verdicts: list[dict], n: int, z: float = 3.0, min_gain: float = 0.05, m: int | None = None) -> list[dict]:
+    """The verdicts of a family of candidates judged on the same samples, corrected by Holm's step-down rule.
+
+    Each verdict of :func:`evidence` holds its own test at the tail probability ``alpha`` of the
+    normal ``z``. Judging ``m`` candidates each so would accept a useless one up to ``m`` times as
+    often; Holm's rule holds the family's false-alarm rate at ``alpha``: the candidate with the
+    ``i``-th smallest p-value (``i`` from 0) must have one below ``alpha / (m - i)``, and all those
+    with smaller p-values must have passed too. The p-value is Student's t tail of the verdict's
+    ``z`` for ``n`` samples, the distribution :func:`critical_value` reads its threshold from.
+
+    Parameters
+    ----------
+    verdicts : list of dict
+        Verdicts of :func:`evidence` (``z``, ``gain``), one per candidate.
+    n : int
+        Number of paired samples each verdict was judged on.
+    z, min_gain : float, default=3.0 and 0.05
+        The evidence asked of one candidate, as in :func:`evidence`.
+    m : int, optional
+        Size of the family, when candidates whose refit failed belong to it too; default
+        ``len(verdicts)``.
+
+    Returns
+    -------
+    list of dict
+        The verdicts in their order, with ``threshold`` (the z each had to exceed, at its rank) and
+        ``accepted`` replaced.
+    """
+    m = len(verdicts) if m is None else max(m, len(verdicts))
+    alpha = float(norm.sf(z))
+    p = [float(student_t.sf(v["z"], df=n - 1)) if n > 1 and np.isfinite(v["z"]) else
+         (0.0 if v["z"] == np.inf else 1.0) for v in verdicts]
+    out = [dict(v) for v in verdicts]
+    holding = True  # Holm's step-down stops at the first p-value above its level
+    for rank, i in enumerate(np.argsort(p, kind="stable")):
+        level = alpha / (m - rank)
+        out[i]["threshold"] = float(student_t.isf(level, df=n - 1)) if n > 1 else math.inf
+        holding = holding and p[i] <= level
+        out[i]["accepted"] = bool(holding and out[i]["gain"] >= min_gain)
+    return out

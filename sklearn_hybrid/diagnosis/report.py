@@ -20,10 +20,11 @@ __all__ = ["prediction_metrics", "format_table", "residual_profile", "plot_unexp
 
 KIND_WORDS = {"polynomial": "polynomial", "drag": "drag (v|v|, |v|)", "dry_friction": "dry friction",
               "hinge": "hinge / stop / overflow", "sqrt": "square root (Torricelli)",
+              "power": "power law, fitted exponent",
               "exponential": "exponential", "saturation": "saturation (Michaelis-Menten)",
               "periodic": "periodic in an angle (a harmonic)",
               "scaled": "its equation times a state or input (a parameter that varies with it)", "user": "user term",
-              "offset": "sensor offset"}
+              "offset": "sensor offset", "joint": "terms that enter together"}
 
 
 def format_gain(gain: float) -> str:

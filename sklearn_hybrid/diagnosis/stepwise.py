@@ -29,7 +29,8 @@ from ._judge import FIT_FAILURES, Judge, training_folds
 from .candidates import (augment_with, term_entries, free_columns, candidate_groups, initial_values, interleave, merge_rankings,
                          count_parameters, offset_candidate, public_record, rank_by_residual, rank_by_fit, shape_bounds, term_columns, where_acts,
                          with_fitted)
-from .evidence import evidence
+from .evidence import evidence, holm
+from .joint import joint_candidates
 from .report import format_gain
 from .residual import parameter_jacobian, science_output
 from .science_fit import ScienceFit
@@ -125,7 +126,9 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
             break
         tried = []
         together = [g for g in candidate_groups(ranked) if len(added) + len(g["group"]) <= max_terms]
-        for cand in ranked + together:
+        joint = [g for g in joint_candidates(columns, remaining, jac, components, taken, n=n_candidates)
+                 if len(added) + len(g["group"]) <= max_terms]
+        for cand in ranked + together + joint:
             placed = [*added, *term_entries(cand)]
             candidate_science = augment_with(science, placed, variables, n_states, param_names)
             start = {**theta_now, **initial_values(candidate_science, placed, len(term_entries(cand)))}
@@ -141,9 +144,10 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
             log(f"  step {step}: {cand['term']} on {where_acts(cand)}: validation MSE "
                 f"{verdict['mse_after']:.4g} (gain {format_gain(verdict['gain'])}, z {verdict['z']:.1f})")
             tried.append((cand, fitted, verdict, cand_errors, candidate_science, len(steps) - 1))
+        _correct_joint(tried, steps, len(joint), z, min_gain, log)
         best = _simplest_of_the_best(tried, min_gain)
         if best is None and recheck is not None:
-            best = _second_look(recheck, tried, current, theta_now, added, steps, z, min_gain, log)
+            best = _second_look(recheck, tried, current, theta_now, added, steps, z, min_gain, log, len(joint))
         if best is None:
             break
         cand, theta_now, _, errors, current, index = best
@@ -183,7 +187,7 @@ def _promising(verdict: dict, min_gain: float) -> bool:
 
 
 def _second_look(recheck: Judge, tried: list, current, theta: dict, added: list, steps: list,
-                 z: float, min_gain: float, log) -> tuple | None:
+                 z: float, min_gain: float, log, n_joint: int = 0) -> tuple | None:
     """Judge again, on the training samples, the candidates one split found promising but not proven.
 
     Twelve validation trajectories tell a real term from chance only when its gain is large next to
@@ -194,8 +198,9 @@ def _second_look(recheck: Judge, tried: list, current, theta: dict, added: list,
     training samples and judged on that fold, fold by fold, by the same test at the threshold for
     the number of training samples. The validation samples take no part, so this second test is
     not the first one repeated, and a candidate must have passed z > 2 on them to be looked at.
-    Returns the simplest of the best that pass (as :func:`_simplest_of_the_best`), its tuple
-    marked ``"second_look"``, or None.
+    Joint candidates are judged with the threshold corrected for the ``n_joint`` sets the step
+    judged (:func:`_correct_joint`). Returns the simplest of the best that pass (as
+    :func:`_simplest_of_the_best`), its tuple marked ``"second_look"``, or None.
     """
     promising = [t for t in tried if _promising(t[2], min_gain)]
     if not promising:
@@ -214,7 +219,28 @@ def _second_look(recheck: Judge, tried: list, current, theta: dict, added: list,
         log(f"  second look at {cand['term']} on {where_acts(cand)}: training-fold MSE {verdict['mse_after']:.4g} "
             f"(gain {format_gain(verdict['gain'])}, z {verdict['z']:.1f})")
         looked.append(({**cand, "second_look": True}, fitted, verdict, errors, candidate_science, len(steps) - 1))
+    _correct_joint(looked, steps, n_joint, z, min_gain, log)
     return _simplest_of_the_best(looked, min_gain)
+
+
+def _correct_joint(tried: list, steps: list, m: int, z: float, min_gain: float, log) -> None:
+    """Judge the joint candidates among ``tried`` as one family of ``m`` (Holm's rule, in place).
+
+    Each single term keeps its own test, as before joint candidates existed; the sets a step adds
+    are one family whose false-alarm rate Holm's rule holds at that of one single term
+    (:func:`~sklearn_hybrid.diagnosis.evidence.holm`). A step then accepts a useless term at most
+    about as often as with one more single candidate, however many sets it judges.
+    """
+    at = [i for i, t in enumerate(tried) if t[0]["kind"] == "joint"]
+    if not at:
+        return
+    verdicts = holm([tried[i][2] for i in at], len(tried[at[0]][3]), z, min_gain, m)
+    for i, verdict in zip(at, verdicts):
+        cand, fitted, _, errors, science, index = tried[i]
+        tried[i] = (cand, fitted, verdict, errors, science, index)
+        steps[index].update(verdict)
+        log(f"  {cand['term']} judged as one of {max(m, len(at))} sets: threshold {verdict['threshold']:.2f}, "
+            f"{'passed' if verdict['accepted'] else 'not passed'}")
 
 
 def _screen(judge: Judge, science, start: dict, bounds: dict, n_kept: int) -> dict:
@@ -321,6 +347,8 @@ def _simplest_of_the_best(tried: list, min_gain: float) -> tuple | None:
         return None
     best = min(passed, key=lambda t: t[2]["mse_after"])
     alike = [t for t in passed if t[2]["mse_after"] <= (1 + min_gain) * best[2]["mse_after"]]
-    return min(alike, key=lambda t: (count_parameters(t[0]), t[0]["kind"] != "polynomial", t[2]["mse_after"]))
+    def taylor(t):  # a set of monomials is a polynomial too
+        return all(e["kind"] == "polynomial" for e in term_entries(t[0]))
+    return min(alike, key=lambda t: (count_parameters(t[0]), not taylor(t), t[2]["mse_after"]))
 
 

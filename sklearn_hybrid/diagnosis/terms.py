@@ -3,8 +3,10 @@
 A :class:`Term` is a torch function of the named variables (states, then inputs) with, for some
 kinds, one *shape* parameter fitted together with its coefficient: the width ``w`` of dry friction
 ``tanh(v/w)``, the ``knot`` of a hinge ``max(0, x - knot)``, the constant ``K`` of a saturation
-``x/(K + |x|)``, the rate ``k`` of ``exp(k x)``, the phase of a harmonic ``sin(n x + phase)`` of an
-angle. :func:`physics_terms` builds the default library
+``x/(K + |x|)``, the rate ``k`` of ``exp(k x)``, the exponent ``p`` of a power law ``|x|^p`` or
+``x |x|^(p-1)`` (radiation, allometric scaling, an outflow whose exponent is not one half), the phase
+of a harmonic ``sin(n x + phase)`` of an angle. Dry friction is also offered as ``sign(v)`` itself.
+:func:`physics_terms` builds the default library
 from the data's scale; the same torch function serves the ranking (on the states the network
 visited) and the augmented science model (during its refit), so there is one implementation per
 term.
@@ -30,8 +32,8 @@ import torch
 
 __all__ = ["Term", "physics_terms", "TERM_KINDS", "SCIENCE_OUTPUT"]
 
-TERM_KINDS = ("polynomial", "drag", "dry_friction", "hinge", "sqrt", "exponential", "saturation", "periodic", "scaled",
-              "user")
+TERM_KINDS = ("polynomial", "drag", "dry_friction", "hinge", "sqrt", "power", "exponential", "saturation", "periodic",
+              "scaled", "user")
 # Key of the science model's output, shape (batch, n_outputs), among a term's variables: not an
 # identifier, so no state or input can be named so.
 SCIENCE_OUTPUT = "<science output>"
@@ -110,6 +112,20 @@ def abs_term(d, x):
 
 def _dry_friction(d, x, w):
     return torch.tanh(d[x] / w)
+
+
+def _sign(d, x):
+    return torch.sign(d[x])
+
+
+def _power_abs(d, x, p):
+    """``|x|^p``; the tiny floor keeps the gradient in ``p`` (``log|x|``) finite where ``x`` is zero."""
+    return (d[x].abs() + 1e-12) ** p
+
+
+def _power_signed(d, x, p):
+    """``x |x|^(p-1)``: odd in ``x``, so a flow or a force keeps the sign of what drives it."""
+    return d[x] * (d[x].abs() + 1e-12) ** (p - 1)
 
 
 def _hinge_above(d, x, knot):
@@ -290,6 +306,11 @@ def _single_variable(x: str, col: np.ndarray, scale: float, unit: str, kinds: Se
     if "dry_friction" in kinds:  # sign(x) smoothed over a fitted width w (-> sign as w -> 0)
         out.append(Term(f"tanh({x}/w)", partial(_dry_friction, x=x), "dry_friction",
                         {"w": ([0.01 * scale, 0.1 * scale, 0.5 * scale], wide)}))
+        # sign(x) itself: the sharp law, which a fitted width reaches only where least squares still feels
+        # it (tanh(x/w) flattens in w once w is below most visited |x|). Only for a variable that changes
+        # sign: otherwise it is the constant.
+        if col.min() < 0 < col.max():
+            out.append(Term(f"sign({x})", partial(_sign, x=x), "dry_friction"))
     if "hinge" in kinds:  # a stop, an overflow, a dead zone: active beyond a fitted knot c
         knots = np.quantile(col, [0.1, 0.3, 0.5, 0.7, 0.9])
         bounds = (float(col.min()), float(col.max()))
@@ -302,6 +323,11 @@ def _single_variable(x: str, col: np.ndarray, scale: float, unit: str, kinds: Se
     if "sqrt" in kinds:  # Torricelli outflow, turbulent flow; signed so it stays odd
         out.append(Term(f"sqrt|{x}|", partial(_signed_sqrt, x=x), "sqrt",
                         unit=f"{unit}^(1/2)" if unit else ""))
+    if "power" in kinds:  # a law outside the listed degrees: radiation, allometric scaling, a fitted Torricelli
+        powers = ([0.5, 1.5, 2.5], (0.1, 5.0))  # the exponent p, fitted
+        out.append(Term(f"|{x}|^p", partial(_power_abs, x=x), "power", {"p": powers}))
+        if col.min() < 0 < col.max():  # for a variable of one sign the odd version is the same column
+            out.append(Term(f"{x}|{x}|^(p-1)", partial(_power_signed, x=x), "power", {"p": powers}))
     if "exponential" in kinds:  # Arrhenius-like activation, diode current, decay
         k = [s / scale for s in (-3.0, -1.0, 1.0, 3.0)]
         out.append(Term(f"exp(k*{x})", partial(_exponential, x=x), "exponential",
