@@ -238,7 +238,7 @@ def _correct_joint(tried: list, steps: list, m: int, z: float, min_gain: float, 
     for i, verdict in zip(at, verdicts):
         cand, fitted, _, errors, science, index = tried[i]
         tried[i] = (cand, fitted, verdict, errors, science, index)
-        steps[index].update(verdict)
+        steps[index].update({k: v for k, v in verdict.items() if k != "accepted"})  # a row says yes when chosen
         log(f"  {cand['term']} judged as one of {max(m, len(at))} sets: threshold {verdict['threshold']:.2f}, "
             f"{'passed' if verdict['accepted'] else 'not passed'}")
 
