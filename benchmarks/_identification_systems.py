@@ -56,7 +56,7 @@ class System:
     batch : int
         1: the systems the benchmark was built with; 2 and 3: systems written on 2026-11-25, after the
         selection's code was last changed, and added unchanged whatever they gave (``FRESH``, ``FRESH_3``);
-        4 to 14: written in later sessions (``FRESH_4`` to ``FRESH_14``), likewise.
+        4 to 15: written in later sessions (``FRESH_4`` to ``FRESH_15``), likewise.
     sign_of : int or None
         For an effect that jumps with the sign of one state (dry friction): that state's index.  Trajectories
         are then integrated piecewise between its zero crossings (no chattering of the step size), and a
@@ -1160,8 +1160,174 @@ FRESH_14 = [
 ]
 
 
+# ------------------------------------------------------------------------------------------ batch 15 (fresh systems)
+# Written on 2026-11-27 with the joint candidates, sign(x) and the power laws (issue 42), and committed before any
+# of them ran. Nine effects that need two or more library terms together: limit cycles (a reed's Rayleigh
+# self-excitation v - v^3, a triode oscillator's (1 - x^2) y, an excitable membrane's v - v^3/3), sign changes (an
+# autocatalytic switch's x^2 - x^3, a buckled beam's double well x - x^3, a pump's head curve 1 - h^2), laws that
+# expand into several monomials (births and deaths in an open epidemic, mu - mu S; a cart against a headwind,
+# (v + 0.6)^2), and dry friction with drag (sign(v) and v|v| together); three sharp non-smooth effects (dry
+# friction on a linear stage, a relay servo's bang-bang force sign(x), an amplifier that clips its input); four
+# controls from models new here (the reed, the buckled beam, the relay servo and the open epidemic themselves).
+# None is a system of the tests (tests/test_joint_terms.py has its own oscillators and coefficients). Only the
+# functions were written; no trajectory was simulated before the commit.
+def reed_f(v, w2=1.6):
+    """A reed (or a bowed string) as a plain spring: the science knows of no self-excitation."""
+    return torch.stack([v[:, 1], -w2 * v[:, 0]], dim=-1)
+
+
+def lc_tank_f(v, w2=0.9):
+    """A triode oscillator's LC tank without its tube: q' = i, i' = -w2 q."""
+    return torch.stack([v[:, 1], -w2 * v[:, 0]], dim=-1)
+
+
+def membrane_f(v, u, g=0.8, eps=0.3, a=0.6, b=0.65):
+    """An excitable membrane (FitzHugh-Nagumo form) whose fast variable lacks its own dynamics: v' = g u - w."""
+    x, w = v[:, 0], v[:, 1]
+    return torch.stack([g * u[:, 0] - w, eps * (x + a - b * w)], dim=-1)
+
+
+def fed_switch_f(v, u, d=0.8):
+    """A fed, diluted reactor: x' = u - d x; the science knows of no autocatalysis."""
+    return torch.stack([u[:, 0] - d * v[:, 0]], dim=-1)
+
+
+def free_beam_f(v, u, b=0.8, c=0.25):
+    """A forced, damped beam's midpoint with no restoring force: the science misses its buckled stiffness."""
+    return torch.stack([v[:, 1], b * u[:, 0] - c * v[:, 1]], dim=-1)
+
+
+def pumped_level_f(v, u, b=0.5, a=0.35):
+    """A tank with a controlled inflow b u and an outflow a sqrt(h); the science misses a second, fixed pump."""
+    return torch.stack([b * u[:, 0] - a * torch.sqrt(v[:, 0].clamp(min=0))], dim=-1)
+
+
+def closed_epidemic_f(v, beta=2.0, gamma=0.55):
+    """SIR without births or deaths."""
+    S, I = v[:, 0], v[:, 1]
+    return torch.stack([-beta * S * I, beta * S * I - gamma * I], dim=-1)
+
+
+def pushed_cart_f(v, u, b=0.8):
+    """A cart's speed under a thrust b u, no resistance."""
+    return torch.stack([b * u[:, 0]], dim=-1)
+
+
+def sledge_f(v, k=2.0, c=0.12):
+    """A mass on a spring with linear damping: the science misses its dry friction and its drag."""
+    return torch.stack([v[:, 1], -k * v[:, 0] - c * v[:, 1]], dim=-1)
+
+
+def stage_f(v, u, b=0.8, c=0.3):
+    """A linear stage driven by a motor force b u, with viscous damping c v."""
+    return torch.stack([v[:, 1], b * u[:, 0] - c * v[:, 1]], dim=-1)
+
+
+def servo_f(v, k=0.6, c=0.25):
+    """A servo's linear feedback k x and damping c v: the science misses its relay."""
+    return torch.stack([v[:, 1], -k * v[:, 0] - c * v[:, 1]], dim=-1)
+
+
+def amplified_rc_f(v, u, g=1.0, a=0.5):
+    """An RC node driven by an amplifier of gain g: v' = g u - a v."""
+    return torch.stack([g * u[:, 0] - a * v[:, 0]], dim=-1)
+
+
+def rayleigh_reed_f(v, w2=1.6, a=0.4, b=0.2):
+    """Control: the reed with its self-excitation declared."""
+    x, y = v[:, 0], v[:, 1]
+    return torch.stack([y, -w2 * x + a * y - b * y ** 3], dim=-1)
+
+
+def buckled_beam_f(v, u, b=0.8, c=0.25, k1=0.8, k3=0.6):
+    """Control: the beam with its double well declared."""
+    x = v[:, 0]
+    return torch.stack([v[:, 1], b * u[:, 0] - c * v[:, 1] + k1 * x - k3 * x ** 3], dim=-1)
+
+
+def relay_servo_f(v, k=0.6, c=0.25, F=0.4):
+    """Control: the servo with its relay declared."""
+    return torch.stack([v[:, 1], -k * v[:, 0] - c * v[:, 1] - F * torch.sign(v[:, 0])], dim=-1)
+
+
+def open_epidemic_f(v, beta=2.0, gamma=0.55, mu=0.15):
+    """Control: SIR with births into S and deaths from every compartment declared."""
+    S, I = v[:, 0], v[:, 1]
+    return torch.stack([mu - beta * S * I - mu * S, beta * S * I - (gamma + mu) * I], dim=-1)
+
+
+FRESH_15 = [
+    System("rayleigh_reed", "oscillator", "several terms (a limit cycle: v and v^3)",
+           "a reed's self-excitation: +0.5 v - 0.18 v^3",
+           reed_f, {"w2": 2.0}, lambda x, u: _on(1, 2, 0.5 * x[:, 1] - 0.18 * x[:, 1] ** 3),
+           ["x", "v"], {"x": "mm", "v": "mm/ms"}, 0.15, 40, (-2.0, -2.0), (2.0, 2.0), zero_components=[0], batch=15),
+    System("triode_oscillator", "electrical", "several terms (a limit cycle: y and q^2 y)",
+           "the tube's negative resistance: +0.9 (1 - q^2/2.25) i",
+           lc_tank_f, {"w2": 0.7}, lambda x, u: _on(1, 2, 0.9 * (1 - x[:, 0] ** 2 / 2.25) * x[:, 1]),
+           ["q", "i"], {"q": "V", "i": "V/s"}, 0.2, 40, (-3.0, -3.0), (3.0, 3.0), zero_components=[0], batch=15),
+    System("excitable_membrane", "biology", "several terms (a cubic nullcline: v and v^3)",
+           "the membrane's own fast dynamics: +v - v^3/3",
+           membrane_f, {"g": 1.0, "eps": 0.25, "a": 0.7, "b": 0.8},
+           lambda x, u: _on(0, 2, x[:, 0] - x[:, 0] ** 3 / 3),
+           ["v", "w"], {"v": "1", "w": "1", "u": "1"}, 0.4, 40, (-2.0, -0.6), (2.0, 1.5), (0.0, 0.8),
+           zero_components=[1], batch=15),
+    System("autocatalytic_switch", "chemical", "several terms (a sign change: x^2 and x^3)",
+           "autocatalysis and its saturation: +1.5 x^2 - 0.6 x^3",
+           fed_switch_f, {"d": 1.0}, lambda x, u: 1.5 * x ** 2 - 0.6 * x ** 3,
+           ["x"], {"x": "mol/L", "u": "mol/L/h"}, 0.25, 30, (0.0,), (2.5,), (0.1, 0.8), batch=15),
+    System("buckled_beam", "structural", "several terms (a double well: x and x^3)",
+           "a buckled beam's stiffness: +1.0 x - 0.8 x^3",
+           free_beam_f, {"b": 1.0, "c": 0.2}, lambda x, u: _on(1, 2, 1.0 * x[:, 0] - 0.8 * x[:, 0] ** 3),
+           ["x", "v"], {"x": "cm", "v": "cm/s", "u": "N"}, 0.1, 40, (-1.5, -1.0), (1.5, 1.0), (-1.0, 1.0),
+           zero_components=[0], batch=15),
+    System("pump_head_curve", "hydraulic", "several terms (a sign change: 1 and h^2)",
+           "a fixed pump whose flow falls with the head: +0.5 - 0.3 h^2",
+           pumped_level_f, {"b": 0.6, "a": 0.3}, lambda x, u: 0.5 - 0.3 * x ** 2,
+           ["h"], {"h": "m", "u": "V"}, 0.25, 30, (0.2,), (2.0,), (0.0, 1.0), batch=15),
+    System("open_epidemic", "population", "several terms (an expanded law: 1 and S)",
+           "births into S and deaths from S and I: +0.15 (1 - S) on S, -0.15 I on I",
+           closed_epidemic_f, {"beta": 2.4, "gamma": 0.5},
+           lambda x, u: np.stack([0.15 * (1 - x[:, 0]), -0.15 * x[:, 1]], axis=1),
+           ["S", "I"], {"S": "1", "I": "1"}, 0.25, 30, (0.5, 0.02), (0.95, 0.3), batch=15),
+    System("headwind_cart", "mechanical", "several terms (an expanded square: 1, v and v^2)",
+           "drag on the speed through the air against a headwind: -0.25 (v + 0.6)^2",
+           pushed_cart_f, {"b": 1.0}, lambda x, u: -0.25 * (x + 0.6) ** 2,
+           ["v"], {"v": "m/s", "u": "N/kg"}, 0.2, 30, (0.0,), (1.5,), (0.2, 1.0), batch=15),
+    System("dry_and_drag", "oscillator", "several terms, one non-smooth (sign(v) and v|v|)",
+           "dry friction and air drag together: -0.25 sign(v) - 0.2 v|v|",
+           sledge_f, {"k": 2.5, "c": 0.1},
+           lambda x, u: _on(1, 2, -0.25 * np.sign(x[:, 1]) - 0.2 * x[:, 1] * np.abs(x[:, 1])),
+           ["x", "v"], {"x": "m", "v": "m/s"}, 0.1, 40, (-2.0, -2.0), (2.0, 2.0), zero_components=[0], sign_of=1,
+           batch=15, theta_guess={"k": 2.0, "c": 0.12}),
+    System("dry_stage", "mechanical", "non-smooth (jump)", "dry friction on a linear stage's guide: -0.3 sign(v)",
+           stage_f, {"b": 1.0, "c": 0.4}, lambda x, u: _on(1, 2, -0.3 * np.sign(x[:, 1])),
+           ["x", "v"], {"x": "m", "v": "m/s", "u": "N/kg"}, 0.1, 40, (-1.0, -1.0), (1.0, 1.0), (-1.5, 1.5),
+           zero_components=[0], sign_of=1, batch=15),
+    System("relay_servo", "control", "non-smooth (jump in a position)", "a relay's bang-bang force: -0.5 sign(x)",
+           servo_f, {"k": 0.5, "c": 0.2}, lambda x, u: _on(1, 2, -0.5 * np.sign(x[:, 0])),
+           ["x", "v"], {"x": "m", "v": "m/s"}, 0.1, 40, (0.8, -1.0), (2.0, 1.0), zero_components=[0], sign_of=0,
+           batch=15),
+    System("clipping_amplifier", "electrical", "non-smooth (a kink in the input)",
+           "the amplifier clips its input above 1: -1.2 max(0, u - 1)",
+           amplified_rc_f, {"g": 1.2, "a": 0.6}, lambda x, u: -1.2 * np.maximum(0.0, u - 1.0),
+           ["v"], {"v": "V", "u": "V"}, 0.2, 30, (0.0,), (1.5,), (0.0, 2.0), batch=15),
+    System("control_rayleigh_reed", "oscillator", "control", "nothing (the reed with its self-excitation declared)",
+           rayleigh_reed_f, {"w2": 2.0, "a": 0.5, "b": 0.18}, None,
+           ["x", "v"], {"x": "mm", "v": "mm/ms"}, 0.15, 40, (-2.0, -2.0), (2.0, 2.0), batch=15),
+    System("control_buckled_beam", "structural", "control", "nothing (the beam with its double well declared)",
+           buckled_beam_f, {"b": 1.0, "c": 0.2, "k1": 1.0, "k3": 0.8}, None,
+           ["x", "v"], {"x": "cm", "v": "cm/s", "u": "N"}, 0.1, 40, (-1.5, -1.0), (1.5, 1.0), (-1.0, 1.0), batch=15),
+    System("control_relay_servo", "control", "control", "nothing (the servo with its relay declared)",
+           relay_servo_f, {"k": 0.5, "c": 0.2, "F": 0.5}, None,
+           ["x", "v"], {"x": "m", "v": "m/s"}, 0.1, 40, (0.8, -1.0), (2.0, 1.0), batch=15),
+    System("control_open_epidemic", "population", "control", "nothing (the epidemic with births and deaths declared)",
+           open_epidemic_f, {"beta": 2.4, "gamma": 0.5, "mu": 0.15}, None,
+           ["S", "I"], {"S": "1", "I": "1"}, 0.25, 30, (0.5, 0.02), (0.95, 0.3), batch=15),
+]
+
+
 SYSTEMS = {s.name: s for s in SYSTEMS + FRESH + FRESH_3 + FRESH_4 + FRESH_5 + FRESH_6 + FRESH_7 + FRESH_8 + FRESH_9
-           + FRESH_10 + FRESH_11 + FRESH_12 + FRESH_13 + FRESH_14}
+           + FRESH_10 + FRESH_11 + FRESH_12 + FRESH_13 + FRESH_14 + FRESH_15}
 
 
 # ----------------------------------------------------------------------------------------------------- simulation
