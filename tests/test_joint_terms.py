@@ -12,6 +12,7 @@ from sklearn_hybrid.diagnosis import ScienceFit, physics_terms, stepwise
 from sklearn_hybrid.diagnosis.candidates import term_columns
 from sklearn_hybrid.diagnosis.evidence import critical_value, evidence, holm
 from sklearn_hybrid.diagnosis.joint import joint_candidates
+from sklearn_hybrid.diagnosis.report import format_table
 
 NAMES = ["x", "v"]
 
@@ -128,6 +129,9 @@ def test_a_limit_cycle_is_named_as_the_pair_that_only_together_passes():
     assert not [s for s in first if s["kind"] != "joint" and s["accepted"]]  # no single term passed
     pair = [s for s in first if s["accepted"]]
     assert len(pair) == 1 and pair[0]["kind"] == "joint" and pair[0]["threshold"] > critical_value(3.0, 8)
+    report = format_table([], [{**t, "output": "g[v]"} for t in sel["added"]],
+                          [{**s, "output": "g[v]"} for s in sel["steps"]], None, 8)
+    assert "| joint |" in report and "Holm's rule" in report
 
 
 def test_joint_candidates_add_nothing_to_a_control():

@@ -134,12 +134,15 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
        traded the effect between theta and the network).
     3. The best-ranked few of each ranking are each added to the science model (a term among them on
        several components also on all of them at once, one coefficient each: a flux between
-       compartments enters every balance it connects), refitted *without the network* by least
+       compartments enters every balance it connects; and sets of two or three terms on one
+       equation that explain the difference only together, such as ``x'`` and ``x^2 x'`` of a limit
+       cycle, see :mod:`~sklearn_hybrid.diagnosis.joint`), refitted *without the network* by least
        squares on the training samples (at most 256 of them, evenly spaced, for this screening;
        shape parameters such as a knot or a width fitted too), and judged on the last
        ``validation_fraction`` of the samples: a term is kept only when
        it lowers the held-out error by at least ``min_gain`` and by more than ``z`` standard errors
-       (Student's t quantile at the tail probability of the normal ``z``: 3.85 for 12 samples).
+       (Student's t quantile at the tail probability of the normal ``z``: 3.85 for 12 samples); the
+       sets of a step are one family, judged by Holm's rule at the rate of one term.
        When none passes but some lowered it by ``min_gain`` at z above 2, those get a second look:
        judged the same way on ``second_look`` folds of the training samples.
        This repeats from the augmented model until no candidate passes, so the augmented science

@@ -203,6 +203,17 @@ def _second_look_words(steps: Sequence[dict], min_gain: float) -> str:
             f"a refit on the others, with a threshold of {looked[0]['threshold']:.2f} for their number")
 
 
+def _joint_words(steps: Sequence[dict]) -> str:
+    """The report's account of joint candidates (sets of terms judged together), if any were judged."""
+    joint = [s for s in steps if s.get("kind") == "joint" and "threshold" in s]
+    if not joint:
+        return ""
+    return (". Sets of terms that enter together (kind 'joint') are judged as one family per step by Holm's rule, "
+            "which holds the family's false-alarm rate at that of one term: the set with the k-th smallest "
+            "p-value of m needs Student's t at the tail of z divided by m - k + 1 (thresholds here up to "
+            f"{max(s['threshold'] for s in joint):.2f})")
+
+
 def format_table(rows: list[dict], added: Sequence[dict] = (), steps: Sequence[dict] = (),
                  unexplained: dict | None = None, n_validation: int | None = None, z: float = 3.0,
                  min_gain: float = 0.05, cv: int | None = None, unit: str = "samples") -> str:
@@ -237,7 +248,8 @@ def format_table(rows: list[dict], added: Sequence[dict] = (), steps: Sequence[d
                       f"least {min_gain * 100:g} % and by more than "
                       f"{critical_value(z, n_validation or 0):.2f} standard errors, Student's t for the tail "
                       f"of z = {z:g}; a term the later "
-                      "ones make dispensable by that test is dropped)" + _second_look_words(steps, min_gain) + ":", "",
+                      "ones make dispensable by that test is dropped)" + _second_look_words(steps, min_gain)
+                  + _joint_words(steps) + ":", "",
                   "| step | output | term | kind | validation MSE before | after | gain | z | accepted |",
                   "|---|---|---|---|---|---|---|---|---|"]
         for s in steps:

@@ -6,7 +6,9 @@ science parameters' sensitivities, which absorb mere parameter shifts), and by h
 network-free model's training error its addition would remove (a score test on the trajectories,
 which does not trust the network to have learned the effect). The best few of each ranking are
 added to the science model one at a time (and a term that ranks on several components also on all
-of them at once: a reaction's flux enters every balance it converts), refitted without the network
+of them at once: a reaction's flux enters every balance it converts; and sets of terms on one equation
+that explain the residual only together, :func:`~sklearn_hybrid.diagnosis.joint.joint_candidates`,
+judged as one family per step by Holm's rule), refitted without the network
 (:class:`ScienceFit`, on at most 256 evenly spaced training samples) and judged on validation
 samples (:class:`~sklearn_hybrid.diagnosis._judge.Judge`, :func:`evidence`).
 The best one that passes is refitted on every training sample and kept, and a term kept earlier
