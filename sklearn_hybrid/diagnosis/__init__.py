@@ -9,7 +9,7 @@ model's residual by sparse regression on a :class:`CandidateLibrary` (an explora
 """
 
 from .augment import AugmentedScience, augment_science, parameter_name, term_to_torch
-from .evidence import critical_value, evidence
+from .evidence import critical_value, evidence, holm
 from .library import CandidateLibrary
 from .loop import MLPOn, ZeroResidual, close_the_loop
 from .records import fit_initial_state, free_run
@@ -23,4 +23,4 @@ __all__ = ["CandidateLibrary", "SparseTermRegression", "ResidualDiagnosis", "sci
            "augment_science", "AugmentedScience", "term_to_torch", "parameter_name", "close_the_loop", "free_run",
            "fit_initial_state", "MLPOn", "ZeroResidual", "LoopResult", "prediction_metrics", "format_table",
            "plot_unexplained", "Term", "physics_terms", "TERM_KINDS", "SCIENCE_OUTPUT", "ScienceFit", "evidence",
-           "critical_value"]
+           "critical_value", "holm"]
