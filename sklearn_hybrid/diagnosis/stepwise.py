@@ -13,7 +13,9 @@ judged as one family per step by Holm's rule), refitted without the network
 samples (:class:`~sklearn_hybrid.diagnosis._judge.Judge`, :func:`evidence`).
 The best one that passes is refitted on every training sample and kept, and a term kept earlier
 that it makes dispensable (the model without it validates as well) is dropped; the next step
-starts from there. Selection stops when no candidate passes. The candidates, their rankings and
+starts from there. Selection stops when no candidate passes; an equation left with two or more
+terms, not all polynomial, then has them replaced by one term of another kind that validates as well
+(:func:`~sklearn_hybrid.diagnosis.collapse.replace_stand_ins`). The candidates, their rankings and
 their augmented models are built in :mod:`~sklearn_hybrid.diagnosis.candidates`.
 """
 
@@ -31,6 +33,7 @@ from ._judge import FIT_FAILURES, Judge, training_folds
 from .candidates import (augment_with, term_entries, free_columns, candidate_groups, initial_values, interleave, merge_rankings,
                          count_parameters, offset_candidate, public_record, rank_by_residual, rank_by_fit, shape_bounds, term_columns, where_acts,
                          with_fitted)
+from .collapse import replace_stand_ins
 from .evidence import evidence, holm
 from .joint import joint_candidates
 from .report import format_gain
@@ -173,6 +176,9 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
             break
         visited.add(model)
         judge.settle(current, theta_now)
+    current, added, theta_now, errors = replace_stand_ins(
+        science, current, added, theta_now, errors, judge, columns, learned, args, variables, n_states, param_names,
+        min_gain, steps, log, n_candidates, fit.fixed)
     return {"science": current, "theta": theta_now, "added": added, "steps": steps,
             "base_errors": base_errors, "errors": errors, "seconds": time.perf_counter() - start_time}
 
