@@ -5,8 +5,8 @@ explains nothing (the energy it feeds in over a period is what the second takes 
 second alone little, so a selection that adds one term at a time never starts. The same holds for a
 polynomial with a linear and a cubic part that nearly cancel over the visited states, or a rational
 law expanded into a few monomials. :func:`joint_candidates` proposes, per uncertain equation, the
-sets a least-squares fit of the network's residual favours: each of the best-ranked terms with the
-partners that explain most of what it leaves, and the support a sparse fit of the residual chooses
+sets a least-squares fit of the network's residual favours: the best-ranked terms in pairs, each of
+them with the partners that explain most of what it leaves, and the support a sparse fit of the residual chooses
 (:func:`~sklearn_hybrid.diagnosis._supports.select_support`). A set is proposed only when together
 its terms explain clearly more than the sum of what each explains alone; the selection
 (:mod:`~sklearn_hybrid.diagnosis.stepwise`) refits each without the network and judges it by the
@@ -17,6 +17,7 @@ same evidence as a single term, with the threshold corrected for the number of s
 from __future__ import annotations
 
 from collections.abc import Sequence
+from itertools import combinations
 
 import numpy as np
 
@@ -51,8 +52,8 @@ def joint_candidates(columns: list[tuple], remaining: np.ndarray, jac: np.ndarra
     n : int, default=4
         At most this many sets, those that explain the largest share first.
     n_leads, n_partners : int, default=3 and 2
-        Each of the ``n_leads`` best-ranked terms of an equation is paired with the ``n_partners``
-        terms that explain most of what it leaves.
+        The ``n_leads`` best-ranked terms of an equation are paired with each other and each with the
+        ``n_partners`` terms that explain most of what it leaves.
     min_share : float, default=0.05
         A set is proposed only when it explains at least this share of the residual more than its
         terms alone, added up (otherwise one term at a time finds it, and a set only costs refits).
@@ -72,6 +73,7 @@ def joint_candidates(columns: list[tuple], remaining: np.ndarray, jac: np.ndarra
         alone = (U.T @ r) ** 2  # the share of the residual (of unit norm) each term explains alone
         leads = np.argsort(-alone)[:n_leads]
         sets = {frozenset([int(a), int(b)]) for a in leads for b in _partners(U, r, a, n_partners)}
+        sets |= {frozenset([int(a), int(b)]) for a, b in combinations(leads, 2)}  # the best-ranked, in pairs
         sparse = select_support(support_stats(U, r[:, None], np.ones(len(r))), [], 0, _SPARSE)
         if len(sparse) >= 2:
             sets.add(frozenset(int(k) for k in sparse))
