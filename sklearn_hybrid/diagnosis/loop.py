@@ -346,7 +346,8 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         alone = _fixed_science(before, final, science_theta, X, y)
         from ..identifiability import science_intervals  # the identifiability package reads this one's results
 
-        intervals = science_intervals(alone, X, y, incomplete=_open_question(sel["steps"], min_gain))
+        intervals = science_intervals(alone, X, y, incomplete=_open_question(sel["steps"], min_gain),
+                                       fitted_states=fit.latent or None)
         log("scoring the network-free model ..." if scoring.executor is None else
             "scoring the network-free model in a worker process ...")
         alone_row = scoring.submit(alone)  # with a worker, scored during the refit
