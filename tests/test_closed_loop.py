@@ -805,6 +805,11 @@ def test_close_the_loop_fits_unobserved_initial_states():
     np.testing.assert_array_equal(X_wrong, X_given)
     assert [(t["output"], t["term"]) for t in out.added] == [("g[v_dot]", "v_dot")]
     assert out.added[0]["coef"] == pytest.approx(-0.5, rel=0.1)
+    np.testing.assert_allclose(out.initial_states[:, 1], data.X_train[:, 1], atol=0.1)
+    from sklearn_hybrid.identifiability import science_intervals
+
+    X_fit = out.initial_states  # the intervals count the fitted velocities as parameters: wider
+    assert out.intervals.std["omega"] > 1.2 * science_intervals(out.science_only, X_fit, y).std["omega"]
     with pytest.raises(ValueError, match="fit_initial_states=True needs an estimator with structure='ode'"):
         close_the_loop(HybridRegressor(science=pendulum_f, dt=0.1), data.X_train, data.y_train,
                        fit_initial_states=True)

@@ -242,7 +242,9 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         added or the refit failed), ``science`` (the augmented function, or None), ``science_theta``
         (fitted values of every parameter of the final science model, without the network),
         ``science_only`` (an estimator holding that model), ``intervals`` (its parameters' intervals and
-        verdicts, :func:`~sklearn_hybrid.identifiability.science_intervals`), ``added`` (the accepted terms),
+        verdicts, :func:`~sklearn_hybrid.identifiability.science_intervals`), ``initial_states`` (with
+        ``fit_initial_states``: every sample's initial state, unobserved components fitted with the final
+        model; else None), ``added`` (the accepted terms),
         ``steps`` (every candidate tried, with its validation error and verdict), ``exact``
         (the exact components), ``unexplained`` (what the final science model still misses:
         ``share`` per output and binned ``profiles``; see :func:`plot_unexplained`), ``table``,
@@ -379,7 +381,8 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
                           unit=unit)
     log(report)
     return LoopResult(before=before, after=after, science=augmented, science_theta=science_theta, science_only=alone,
-                 intervals=intervals, added=added, steps=sel["steps"], exact=[] if uncertain is None else
+                 intervals=intervals, initial_states=fit.initial_states.copy() if fit_initial_states else None,
+                 added=added, steps=sel["steps"], exact=[] if uncertain is None else
                  [j for j in range(base.shape[1]) if j not in uncertain],
                  unexplained=unexplained, table=rows, report=report, seconds=time.perf_counter() - start)
 
