@@ -27,7 +27,8 @@ import torch
 from scipy import stats
 
 from .._validation import torch_threads
-from ._members import check_level, entry_values, set_entry
+from .._report import theta_jacobian
+from ._members import check_level
 
 __all__ = ["science_intervals", "ScienceIntervals"]
 
@@ -123,22 +124,11 @@ def science_intervals(estimator, X, y, level=0.95, incomplete: str | None = None
             return model(*inputs)[0].reshape(len(X), -1).cpu().numpy()
 
         base = predict()
-        columns, labels = [], []
-        for name in science.names:
-            flat = entry_values(science, name)
-            for k in range(flat.size):
-                h = 1e-6 * max(abs(flat[k]), 1.0)
-                preds = []
-                saved = science.raw[name].detach().clone()
-                for step in (h, -h):
-                    set_entry(science, name, k, flat[k] + step)
-                    preds.append(predict())
-                    science.raw[name].copy_(saved)
-                columns.append((preds[0] - preds[1]) / (2 * h))
-                labels.append((name, k, name if science.shapes[name] == () else f"{name}[{k}]"))
+        entries = [(name, k) for name in science.names for k in range(science.raw[name].numel())]
+        labels = [(name, k, name if science.shapes[name] == () else f"{name}[{k}]") for name, k in entries]
+        J = theta_jacobian(science, predict, entries)  # (n, m, p)
         if states:
             K = _state_derivatives(predict, inputs, states)  # (n, m, q)
-    J = np.stack(columns, axis=-1)  # (n, m, p)
     if states:  # theta's derivatives orthogonal to what each sample's own states can do
         J = np.stack([J[i] - K[i] @ np.linalg.lstsq(K[i], J[i], rcond=None)[0] for i in range(len(J))])
     r = y - base
