@@ -277,3 +277,39 @@ def test_science_intervals_count_the_fitted_initial_states():
     np.testing.assert_array_equal(X_fit, X_given)
     with pytest.raises(ValueError, match="distinct state components"):
         science_intervals(est, X_fit, y, fitted_states=[2])
+
+
+def test_laplace_marginal_of_a_line_whose_offset_the_network_takes(offset_fit, line_data):
+    """The network's constant and b are one direction: b is not identified; a's marginal interval is the
+    least-squares one with an intercept (the network's prior, chosen by the evidence, is flat here)."""
+    from sklearn_hybrid.identifiability.laplace import laplace_theta
+
+    X, y = line_data
+    out = laplace_theta(offset_fit, X, y)
+    assert out.verdicts == {"a": "identified", "b": "not identified"}
+    design = np.column_stack([X[:, 0], np.ones(len(X))])
+    coef, *_ = np.linalg.lstsq(design, y, rcond=None)
+    sigma2 = np.mean((y - design @ coef) ** 2)
+    se = np.sqrt(sigma2 * np.linalg.inv(design.T @ design)[0, 0])
+    low, high = out.intervals["a"]
+    assert (high - low) / 2 == pytest.approx(1.959964 * se, rel=0.01)
+    assert out.estimate["a"] == pytest.approx(coef[0], abs=1e-3)
+    assert "NOT IDENTIFIED" in out.report() and "a: " in str(out)
+    fixed = laplace_theta(offset_fit, X, y, prior_precision=1e6)  # a stiff prior holds the network still
+    assert fixed.prior_precision == 1e6 and fixed.verdicts["b"] == "identified"
+    with pytest.raises(ValueError, match="level"):
+        laplace_theta(offset_fit, X, y, level=95)
+
+
+def test_laplace_precision_is_the_schur_complement_either_way_round():
+    """theta's marginal precision from the eigenvalues of B^T B (few network weights) or of B B^T (many)
+    equals the dense Schur complement of the posterior precision."""
+    from sklearn_hybrid.identifiability.laplace import _marginal_precision
+
+    rng = np.random.default_rng(0)
+    for n_out, n_phi in ((40, 10), (10, 40)):
+        A, B = rng.normal(size=(n_out, 2)), rng.normal(size=(n_out, n_phi))
+        lam, S = _marginal_precision(A, B, rng.normal(size=n_phi), 0.7)
+        H_pp = B.T @ B + lam * np.eye(n_phi)
+        dense = A.T @ A - A.T @ B @ np.linalg.solve(H_pp, B.T @ A)
+        np.testing.assert_allclose(S, dense, rtol=1e-8, atol=1e-10)
