@@ -12,7 +12,13 @@ fsam (p-reg's penalty is part of its objective, not of the data's likelihood).
 Each repeat is cached as ``results/laplace_runs/<system>/<repeat>.json``;
 a rerun resumes.  ``--render`` writes ``results/laplace.md`` and ``.json``.
 
+``--network default``: the package's default network and training (what the
+Quick start fits; fsam only, no profile to compare with), on four of the
+systems, cached in ``results/laplace_runs_default/``: does the Laplace step
+hold with a network of about 17,000 weights instead of 1,200?
+
     python benchmarks/bench_laplace.py              # all systems, 20 repeats
+    python benchmarks/bench_laplace.py --network default --repeats 10
     python benchmarks/bench_laplace.py --render
 """
 
@@ -33,6 +39,39 @@ from bench_uncertainty import RUNS, SETTINGS, _row  # noqa: E402
 
 METHODS = ("erm", "fsam")
 LAPLACE_RUNS = RESULTS / "laplace_runs"
+DEFAULT_RUNS = RESULTS / "laplace_runs_default"
+DEFAULT_SYSTEMS = ("pendulum", "duffing", "heated_body", "damped_spring")
+
+
+def run_default(repeats):
+    """fsam at the package's defaults (one thread), Laplace after it."""
+    import torch
+
+    from _laplace import laplace_theta
+    from sklearn_hybrid import HybridRegressor
+
+    torch.set_num_threads(1)
+    for repeat in range(repeats):
+        for name in DEFAULT_SYSTEMS:
+            path = DEFAULT_RUNS / name / f"{repeat:02d}.json"
+            if path.exists():
+                continue
+            system = SYSTEMS[name]
+            X, y, dt = system.make(repeat)
+            start = time.perf_counter()
+            est = HybridRegressor(science=system.science, dt=dt, method="fsam", theta_init=system.theta_init,
+                                  random_state=repeat, n_threads=1, verbose=False).fit(X, y)
+            fit_s = time.perf_counter() - start
+            start = time.perf_counter()
+            lap = laplace_theta(est, X, y)
+            record = {"system": name, "repeat": repeat, "package_commit": PACKAGE_COMMIT, "methods": {"fsam": {
+                "theta": {k: est.theta_[k] for k in system.theta_true}, "n_iter": est.n_iter_, "fit_s": fit_s,
+                "intervals": {k: list(lap["intervals"][k]) for k in system.theta_true},
+                "verdicts": {k: lap["verdicts"][k] for k in system.theta_true},
+                "prior_precision": lap["prior_precision"], "laplace_s": time.perf_counter() - start}}}
+            path.parent.mkdir(parents=True, exist_ok=True)
+            path.write_text(json.dumps(record, indent=1, default=float) + "\n")
+            print(f"default network, {name} {repeat}: {record['methods']['fsam']['verdicts']}", flush=True)
 
 
 def run_repeat(system, repeat):
@@ -100,10 +139,18 @@ def render():
                                   ("profile", _row(system, f"{method} profile", label, true, got))):
                     row["kind"] = kind
                     rows.append(row)
-    all_n = sum(r["n"] for r in rows if r["kind"] == "laplace")
+    for name in DEFAULT_SYSTEMS:
+        got = [json.loads(p.read_text())["methods"]["fsam"] for p in sorted((DEFAULT_RUNS / name).glob("*.json"))]
+        for label, true in SYSTEMS[name].theta_true.items() if got else ():
+            row = _laplace_row(SYSTEMS[name], "fsam laplace, default network", label, true, got)
+            row["kind"] = "laplace, default network"
+            rows.append(row)
     totals = {}
-    for kind in ("laplace", "profile"):
+    for kind in ("laplace", "profile", "laplace, default network"):
         sel = [r for r in rows if r["kind"] == kind]
+        if not sel:
+            continue
+        all_n = sum(r["n"] for r in sel)
         ident = sum(r["verdict_identified"] for r in sel)
         held = sum(round(r["coverage_identified"] * r["verdict_identified"]) for r in sel if r["verdict_identified"])
         misses = sum(round(r["miss_identified"] * r["n"]) for r in sel)
@@ -141,9 +188,10 @@ def main(argv=None):
     parser.add_argument("--systems", nargs="*", default=list(SYSTEMS))
     parser.add_argument("--repeats", type=int, default=20)
     parser.add_argument("--render", action="store_true")
+    parser.add_argument("--network", choices=("small", "default"), default="small")
     args = parser.parse_args(argv)
     if not args.render:
-        run(args.systems, args.repeats)
+        run_default(args.repeats) if args.network == "default" else run(args.systems, args.repeats)
     text, data = render()
     write_results("laplace", data, text)
     print(text)
