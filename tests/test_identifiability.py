@@ -295,6 +295,9 @@ def test_laplace_marginal_of_a_line_whose_offset_the_network_takes(offset_fit, l
     assert (high - low) / 2 == pytest.approx(1.959964 * se, rel=0.01)
     assert out.estimate["a"] == pytest.approx(coef[0], abs=1e-3)
     assert "NOT IDENTIFIED" in out.report() and "a: " in str(out)
+    report = offset_fit.fit_report(profile=out)
+    assert "identified, 95 % interval [" in report and "(Laplace)" in report and "Laplace:" in report
+    assert "NOT IDENTIFIED" in report
     fixed = laplace_theta(offset_fit, X, y, prior_precision=1e6)  # a stiff prior holds the network still
     assert fixed.prior_precision == 1e6 and fixed.verdicts["b"] == "identified"
     with pytest.raises(ValueError, match="level"):

@@ -30,10 +30,12 @@ from torch.func import functional_call, jacrev
 from .. import _fast
 from .._validation import torch_threads
 from ._members import check_level, fitted_problem, parameter_entries
+from .profile import ADVICE, IDENTIFIED
 
 __all__ = ["laplace_theta", "ThetaLaplace"]
 
 PRIOR_GRID = np.logspace(-4, 4, 33)
+NOT_IDENTIFIED = "not identified"
 
 
 @dataclass
@@ -41,6 +43,9 @@ class ThetaLaplace:
     """Estimates, marginal Laplace intervals and verdicts of theta.
 
     An interval whose half-width exceeds the estimate's magnitude is "not identified".
+    Its methods (``verdict_text``, ``how``) are those of
+    :class:`~sklearn_hybrid.identifiability.ThetaProfile`, so that
+    ``fit_report(profile=...)`` takes either.
     """
 
     estimate: dict
@@ -50,14 +55,26 @@ class ThetaLaplace:
     prior_precision: float
     n_samples: int
 
-    def report(self) -> str:
-        lines = [f"[[Laplace]]  ({100 * self.level:.0f} % intervals, network integrated out, prior precision "
-                 f"{self.prior_precision:.3g} by the evidence)"]
-        for label, verdict in self.verdicts.items():
+    def verdict_text(self, label: str) -> str:
+        """What the Laplace step says of one entry, in words, with its interval where identified."""
+        if self.verdicts[label] == "identified":
             low, high = self.intervals[label]
-            value = self.estimate[label]
-            lines.append(f"    {label}: {value:.6g}, interval [{low:.6g}, {high:.6g}]" if verdict == "identified"
-                         else f"    {label}: {value:.6g}  NOT IDENTIFIED")
+            return f"identified, {100 * self.level:.0f} % interval [{low:.5g}, {high:.5g}] (Laplace)"
+        return ("NOT IDENTIFIED: with the network integrated out, theta's interval is wider than its value "
+                "(the network can take over what this parameter does)")
+
+    def how(self) -> str:
+        """How the intervals were made, in one line."""
+        return (f"{100 * self.level:.0f} %, Laplace over theta and the network at the fit, the network integrated "
+                f"out, its prior precision {self.prior_precision:.3g} chosen by the evidence; {self.n_samples} samples")
+
+    def report(self) -> str:
+        """A text report: per parameter the verdict and the interval."""
+        lines = [f"[[Laplace]]  ({self.how()})"]
+        for label in self.verdicts:
+            lines.append(f"    {label}: {self.estimate[label]:.6g}  {self.verdict_text(label)}")
+        if any(v != IDENTIFIED for v in self.verdicts.values()):
+            lines.append(f"    ({ADVICE})")
         return "\n".join(lines)
 
     def __str__(self) -> str:
@@ -118,7 +135,7 @@ def laplace_theta(estimator, X, y, level: float = 0.95, prior_precision: float |
         identified = bool(np.isfinite(high - low) and max(value - low, high - value) < abs(value))
         out.estimate[label] = value
         out.intervals[label] = (low, high) if identified else (-np.inf, np.inf)
-        out.verdicts[label] = "identified" if identified else "not identified"
+        out.verdicts[label] = IDENTIFIED if identified else NOT_IDENTIFIED
     return out
 
 
