@@ -15,7 +15,9 @@ a rerun resumes.  ``--render`` writes ``results/laplace.md`` and ``.json``.
 ``--network default``: the package's default network and training (what the
 Quick start fits; fsam only, no profile to compare with), on four of the
 systems, cached in ``results/laplace_runs_default/``: does the Laplace step
-hold with a network of about 17,000 weights instead of 1,200?
+hold with a network of about 17,000 weights instead of 1,200?  It runs the
+package's ``laplace_theta`` (``_laplace.py``'s dense algebra would hold a
+17,000-square matrix; the two agree where both run).
 
     python benchmarks/bench_laplace.py              # all systems, 20 repeats
     python benchmarks/bench_laplace.py --network default --repeats 10
@@ -47,8 +49,8 @@ def run_default(repeats):
     """fsam at the package's defaults (one thread), Laplace after it."""
     import torch
 
-    from _laplace import laplace_theta
     from sklearn_hybrid import HybridRegressor
+    from sklearn_hybrid.identifiability import laplace_theta
 
     torch.set_num_threads(1)
     for repeat in range(repeats):
@@ -66,9 +68,9 @@ def run_default(repeats):
             lap = laplace_theta(est, X, y)
             record = {"system": name, "repeat": repeat, "package_commit": PACKAGE_COMMIT, "methods": {"fsam": {
                 "theta": {k: est.theta_[k] for k in system.theta_true}, "n_iter": est.n_iter_, "fit_s": fit_s,
-                "intervals": {k: list(lap["intervals"][k]) for k in system.theta_true},
-                "verdicts": {k: lap["verdicts"][k] for k in system.theta_true},
-                "prior_precision": lap["prior_precision"], "laplace_s": time.perf_counter() - start}}}
+                "intervals": {k: list(lap.intervals[k]) for k in system.theta_true},
+                "verdicts": {k: lap.verdicts[k] for k in system.theta_true},
+                "prior_precision": lap.prior_precision, "laplace_s": time.perf_counter() - start}}}
             path.parent.mkdir(parents=True, exist_ok=True)
             path.write_text(json.dumps(record, indent=1, default=float) + "\n")
             print(f"default network, {name} {repeat}: {record['methods']['fsam']['verdicts']}", flush=True)
