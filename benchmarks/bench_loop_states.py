@@ -38,7 +38,9 @@ from _common import PACKAGE_COMMIT, RESULTS, write_results  # noqa: E402
 
 RUNS = RESULTS / "loop_states_runs"
 N, STEPS = 30, 25
-HYBRID = {"max_iter": 300, "n_threads": 1, "residual": {"hidden": (32, 32)}}
+# The default network, which close_the_loop starts at zero (a random start drove the SIR model out of its domain
+# in a first run with a 32x32 network: its 4 records were discarded); fewer iterations than the default.
+HYBRID = {"max_iter": 300, "n_threads": 1}
 
 
 def sir_f(v, beta=0.5, gamma=0.15):
@@ -88,8 +90,12 @@ def run_repeat(name, repeat):
     start = time.perf_counter()
     est = HybridRegressor(science=system["science"], dt=system["dt"], observed=[1], method="erm",
                           theta_init=system["init"], random_state=repeat, **HYBRID)
-    loop = close_the_loop(est, X, y, state_names=system["names"], fit_initial_states=True, random_state=repeat,
-                          refit_params={"max_iter": 1})
+    try:
+        loop = close_the_loop(est, X, y, state_names=system["names"], fit_initial_states=True,
+                              random_state=repeat, refit_params={"max_iter": 1})
+    except Exception as error:  # noqa: BLE001 -- a failed loop is a result of the benchmark
+        return {"system": name, "repeat": repeat, "package_commit": PACKAGE_COMMIT,
+                "error": f"{type(error).__name__}: {error}"}
     seconds = time.perf_counter() - start
     X_fit = np.array(X, dtype=float)
     X_fit[:, :2] = loop.initial_states
@@ -114,14 +120,21 @@ def run(repeats):
             out = run_repeat(name, repeat)
             path.parent.mkdir(parents=True, exist_ok=True)
             path.write_text(json.dumps(out, indent=1, default=float) + "\n")
+            if "error" in out:
+                print(f"{name} {repeat}: {out['error'][:200]}", flush=True)
+                continue
             print(f"{name} {repeat}: {out['seconds']:.0f} s, added {out['added']}, theta {out['theta']}, "
                   f"{ {k: v['verdict'] for k, v in out['counted'].items()} }", flush=True)
 
 
 def render():
-    rows = []
+    rows, notes = [], []
     for name, system in SYSTEMS.items():
         records = [json.loads(p.read_text()) for p in sorted((RUNS / name).glob("*.json"))]
+        failed = [r for r in records if "error" in r]
+        records = [r for r in records if "error" not in r]
+        if failed:
+            notes.append(f"{name}: {len(failed)} repeat(s) failed ({failed[0]['error'][:120]})")
         if not records:
             continue
         for k, true in system["truth"].items():
@@ -154,6 +167,7 @@ def render():
                      f"{r['misses_called_identified']} | {width} |")
     lines += ["", "Terms the loop added, per system: " + "; ".join(
         f"{n}: {sorted({a for r in rows if r['system'] == n for a in r['added']})}" for n in SYSTEMS)]
+    lines += [f"- {note}" for note in notes]
     return "\n".join(lines) + "\n", {"rows": rows}
 
 
