@@ -21,7 +21,7 @@ from sklearn.exceptions import ConvergenceWarning, NotFittedError
 
 from sklearn_hybrid import DivergenceError, HybridRegressor, HybridRegressorCV, pack_inputs
 from sklearn_hybrid.datasets import get_data_home, make_pendulum
-from sklearn_hybrid.diagnosis import close_the_loop
+from sklearn_hybrid.diagnosis import ResidualDiagnosis, close_the_loop
 from sklearn_hybrid.models import pendulum_f
 from sklearn_hybrid.residual import MLP
 
@@ -161,6 +161,11 @@ def cv(**params):
     def run(est, X, y):
         HybridRegressorCV(est, **params).fit(X, y)
     return Call({"method": "erm"}, run)
+
+
+def diagnose(transform, **params):
+    """ResidualDiagnosis of the earlier fit, judged with (transformed) data."""
+    return Call({}, lambda est, X, y: ResidualDiagnosis(random_state=0, **params).fit(est, *transform(X, y)))
 
 
 def pendulum(X, y):
@@ -322,6 +327,17 @@ CASES = [
      ValueError, "y has per-sample shape (3, 2); the estimator was fitted on y of per-sample shape (5, 2)"),
     ("HybridRegressorCV.predict before fit", Call({}, lambda est, X, y: HybridRegressorCV(est).predict(X)),
      NotFittedError, "is not fitted yet"),
+    # audit 4: ResidualDiagnosis judges its terms with y, as close_the_loop does
+    ("ResidualDiagnosis with y of another horizon", diagnose(lambda X, y: (X, y[:, :3])),
+     ValueError, "y has per-sample shape (3, 2); the estimator was fitted on y of per-sample shape (5, 2)"),
+    ("ResidualDiagnosis with y of fewer samples", diagnose(lambda X, y: (X, y[:-1])),
+     ValueError, "y has 5 samples and X 6"),
+    ("ResidualDiagnosis with y of too few samples to judge", diagnose(lambda X, y: (X[:3], y[:3])),
+     ValueError, "3 samples: a split needs 4 at least"),
+    ("ResidualDiagnosis z=0", diagnose(lambda X, y: (X, y), z=0),
+     ValueError, "z must be a positive number of standard errors, got 0"),
+    ("ResidualDiagnosis exact naming an unknown state", diagnose(lambda X, y: (X, y), exact=["omega"]),
+     ValueError, "exact entry 'omega' is neither a state name of ['x0', 'x1'] nor an index below 2"),
 ]
 
 
@@ -362,7 +378,7 @@ def test_bad_input_is_named_and_changes_nothing(earlier, what, call, error, phra
 
 def test_table_size():
     """The closing note quotes this count; keep it in step with CASES."""
-    assert len(CASES) == 73
+    assert len(CASES) == 78
 
 
 def test_data_home_that_is_a_file(tmp_path, monkeypatch):

@@ -12,7 +12,7 @@ import numpy as np
 
 from ..science import read_signature
 from .candidates import free_columns
-from .residual import state_labels, parameter_jacobian
+from .sensitivity import state_labels, parameter_jacobian
 
 
 def check_options(validation_fraction, max_terms, n_candidates, cv, z, min_gain, n_jobs, X_test, y_test,

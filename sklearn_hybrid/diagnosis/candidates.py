@@ -19,7 +19,7 @@ import torch
 
 from .augment import augment_science
 from .science_fit import ScienceFit
-from .residual import finite_differences
+from .sensitivity import finite_differences
 from .terms import Term
 
 
