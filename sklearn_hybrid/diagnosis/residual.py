@@ -13,10 +13,9 @@ span) are left out. A selected ``df/d<name>`` term says "shift theta by its coef
 "add a term".
 
 A network also fits noise, and sparse regression on what it learned finds terms there too, each
-stable under the bootstrap. Given ``y``, every new term must pass the test
-:func:`~sklearn_hybrid.diagnosis.close_the_loop` applies (``_judge.judge_terms``): the science
-model with the term, refitted without the network, predicts held-out samples better by more than
-the noise explains. Exact equations (an ODE component whose science output depends on no
+stable under the bootstrap. Given ``y``, every new term must pass the test that
+:func:`~sklearn_hybrid.diagnosis.close_the_loop` applies: the science model with the term,
+refitted without the network, predicts held-out samples better by more than the noise explains. Exact equations (an ODE component whose science output depends on no
 parameter, such as ``d angle/dt = velocity``) are left alone, as there.
 """
 
