@@ -163,9 +163,11 @@ def cv(**params):
     return Call({"method": "erm"}, run)
 
 
-def diagnose(transform, **params):
-    """ResidualDiagnosis of the earlier fit, judged with (transformed) data."""
-    return Call({}, lambda est, X, y: ResidualDiagnosis(random_state=0, **params).fit(est, *transform(X, y)))
+def diagnose(transform, estimator_params=None, **params):
+    """ResidualDiagnosis of the earlier fit (its parameters set to ``estimator_params``), judged with
+    (transformed) data."""
+    return Call(dict(estimator_params or {}),
+                lambda est, X, y: ResidualDiagnosis(random_state=0, **params).fit(est, *transform(X, y)))
 
 
 def pendulum(X, y):
@@ -336,6 +338,8 @@ CASES = [
      ValueError, "3 samples: a split needs 4 at least"),
     ("ResidualDiagnosis z=0", diagnose(lambda X, y: (X, y), z=0),
      ValueError, "z must be a positive number of standard errors, got 0"),
+    ("ResidualDiagnosis judging a model with a theta encoder", diagnose(lambda X, y: (X, y), {"theta_encoder": "mlp"}),
+     ValueError, "cannot judge terms of a model with a theta_encoder"),
     ("ResidualDiagnosis exact naming an unknown state", diagnose(lambda X, y: (X, y), exact=["omega"]),
      ValueError, "exact entry 'omega' is neither a state name of ['x0', 'x1'] nor an index below 2"),
 ]
@@ -378,7 +382,7 @@ def test_bad_input_is_named_and_changes_nothing(earlier, what, call, error, phra
 
 def test_table_size():
     """The closing note quotes this count; keep it in step with CASES."""
-    assert len(CASES) == 78
+    assert len(CASES) == 79
 
 
 def test_data_home_that_is_a_file(tmp_path, monkeypatch):

@@ -37,7 +37,7 @@ from ._arguments import check_options
 from ._judge import judge_terms
 from .evidence import held_out_splits
 from .library import CandidateLibrary
-from .sensitivity import root_mean_square, science_sensitivities, state_labels
+from .sensitivity import exact_components, root_mean_square, science_sensitivities, state_labels
 from .sparse import SparseTermRegression
 
 __all__ = ["ResidualDiagnosis"]
@@ -259,6 +259,9 @@ class ResidualDiagnosis(BaseEstimator):
     def _check_y(self, estimator, X, y) -> None:
         """The judge's options and ``y``'s layout, before anything is computed: the judge runs last."""
         check_options(self.validation_fraction, 1, 1, None, self.z, self.min_gain, None, None, None, None)
+        if getattr(estimator, "theta_encoder", None) is not None:
+            raise ValueError("ResidualDiagnosis cannot judge terms of a model with a theta_encoder: its network-free "
+                             "refits hold one theta shared by every sample. Fit it without y to read the terms.")
         shape, fitted = np.shape(y), tuple(getattr(estimator, "y_shape_", ()))
         if shape[:1] != np.shape(X)[:1]:
             raise ValueError(f"y has {shape[0] if shape else 0} samples and X {len(X)}: give the targets of X.")
@@ -272,12 +275,8 @@ class ResidualDiagnosis(BaseEstimator):
         depends on no free parameter at the visited points."""
         if self.exact is None:
             return []
-        if isinstance(self.exact, str) and self.exact == "auto":
-            fixed = set(estimator.theta_fixed or ())
-            free = [k for k, name in enumerate(pnames) if name.split("[")[0] not in fixed]
-            if not free:  # nothing to estimate anywhere: no equation is singled out
-                return []
-            return [j for j in range(jac.shape[1]) if not np.any(np.abs(jac[:, j][:, free]) > 1e-12)]
+        if isinstance(self.exact, str) and self.exact == "auto":  # close_the_loop's rule, at the visited points
+            return exact_components(jac, pnames, set(estimator.theta_fixed or ())) or []
         items = [self.exact] if isinstance(self.exact, (str, int)) else list(self.exact)
         out = []
         for item in items:

@@ -15,7 +15,7 @@ import numpy as np
 import torch
 
 __all__ = ["state_labels", "root_mean_square", "science_output", "finite_differences", "parameter_jacobian",
-           "science_sensitivities"]
+           "science_sensitivities", "free_columns", "exact_components"]
 
 
 def state_labels(given: Sequence[str] | None, size: int, prefix: str, label: str) -> list[str]:
@@ -98,3 +98,18 @@ def science_sensitivities(estimator: Any, args: list[np.ndarray],
         return f, np.zeros((*f.shape, 0)), []
     jac, names = parameter_jacobian(func, theta, args)
     return f, jac, names
+
+
+def free_columns(jac: np.ndarray, names: Sequence[str], fixed: set) -> np.ndarray:
+    """The sensitivities of the parameters a refit may move: a fixed one cannot absorb a shift."""
+    return jac[..., [i for i, name in enumerate(names) if name.split("[")[0] not in fixed]]
+
+
+def exact_components(jac: np.ndarray, names: Sequence[str], fixed: set) -> list[int] | None:
+    """The outputs whose science equation depends on no free parameter at the points of ``jac``
+    (``(n, n_outputs, p)``, see :func:`parameter_jacobian`): exact physics, a definition such as
+    ``d angle/dt = velocity`` rather than a model; None where no parameter is free at all."""
+    jac = free_columns(jac, names, fixed)
+    if jac.shape[-1] == 0:
+        return None
+    return [j for j in range(jac.shape[1]) if not np.any(np.abs(jac[:, j, :]) > 1e-12)]
