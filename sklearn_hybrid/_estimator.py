@@ -120,7 +120,9 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
         ``"ode"``: indices of the state components that ``y`` observes.
     n_inputs : int, default=0
         ``"ode"``: number of measured input channels u(t) (see
-        :func:`~sklearn_hybrid.pack_inputs`).
+        :func:`~sklearn_hybrid.pack_inputs`: ``X`` holds the initial state,
+        then the inputs at ``y``'s ``n_steps + 1`` times, and ``fit_report()``
+        says how it was read).
     input_interp : {"cubic", "linear", "zoh", "fft"}, default="cubic"
         ``"ode"``: reconstruction of u(t) between samples.
     lr : float, default=1e-2

@@ -26,7 +26,7 @@ from ._arguments import (check_names, check_options, check_param_names, check_re
                          offset_states, uncertain_components)
 from .evidence import held_out_splits
 from .report import LoopResult, Scoring, format_table, residual_profile
-from .residual import state_labels, science_output
+from .sensitivity import state_labels, science_output
 from .science_fit import ScienceFit
 from .stepwise import forward_selection
 from .terms import Term, physics_terms

@@ -31,7 +31,7 @@ from .candidates import (augment_with, term_entries, free_columns, candidate_gro
                          with_fitted)
 from .evidence import evidence
 from .report import format_gain
-from .residual import parameter_jacobian, science_output
+from .sensitivity import parameter_jacobian, science_output
 from .science_fit import ScienceFit
 from .terms import SCIENCE_OUTPUT, Term
 
