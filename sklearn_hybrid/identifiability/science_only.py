@@ -26,6 +26,7 @@ import numpy as np
 import torch
 from scipy import stats
 
+from .._estimator import fitted_data, fitted_settings
 from .._validation import torch_threads
 from .._report import theta_jacobian
 from ._members import check_level
@@ -109,17 +110,15 @@ def science_intervals(estimator, X, y, level=0.95, incomplete: str | None = None
     from ..diagnosis import ZeroResidual
 
     model = estimator.model_
-    if not isinstance(estimator._fitted_params["residual"], ZeroResidual):
+    if not isinstance(fitted_settings(estimator)["residual"], ZeroResidual):
         raise ValueError("science_intervals is for models without a network (close_the_loop's science_only); "
                          "for a hybrid fit use profile_theta, which re-trains the network.")
-    X = estimator._fitted_X(X)
+    X, inputs = fitted_data(estimator, X, torch.float64)
     states = _check_fitted_states(fitted_states, estimator)
     y = check_target_layout(y, np.empty((len(X), *estimator.y_shape_))).reshape(len(X), -1)
     model = copy.deepcopy(model).to(torch.float64).eval()
     science = model.science
     with torch_threads(estimator.n_threads), torch.no_grad():
-        inputs = estimator._inputs(X, torch.float64, estimator.device_)
-
         def predict():
             return model(*inputs)[0].reshape(len(X), -1).cpu().numpy()
 
