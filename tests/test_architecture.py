@@ -54,5 +54,21 @@ def _estimator_private_uses():
     return found
 
 
+def _private_module_attributes():
+    """``(module, line, name)`` for every ``other_module._private_name`` a package module reads."""
+    modules = {p.stem for p in PACKAGE.rglob("*.py")}
+    found = []
+    for path in sorted(PACKAGE.rglob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if (isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name) and node.value.id in modules
+                    and node.attr.startswith("_") and not node.attr.startswith("__")):
+                found.append((path.relative_to(PACKAGE).as_posix(), node.lineno, f"{node.value.id}.{node.attr}"))
+    return found
+
+
+def test_no_module_reads_another_modules_private_names():
+    assert _private_module_attributes() == []
+
+
 def test_no_module_reaches_into_a_fitted_estimator():
     assert _estimator_private_uses() == []
