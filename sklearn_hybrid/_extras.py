@@ -252,9 +252,8 @@ class EstimatorExtras:
 
         Parameters
         ----------
-        profile : ThetaProfile or ThetaLaplace, optional
-            ``profile_theta(est, X, y)`` or ``laplace_theta(est, X, y)`` of
-            this fit: their verdicts and intervals, and how they were made.
+        profile : ThetaProfile, optional
+            ``profile_theta(est, X, y)`` of this fit.
 
         Returns
         -------
@@ -317,18 +316,17 @@ def _profile_verdicts(profile, names) -> tuple[dict | None, list[str]]:
     and the lines the report prints after the table."""
     if profile is None:
         return None, []
-    from .identifiability import ADVICE, IDENTIFIED, ThetaLaplace, ThetaProfile
+    from .identifiability import ADVICE, IDENTIFIED, ThetaProfile
 
-    if not isinstance(profile, (ThetaProfile, ThetaLaplace)):
-        raise TypeError("profile must be the ThetaProfile of profile_theta(est, X, y) or the ThetaLaplace of "
-                        f"laplace_theta(est, X, y), got {type(profile).__name__}.")
+    if not isinstance(profile, ThetaProfile):
+        raise TypeError(f"profile must be the ThetaProfile of profile_theta(est, X, y), got {type(profile).__name__}.")
     verdicts = {}
     for name in names:
         labels = [label for label in profile.verdicts if label == name or label.startswith(name + "[")]
         if labels:
             verdicts[name] = "; ".join((f"{label}: " if label != name else "") + profile.verdict_text(label)
                                        for label in labels)
-    after = [f"({'profiles' if isinstance(profile, ThetaProfile) else 'Laplace'}: {profile.how()})"]
+    after = [f"(profiles: {profile.how()})"]
     if any(v != IDENTIFIED for v in profile.verdicts.values()):
         after.append(f"({ADVICE})")
     return verdicts, after

@@ -6,17 +6,13 @@
   (identified, practically or structurally non-identifiable).
 - :func:`bootstrap_theta`: fits on resampled samples with new seeds: the spread
   of theta between data sets and training runs.
-- :func:`laplace_theta`: theta's marginal Laplace intervals with the network
-  integrated out: seconds where a profile takes a minute.
 - :func:`science_intervals`: intervals of a model without a network (the
   closed loop's ``science_only``), robust to errors correlated along a trajectory.
 """
 
 from .bootstrap import ThetaBootstrap, bootstrap_theta
-from .laplace import ThetaLaplace, laplace_theta
 from .profile import ADVICE, IDENTIFIED, PRACTICAL, STRUCTURAL, ThetaProfile, plot_profile, profile_theta
 from .science_only import ScienceIntervals, science_intervals
 
-__all__ = ["profile_theta", "ThetaProfile", "plot_profile", "laplace_theta", "ThetaLaplace", "bootstrap_theta",
-           "ThetaBootstrap", "science_intervals", "ScienceIntervals", "IDENTIFIED", "PRACTICAL", "STRUCTURAL",
-           "ADVICE"]
+__all__ = ["profile_theta", "ThetaProfile", "plot_profile", "bootstrap_theta", "ThetaBootstrap",
+           "science_intervals", "ScienceIntervals", "IDENTIFIED", "PRACTICAL", "STRUCTURAL", "ADVICE"]
