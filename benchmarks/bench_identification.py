@@ -368,6 +368,9 @@ def run_case(system: System, noise: float, seed: int, fast: bool, command: str) 
             "identified": (scores["rel_err"] <= PROTOCOL["threshold"]) if "rel_err" in scores else None,
             "n_added": len(added), "added": added, "science_theta": _floats(theta),
             "before_theta": _floats(res.before.theta_), "theta_true": system.theta_true,
+            "intervals": {k: {"interval": [float(v) for v in res.intervals.intervals[k]],
+                              "verdict": res.intervals.verdicts[k]} for k in system.theta_true
+                          if k in res.intervals.verdicts},
             "noise_sigma": data["sigma"].tolist(), "seconds": float(res.seconds), "wall_seconds": wall,
             "report": res.report, "first_fit_reused": reused, "package_commit": PACKAGE_COMMIT, "command": command,
             "protocol": FAST if fast else PROTOCOL, "machine": machine_description()}
@@ -385,23 +388,66 @@ def _terms(rec: dict) -> str:
                      + f" [{a.get('component')}]" for a in rec["added"]).replace("|", "\\|") or "nothing"
 
 
+def theta_errors(record: dict) -> tuple[float, float] | None:
+    """Mean relative error of the science's parameters (scalar, true value not 0) at the hybrid fit's
+    ``theta_`` (before) and after the loop (``science_theta``), or None if it has none such."""
+    if "error" in record or "theta_true" not in record:
+        return None
+    true = record["theta_true"]
+    keys = [k for k in true if np.ndim(true[k]) == 0 and true[k] != 0 and k in record["before_theta"]
+            and k in record["science_theta"]]
+    if not keys:
+        return None
+    return tuple(float(np.mean([abs(record[which][k] - true[k]) / abs(true[k]) for k in keys]))
+                 for which in ("before_theta", "science_theta"))
+
+
+def _theta_lines(records: list[dict], label: str) -> list[str]:
+    errs = [e for e in map(theta_errors, records) if e is not None]
+    if not errs:
+        return []
+    before, after = np.array(errs).T
+    return [f"- theta ({label}, mean relative error of the science's parameters over {len(errs)} cases): hybrid fit "
+            f"median {np.median(before):.3f}, within 10 % in {np.sum(before <= 0.1)}; after the loop median "
+            f"{np.median(after):.3f}, within 10 % in {np.sum(after <= 0.1)}; the loop closer to the truth in "
+            f"{np.sum(after < before)}, farther in {np.sum(after > before)}"] + _interval_lines(records)
+
+
+def _interval_lines(records: list[dict]) -> list[str]:
+    """Do the loop's intervals (``science_intervals``, recorded since they exist) hold the truth?"""
+    rows = [(r["theta_true"][k], v) for r in records for k, v in r.get("intervals", {}).items()
+            if np.ndim(r["theta_true"][k]) == 0]
+    if not rows:
+        return []
+    ident = [(true, v["interval"]) for true, v in rows if v["verdict"] == "identified"]
+    held = sum(low <= true <= high for true, (low, high) in ident)
+    return [f"  - the loop's intervals: {len(ident)} of {len(rows)} parameters called identified, {held} of them "
+            "holding the truth"]
+
+
+def _theta_cells(record: dict) -> str:
+    errs = theta_errors(record)
+    return "| |" if errs is None else f"| {errs[0]:.3f} | {errs[1]:.3f} |"
+
+
 def _tables(records: list[dict]) -> list[str]:
     """The missing-effects table, the controls table and their summary, for one batch of systems."""
     effects = [r for r in records if not SYSTEMS[r["system"]].is_control]
     controls = [r for r in records if SYSTEMS[r["system"]].is_control]
-    md = ["| system | missing effect | kind | noise | before | rel_err | leak | identified | terms added | s |",
-          "|---|---|---|---|---|---|---|---|---|---|"]
+    md = ["| system | missing effect | kind | noise | before | rel_err | leak | identified | terms added "
+          "| theta err hybrid | theta err loop | s |", "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in effects:
         s = SYSTEMS[r["system"]]
         md.append(f"| {s.name} | {s.effect} | {s.effect_kind} | {r['noise']} | {_fmt(r.get('before_err'))} | "
                   f"{_fmt(r.get('rel_err'))} | {_fmt(r.get('leak'))} | {'yes' if r.get('identified') else 'no'} | "
-                  f"{_terms(r)} | {r.get('wall_seconds', 0):.0f} |")
+                  f"{_terms(r)} {_theta_cells(r)} {r.get('wall_seconds', 0):.0f} |")
     md += ["", "Controls (the science model is the truth; only its parameters start off):", "",
-           "| system | noise | terms added | n_added | before | after | s |", "|---|---|---|---|---|---|---|"]
+           "| system | noise | terms added | n_added | before | after | theta err hybrid | theta err loop | s |",
+           "|---|---|---|---|---|---|---|---|---|"]
     for r in controls:
         md.append(f"| {r['system']} | {r['noise']} | {_terms(r)} | {r.get('n_added', '')} | "
-                  f"{_fmt(r.get('before_control_err'), 4)} | {_fmt(r.get('control_err'), 4)} | "
-                  f"{r.get('wall_seconds', 0):.0f} |")
+                  f"{_fmt(r.get('before_control_err'), 4)} | {_fmt(r.get('control_err'), 4)} "
+                  f"{_theta_cells(r)} {r.get('wall_seconds', 0):.0f} |")
     md += [""]
     for label, group in [(f"noise {n}", [r for r in effects if r["noise"] == n]) for n in NOISE_LEVELS] + \
             [("all", effects)]:
@@ -412,6 +458,7 @@ def _tables(records: list[dict]) -> list[str]:
     if controls:
         clean = sum(r.get("n_added") == 0 for r in controls)
         md.append(f"- controls with nothing added: {clean} of {len(controls)} (target: all)")
+    md += _theta_lines(records, "this batch")
     secs = [r["wall_seconds"] for r in records if "wall_seconds" in r and not r.get("first_fit_reused")]
     if secs:
         md.append(f"- seconds per case (close_the_loop wall-clock, cases that made their first fit): median "
@@ -635,6 +682,9 @@ def render(records: list[dict]) -> str:
                        f"were added after batch 9's `saturating_coil` had failed, so batches 2 to {SCALED_BATCH - 1} "
                        f"are not fresh for them): {hits} of {n_eff} effects within 10 %, {clean} of "
                        f"{len(newest) - n_eff} controls clean, {len(newest)} of {n_cases} cases run."]
+    md += ["", "Theta: the science's own parameters (scalar, true value not 0; the coefficients of added terms are "
+               "scored in function space above) at the hybrid fit and after the loop (`science_theta`, the "
+               "network-free refit)."] + _theta_lines(effects, "missing effects") + _theta_lines(controls, "controls")
     md += _rerun_section(pairs, n_earlier) + _second_look_section(records) + _periodic_section(records)
     for batch, (heading, preface) in BATCHES.items():
         if batches[batch]:

@@ -73,7 +73,7 @@ def make_problem(family: str, noise: float, n: int, rng: np.random.Generator) ->
             "names": list(library.get_feature_names_out())}
 
 
-def _cv_choice(make, Xs: np.ndarray, r: np.ndarray, values: np.ndarray, one_se: bool) -> float:
+def cv_choice(make, Xs: np.ndarray, r: np.ndarray, values: np.ndarray, one_se: bool) -> float:
     """Grid value by 5-fold CV error (shuffled folds: the rows are independent draws)."""
     errors = np.zeros((len(values), 5))
     for f, (train, test) in enumerate(KFold(5, shuffle=True, random_state=0).split(Xs)):
@@ -111,7 +111,7 @@ def fit_methods(problem: dict) -> dict:
     for name, make in (("STLSQ", _stlsq), ("SR3 (L0)", _sr3)):
         for one_se in (False, True):
             start = time.perf_counter()
-            v = _cv_choice(make, Xs, r, values, one_se)
+            v = cv_choice(make, Xs, r, values, one_se)
             coef = make(v).fit(Xs, r).coef_.ravel() / scale
             out[f"{name}, 5-fold CV{' 1-SE' if one_se else ''}"] = (coef, time.perf_counter() - start)
     truth = problem["beta"] != 0

@@ -52,7 +52,7 @@ class _StackedModel:
         self.fast = (getattr(structure, "solver", None) is not None
                      and _fast.supports(self.base.residual, tuple(structure.state_shape),
                                         structure.solver)
-                     and _fast._row_by_row(self.base.science.func, inputs[0],
+                     and _fast.row_by_row(self.base.science.func, inputs[0],
                                            inputs[1] if len(inputs) > 1 else None,
                                            self.base.science.values()))
         if not self.fast and any(isinstance(m, nn.modules.batchnorm._BatchNorm) and m.track_running_stats

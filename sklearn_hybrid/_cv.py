@@ -15,7 +15,7 @@ from sklearn.metrics import check_scoring
 from sklearn.utils.validation import check_is_fitted, validate_data
 
 from ._batched import train_members
-from ._estimator import HybridRegressor
+from ._estimator import HybridRegressor, prepare_fit, store_fit
 from .methods import Method, make_method, stackable_methods
 from ._validation import check_n_jobs, set_feature_info, torch_threads, validate_into_copy
 from ._kernels import reusing_buffers
@@ -219,7 +219,7 @@ class HybridRegressorCV(RegressorMixin, BaseEstimator):
         X_arr = np.asarray(X)
         train_idx, val_idx = self._split(len(X_arr), params[0]["random_state"])
         members = [member_estimator(self.estimator, p["rho"], p["lam"], p["random_state"]) for p in params]
-        setups = [m._setup_fit(X_arr[train_idx], y_arr[train_idx]) for m in members]
+        setups = [prepare_fit(m, X_arr[train_idx], y_arr[train_idx]) for m in members]
         # the members share shapes: measure one, count those in memory at once (all of them
         # when stacked, one per worker when members with an encoder train one by one)
         together = (len(setups) if self.estimator.theta_encoder is None
@@ -243,7 +243,7 @@ class HybridRegressorCV(RegressorMixin, BaseEstimator):
         for k, (member, setup) in enumerate(zip(members, setups)):
             member_history = {"loss": history["loss"][:, k],
                               "theta": {n: v[:, k] for n, v in history["theta"].items()}}
-            member._set_fitted(setup, member_history)
+            store_fit(member, setup, member_history)
             if diverged[k] < 0:
                 scores[k] = scorer(member, X_val, y_val)
         best = self._best(scores, diverged, len(val_idx))

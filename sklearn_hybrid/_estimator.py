@@ -120,7 +120,9 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
         ``"ode"``: indices of the state components that ``y`` observes.
     n_inputs : int, default=0
         ``"ode"``: number of measured input channels u(t) (see
-        :func:`~sklearn_hybrid.pack_inputs`).
+        :func:`~sklearn_hybrid.pack_inputs`: ``X`` holds the initial state,
+        then the inputs at ``y``'s ``n_steps + 1`` times, and ``fit_report()``
+        says how it was read).
     input_interp : {"cubic", "linear", "zoh", "fft"}, default="cubic"
         ``"ode"``: reconstruction of u(t) between samples.
     lr : float, default=1e-2
@@ -624,3 +626,45 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
         n = len(pred)
         y = check_target_layout(y, pred)
         return r2_score(y.reshape(n, -1), pred.reshape(n, -1), sample_weight=sample_weight)
+
+
+# The estimator's interface for the package's own modules (the stacked sweep, the profiles and the bootstrap,
+# the network-free intervals and refits), in the way of scikit-learn's validate_data(estimator, X): module
+# functions over a HybridRegressor, so that no other module calls its private methods.
+
+def prepare_fit(estimator: HybridRegressor, X, y) -> Bunch:
+    """Validate ``X, y`` and build what a fit of ``estimator`` trains (``estimator`` is not changed).
+
+    Returns the Bunch a fit trains from: ``model`` (with the seeded network), ``method``,
+    ``inputs``, ``y`` (tensor), ``config``, ``seed`` and the data's shapes.
+    """
+    return estimator._setup_fit(X, y)
+
+
+def store_fit(estimator: HybridRegressor, setup: Bunch, history: dict) -> None:
+    """Make ``estimator`` fitted with the model trained from ``setup`` (from :func:`prepare_fit`)."""
+    estimator._set_fitted(setup, history)
+
+
+def fitted_data(estimator: HybridRegressor, X, dtype: torch.dtype | None = None) -> tuple[np.ndarray, tuple]:
+    """``X`` validated against the fit, and the fitted model's inputs for it.
+
+    The inputs are tensors on the fit's device, in ``dtype`` (default: the dtype the model was fitted
+    in), built without gradients.
+    """
+    X = estimator._fitted_X(X)
+    with torch_threads(estimator.n_threads), torch.no_grad():
+        inputs = estimator._inputs(X, dtype or estimator._fitted_dtype(), estimator.device_)
+    return X, inputs
+
+
+def fitted_settings(estimator: HybridRegressor) -> dict:
+    """The estimator's parameters as they were at fit (``set_params`` since changes nothing here)."""
+    check_is_fitted(estimator)
+    # a fit pickled before the parameters at fit were kept: its current ones
+    return dict(getattr(estimator, "_fitted_params", None) or estimator.get_params(deep=False))
+
+
+def structure_X(estimator: HybridRegressor, X: np.ndarray) -> np.ndarray:
+    """What the structure reads of validated ``X`` (the last state of each window with a theta encoder)."""
+    return estimator._structure_X(X)

@@ -42,7 +42,7 @@ from . import _kernels
 from .integrate import integrate
 from .residual import MLP, MaskedMLP
 
-__all__ = ["supports", "mlp_parts", "ode_states", "disabled"]
+__all__ = ["supports", "mlp_parts", "ode_states", "disabled", "row_by_row"]
 
 #: Largest state size served (the Jacobians cost ``MAX_STATE`` forward passes).
 MAX_STATE = 8
@@ -306,7 +306,7 @@ def ode_states(func: Callable, names: list, thetas: list, weights: list, biases:
 _ROW_BY_ROW = weakref.WeakKeyDictionary()  # science function -> acts on rows independently
 
 
-def _row_by_row(func, x0, u_fine, theta) -> bool:
+def row_by_row(func, x0, u_fine, theta) -> bool:
     """Whether the science function treats samples independently (checked once, on two rows)."""
     try:
         return _ROW_BY_ROW[func]
@@ -335,7 +335,7 @@ def hybrid_states(science: nn.Module, residual: nn.Module, x0: torch.Tensor,
     the Jacobians rely on) is integrated with plain autograd instead.
     """
     values = science.values()
-    if not _row_by_row(science.func, x0, u_fine, values):
+    if not row_by_row(science.func, x0, u_fine, values):
         def rhs(v, u):
             return science(*_args(v, u)) + residual(*_args(v, u))
 

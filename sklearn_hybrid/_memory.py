@@ -34,8 +34,29 @@ def fit_memory_bytes(model, inputs: tuple[torch.Tensor, ...], n_batch: int) -> i
     pass, counted once each; the per-sample share is scaled to ``n_batch``
     and by the peak-to-saved ratio measured on the pendulum task (gradients,
     the optimiser and the fast path's own buffers come on top).
+
+    An RK4 ODE is probed over one and two substeps, and the bytes the second
+    added are counted once per further substep of the horizon
+    (:func:`_rk4_substeps`): every substep saves the same tensors, and a
+    plain autograd pass over a long horizon costs a large part of a training
+    iteration on the fast path, whatever the batch.
     """
-    probe = tuple(t[:2] for t in inputs)
+    # copies: a slice shares the storage of every sample's tensor, which would be counted whole
+    probe = tuple(t[:2].clone() for t in inputs)
+    structure, substeps = model.structure, _rk4_substeps(model.structure)
+    if substeps is None:
+        saved = _saved_bytes(model, probe)
+    else:
+        with _horizon(structure, 1, 1):
+            one = _saved_bytes(model, probe)
+        with _horizon(structure, 1, 2):
+            two = _saved_bytes(model, probe)
+        saved = one + max(two - one, 0) * (substeps - 1)
+    return int(_PEAK_OVER_SAVED * saved / len(probe[0]) * n_batch)
+
+
+def _saved_bytes(model, probe: tuple[torch.Tensor, ...]) -> int:
+    """Bytes of the distinct storages autograd saves in a forward pass on ``probe``."""
     storages = {}
 
     def pack(t):
@@ -52,7 +73,34 @@ def fit_memory_bytes(model, inputs: tuple[torch.Tensor, ...], n_batch: int) -> i
         with torch.no_grad():
             for b, s in zip(buffers, saved):
                 b.copy_(s)
-    return int(_PEAK_OVER_SAVED * sum(storages.values()) / len(probe[0]) * n_batch)
+    return sum(storages.values())
+
+
+@contextmanager
+def _horizon(structure, n_steps: int, n_substeps: int):
+    """The structure integrating ``n_steps`` output steps of ``n_substeps`` for the block."""
+    kept = structure.n_steps, structure.n_substeps
+    structure.n_steps, structure.n_substeps = n_steps, n_substeps
+    try:
+        yield
+    finally:
+        structure.n_steps, structure.n_substeps = kept
+
+
+def _rk4_substeps(structure) -> int | None:
+    """RK4 substeps of an ODE's whole horizon, where it is worth probing a shorter one (more than
+    two); None for other structures, other solvers and short horizons.
+
+    Over the short horizons the inputs' grid is read at other times, which changes no tensor's
+    size.  An adaptive solver takes as many steps as the dynamics ask, more where they are
+    faster, so its first steps do not tell the rest: it is probed over the whole horizon, a
+    forward pass on two samples, less than one of its iterations (the same plain autograd,
+    forwards and backwards, on a batch).
+    """
+    if getattr(structure, "solver", None) != "rk4" or not isinstance(getattr(structure, "n_steps", None), int):
+        return None
+    total = structure.n_steps * structure.n_substeps
+    return total if total > 2 else None
 
 
 def available_memory_bytes(device: torch.device | None = None) -> int | None:

@@ -26,7 +26,7 @@ import numpy as np
 import torch
 
 
-__all__ = ["theta_uncertainty", "format_report"]
+__all__ = ["theta_uncertainty", "theta_jacobian", "format_report"]
 
 
 def _predict(model, inputs, chunk=None):
@@ -36,6 +36,41 @@ def _predict(model, inputs, chunk=None):
     with torch.no_grad():
         parts = [model(*(t[start:start + chunk] for t in inputs))[0] for start in range(0, n, chunk)]
     return torch.cat(parts).reshape(n, -1).cpu().numpy()
+
+
+def theta_jacobian(science, predict, entries) -> np.ndarray:
+    """Central differences of ``predict()`` by theta's entries, in theta's own units.
+
+    Parameters
+    ----------
+    science : Science
+        The module holding theta (modified in place during the call, restored
+        after each entry).
+    predict : callable
+        Returns the predictions (an array) at the current theta.
+    entries : list of (str, int)
+        ``(name, flat index)`` of each entry to differentiate by, free or fixed.
+
+    Returns
+    -------
+    ndarray of shape ``predict().shape + (len(entries),)``
+        Each raw (reparametrised) entry is moved by +-h and the step in theta
+        read back through its bounds' transform.
+    """
+    columns = []
+    with torch.no_grad():
+        for name, k in entries:
+            flat = science.raw[name].data.view(-1)
+            original = float(flat[k])
+            h = 1e-6 * max(abs(original), 1.0)
+            values, preds = [], []
+            for step in (h, -h):
+                flat[k] = original + step
+                values.append(science.values()[name].detach().reshape(-1)[k].item())
+                preds.append(predict())
+            flat[k] = original
+            columns.append((preds[0] - preds[1]) / (values[0] - values[1]))
+    return np.stack(columns, axis=-1)
 
 
 def theta_uncertainty(model, inputs, y, sample_weight=None, chunk=None) -> tuple[dict, np.ndarray, list]:
@@ -83,30 +118,15 @@ def theta_uncertainty(model, inputs, y, sample_weight=None, chunk=None) -> tuple
     n_values = int(counted.sum()) * y.shape[1]
     w = np.repeat(w / w[counted].mean(), y.shape[1])  # one weight per output value, mean 1 where counted
     base = _predict(model, inputs, chunk).ravel()
-    columns, labels, where = [], [], []
-    for name in science.names:
-        raw = science.raw[name]
-        if not raw.requires_grad:
-            continue
-        flat = raw.data.view(-1)
-        for k in range(flat.numel()):
-            original = float(flat[k])
-            h = 1e-6 * max(abs(original), 1.0)
-            values, preds = [], []
-            for step in (h, -h):
-                flat[k] = original + step
-                values.append(science.values()[name].detach().reshape(-1)[k].item())
-                preds.append(_predict(model, inputs, chunk).ravel())
-            flat[k] = original
-            columns.append((preds[0] - preds[1]) / (values[0] - values[1]))
-            labels.append(name if raw.numel() == 1 and raw.dim() == 0 else f"{name}[{k}]")
-            where.append((name, k))
-    p = len(columns)
+    where = [(name, k) for name in science.names if science.raw[name].requires_grad
+             for k in range(science.raw[name].numel())]
+    labels = [name if science.shapes[name] == () else f"{name}[{k}]" for name, k in where]
+    p = len(where)
     std = {name: (0.0 if science.shapes[name] == () else np.zeros(science.shapes[name]))
            for name in science.names}
     if p == 0:
         return std, np.zeros((0, 0)), labels
-    J = np.stack(columns, axis=1)
+    J = theta_jacobian(science, lambda: _predict(model, inputs, chunk).ravel(), where)
     resid = y.ravel() - base
     dof = max(n_values - p, 1)
     s2 = float(np.sum(w * resid**2) / dof)

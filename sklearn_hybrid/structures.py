@@ -93,6 +93,15 @@ def pack_inputs(x0: np.ndarray, u: np.ndarray) -> np.ndarray:
     Returns
     -------
     ndarray of shape (n_samples, n_states + (n_steps + 1) * n_inputs)
+
+    Notes
+    -----
+    The fit reads the layout back from ``y``'s steps: the state is what remains of ``X`` after
+    ``n_steps + 1`` input samples.  ``X`` alone cannot tell a surplus input sample from a state
+    component, so pack exactly ``y``'s ``n_steps + 1`` samples (``u[:, :n_steps + 1]``).  A
+    surplus is refused where the science function or ``y`` fixes the state's size; where neither
+    does (a function such as ``-k * v + u`` and ``observed`` set) it becomes state components,
+    and only ``fit_report()``, which says how ``X`` was read, shows it.
     """
     x0, u = np.asarray(x0, float), np.asarray(u, float)
     if u.ndim == 2:
@@ -196,6 +205,13 @@ class OdeStructure:
                 f"columns, which leaves {self.state_shape[0]} for the state. If the state has fewer "
                 f"components, X holds more input samples than y's steps need: pack u with "
                 f"{samples} samples, pack_inputs(x0, u[:, :{samples}]).")
+
+    def layout(self) -> str:
+        """How a forced system's X was read (empty unforced): the state, then the input samples."""
+        if not self.n_inputs:
+            return ""
+        return (f"X read as a state of {self.state_shape[0]} component(s), then {self.n_steps + 1} samples of "
+                f"{self.n_inputs} input(s) (times 0 to {self.n_steps} dt, from y's {self.n_steps} steps)")
 
     def _layout_message(self, y_shape, n_state):
         """Say which layout ``y`` needs, what it has, and the likely fix."""

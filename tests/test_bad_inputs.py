@@ -21,7 +21,7 @@ from sklearn.exceptions import ConvergenceWarning, NotFittedError
 
 from sklearn_hybrid import DivergenceError, HybridRegressor, HybridRegressorCV, pack_inputs
 from sklearn_hybrid.datasets import get_data_home, make_pendulum
-from sklearn_hybrid.diagnosis import close_the_loop
+from sklearn_hybrid.diagnosis import ResidualDiagnosis, close_the_loop
 from sklearn_hybrid.models import pendulum_f
 from sklearn_hybrid.residual import MLP
 
@@ -161,6 +161,13 @@ def cv(**params):
     def run(est, X, y):
         HybridRegressorCV(est, **params).fit(X, y)
     return Call({"method": "erm"}, run)
+
+
+def diagnose(transform, estimator_params=None, **params):
+    """ResidualDiagnosis of the earlier fit (its parameters set to ``estimator_params``), judged with
+    (transformed) data."""
+    return Call(dict(estimator_params or {}),
+                lambda est, X, y: ResidualDiagnosis(random_state=0, **params).fit(est, *transform(X, y)))
 
 
 def pendulum(X, y):
@@ -322,6 +329,19 @@ CASES = [
      ValueError, "y has per-sample shape (3, 2); the estimator was fitted on y of per-sample shape (5, 2)"),
     ("HybridRegressorCV.predict before fit", Call({}, lambda est, X, y: HybridRegressorCV(est).predict(X)),
      NotFittedError, "is not fitted yet"),
+    # audit 4: ResidualDiagnosis judges its terms with y, as close_the_loop does
+    ("ResidualDiagnosis with y of another horizon", diagnose(lambda X, y: (X, y[:, :3])),
+     ValueError, "y has per-sample shape (3, 2); the estimator was fitted on y of per-sample shape (5, 2)"),
+    ("ResidualDiagnosis with y of fewer samples", diagnose(lambda X, y: (X, y[:-1])),
+     ValueError, "y has 5 samples and X 6"),
+    ("ResidualDiagnosis with y of too few samples to judge", diagnose(lambda X, y: (X[:3], y[:3])),
+     ValueError, "3 samples: a split needs 4 at least"),
+    ("ResidualDiagnosis z=0", diagnose(lambda X, y: (X, y), z=0),
+     ValueError, "z must be a positive number of standard errors, got 0"),
+    ("ResidualDiagnosis judging a model with a theta encoder", diagnose(lambda X, y: (X, y), {"theta_encoder": "mlp"}),
+     ValueError, "cannot judge terms of a model with a theta_encoder"),
+    ("ResidualDiagnosis exact naming an unknown state", diagnose(lambda X, y: (X, y), exact=["omega"]),
+     ValueError, "exact entry 'omega' is neither a state name of ['x0', 'x1'] nor an index below 2"),
 ]
 
 
@@ -362,7 +382,7 @@ def test_bad_input_is_named_and_changes_nothing(earlier, what, call, error, phra
 
 def test_table_size():
     """The closing note quotes this count; keep it in step with CASES."""
-    assert len(CASES) == 73
+    assert len(CASES) == 79
 
 
 def test_data_home_that_is_a_file(tmp_path, monkeypatch):
@@ -500,3 +520,27 @@ def test_a_smoke_test_of_two_iterations_is_not_judged():
     y_t = torch.tensor(y.reshape(len(y), -1), dtype=torch.float32)
     history = {"loss": np.array([1e-6, 1e-6]), "theta": {"omega": np.array([0.5, 0.5])}, "lr_halved_at": []}
     assert judge_training(est.model_, history, inputs, y_t, theta_start={"omega": 0.5}).usable
+
+
+def any_size(v, u, k=1.0):  # a forced science that works for a state of any size
+    return -k * v + u
+
+
+def test_forced_inputs_packed_beyond_ys_steps_cannot_be_told_from_a_larger_state():
+    """X of a forced system is the state, then inputs at y's n_steps + 1 times; the state's size is what
+    remains. Packed with 8 input samples where y's 5 steps need 6, the 2-state X is, column for column,
+    the X of a 4-state system packed right: no rule can tell them apart. Where the science function
+    or y fixes the state's size the surplus is refused (the rows above); where neither does (this
+    function, observed=[0, 1]) the fit reads 4 states, and fit_report() says how X was read. What the
+    user must pass: u with y's n_steps + 1 samples, pack_inputs(x0, u[:, :n_steps + 1])."""
+    X, y = _data()
+    packed, _ = packed_with(8)(X, y)
+    u = np.linspace(-1, 1, len(X) * 8).reshape(len(X), 8, 1)
+    np.testing.assert_array_equal(packed, pack_inputs(packed[:, :4], packed[:, 4:].reshape(len(X), 6, 1)))
+    params = {**FAST, "science": any_size, "n_inputs": 1, "observed": [0, 1]}
+    surplus = HybridRegressor(**params).fit(packed, y)
+    assert surplus.model_.structure.state_shape == (4,)
+    assert "X read as a state of 4 component(s), then 6 samples of 1 input(s)" in surplus.fit_report()
+    right = HybridRegressor(**params).fit(pack_inputs(X, u[:, :6]), y)
+    assert right.model_.structure.state_shape == (2,)
+    assert "X read as a state of 2 component(s), then 6 samples" in right.fit_report()

@@ -44,19 +44,43 @@ def pendulum():
 def test_pendulum_damping_recovered(pendulum):
     data, est = pendulum
     diag = ResidualDiagnosis(state_names=NAMES, units={"v": "rad", "v_dot": "rad/s"}, random_state=0)
-    diag.fit(est, data.X_train)
+    diag.fit(est, data.X_train, data.y_train)
     assert diag.components_ == [1]  # g[v] is identically zero: nothing to explain there
+    assert diag.exact_ == [0]  # d v/dt = v_dot depends on no parameter
     terms = _new_terms(diag)
     assert list(terms) == [("g[v_dot]", "v_dot")]
     damping = terms[("g[v_dot]", "v_dot")]
     assert damping["coef"] == pytest.approx(-0.5, rel=0.1)
     assert damping["inclusion"] >= 0.9 and damping["explained"] > 0.3
+    # the missing effect passes the held-out test close_the_loop applies
+    assert damping["kept"] and damping["evidence"]["gain"] > 0.5
+    assert damping["evidence"]["z"] > damping["evidence"]["threshold"]
+    assert "v_dot on g[v_dot]: held-out gain" in diag.summary()
     # What the network carries of the frequency is read as a parameter correction.
     omega = est.theta_["omega"] + diag.theta_shift_.get("omega", 0.0)
     assert omega == pytest.approx(2 / 3, rel=0.03)
     assert "rad/s" in diag.equations()[0] and "v_dot" in diag.summary()
     axes = diag.plot()
     assert len(axes) == len(diag.terms_)
+
+
+def test_residual_diagnosis_adds_nothing_to_complete_science():
+    """An undamped pendulum with noise and its complete science model: the network, acting on both
+    equations, fits noise, and sparse regression reads a term off it with inclusion 1.0; held to
+    close_the_loop's test the term is not added, and the exact d v/dt = v_dot is left alone."""
+    data = make_pendulum(50, 5, 25, gamma=0.0, dt=0.1, n_steps=10, random_state=0)
+    est = HybridRegressor(science=pendulum_f, method="erm", dt=0.1, n_substeps=1, lr=1e-2, max_iter=400,
+                          residual={"hidden": (32, 32)}, random_state=0).fit(data.X_train, data.y_train)
+    with pytest.warns(UserWarning, match=r"not judged on held-out data \(without y\)"):
+        unjudged = ResidualDiagnosis(state_names=NAMES, exact=None, random_state=0).fit(est, data.X_train)
+    assert unjudged.new_terms_ and all(t["inclusion"] == 1.0 for t in unjudged.new_terms_)
+    diag = ResidualDiagnosis(state_names=NAMES, random_state=0).fit(est, data.X_train, data.y_train)
+    assert diag.new_terms_ == []
+    assert diag.exact_ == [0] and 0 not in diag.components_
+    judged = [t for t in diag.terms_ if t["kind"] == "term"]
+    assert judged and not any(t["kept"] or t["evidence"]["accepted"] for t in judged)
+    assert "not supported by held-out data, left out" in diag.summary()
+    assert "g[v]: " in diag.summary() and "exact, left alone" in diag.summary()
 
 
 def test_close_the_loop_pendulum(pendulum):
@@ -129,9 +153,9 @@ def test_quadratic_drag_recovered():
     X, y = _drag_data(50, 10, 0.1, c=0.5, seed=0)
     est = _fit(spring_f, X, y, dt=0.1, max_iter=400, lr=2e-2)
     library = CandidateLibrary(degree=3, include_bias=False, nonsmooth=True)
-    diag = ResidualDiagnosis(state_names=NAMES, library=library, random_state=0).fit(est, X)
+    diag = ResidualDiagnosis(state_names=NAMES, library=library, random_state=0).fit(est, X, y)
     terms = _new_terms(diag)
-    assert list(terms) == [("g[v_dot]", "v_dot|v_dot|")]
+    assert list(terms) == [("g[v_dot]", "v_dot|v_dot|")] and terms[("g[v_dot]", "v_dot|v_dot|")]["kept"]
     assert terms[("g[v_dot]", "v_dot|v_dot|")]["coef"] == pytest.approx(-0.5, rel=0.1)
 
 
@@ -488,7 +512,7 @@ def test_candidates_are_also_ranked_without_the_network(pendulum):
     """A hybrid fit can trade the missing effect between theta and the network, so its residual may
     point at the wrong term; the network-free ranking (a score test on the training trajectories)
     still brings the right one to the refit. Here the 'learned' residual is a wrong v^3."""
-    from sklearn_hybrid.diagnosis.residual import science_output
+    from sklearn_hybrid.diagnosis.sensitivity import science_output
     from sklearn_hybrid.diagnosis.stepwise import forward_selection
 
     data, est = pendulum
@@ -508,7 +532,7 @@ def test_candidates_are_also_ranked_without_the_network(pendulum):
 def test_screening_refits_use_evenly_spaced_training_samples_and_the_kept_term_all_of_them(pendulum, monkeypatch):
     """Candidates are screened on a subsample (speed); the accepted term is refitted on every sample."""
     from sklearn_hybrid.diagnosis import _judge, stepwise
-    from sklearn_hybrid.diagnosis.residual import science_output
+    from sklearn_hybrid.diagnosis.sensitivity import science_output
 
     data, est = pendulum
     fit = ScienceFit(est, data.X_train, data.y_train)
@@ -539,7 +563,7 @@ def test_a_term_the_converged_test_drops_at_once_is_not_proposed_again(pendulum,
     """Seen on a Gompertz growth system: the screening test accepted a term, the converged drop test removed
     it at once, and the selection proposed it again, forever. Now it is set aside and the selection goes on."""
     from sklearn_hybrid.diagnosis import candidates, stepwise
-    from sklearn_hybrid.diagnosis.residual import science_output
+    from sklearn_hybrid.diagnosis.sensitivity import science_output
 
     data, est = pendulum
     fit = ScienceFit(est, data.X_train, data.y_train)
@@ -805,6 +829,11 @@ def test_close_the_loop_fits_unobserved_initial_states():
     np.testing.assert_array_equal(X_wrong, X_given)
     assert [(t["output"], t["term"]) for t in out.added] == [("g[v_dot]", "v_dot")]
     assert out.added[0]["coef"] == pytest.approx(-0.5, rel=0.1)
+    np.testing.assert_allclose(out.initial_states[:, 1], data.X_train[:, 1], atol=0.1)
+    from sklearn_hybrid.identifiability import science_intervals
+
+    X_fit = out.initial_states  # the intervals count the fitted velocities as parameters: wider
+    assert out.intervals.std["omega"] > 1.2 * science_intervals(out.science_only, X_fit, y).std["omega"]
     with pytest.raises(ValueError, match="fit_initial_states=True needs an estimator with structure='ode'"):
         close_the_loop(HybridRegressor(science=pendulum_f, dt=0.1), data.X_train, data.y_train,
                        fit_initial_states=True)

@@ -218,3 +218,63 @@ def test_the_objective_profile_trains_members_with_the_fit_s_method(line_data):
     assert np.all(prof.objective["a"] > prof.loss["a"])
     assert prof.objective_minimum["a"] in prof.values["a"] and "p-reg objective is lowest" in prof.report()
     assert profile_theta(est, X, y, params="a", n_points=3, max_iter=2, refine=False).objective == {}
+
+
+def chain_f(v, k1=0.5, k2=0.5):
+    """A -> B -> out, first order; only B is measured."""
+    return torch.stack([-k1 * v[:, 0], k1 * v[:, 0] - k2 * v[:, 1]], dim=-1)
+
+
+def test_science_intervals_count_the_fitted_initial_states():
+    """Unmeasured initial states fitted per sample are parameters too: the interval is the theta block
+    of the sandwich over theta and every sample's state, computed here from predictions alone."""
+    from scipy.integrate import solve_ivp
+
+    from sklearn_hybrid.diagnosis.science_fit import ScienceFit
+
+    rng = np.random.default_rng(4)
+    n, steps, dt = 25, 12, 0.2
+    x0 = np.column_stack([rng.uniform(0.5, 1.5, n), rng.uniform(0.0, 0.5, n)])
+    t = dt * np.arange(1, steps + 1)
+    truth = np.stack([solve_ivp(lambda _, v: [-0.8 * v[0], 0.8 * v[0] - 0.3 * v[1]], (0, t[-1]), s, t_eval=t,
+                                rtol=1e-10, atol=1e-12).y.T for s in x0])
+    y = truth[..., 1:] + 0.01 * rng.normal(size=(n, steps, 1))
+    X = np.column_stack([np.ones(n), x0[:, 1]])  # A0 unknown: a guess
+    settings = dict(science=chain_f, dt=dt, observed=[1], residual=ZeroResidual(), method="erm", max_iter=1,
+                    dtype="float64", n_substeps=4)
+    fit = ScienceFit(HybridRegressor(**settings).fit(X, y), X, y, fit_initial_states=True)
+    theta = fit.fit(chain_f, {"k1": 0.5, "k2": 0.5})
+    X_fit = X.copy()
+    X_fit[:, 0] = fit.initial_states[:, 0]
+    est = HybridRegressor(**settings, theta_init=theta, theta_fixed=["k1", "k2"]).fit(X_fit, y)
+    naive = science_intervals(est, X_fit, y)
+    ci = science_intervals(est, X_fit, y, fitted_states=[0])
+    X_given = X_fit.copy()
+
+    def pred(theta_, X_):
+        return HybridRegressor(**settings, theta_init=theta_, theta_fixed=["k1", "k2"]).fit(X_, y).predict(
+            X_).reshape(n, -1)
+
+    base, h = pred(theta, X_fit), 1e-6
+    J = np.stack([(pred({**theta, k: theta[k] + h}, X_fit) - pred({**theta, k: theta[k] - h}, X_fit)) / (2 * h)
+                  for k in ("k1", "k2")], axis=-1)
+    up, down = X_fit.copy(), X_fit.copy()
+    up[:, 0] += h
+    down[:, 0] -= h
+    K = (pred(theta, up) - pred(theta, down)) / (2 * h)  # sample i's own state moves only its own row
+    full = np.zeros((n, steps, 2 + n))
+    full[..., :2] = J
+    full[np.arange(n), :, 2 + np.arange(n)] = K
+    r = y.reshape(n, -1) - base
+    A = np.einsum("imp,imq->pq", full, full)
+    scores = np.einsum("imp,im->ip", full, r)
+    bread = np.linalg.inv(A)
+    cov = n / (n - 2) * bread @ scores.T @ scores @ bread
+    for j, k in enumerate(("k1", "k2")):
+        assert ci.std[k] == pytest.approx(np.sqrt(cov[j, j]), rel=1e-3)
+    assert ci.std["k1"] > 1.5 * naive.std["k1"]  # the unmeasured start trades with k1
+    assert ci.intervals["k1"][0] < 0.8 < ci.intervals["k1"][1]
+    np.testing.assert_array_equal(X_fit, X_given)
+    with pytest.raises(ValueError, match="distinct state components"):
+        science_intervals(est, X_fit, y, fitted_states=[2])
+

@@ -238,6 +238,52 @@ def test_memory_of_a_fit_grows_with_batch_and_steps():
     assert sizes[10][0] == pytest.approx(2 * sizes[5][0], rel=0.1)
 
 
+def test_memory_check_stays_cheap_at_an_extreme_horizon():
+    """2,000 steps of 1,000 RK4 substeps, one sample a batch: an iteration integrates 2 million
+    substeps, the memory check three (one and two substeps, extrapolated)."""
+    import time
+
+    from sklearn_hybrid._memory import check_fit_memory
+
+    calls = []
+
+    def counted(v, omega=0.5):
+        calls.append(len(v))
+        return pendulum_f(v, omega)
+
+    X = np.random.default_rng(0).uniform(-1, 1, (4, 2))
+    est = HybridRegressor(science=counted, **{**FAST, "n_substeps": 1000, "batch_size": 1})
+    setup = est._setup_fit(X, np.zeros((4, 2000, 2)))
+    calls.clear()
+    start = time.perf_counter()
+    check_fit_memory(setup)
+    assert time.perf_counter() - start < 1.0
+    assert len(calls) == 4 * (1 + 2)  # RK4's four stages per substep
+
+
+@pytest.mark.parametrize("params", [{}, {"observed": [0]}, {"forced": True}])
+def test_memory_of_a_short_horizon_extrapolates_exactly(params):
+    """The bytes the probe's second substep adds, counted per substep, are those of the whole horizon."""
+    from sklearn_hybrid import _memory, pack_inputs
+
+    def forced(v, u, k=1.0):
+        return torch.stack([v[:, 1], -k * v[:, 0] + u[:, 0]], dim=-1)
+
+    rng = np.random.default_rng(0)
+    X, y = rng.uniform(-1, 1, (40, 2)), np.zeros((40, 30, 2))
+    params = {"science": pendulum_f, **FAST, **params}
+    if params.pop("forced", False):
+        X, params = pack_inputs(X, rng.uniform(-1, 1, (40, 31, 1))), {**params, "science": forced, "n_inputs": 1}
+    if "observed" in params:
+        y = y[..., :1]
+    setup = HybridRegressor(**params)._setup_fit(X, y)
+    two = tuple(t[:2].clone() for t in setup.inputs)
+    whole = _memory._saved_bytes(setup.model, two)
+    assert _memory.fit_memory_bytes(setup.model, setup.inputs, 2) == int(_memory._PEAK_OVER_SAVED * whole)
+    # the other samples' inputs are not counted (a slice of them shares their storage)
+    assert _memory.fit_memory_bytes(setup.model, two, 2) == _memory.fit_memory_bytes(setup.model, setup.inputs, 2)
+
+
 def test_fit_too_large_for_memory_says_what_to_change(data, monkeypatch):
     from sklearn_hybrid import _memory
 

@@ -14,7 +14,8 @@ from .library import CandidateLibrary
 from .loop import MLPOn, ZeroResidual, close_the_loop
 from .records import fit_initial_state, free_run
 from .report import LoopResult, format_table, plot_unexplained, prediction_metrics
-from .residual import ResidualDiagnosis, science_sensitivities
+from .residual import ResidualDiagnosis
+from .sensitivity import science_sensitivities
 from .science_fit import ScienceFit
 from .sparse import SparseTermRegression
 from .terms import SCIENCE_OUTPUT, TERM_KINDS, Term, physics_terms

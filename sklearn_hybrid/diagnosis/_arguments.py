@@ -11,8 +11,7 @@ from numbers import Real
 import numpy as np
 
 from ..science import read_signature
-from .candidates import free_columns
-from .residual import state_labels, parameter_jacobian
+from .sensitivity import exact_components, state_labels, parameter_jacobian
 
 
 def check_options(validation_fraction, max_terms, n_candidates, cv, z, min_gain, n_jobs, X_test, y_test,
@@ -78,10 +77,9 @@ def uncertain_components(estimator, X, y, exact, state_names) -> list[int] | Non
         sample = X[: min(len(X), 64)]
         args = [sample[:, :d]] + ([sample[:, d:d + n_inputs]] if n_inputs else [])
         # an equation whose only parameters are fixed (theta_fixed) has nothing to estimate either
-        jac = free_columns(*parameter_jacobian(estimator.science, theta, args), set(estimator.theta_fixed or ()))
-        if jac.shape[-1] == 0:
+        fixed = exact_components(*parameter_jacobian(estimator.science, theta, args), set(estimator.theta_fixed or ()))
+        if fixed is None:
             return None
-        fixed = [j for j in range(jac.shape[1]) if not np.any(np.abs(jac[:, j, :]) > 1e-12)]
     else:
         fixed = _state_indices(exact, state_labels(state_names, d, "x", "state_names"), "exact")
     uncertain = [j for j in range(d) if j not in fixed]

@@ -4,7 +4,8 @@
 on training samples and returns its errors on held-out ones: one split, or contiguous folds where
 every sample judges. :func:`training_folds` builds the judge of a second look, folds of one split's
 training samples. :func:`~sklearn_hybrid.diagnosis.evidence.evidence` turns two models' errors into
-a verdict; :mod:`~sklearn_hybrid.diagnosis.stepwise` decides what to compare.
+a verdict; :mod:`~sklearn_hybrid.diagnosis.stepwise` decides what to compare. :func:`judge_terms` holds
+the terms a :class:`~sklearn_hybrid.diagnosis.ResidualDiagnosis` reads off the residual to the same test.
 """
 
 from __future__ import annotations
@@ -13,7 +14,9 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from .evidence import held_out_splits
+from ..science import read_signature
+from .augment import augment_science
+from .evidence import evidence, held_out_splits
 from .science_fit import ScienceFit
 
 # Iterations of a candidate's screening refit. Most converge in under 20; a shape parameter that
@@ -106,3 +109,60 @@ def training_folds(fit: ScienceFit, splits, groups, folds: int | None) -> Judge 
 def evenly_spaced(rows: np.ndarray, n: int) -> np.ndarray:
     """At most ``n`` of ``rows``, evenly spaced (windows of one record: every part of it)."""
     return rows if len(rows) <= n else rows[np.unique(np.linspace(0, len(rows) - 1, n).round().astype(int))]
+
+
+def judge_terms(estimator, X, y, terms: Sequence[dict], variables: Sequence[str], n_states: int, *,
+                validation_fraction: float = 0.25, z: float = 3.0, min_gain: float = 0.05) -> list[dict]:
+    """Each of ``terms`` judged as :func:`~sklearn_hybrid.diagnosis.close_the_loop` judges a term.
+
+    The terms are tried one at a time, in the order given, each added to the science model with
+    the terms kept before it; the model is refitted without the network on the training samples
+    and kept only when its held-out error is lower by ``min_gain`` and by more than ``z``
+    standard errors (:func:`~sklearn_hybrid.diagnosis.evidence`). A term that a network trained
+    on noise carries passes no such test: the complete science refitted alone predicts as well.
+
+    Parameters
+    ----------
+    estimator : fitted HybridRegressor
+        Supplies the science function, theta and the data layout.
+    X, y : array-like
+        Its data, as for its ``fit``; the last ``validation_fraction`` of the samples judge.
+    terms : list of dict
+        Each with ``component``, ``term`` and ``coef`` (as ``ResidualDiagnosis.new_terms_``).
+    variables : list of str
+        Names of the states, then the inputs (the terms' variables).
+    n_states : int
+        Number of state columns.
+    validation_fraction, z, min_gain : float
+        The split and the evidence asked for (as in ``close_the_loop``).
+
+    Returns
+    -------
+    list of dict
+        Per term, in the order given: :func:`evidence`'s verdict (``gain``, ``z``,
+        ``threshold``, ``accepted``), or ``failed`` with the reason where the refit failed.
+    """
+    splits, _ = held_out_splits(len(y), validation_fraction)
+    judge = Judge(ScienceFit(estimator, X, y), splits)
+    science, original = estimator.science, list(estimator.theta_)
+    theta = judge.fit(science, estimator.theta_)
+    errors = judge.errors(science, theta)
+    kept: list[dict] = []
+    verdicts = []
+    for term in terms:
+        placed = kept + [dict(term)]
+        try:
+            candidate = augment_science(science, placed, variables, n_states=n_states,
+                                        theta={k: theta[k] for k in original})
+            start = {**read_signature(candidate)[1], **{k: theta[k] for k in original}}
+            fitted = judge.fit(candidate, start)
+            after = judge.errors(candidate, fitted)
+        except FIT_FAILURES as exc:  # a term that breaks the simulation is not supported
+            verdicts.append({"accepted": False, "failed": repr(exc)})
+            continue
+        verdict = evidence(errors, after, z=z, min_gain=min_gain)
+        verdicts.append(verdict)
+        if verdict["accepted"]:
+            kept = [{**t, "coef": float(fitted[param])} for t, (_, _, param) in zip(placed, candidate.terms)]
+            theta, errors = fitted, after
+    return verdicts

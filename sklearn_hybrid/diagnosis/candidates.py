@@ -19,7 +19,7 @@ import torch
 
 from .augment import augment_science
 from .science_fit import ScienceFit
-from .residual import finite_differences
+from .sensitivity import finite_differences, free_columns
 from .terms import Term
 
 
@@ -125,11 +125,6 @@ def rank_by_fit(columns: list[tuple], science: Callable, current: Callable, adde
             if (j, term.name) not in best or gain > best[j, term.name]["gain"]:
                 best[j, term.name] = {**cand, "coef": float(c @ r) / cc, "gain": gain, "ranked_by": "fit"}
     return sorted(best.values(), key=lambda t: -t["gain"])
-
-
-def free_columns(jac: np.ndarray, names: Sequence[str], fixed: set) -> np.ndarray:
-    """The sensitivities of the parameters a refit may move: a fixed one cannot absorb a shift."""
-    return jac[..., [i for i, name in enumerate(names) if name.split("[")[0] not in fixed]]
 
 
 def interleave(ranked: list[dict], n: int) -> list[dict]:

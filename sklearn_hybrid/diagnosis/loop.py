@@ -26,7 +26,7 @@ from ._arguments import (check_names, check_options, check_param_names, check_re
                          offset_states, uncertain_components)
 from .evidence import held_out_splits
 from .report import LoopResult, Scoring, format_table, residual_profile
-from .residual import state_labels, science_output
+from .sensitivity import state_labels, science_output
 from .science_fit import ScienceFit
 from .stepwise import forward_selection
 from .terms import Term, physics_terms
@@ -245,7 +245,9 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         added or the refit failed), ``science`` (the augmented function, or None), ``science_theta``
         (fitted values of every parameter of the final science model, without the network),
         ``science_only`` (an estimator holding that model), ``intervals`` (its parameters' intervals and
-        verdicts, :func:`~sklearn_hybrid.identifiability.science_intervals`), ``added`` (the accepted terms),
+        verdicts, :func:`~sklearn_hybrid.identifiability.science_intervals`), ``initial_states`` (with
+        ``fit_initial_states``: every sample's initial state, unobserved components fitted with the final
+        model; else None), ``added`` (the accepted terms),
         ``steps`` (every candidate tried, with its validation error and verdict), ``exact``
         (the exact components), ``unexplained`` (what the final science model still misses:
         ``share`` per output and binned ``profiles``; see :func:`plot_unexplained`), ``table``,
@@ -349,7 +351,8 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         alone = _fixed_science(before, final, science_theta, X, y)
         from ..identifiability import science_intervals  # the identifiability package reads this one's results
 
-        intervals = science_intervals(alone, X, y, incomplete=_open_question(sel["steps"], min_gain))
+        intervals = science_intervals(alone, X, y, incomplete=_open_question(sel["steps"], min_gain),
+                                       fitted_states=fit.latent or None)
         log("scoring the network-free model ..." if scoring.executor is None else
             "scoring the network-free model in a worker process ...")
         alone_row = scoring.submit(alone)  # with a worker, scored during the refit
@@ -381,7 +384,8 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
                           unit=unit)
     log(report)
     return LoopResult(before=before, after=after, science=augmented, science_theta=science_theta, science_only=alone,
-                 intervals=intervals, added=added, steps=sel["steps"], exact=[] if uncertain is None else
+                 intervals=intervals, initial_states=fit.initial_states.copy() if fit_initial_states else None,
+                 added=added, steps=sel["steps"], exact=[] if uncertain is None else
                  [j for j in range(base.shape[1]) if j not in uncertain],
                  unexplained=unexplained, table=rows, report=report, seconds=time.perf_counter() - start)
 

@@ -14,7 +14,7 @@ from sklearn.utils import Bunch
 from threadpoolctl import threadpool_limits
 
 from .evidence import critical_value
-from .residual import root_mean_square, science_sensitivities
+from .sensitivity import root_mean_square, science_sensitivities
 
 __all__ = ["prediction_metrics", "format_table", "residual_profile", "plot_unexplained", "LoopResult"]
 

@@ -11,110 +11,39 @@ sensitivities of the science output to each parameter join the candidates as ter
 ``df/d<name>``, and library terms the science function already contains (within its parameters'
 span) are left out. A selected ``df/d<name>`` term says "shift theta by its coefficient", not
 "add a term".
+
+A network also fits noise, and sparse regression on what it learned finds terms there too, each
+stable under the bootstrap. Given ``y``, every new term must pass the test that
+:func:`~sklearn_hybrid.diagnosis.close_the_loop` applies: the science model with the term,
+refitted without the network, predicts held-out samples better by more than the noise explains. Exact equations (an ODE component whose science output depends on no
+parameter, such as ``d angle/dt = velocity``) are left alone, as there.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping, Sequence
+import math
+import warnings
+from collections.abc import Mapping, Sequence
 from numbers import Real
 from typing import Any
 
 import numpy as np
-import torch
 from sklearn.base import BaseEstimator, clone
 from sklearn.utils import check_random_state
 from sklearn.utils.validation import check_is_fitted
 
 from .._validation import check_positive
+from ._arguments import check_options
+from ._judge import judge_terms
+from .evidence import held_out_splits
 from .library import CandidateLibrary
+from .sensitivity import exact_components, root_mean_square, science_sensitivities, state_labels
 from .sparse import SparseTermRegression
 
 __all__ = ["ResidualDiagnosis"]
 
 _CONTAINED_R2 = 0.99  # a library term this well explained by the parameter sensitivities is redundant
 _SENS = "df/d"
-
-
-def state_labels(given: Sequence[str] | None, size: int, prefix: str, label: str) -> list[str]:
-    if given is None:
-        return [f"{prefix}{i}" for i in range(size)]
-    names = [given] if isinstance(given, str) else list(given)
-    if len(names) != size:
-        raise ValueError(f"{label} has {len(names)} names but the fitted model has {size} such variables.")
-    return names
-
-
-def root_mean_square(a: np.ndarray, axis=0) -> np.ndarray:
-    return np.sqrt(np.mean(np.square(a), axis=axis))
-
-
-def science_output(science: Callable, theta: Mapping[str, Any], args: Sequence[np.ndarray]) -> np.ndarray:
-    """The science function's output at ``args`` (batch first), in float64, flattened: ``(n, n_outputs)``."""
-    tensors = [torch.as_tensor(np.asarray(a, dtype=float)) for a in args]
-    values = {k: torch.as_tensor(np.asarray(v, dtype=float)) for k, v in theta.items()}
-    with torch.no_grad():
-        out = science(*tensors, **values)
-    return out.reshape(len(tensors[0]), -1).numpy()
-
-
-def finite_differences(output: Callable[[dict], np.ndarray], theta: Mapping[str, Any]
-                       ) -> tuple[np.ndarray, list[str]]:
-    """Central differences of ``output(theta)`` in every scalar parameter: ``(*output shape, p)``.
-
-    Also returns the parameter names (``name[i]`` for elements of vector parameters).
-    """
-    columns, names = [], []
-    for name, value in theta.items():
-        value = np.asarray(value, dtype=float)
-        for idx in np.ndindex(value.shape):
-            h = 1e-5 * max(abs(float(value[idx])), 1e-3)
-            plus, minus = value.copy(), value.copy()
-            plus[idx] += h
-            minus[idx] -= h
-            diff = output({**theta, name: plus}) - output({**theta, name: minus})
-            columns.append(diff / (2 * h))
-            names.append(name if value.ndim == 0 else f"{name}[{','.join(map(str, idx))}]")
-    if not columns:
-        return np.zeros((*output(dict(theta)).shape, 0)), names
-    return np.stack(columns, axis=-1), names
-
-
-def parameter_jacobian(science: Callable, theta: Mapping[str, Any],
-                       args: Sequence[np.ndarray]) -> tuple[np.ndarray, list[str]]:
-    """Central differences of the science output in every scalar parameter: ``(n, n_outputs, p)``.
-
-    Also returns the parameter names (``name[i]`` for elements of vector parameters).
-    """
-    return finite_differences(lambda values: science_output(science, values, args), theta)
-
-
-def science_sensitivities(estimator: Any, args: list[np.ndarray],
-                          jacobian: bool = True) -> tuple[np.ndarray, np.ndarray, list[str]]:
-    """Science output and its derivatives with respect to every (scalar) parameter.
-
-    Parameters
-    ----------
-    estimator : fitted HybridRegressor
-    args : list of ndarray
-        The science function's inputs, batch first (e.g. ``[states, inputs]``).
-    jacobian : bool, default=True
-        False skips the derivatives (``jac`` has no parameter axis entries).
-
-    Returns
-    -------
-    f : ndarray of shape (n, n_outputs)
-        Science output at the fitted theta.
-    jac : ndarray of shape (n, n_outputs, n_params)
-        Central finite differences in float64 (robust for any torch-written function).
-    names : list of str
-        Parameter names (``name[i]`` for elements of vector parameters).
-    """
-    func, theta = estimator.science, estimator.theta_
-    f = science_output(func, theta, args)
-    if not jacobian:
-        return f, np.zeros((*f.shape, 0)), []
-    jac, names = parameter_jacobian(func, theta, args)
-    return f, jac, names
 
 
 class ResidualDiagnosis(BaseEstimator):
@@ -139,6 +68,13 @@ class ResidualDiagnosis(BaseEstimator):
     min_residual : float, default=0.01
         Components whose residual RMS is below this fraction of the total RMS are skipped: the
         science model already explains them.
+    exact : "auto", list of str or int, or None, default="auto"
+        ODE components whose science equation is exact, never explained by default (as in
+        :func:`~sklearn_hybrid.diagnosis.close_the_loop`): ``"auto"`` takes those whose science
+        output depends on no free parameter at the visited states; ``None``: none.
+    validation_fraction, z, min_gain : float, default=0.25, 3.0 and 0.05
+        With ``y`` given to :meth:`fit`: the share of the samples (the last ones) that judge each
+        new term, and the evidence it needs (see :func:`~sklearn_hybrid.diagnosis.evidence`).
     science_terms : bool, default=True
         Add the science output's parameter sensitivities ``df/d<name>`` as candidates (see module).
     max_points : int, default=20000
@@ -160,6 +96,8 @@ class ResidualDiagnosis(BaseEstimator):
         ``g[<state>]`` per component.
     components_ : list of int
         Components that were explained.
+    exact_ : list of int
+        Exact components (see ``exact``).
     residual_share_ : ndarray of shape (n_components,)
         RMS of the residual over RMS of science + residual, per component (NaN when unknown).
     regressions_ : dict of int to SparseTermRegression
@@ -167,7 +105,8 @@ class ResidualDiagnosis(BaseEstimator):
     terms_ : list of dict
         Every selected term: ``component``, ``output``, ``term``, ``coef``, ``explained``,
         ``inclusion``, ``unit`` and ``kind`` (``"term"`` for a new term, ``"theta"`` for a
-        parameter sensitivity).
+        parameter sensitivity); with ``y``, a new term's ``evidence`` (its held-out verdict) and
+        ``kept`` (whether it passed).
     theta_shift_ : dict of str to float
         Parameter corrections read off the selected sensitivity terms.
     """
@@ -175,8 +114,9 @@ class ResidualDiagnosis(BaseEstimator):
     def __init__(self, state_names: Sequence[str] | None = None, input_names: Sequence[str] | None = None,
                  units: Mapping[str, str] | None = None, library: CandidateLibrary | None = None,
                  regression: SparseTermRegression | None = None, components: Sequence[int] | None = None,
-                 min_residual: float = 0.01, science_terms: bool = True, max_points: int = 20000,
-                 random_state: Any = None) -> None:
+                 min_residual: float = 0.01, exact: Any = "auto", validation_fraction: float = 0.25,
+                 z: float = 3.0, min_gain: float = 0.05, science_terms: bool = True,
+                 max_points: int = 20000, random_state: Any = None) -> None:
         self.state_names = state_names
         self.input_names = input_names
         self.units = units
@@ -184,12 +124,16 @@ class ResidualDiagnosis(BaseEstimator):
         self.regression = regression
         self.components = components
         self.min_residual = min_residual
+        self.exact = exact
+        self.validation_fraction = validation_fraction
+        self.z = z
+        self.min_gain = min_gain
         self.science_terms = science_terms
         self.max_points = max_points
         self.random_state = random_state
 
     # ------------------------------------------------------------------ fitting
-    def fit(self, estimator: Any, X: Any) -> "ResidualDiagnosis":
+    def fit(self, estimator: Any, X: Any, y: Any = None) -> "ResidualDiagnosis":
         """Evaluate the residual of ``estimator`` along ``X`` and explain it.
 
         Parameters
@@ -198,6 +142,10 @@ class ResidualDiagnosis(BaseEstimator):
             With structure ``"ode"``, ``"additive"`` or ``"compose"``.
         X : array-like
             Inputs, shaped as in the estimator's ``fit`` (typically its training data).
+        y : array-like, optional
+            The targets of ``X``: every new term is then judged on held-out samples, and only
+            those that pass are in :attr:`new_terms_`. Without ``y`` the terms are not judged
+            (a warning says so when any is selected): a network also fits noise.
 
         Returns
         -------
@@ -208,6 +156,8 @@ class ResidualDiagnosis(BaseEstimator):
         if isinstance(share, bool) or not (isinstance(share, Real) and 0 <= share < 1):
             raise ValueError(f"min_residual must be in [0, 1), got {self.min_residual!r}.")
         check_positive("max_points", self.max_points, integer=True)
+        if y is not None:
+            self._check_y(estimator, X, y)
         trace = estimator.residual_trace(X)
         points = trace["points"].reshape(len(trace["points"]), -1)
         inputs = trace["inputs"]
@@ -235,9 +185,10 @@ class ResidualDiagnosis(BaseEstimator):
         self.science_ = f if same_shape else None
         total = root_mean_square(f + residual) if same_shape else np.full(residual.shape[1], np.nan)
         self.residual_share_ = root_mean_square(residual) / np.where(total > 0, total, np.nan)
+        self.exact_ = self._exact(estimator, jac, pnames, states) if ode and same_shape else []
         if self.components is None:
-            chosen = [j for j in range(residual.shape[1])
-                      if not (self.residual_share_[j] < self.min_residual) and np.any(residual[:, j] != 0)]
+            chosen = [j for j in range(residual.shape[1]) if j not in self.exact_
+                      and not (self.residual_share_[j] < self.min_residual) and np.any(residual[:, j] != 0)]
         else:
             if np.ndim(self.components) != 1:
                 raise ValueError(f"components must be a list of residual component indices, got {self.components!r}.")
@@ -285,7 +236,56 @@ class ResidualDiagnosis(BaseEstimator):
                     "unit": "" if tunits is None else tunits[i],
                     "kind": "theta" if name.startswith(_SENS) else "term"})
         self.theta_shift_ = self._theta_shift()
+        self._judge(estimator, X, y, names, len(states))
         return self
+
+    def _judge(self, estimator, X, y, variables, n_states) -> None:
+        """Hold the new terms to the held-out test (strongest first), or warn that they were not."""
+        new = sorted((t for t in self.terms_ if t["kind"] == "term"), key=lambda t: -t["explained"])
+        if not new:
+            return
+        if y is None or self.science_ is None:
+            why = ("without y" if y is None else
+                   "as the science output is not shaped like the residual, so no term can be added to it")
+            warnings.warn(f"The {len(new)} new term(s) were not judged on held-out data ({why}): a network also "
+                          "fits noise. Pass y to keep only the terms that held-out samples support.",
+                          UserWarning, stacklevel=3)
+            return
+        verdicts = judge_terms(estimator, X, y, new, variables, n_states,
+                               validation_fraction=self.validation_fraction, z=self.z, min_gain=self.min_gain)
+        for t, verdict in zip(new, verdicts):
+            t["evidence"], t["kept"] = verdict, verdict["accepted"]
+
+    def _check_y(self, estimator, X, y) -> None:
+        """The judge's options and ``y``'s layout, before anything is computed: the judge runs last."""
+        check_options(self.validation_fraction, 1, 1, None, self.z, self.min_gain, None, None, None, None)
+        if getattr(estimator, "theta_encoder", None) is not None:
+            raise ValueError("ResidualDiagnosis cannot judge terms of a model with a theta_encoder: its network-free "
+                             "refits hold one theta shared by every sample. Fit it without y to read the terms.")
+        shape, fitted = np.shape(y), tuple(getattr(estimator, "y_shape_", ()))
+        if shape[:1] != np.shape(X)[:1]:
+            raise ValueError(f"y has {shape[0] if shape else 0} samples and X {len(X)}: give the targets of X.")
+        if shape[1:] != fitted and shape[1:] != (math.prod(fitted),):
+            raise ValueError(f"y has per-sample shape {shape[1:]}; the estimator was fitted on y of per-sample "
+                             f"shape {fitted}. Give the targets of X in the layout of the fit.")
+        held_out_splits(len(y), self.validation_fraction)  # enough samples to judge a term
+
+    def _exact(self, estimator, jac, pnames, states) -> list[int]:
+        """The exact components: named in ``exact``, or (``"auto"``) those whose science output
+        depends on no free parameter at the visited points."""
+        if self.exact is None:
+            return []
+        if isinstance(self.exact, str) and self.exact == "auto":  # close_the_loop's rule, at the visited points
+            return exact_components(jac, pnames, set(estimator.theta_fixed or ())) or []
+        items = [self.exact] if isinstance(self.exact, (str, int)) else list(self.exact)
+        out = []
+        for item in items:
+            j = states.index(item) if isinstance(item, str) and item in states else item
+            if isinstance(j, bool) or not isinstance(j, (int, np.integer)) or not 0 <= j < len(states):
+                raise ValueError(f"exact entry {item!r} is neither a state name of {states} nor an index below "
+                                 f"{len(states)}; give 'auto', None or a list of them.")
+            out.append(int(j))
+        return out
 
     @staticmethod
     def _replaceable(X: np.ndarray, r: np.ndarray, support: np.ndarray, n_library: int, tol: float) -> set[int]:
@@ -333,9 +333,10 @@ class ResidualDiagnosis(BaseEstimator):
     # ------------------------------------------------------------------ reporting
     @property
     def new_terms_(self) -> list[dict]:
-        """The selected terms that the science model lacks (``kind == "term"``)."""
+        """The selected terms that the science model lacks (``kind == "term"``), held-out evidence
+        permitting (``kept``, where ``fit`` was given ``y``)."""
         check_is_fitted(self, "terms_")
-        return [t for t in self.terms_ if t["kind"] == "term"]
+        return [t for t in self.terms_ if t["kind"] == "term" and t.get("kept", True)]
 
     def equations(self, precision: int = 3) -> list[str]:
         """Readable equations of the explained components, e.g. ``"g[v_dot] = -0.5 v_dot"``."""
@@ -348,11 +349,18 @@ class ResidualDiagnosis(BaseEstimator):
         lines = [f"Residual diagnosis over {len(self.points_)} points; variables {self.variable_names_}"]
         for j, name in enumerate(self.output_names_):
             share = self.residual_share_[j]
-            status = "explained below" if j in self.components_ else "skipped (science explains it)"
+            status = ("explained below" if j in self.components_ else "exact, left alone" if j in self.exact_
+                      else "skipped (science explains it)")
             lines.append(f"{name}: residual RMS {root_mean_square(self.residual_[:, j]):.4g}"
                          + ("" if np.isnan(share) else f" = {share:.1%} of science + network") + f", {status}")
         for j in self.components_:
             lines.append(self.regressions_[j].summary())
+        for t in self.terms_:
+            if "evidence" in t:
+                e = t["evidence"]
+                lines.append(f"{t['term']} on {t['output']}: " + (f"refit failed ({e['failed']})" if "failed" in e else
+                             f"held-out gain {e['gain']:.1%}, z {e['z']:.2f} against {e['threshold']:.2f}")
+                             + (": kept" if t["kept"] else ": not supported by held-out data, left out"))
         if self.theta_shift_:
             lines.append("Parameter corrections the network carries: "
                          + ", ".join(f"{k} {v:+.4g}" for k, v in self.theta_shift_.items()))

@@ -18,6 +18,7 @@ import torch
 from scipy import sparse
 from scipy.optimize import least_squares
 
+from .._estimator import fitted_data, structure_X
 from ..science import read_signature
 
 __all__ = ["ScienceFit"]
@@ -50,12 +51,12 @@ class ScienceFit:
     """
 
     def __init__(self, estimator: Any, X: Any, y: Any, fit_initial_states: bool = False) -> None:
-        X = estimator._fitted_X(X)
+        X, _ = fitted_data(estimator, X)
         self.structure = estimator.model_.structure
         self.bounds = dict(estimator.theta_bounds or {})
         self.fixed = set(estimator.theta_fixed or ())  # held at the value a fit starts from
         with torch.no_grad():
-            self.inputs = self.structure.tensors(estimator._structure_X(X), torch.float64)
+            self.inputs = self.structure.tensors(structure_X(estimator, X), torch.float64)
         self.y = np.asarray(y, dtype=float).reshape(len(X), -1)
         self.latent: list[int] = []
         if fit_initial_states:

@@ -37,7 +37,7 @@ from .collapse import replace_stand_ins
 from .evidence import evidence, holm
 from .joint import joint_candidates
 from .report import format_gain
-from .residual import parameter_jacobian, science_output
+from .sensitivity import parameter_jacobian, science_output
 from .science_fit import ScienceFit
 from .terms import SCIENCE_OUTPUT, Term
 

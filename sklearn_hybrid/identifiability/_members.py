@@ -10,7 +10,8 @@ import torch
 from sklearn.utils import Bunch
 from sklearn.utils.validation import check_is_fitted
 
-from .._validation import check_target_layout, torch_threads
+from .._estimator import HybridRegressor, fitted_data, fitted_settings
+from .._validation import check_target_layout
 from ..engine import TrainConfig
 from ..methods import make_method, stackable_methods
 
@@ -25,29 +26,25 @@ def fitted_problem(estimator, X, y) -> Bunch:
     ``method``, ``inputs`` and ``y`` (tensors, ``y`` flattened per sample),
     ``fit`` (the estimator's parameters at fit) and ``n_samples``.
     """
-    from .._estimator import HybridRegressor
-
     if not isinstance(estimator, HybridRegressor):
         raise TypeError(f"estimator must be a fitted HybridRegressor, got {type(estimator).__name__}.")
     check_is_fitted(estimator)
     if getattr(estimator.model_, "encoder", None) is not None:
         raise ValueError("theta varies per sample (theta_encoder): there is no one theta to profile or resample.")
-    fit = estimator._fitted_params
+    fit = fitted_settings(estimator)
     method = make_method(fit["method"], rho=fit["rho"], lam=fit["lam"], eta=fit["eta"])
     if not method.stackable:
         raise ValueError(f"Profiles and the bootstrap train stacked members, which method {method.name!r} "
                          f"cannot (its penalty needs the whole model); refit with one of {stackable_methods()}.")
-    X = estimator._fitted_X(X)
+    X, inputs = fitted_data(estimator, X)
     if len(X) < 3:
         raise ValueError(f"{len(X)} sample(s): profiles and the bootstrap need at least 3.")
     y = check_target_layout(y, np.empty((len(X), *estimator.y_shape_)))
     if not np.all(np.isfinite(y)):
         raise ValueError("y contains NaN or infinite values.")
-    dtype, device = estimator._fitted_dtype(), estimator.device_
-    with torch_threads(estimator.n_threads), torch.no_grad():
-        inputs = estimator._inputs(X, dtype, device)
     return Bunch(model=estimator.model_, method=method, inputs=inputs,
-                 y=torch.tensor(y.reshape(len(X), -1), dtype=dtype, device=device), fit=fit, n_samples=len(X))
+                 y=torch.tensor(y.reshape(len(X), -1), dtype=inputs[0].dtype, device=inputs[0].device), fit=fit,
+                 n_samples=len(X))
 
 
 def member_config(fit: dict, max_iter: int, lr: float | None, verbose: bool) -> TrainConfig:

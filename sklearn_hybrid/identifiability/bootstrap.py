@@ -19,6 +19,7 @@ from scipy import stats
 from sklearn.base import clone
 
 from .._batched import train_members
+from .._estimator import prepare_fit
 from .._validation import check_n_jobs, torch_threads
 from ._members import check_level, entry_values, fitted_problem, member_config, parameter_entries
 
@@ -102,7 +103,7 @@ def bootstrap_theta(estimator, X, y, params=None, *, n_resamples=20, level=0.95,
     weights = rng.multinomial(n, np.full(n, 1 / n), size=n_resamples).astype(float)
     template = clone(estimator).set_params(**{k: v for k, v in problem.fit.items() if k != "random_state"})
     X_arr, y_arr = np.asarray(X), np.asarray(y)
-    setups = [clone(template).set_params(random_state=s)._setup_fit(X_arr, y_arr) for s in seeds]
+    setups = [prepare_fit(clone(template).set_params(random_state=s), X_arr, y_arr) for s in seeds]
     n_threads = estimator.n_threads if n_jobs == 1 else 1
     with torch_threads(n_threads):
         history, models = train_members([s.model for s in setups], problem.method, setups[0].inputs, setups[0].y,

@@ -8,7 +8,11 @@ noise in a trajectory's initial state makes them: the cluster-robust
     cov(theta) = n / (n - p) * A^-1 B A^-1,
 
 with ``J_i`` the derivative of sample i's predictions by theta and ``r_i``
-its residuals, and Student's t with ``n - p`` degrees of freedom.  The
+its residuals, and Student's t with ``n - p`` degrees of freedom.  Initial
+states fitted per sample (the closed loop's ``fit_initial_states``) are
+nuisance parameters of one sample each: their derivatives ``K_i`` are
+projected out of ``J_i`` (``J_i <- J_i - K_i (K_i^T K_i)^-1 K_i^T J_i``), which
+is the theta block of the same sandwich over theta and every sample's states.  The
 Gauss-Newton standard error ``s^2 A^-1`` (lmfit, ``curve_fit``) assumes every
 output value independent and is too narrow here.
 """
@@ -22,8 +26,10 @@ import numpy as np
 import torch
 from scipy import stats
 
+from .._estimator import fitted_data, fitted_settings
 from .._validation import torch_threads
-from ._members import check_level, entry_values, set_entry
+from .._report import theta_jacobian
+from ._members import check_level
 
 __all__ = ["science_intervals", "ScienceIntervals"]
 
@@ -67,7 +73,8 @@ class ScienceIntervals:
         return self.report()
 
 
-def science_intervals(estimator, X, y, level=0.95, incomplete: str | None = None) -> ScienceIntervals:
+def science_intervals(estimator, X, y, level=0.95, incomplete: str | None = None,
+                      fitted_states=None) -> ScienceIntervals:
     """Intervals of the parameters of a fitted model without a network.
 
     Parameters
@@ -84,6 +91,11 @@ def science_intervals(estimator, X, y, level=0.95, incomplete: str | None = None
         candidate term lowered the held-out error without passing the
         evidence): every verdict is then "not identified", since an interval
         of a misspecified model holds its own best fit, not the truth.
+    fitted_states : list of int, optional
+        Components of the initial state (columns of ``X``) that were fitted
+        per sample with the parameters, as ``close_the_loop(...,
+        fit_initial_states=True)`` fits the unobserved ones; ``X`` holds the
+        fitted values.  Their uncertainty widens theta's intervals.
 
     Returns
     -------
@@ -98,34 +110,26 @@ def science_intervals(estimator, X, y, level=0.95, incomplete: str | None = None
     from ..diagnosis import ZeroResidual
 
     model = estimator.model_
-    if not isinstance(estimator._fitted_params["residual"], ZeroResidual):
+    if not isinstance(fitted_settings(estimator)["residual"], ZeroResidual):
         raise ValueError("science_intervals is for models without a network (close_the_loop's science_only); "
                          "for a hybrid fit use profile_theta, which re-trains the network.")
-    X = estimator._fitted_X(X)
+    X, inputs = fitted_data(estimator, X, torch.float64)
+    states = _check_fitted_states(fitted_states, estimator)
     y = check_target_layout(y, np.empty((len(X), *estimator.y_shape_))).reshape(len(X), -1)
     model = copy.deepcopy(model).to(torch.float64).eval()
     science = model.science
     with torch_threads(estimator.n_threads), torch.no_grad():
-        inputs = estimator._inputs(X, torch.float64, estimator.device_)
-
         def predict():
             return model(*inputs)[0].reshape(len(X), -1).cpu().numpy()
 
         base = predict()
-        columns, labels = [], []
-        for name in science.names:
-            flat = entry_values(science, name)
-            for k in range(flat.size):
-                h = 1e-6 * max(abs(flat[k]), 1.0)
-                preds = []
-                saved = science.raw[name].detach().clone()
-                for step in (h, -h):
-                    set_entry(science, name, k, flat[k] + step)
-                    preds.append(predict())
-                    science.raw[name].copy_(saved)
-                columns.append((preds[0] - preds[1]) / (2 * h))
-                labels.append((name, k, name if science.shapes[name] == () else f"{name}[{k}]"))
-    J = np.stack(columns, axis=-1)  # (n, m, p)
+        entries = [(name, k) for name in science.names for k in range(science.raw[name].numel())]
+        labels = [(name, k, name if science.shapes[name] == () else f"{name}[{k}]") for name, k in entries]
+        J = theta_jacobian(science, predict, entries)  # (n, m, p)
+        if states:
+            K = _state_derivatives(predict, inputs, states)  # (n, m, q)
+    if states:  # theta's derivatives orthogonal to what each sample's own states can do
+        J = np.stack([J[i] - K[i] @ np.linalg.lstsq(K[i], J[i], rcond=None)[0] for i in range(len(J))])
     r = y - base
     n, p = len(X), J.shape[-1]
     A = np.einsum("nmp,nmq->pq", J, J)
@@ -149,3 +153,33 @@ def science_intervals(estimator, X, y, level=0.95, incomplete: str | None = None
         out.intervals[label] = (value - t * std, value + t * std) if identified else (-np.inf, np.inf)
         out.verdicts[label] = "identified" if identified else "not identified"
     return out
+
+
+def _check_fitted_states(fitted_states, estimator) -> list[int]:
+    if fitted_states is None:
+        return []
+    shape = tuple(getattr(estimator.model_.structure, "state_shape", ()))
+    if estimator.structure != "ode" or len(shape) != 1:
+        raise ValueError("fitted_states names components of an initial state: it needs structure='ode' with a "
+                         "state vector.")
+    states = [int(j) for j in np.atleast_1d(fitted_states)]
+    if any(not 0 <= j < shape[0] for j in states) or len(set(states)) != len(states):
+        raise ValueError(f"fitted_states must list distinct state components (0 to {shape[0] - 1}), "
+                         f"got {fitted_states!r}.")
+    return states
+
+
+def _state_derivatives(predict, inputs, states) -> np.ndarray:
+    """Central differences of every sample's predictions by its own initial states ``states``."""
+    x0 = inputs[0]
+    columns = []
+    for j in states:
+        saved = x0[:, j].clone()
+        h = 1e-6 * torch.clamp(saved.abs(), min=1.0)
+        preds = []
+        for sign in (1, -1):
+            x0[:, j] = saved + sign * h
+            preds.append(predict())
+        x0[:, j] = saved
+        columns.append((preds[0] - preds[1]) / (2 * h.cpu().numpy()[:, None]))
+    return np.stack(columns, axis=-1)

@@ -1,0 +1,342 @@
+"""Anchors beside the closed loop: the universal-differential-equation recipe with pysindy, and pysindy alone.
+
+Item 5 of issue "Closed loop, part 3".  On cases of the identification benchmark (``bench_identification.py``;
+same systems, data, seeds and function-space scores), the same data through:
+
+(a) **the closed loop**: its stored record (``results/identification_runs/<case>.json``);
+(b) **UDE + SINDy** (SciML's "missing physics" recipe): the case's first hybrid fit (the loop's own, stored by
+    ``bench_identification.py`` in ``identification_runs/fits/`` and made again the same way where absent), the
+    network's output over the states it visited (``residual_trace``), then ``pysindy.STLSQ`` on pysindy's cubic
+    ``PolynomialLibrary`` of the states (and the input of a forced system), per equation the network acts on,
+    threshold by 5-fold CV with the one-standard-error rule on unit-RMS columns (``bench_sparse_regression``'s
+    choice); the terms are added to the science and theta with their coefficients refitted without the network
+    on the training trajectories (RK4, 4 substeps, L-BFGS);
+(c) **SINDy on the data alone**: derivatives of the noisy training trajectories by pysindy's
+    ``SmoothedFiniteDifference``, a library of the science's known terms (the derivative of each equation by each
+    parameter at the guesses, as a custom library) beside the cubic polynomials, STLSQ with the same threshold rule.
+
+SBR (pysindy's sparse Bayesian regression) needs jax and numpyro: it is run in place of STLSQ in (b) where it can be
+imported, and the page says where it could not.  Systems with declared sensor offsets (batch 8) are left out: the
+anchors have no offsets.  Each case is cached in ``results/anchors_runs/<case>.json``.
+
+    python benchmarks/bench_anchors_loop.py --cases van_der_pol_like --noise 0.01
+    python benchmarks/bench_anchors_loop.py --batches 15          # every case of batch 15 with a loop record
+    python benchmarks/bench_anchors_loop.py --render
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import pickle
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import torch
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _common import PACKAGE_COMMIT, RESULTS, write_results  # noqa: E402
+from _identification_systems import SYSTEMS, simulate  # noqa: E402
+from bench_identification import PROTOCOL, cache_dir, case_name, make_data, score  # noqa: E402
+from bench_sparse_regression import GRID, cv_choice  # noqa: E402
+
+import pysindy as ps  # noqa: E402  (the [sindy] extra)
+
+RUNS = RESULTS / "anchors_runs"
+N_SUBSTEPS = 4
+
+
+def sbr():
+    try:
+        from pysindy.optimizers import SBR
+    except ImportError:
+        return None
+    return SBR
+
+
+def polynomial_powers(n_vars: int) -> np.ndarray:
+    lib = ps.PolynomialLibrary(degree=3).fit(np.zeros((2, n_vars)))
+    return lib.powers_
+
+
+def monomials(Z: torch.Tensor, powers: np.ndarray) -> torch.Tensor:
+    """pysindy's PolynomialLibrary columns, in torch (for the refit's simulation)."""
+    p = torch.as_tensor(powers, dtype=Z.dtype)
+    return torch.prod(Z[:, None, :] ** p[None], dim=-1)
+
+
+def sparse_fit(Theta: np.ndarray, r: np.ndarray, optimizer) -> np.ndarray:
+    """Coefficients of ``r`` on the columns of ``Theta`` (original units), threshold by CV on unit-RMS columns."""
+    scale = np.sqrt(np.mean(Theta**2, axis=0))
+    scale[scale == 0] = 1.0
+    Xs, rms = Theta / scale, np.sqrt(np.mean(r**2))
+    if rms == 0:
+        return np.zeros(Theta.shape[1])
+    if optimizer == "stlsq":
+        def make(t):
+            return ps.STLSQ(threshold=t, unbias=True)
+        threshold = cv_choice(make, Xs, r, GRID * rms, one_se=True)
+        return make(threshold).fit(Xs, r).coef_.ravel() / scale
+    # A horseshoe posterior mean is never exactly zero: a term is kept where its central 95 % posterior interval
+    # excludes zero (the Bayesian reading of "the data support it"); fewer MCMC draws than pysindy's defaults.
+    opt = sbr()(num_warmup=300, num_samples=1000).fit(Xs, r)
+    draws = np.asarray(opt.mcmc_.get_samples()["beta"]).reshape(1000, -1)
+    low, high = np.quantile(draws, [0.025, 0.975], axis=0)
+    coef = opt.coef_.ravel()
+    return np.where((low > 0) | (high < 0), coef, 0.0) / scale
+
+
+def combined_science(system, powers, xi, n_states):
+    """The science function plus the sparse terms ``Theta(v, u) xi`` (xi: features x states)."""
+    science, names = system.science, list(system.theta_true)
+
+    def f(v, *u, **theta):
+        base = science(v, *u, **{k: theta[k] for k in names})
+        Z = torch.cat([v] + [ui for ui in u], dim=1)
+        return base + monomials(Z, powers) @ theta["_xi"]
+    f.__name__ = f"{system.science.__name__}_plus_sindy"
+    return f
+
+
+def refit(system, f, theta0: dict, xi0: np.ndarray, support: np.ndarray, data: dict, u: np.ndarray | None):
+    """theta and the coefficients on ``support`` by least squares on the training trajectories, no network."""
+    X, y = data["X"], torch.as_tensor(data["y"], dtype=torch.float64)
+    d = y.shape[-1]
+    x0 = torch.as_tensor(np.asarray(X)[:, :d], dtype=torch.float64)
+    uu = None if u is None else torch.as_tensor(u, dtype=torch.float64)
+    params = {k: torch.tensor(float(v), dtype=torch.float64, requires_grad=True) for k, v in theta0.items()}
+    free = torch.tensor(xi0[support], dtype=torch.float64, requires_grad=True)
+    mask = torch.as_tensor(support)
+
+    def simulate_all():
+        xi = torch.zeros(xi0.shape, dtype=torch.float64).index_put((mask.nonzero(as_tuple=True)), free)
+        theta = {**params, "_xi": xi}
+        h, x, out = system.dt / N_SUBSTEPS, x0, []
+        for step in range(y.shape[1]):
+            for s in range(N_SUBSTEPS):
+                def rhs(state, frac):
+                    if uu is None:
+                        return f(state, **theta)
+                    ut = uu[:, step] + (uu[:, step + 1] - uu[:, step]) * frac
+                    return f(state, ut, **theta)
+                a = (s + 0.0) / N_SUBSTEPS
+                k1 = rhs(x, a)
+                k2 = rhs(x + h / 2 * k1, a + 0.5 / N_SUBSTEPS)
+                k3 = rhs(x + h / 2 * k2, a + 0.5 / N_SUBSTEPS)
+                k4 = rhs(x + h * k3, a + 1.0 / N_SUBSTEPS)
+                x = x + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+            out.append(x)
+        return torch.stack(out, dim=1), theta
+
+    def loss():
+        pred, _ = simulate_all()
+        return torch.mean((pred - y) ** 2)
+
+    start = float(loss().detach())
+    if not np.isfinite(start):
+        return theta0, xi0, "the start diverged: not refitted"
+    opt = torch.optim.LBFGS([*params.values(), free], max_iter=200, line_search_fn="strong_wolfe")
+
+    def closure():
+        opt.zero_grad()
+        value = loss()
+        if torch.isfinite(value):
+            value.backward()
+        return value
+    try:
+        opt.step(closure)
+    except RuntimeError as error:
+        return theta0, xi0, f"refit failed: {error}"
+    end = float(loss().detach())
+    if not np.isfinite(end) or end > start:
+        return theta0, xi0, "refit did not lower the loss: kept SINDy's coefficients"
+    _, theta = simulate_all()
+    return ({k: float(v) for k, v in params.items()}, theta["_xi"].detach().numpy(), "refitted")
+
+
+def first_fit(system, noise, seed, data):
+    from sklearn_hybrid import HybridRegressor
+
+    path = cache_dir(False) / "fits" / f"{case_name(system.name, noise, seed)}.pkl"
+    if path.exists():
+        return pickle.loads(path.read_bytes()), True
+    from sklearn_hybrid.diagnosis import MLPOn  # the loop starts its network at zero over the uncertain equations
+
+    est = HybridRegressor(science=system.science, dt=system.dt, method="erm", n_inputs=int(system.forced),
+                          theta_init=dict(system.theta_guess) or None, random_state=seed,
+                          residual=MLPOn(list(range(len(system.state_names)))))
+    est.fit(data["X"], data["y"])
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_bytes(pickle.dumps(est))
+    return est, False
+
+
+def theta_error(system, theta) -> float | None:
+    keys = [k for k, v in system.theta_true.items() if np.ndim(v) == 0 and v != 0]
+    return float(np.mean([abs(theta[k] - system.theta_true[k]) / abs(system.theta_true[k]) for k in keys])) \
+        if keys else None
+
+
+def run_case(name, noise, seed=0):
+    torch.set_num_threads(1)
+    system = SYSTEMS[name]
+    data = make_data(system, noise, seed)
+    d = len(system.state_names)
+    u_train = simulate(system, PROTOCOL["n_train"], seed, stream=0)[1]
+    powers = polynomial_powers(d + int(system.forced))
+    loop = json.loads((cache_dir(False) / f"{case_name(name, noise, seed)}.json").read_text())
+    out = {"system": name, "noise": noise, "seed": seed, "package_commit": PACKAGE_COMMIT,
+           "loop": {"rel_err": loop.get("rel_err"), "control_err": loop.get("control_err"),
+                    "n_added": loop.get("n_added"), "theta_error": theta_error(system, loop["science_theta"])}}
+    start = time.perf_counter()
+    hybrid, reused = first_fit(system, noise, seed, data)
+    out["first_fit_s"], out["first_fit_reused"] = time.perf_counter() - start, reused
+    trace = hybrid.residual_trace(data["X"])
+    Z = trace["points"] if trace["inputs"] is None else np.hstack([trace["points"], trace["inputs"]])
+    Theta = np.asarray(ps.PolynomialLibrary(degree=3).fit(Z).transform(Z))
+    g = trace["residual"].reshape(len(Z), -1)
+    theta0 = {k: float(v) for k, v in hybrid.theta_.items()}
+    for label in ("stlsq", "sbr"):
+        if label == "sbr" and sbr() is None:
+            out["ude_sbr"] = {"skipped": "pysindy's SBR needs jax and numpyro, not installed"}
+            continue
+        start = time.perf_counter()
+        xi = np.stack([sparse_fit(Theta, g[:, j], label) for j in range(d)], axis=1)  # features x states
+        support = xi != 0
+        f = combined_science(system, powers, xi, d)
+        theta, xi_fit, how = refit(system, f, theta0, xi, support, data, u_train)
+        scores = score(system, f, {**theta, "_xi": xi_fit}, theta0, data["x_test"], data["u_test"])
+        out[f"ude_{label}"] = {**scores, "n_terms": int(support.sum()), "refit": how,
+                               "theta_error": theta_error(system, theta), "seconds": time.perf_counter() - start,
+                               "terms": _terms(support, xi_fit, d + int(system.forced), system)}
+    start = time.perf_counter()
+    out["sindy_data"] = sindy_on_data(system, data, u_train, powers)
+    out["sindy_data"]["seconds"] = time.perf_counter() - start
+    return out
+
+
+def _terms(support, xi, n_vars, system):
+    names = ps.PolynomialLibrary(degree=3).fit(np.zeros((2, n_vars))).get_feature_names(
+        list(system.state_names) + (["u"] if system.forced else []))
+    return [f"{xi[i, j]:+.3g} {names[i]} [{system.state_names[j]}]" for i, j in zip(*np.nonzero(support))]
+
+
+def sindy_on_data(system, data, u_train, powers) -> dict:
+    """STLSQ on [the science's parameter derivatives at the guesses | cubic polynomials] against derivatives of
+    the noisy trajectories; scored as a whole model (it has no theta of its own)."""
+    d = len(system.state_names)
+    states = np.concatenate([np.asarray(data["X"])[:, None, :d], data["y"]], axis=1)
+    t = system.dt * np.arange(states.shape[1])
+    diff = ps.SmoothedFiniteDifference()
+    xdot = np.concatenate([np.asarray(diff(s, t)) for s in states])
+    x = states.reshape(-1, d)
+    u = None if u_train is None else u_train.reshape(-1, u_train.shape[-1])
+    guess = {k: float(v) for k, v in (system.theta_guess or _defaults(system.science)).items()}
+
+    def known(v, *uu):  # d f_j / d theta_k at the guesses, every (k, j) a column
+        cols = []
+        for k in guess:
+            h = 1e-6 * max(abs(guess[k]), 1.0)
+            up = system.science(v, *uu, **{**guess, k: guess[k] + h})
+            down = system.science(v, *uu, **{**guess, k: guess[k] - h})
+            cols.append((up - down) / (2 * h))
+        return torch.cat(cols, dim=1)
+
+    def features(v, *uu):
+        Z = torch.cat([v, *uu], dim=1)
+        return torch.cat([known(v, *uu), monomials(Z, powers)], dim=1)
+
+    args = [torch.as_tensor(x)] + ([] if u is None else [torch.as_tensor(u)])
+    with torch.no_grad():
+        Theta = features(*args).numpy()
+    xi = torch.as_tensor(np.stack([sparse_fit(Theta, xdot[:, j], "stlsq") for j in range(d)], axis=1))
+
+    def model(v, *uu, **_):
+        return features(v, *uu) @ xi
+    model.__name__ = "sindy_on_data"
+    scores = score(system, model, {}, guess, data["x_test"], data["u_test"])
+    return {**scores, "n_terms": int((xi != 0).sum())}
+
+
+def _defaults(f):
+    import inspect
+    return {k: p.default for k, p in inspect.signature(f).parameters.items() if p.default is not p.empty}
+
+
+def cases(names, noises, batches):
+    out = []
+    for path in sorted(cache_dir(False).glob("*.json")):
+        r = json.loads(path.read_text())
+        s = SYSTEMS.get(r["system"])
+        if r.get("fast") or s is None or s.declared_offsets or s.sensor_offset or "error" in r:
+            continue
+        if (names and r["system"] not in names) or (noises and r["noise"] not in noises) or \
+                (batches and s.batch not in batches):
+            continue
+        out.append((r["system"], r["noise"], r["seed"]))
+    return out
+
+
+def render():
+    recs = [json.loads(p.read_text()) for p in sorted(RUNS.glob("*.json"))]
+    effects = [r for r in recs if not SYSTEMS[r["system"]].is_control]
+    controls = [r for r in recs if SYSTEMS[r["system"]].is_control]
+    lines = ["# The closed loop beside the UDE recipe with pysindy and pysindy alone", "",
+             "`benchmarks/bench_anchors_loop.py` (its docstring gives the recipes). Scores as the identification "
+             "benchmark's: `rel_err = |F - T| / |m|` on noise-free test states, identified when <= 0.10; controls: "
+             "terms added and `|F - T| / |T|`. Theta error: mean relative error of the science's parameters (SINDy "
+             "on the data has no theta).", ""]
+    arms = [("loop", "closed loop"), ("ude_stlsq", "UDE + SINDy (STLSQ)"), ("ude_sbr", "UDE + SINDy (SBR)"),
+            ("sindy_data", "SINDy on the data")]
+    lines += ["| recipe | effects within 10 % | median rel_err | median theta error | controls with nothing added "
+              "| median seconds |", "|---|---|---|---|---|---|"]
+    for key, label in arms:
+        got = [r[key] for r in effects if key in r and "skipped" not in r[key]]
+        ctl = [r[key] for r in controls if key in r and "skipped" not in r[key]]
+        if not got and not ctl:
+            lines.append(f"| {label} | not run | | | | |")
+            continue
+        hit = sum(g["rel_err"] is not None and g["rel_err"] <= 0.10 for g in got)
+        theta = [g["theta_error"] for g in got if g.get("theta_error") is not None]
+        secs = [g["seconds"] for g in got + ctl if "seconds" in g]
+        clean = sum((c.get("n_added") if key == "loop" else c.get("n_terms")) == 0 for c in ctl)
+        lines.append(f"| {label} | {hit} of {len(got)} | "
+                     f"{np.median([g['rel_err'] for g in got]):.3f} | " if got else f"| {label} | | | ")
+        lines[-1] += (f"{np.median(theta):.3f} | " if theta else "| ") + f"{clean} of {len(ctl)} | " + \
+            (f"{np.median(secs):.1f} |" if secs else "|")
+    lines += ["", "| system | noise | loop | UDE + STLSQ | UDE + SBR | SINDy on data | UDE terms |",
+              "|---|---|---|---|---|---|---|"]
+    for r in recs:
+        key = "control_err" if SYSTEMS[r["system"]].is_control else "rel_err"
+        cell = {k: (f"{r[k][key]:.3f}" if k in r and r[k].get(key) is not None else "") for k, _ in arms}
+        lines.append(f"| {r['system']} | {r['noise']:g} | {cell['loop']} | {cell['ude_stlsq']} | {cell['ude_sbr']} | "
+                     f"{cell['sindy_data']} | {'; '.join(r['ude_stlsq'].get('terms', []))[:120]} |")
+    return "\n".join(lines) + "\n", {"records": recs}
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--cases", nargs="*", default=[])
+    parser.add_argument("--noise", type=float, nargs="*", default=[])
+    parser.add_argument("--batches", type=int, nargs="*", default=[])
+    parser.add_argument("--render", action="store_true")
+    args = parser.parse_args(argv)
+    if not args.render:
+        for name, noise, seed in cases(args.cases, args.noise, args.batches):
+            path = RUNS / f"{case_name(name, noise, seed)}.json"
+            if path.exists():
+                continue
+            out = run_case(name, noise, seed)
+            RUNS.mkdir(parents=True, exist_ok=True)
+            path.write_text(json.dumps(out, indent=1, default=float) + "\n")
+            print(f"{name} {noise}: loop {out['loop']}, ude {out['ude_stlsq'].get('rel_err')}, "
+                  f"data {out['sindy_data'].get('rel_err')}", flush=True)
+    text, data = render()
+    write_results("anchors_loop", data, text)
+    print(text)
+
+
+if __name__ == "__main__":
+    main()
