@@ -18,9 +18,9 @@ import numpy as np
 
 from ..science import read_signature
 from ._judge import FIT_FAILURES, Judge
-from .candidates import (augment_with, count_parameters, free_columns, initial_values, public_record,
-                         rank_by_residual, shape_bounds, with_fitted)
-from .residual import parameter_jacobian, science_output
+from .candidates import (augment_with, count_parameters, initial_values, public_record, rank_by_residual,
+                         shape_bounds, with_fitted)
+from .sensitivity import free_columns, parameter_jacobian, science_output
 
 __all__ = ["replace_stand_ins"]
 
