@@ -20,6 +20,7 @@ from sklearn_hybrid.datasets import (
     make_wind_tunnel_simulated,
 )
 from sklearn_hybrid.datasets import _causal_chamber as cc
+from sklearn_hybrid.models import causal_chamber as chamber
 from sklearn_hybrid.datasets import _causal_chamber_simulated as cc_sim
 from sklearn_hybrid.datasets import _measured
 from sklearn_hybrid.datasets._base import (
@@ -243,7 +244,7 @@ def test_light_constants_match_calibration_files(shared_data):
     sens /= sens[1].max()
     leds = [624.6, 517.8, 465.0]
     S = np.array([[np.interp(w, waves, s) for w in leds] for s in sens])
-    np.testing.assert_allclose(S, cc.S_CAMERA, atol=1e-6)
+    np.testing.assert_allclose(S, chamber.S_CAMERA, atol=1e-6)
 
 
 # --------------------------------------------------------------------------------------------
@@ -389,25 +390,25 @@ def test_wind_tunnel_simulated():
     np.testing.assert_array_equal(d.X[0, :, 2], cc_sim.wind_tunnel_inputs()["hatch"][:200])
     np.testing.assert_array_equal(d.y, make_wind_tunnel_simulated(random_state=0).y)
     dp = d.y - d.pressure_ambient  # bounded by S_max (1 - r) plus noise
-    assert np.abs(dp).max() < cc.S_MAX * (1 - cc.C3_R0) + 2
+    assert np.abs(dp).max() < chamber.S_MAX * (1 - chamber.C3_R0) + 2
     # The stand-in holds what A1+C2 lack (fan lag, hatch): A1+C2 at r = 0.75 misses it by far
     # more than the 0.2 Pa barometer noise.
-    ell = np.maximum(d.X[..., :2], cc.L_MIN) ** 2
-    a1c2 = cc.S_MAX * (1 - cc.R_CODE) * (ell[..., 0] - ell[..., 1])
+    ell = np.maximum(d.X[..., :2], chamber.L_MIN) ** 2
+    a1c2 = chamber.S_MAX * (1 - chamber.R_CODE) * (ell[..., 0] - ell[..., 1])
     assert np.sqrt(np.mean((dp - a1c2) ** 2)) > 1.0
 
 
 def test_model_constants():
-    assert cc.S_MAX * (1 - cc.R_CODE) * (1 - 0.1**2) == pytest.approx(18.519, abs=1e-3)
-    assert cc.FAN_DRAG_K == pytest.approx(5.268701549401565e-08, rel=1e-12)
-    assert cc.hexagon_mask(100).sum() == pytest.approx(3 * 3**0.5 / 2 * 22**2, rel=0.05)
+    assert chamber.S_MAX * (1 - chamber.R_CODE) * (1 - 0.1**2) == pytest.approx(18.519, abs=1e-3)
+    assert chamber.FAN_DRAG_K == pytest.approx(5.268701549401565e-08, rel=1e-12)
+    assert chamber.hexagon_mask(100).sum() == pytest.approx(3 * 3**0.5 / 2 * 22**2, rel=0.05)
 
 
 def test_model_f3_colour_matches_formula():
     x = np.array([216, 162, 130]) / 255
-    m = (cc.T_PARALLEL - cc.T_CROSSED) * np.cos(np.deg2rad(-82.9 + 69.2)) ** 2 + cc.T_CROSSED
-    expected = np.minimum(1, cc.EXPOSURE_F3 * np.diag(cc.W_WHITE_BALANCE) @ cc.S_CAMERA @ x * m)
-    got = cc.model_f3_colour(np.array([[216, 162, 130, -82.9, -69.2]]))[0]
+    m = (chamber.T_PARALLEL - chamber.T_CROSSED) * np.cos(np.deg2rad(-82.9 + 69.2)) ** 2 + chamber.T_CROSSED
+    expected = np.minimum(1, chamber.EXPOSURE_F3 * np.diag(chamber.W_WHITE_BALANCE) @ chamber.S_CAMERA @ x * m)
+    got = chamber.model_f3_colour(np.array([[216, 162, 130, -82.9, -69.2]]))[0]
     np.testing.assert_allclose(got, expected, rtol=1e-12)
 
 
@@ -421,5 +422,5 @@ def test_light_tunnel_simulated():
     assert d.images.min() >= 0 and d.images.max() <= 1
     assert d.images[:, :, 0, 0].max() < 0.05  # dark outside the hexagon
     centre = d.images[:, :, 25, 25]
-    f3 = cc.model_f3_colour(d.X)
+    f3 = chamber.model_f3_colour(d.X)
     assert np.corrcoef(centre.ravel(), f3.ravel() ** (1 / 2.2))[0, 1] > 0.95

@@ -10,9 +10,8 @@ from sklearn_hybrid import HybridRegressor
 from sklearn_hybrid.datasets import (make_duffing, make_light_tunnel_simulated, make_pendulum,
                                      make_pendulum_images, make_reaction_diffusion,
                                      make_wind_tunnel_simulated)
-from sklearn_hybrid.datasets._causal_chamber import (S_MAX, T_CROSSED, T_PARALLEL,
-                                                     W_WHITE_BALANCE, hexagon_mask,
-                                                     model_f3_colour)
+from sklearn_hybrid.models.causal_chamber import (S_MAX, T_CROSSED, T_PARALLEL, W_WHITE_BALANCE, hexagon_mask,
+                                                  model_f3_colour)
 from sklearn_hybrid.models import (THETA_BOUNDS, FeedForward, FrameDecoder, ImageEncoder,
                                    PendulumImagesNet, PendulumImagesStructure, UNet,
                                    diffusion_f, duffing_f, laplacian, latent_trajectories,
@@ -112,7 +111,7 @@ def test_light_tunnel_colour_on_known_inputs():
                t_c=torch.tensor(T_CROSSED))
     # white light (all LEDs 255 -> x = 1), parallel polarisers: colour = e * w * S.sum(1) * T^p
     white = torch.tensor([[255.0, 255.0, 255.0, 30.0, 30.0]], dtype=D)
-    from sklearn_hybrid.datasets._causal_chamber import EXPOSURE_F3, S_CAMERA
+    from sklearn_hybrid.models.causal_chamber import EXPOSURE_F3, S_CAMERA
 
     colour = np.minimum(1, EXPOSURE_F3 * W_WHITE_BALANCE * S_CAMERA.sum(1) * T_PARALLEL)
     image = f(white, **ref)[0].numpy()

@@ -13,10 +13,11 @@ from __future__ import annotations
 import numpy as np
 from sklearn.utils import Bunch, check_random_state
 
-from ._causal_chamber import (CITATION, LIGHT_TUNNEL_DESCR, WIND_TUNNEL_DESCR, BAROMETER_PRECISION, C3_BETA, C3_R0, C_MAX, C_MIN,
-                              FAN_DRAG_K, FAN_INERTIA, HEX_CENTER_X, HEX_CENTER_Y, HEX_RADIUS, L_MIN, OMEGA_MAX,
-                              S_MAX, TORQUE_T, WT_SAMPLE_PERIOD, check_window, light_tunnel_bunch, wind_tunnel_bunch, hexagon_mask,
-                              model_f3_colour)
+from ..models.causal_chamber import (BAROMETER_PRECISION, C3_BETA, C3_R0, C_MAX, C_MIN, FAN_DRAG_K, FAN_INERTIA,
+                                     HEX_CENTER_X, HEX_CENTER_Y, HEX_RADIUS, L_MIN, OMEGA_MAX, S_MAX, TORQUE_T,
+                                     hexagon_mask, model_f3_colour)
+from ._causal_chamber import (CITATION, LIGHT_TUNNEL_DESCR, WIND_TUNNEL_DESCR, WT_SAMPLE_PERIOD, check_window,
+                              light_tunnel_bunch, wind_tunnel_bunch)
 from ._synthetic import check_float, check_int
 
 __all__ = ["light_tunnel_inputs", "make_light_tunnel_simulated", "make_wind_tunnel_simulated", "wind_tunnel_inputs"]

@@ -26,7 +26,7 @@ from typing import Callable
 import numpy as np
 import torch
 
-from ..datasets._causal_chamber import (EXPOSURE_F3, L_MIN, S_CAMERA, S_MAX, hexagon_mask)
+from .causal_chamber import EXPOSURE_F3, L_MIN, S_CAMERA, S_MAX, hexagon_mask
 
 __all__ = ["pendulum_f", "duffing_f", "diffusion_f", "laplacian", "wind_tunnel_f",
            "fan_speed_ratio", "light_tunnel_f", "make_light_tunnel_f", "light_tunnel_colour",
