@@ -1,8 +1,8 @@
 """Laplace intervals of theta with the network integrated out (issue "Is theta identified?", item 3).
 
 An experiment measured by ``bench_laplace.py`` beside the profiles; it did not earn a place in the package
-(``results/laplace.md``: its intervals held with a network of fewer weights than the data have values, and not
-with the package's default network).
+(``results/laplace.md``: its intervals held with the benchmark's 32x32 network, and not with the package's
+default network).
 
 At the fitted parameters (theta, phi), with ``A = W^1/2 dpred/dtheta`` and
 ``B = W^1/2 dpred/dphi`` (every predicted value, ``W`` the inverse noise
