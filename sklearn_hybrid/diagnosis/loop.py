@@ -136,7 +136,7 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
        several components also on all of them at once, one coefficient each: a flux between
        compartments enters every balance it connects; and sets of two or three terms on one
        equation that explain the difference only together, such as ``x'`` and ``x^2 x'`` of a limit
-       cycle, see :mod:`~sklearn_hybrid.diagnosis.joint`), refitted *without the network* by least
+       cycle, see ``diagnosis/joint.py``), refitted *without the network* by least
        squares on the training samples (at most 256 of them, evenly spaced, for this screening;
        shape parameters such as a knot or a width fitted too), and judged on the last
        ``validation_fraction`` of the samples: a term is kept only when
