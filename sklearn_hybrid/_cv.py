@@ -331,7 +331,7 @@ class HybridRegressorCV(RegressorMixin, BaseEstimator):
                + (" (one seed: no spread measured)" if n_seeds < 2 else "")
                + "; the spread between training runs, not an interval of theta: profile_theta says whether "
                "the data identify it")
-        from ._report import format_report
+        from ._fit_report import format_report
 
         return format_report("Hybrid sweep", lines, self.theta_, self.theta_std_, how,
                              std_label=f"spread across {n_seeds} seed(s)")

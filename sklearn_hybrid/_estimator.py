@@ -25,7 +25,7 @@ from ._memory import check_fit_memory, explained_memory_errors
 from ._verdict import explain_start, judge_training
 from ._validation import (check_dtype_range, check_positive, check_target_layout, set_feature_info, torch_threads,
                           validate_into_copy)
-from ._report import theta_uncertainty
+from ._fit_report import theta_uncertainty
 from .methods import make_method
 from .residual import build_residual
 from .science import ScienceModel

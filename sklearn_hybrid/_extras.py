@@ -14,7 +14,7 @@ import numpy as np
 import torch
 from sklearn.utils.validation import check_is_fitted
 
-from ._report import format_report
+from ._fit_report import format_report
 from ._validation import check_positive, torch_threads
 from .integrate import upsample_inputs
 

@@ -263,7 +263,7 @@ def test_standard_errors_of_a_short_minibatch_fit_use_a_subset():
     a random subset, its covariance scaled to all samples, close to the full computation."""
     import torch
 
-    from sklearn_hybrid._report import theta_uncertainty
+    from sklearn_hybrid._fit_report import theta_uncertainty
 
     data = make_pendulum(n_train=600, n_val=1, n_test=1, n_steps=3, random_state=0)
     est = HybridRegressor(science=pendulum_f, dt=data.dt, method="erm", max_iter=3, batch_size=16,

@@ -330,7 +330,7 @@ def test_passes_after_fit_take_what_the_fits_memory_allows(monkeypatch):
     # 200 sequences at once in float64): predict and the standard errors now run in passes of
     # the size the fit's own memory estimate allows, decided once at fit
     import sklearn_hybrid._memory as memory
-    from sklearn_hybrid._report import theta_uncertainty
+    from sklearn_hybrid._fit_report import theta_uncertainty
 
     data = make_pendulum(10, 2, 2, random_state=0)
     est = HybridRegressor(science=pendulum_f, dt=data.dt, batch_size=4, max_iter=3, random_state=0)

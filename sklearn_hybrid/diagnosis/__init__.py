@@ -14,7 +14,7 @@ from .library import CandidateLibrary
 from .loop import MLPOn, ZeroResidual, close_the_loop
 from .records import fit_initial_state, free_run
 from .report import LoopResult, format_table, plot_unexplained, prediction_metrics
-from .residual import ResidualDiagnosis
+from .residual_diagnosis import ResidualDiagnosis
 from .sensitivity import science_sensitivities
 from .science_fit import ScienceFit
 from .sparse import SparseTermRegression

@@ -28,7 +28,7 @@ from scipy import stats
 
 from .._estimator import fitted_data, fitted_settings
 from .._validation import torch_threads
-from .._report import theta_jacobian
+from .._fit_report import theta_jacobian
 from ._members import check_level
 
 __all__ = ["science_intervals", "ScienceIntervals"]
