@@ -282,6 +282,10 @@ def cases(names, noises, batches):
 
 def render():
     recs = [json.loads(p.read_text()) for p in sorted(RUNS.glob("*.json"))]
+    for r in recs:  # records made before the loop's seconds were copied: read them from its own record
+        if r["loop"].get("seconds") is None:
+            loop = cache_dir(False) / f"{case_name(r['system'], r['noise'], r['seed'])}.json"
+            r["loop"]["seconds"] = json.loads(loop.read_text()).get("wall_seconds") if loop.exists() else None
     effects = [r for r in recs if not SYSTEMS[r["system"]].is_control]
     controls = [r for r in recs if SYSTEMS[r["system"]].is_control]
     lines = ["# The closed loop beside the UDE recipe with pysindy and pysindy alone", "",
