@@ -152,7 +152,9 @@ def _science_jacobian(cfg, v_all, u_all, thetas, need_theta):
         f = cfg.science(v, u_all, leaves)
         jac = v.new_empty(K, N, d, d)
         for i in range(d):
-            (jac[..., i],) = torch.autograd.grad(f[..., i].sum(), v, retain_graph=True)
+            # allow_unused: a science that reads only the inputs (a cart pushed by a thrust) does not use v
+            (grad,) = torch.autograd.grad(f[..., i].sum(), v, retain_graph=True, allow_unused=True)
+            jac[..., i] = 0.0 if grad is None else grad
     return jac, f, leaves
 
 

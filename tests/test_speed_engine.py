@@ -247,3 +247,27 @@ def test_recipes_free_runs_of_several_records_as_one_batch():
             alone = free_run(est, x0, u=u)[0]
             np.testing.assert_allclose(run[:exact_until], alone[:exact_until], rtol=1e-9, atol=1e-9)
             np.testing.assert_allclose(run, alone, rtol=0.05, atol=0.05)
+
+
+def thrust_f(v, u, b=0.8):
+    """A cart's speed under a thrust: the science reads the input only, never the state."""
+    return torch.stack([b * u[:, 0]], dim=-1)
+
+
+def test_a_science_that_ignores_the_state_trains_on_the_fast_path():
+    """Its derivative by the state is zero, not an error (a fit crashed with 'The differentiated Tensor at
+    index 0 appears to not have been used in the graph'), and the fast path trains as the generic one."""
+    from sklearn_hybrid import pack_inputs
+
+    rng = np.random.default_rng(1)
+    x0, u = rng.uniform(0, 1, (12, 1)), rng.uniform(0.2, 1.0, (12, 5, 1))
+    y = x0[:, None, :] + 0.2 * np.cumsum(u[:, 1:], axis=1) - 0.05 * np.arange(1, 5)[None, :, None]
+    kw = dict(science=thrust_f, dt=0.2, n_inputs=1, method="erm", max_iter=10, lr=1e-2, dtype="float64",
+              residual={"hidden": (8,)}, random_state=0)
+    X = pack_inputs(x0, u)
+    fast = HybridRegressor(**kw).fit(X, y)
+    with _fast.disabled():
+        slow = HybridRegressor(**kw).fit(X, y)
+    assert fast.theta_["b"] != 0.8
+    assert fast.theta_["b"] == pytest.approx(slow.theta_["b"], rel=1e-9)
+    np.testing.assert_allclose(fast.history_["loss"], slow.history_["loss"], rtol=1e-9)
