@@ -231,7 +231,9 @@ BATCHES = {
          "several-term effects within 10 %, no term on a control. First run at package commit c811053 (the joint "
          "candidates, the sign term, the fitted power laws and the replacement of stand-ins; main has since also "
          "paired the best-ranked terms with each other, 49846ef), in a session that ended before all its cases "
-         "had run: the rows below are those that did."),
+         "had run: the rows below are those that did (every system at noise 0.01, four at 0.05). `headwind_cart` "
+         "0.01 first crashed in its first hybrid fit: the fast RK4 path failed on a science function that reads "
+         "only the input (`pushed_cart_f`); after the fix (4587301) it was run again at that commit's selection."),
 }
 # Run order (the tables follow SYSTEMS): domains and controls interleaved, so that a partial run is a cross-section.
 RUN_ORDER = ["drag_oscillator", "control_rlc", "budworm", "enzyme_reactor", "saturating_heater", "diode_clamped_rc",
