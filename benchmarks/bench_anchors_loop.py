@@ -42,6 +42,8 @@ from _identification_systems import SYSTEMS, simulate  # noqa: E402
 from bench_identification import PROTOCOL, cache_dir, case_name, make_data, score  # noqa: E402
 from bench_sparse_regression import GRID, cv_choice  # noqa: E402
 
+from sklearn_hybrid.science import read_signature  # noqa: E402
+
 import pysindy as ps  # noqa: E402  (the [sindy] extra)
 
 RUNS = RESULTS / "anchors_runs"
@@ -88,7 +90,7 @@ def sparse_fit(Theta: np.ndarray, r: np.ndarray, optimizer) -> np.ndarray:
     return np.where((low > 0) | (high < 0), coef, 0.0) / scale
 
 
-def combined_science(system, powers, xi, n_states):
+def combined_science(system, powers):
     """The science function plus the sparse terms ``Theta(v, u) xi`` (xi: features x states)."""
     science, names = system.science, list(system.theta_true)
 
@@ -206,7 +208,7 @@ def run_case(name, noise, seed=0):
         start = time.perf_counter()
         xi = np.stack([sparse_fit(Theta, g[:, j], label) for j in range(d)], axis=1)  # features x states
         support = xi != 0
-        f = combined_science(system, powers, xi, d)
+        f = combined_science(system, powers)
         theta, xi_fit, how = refit(system, f, theta0, xi, support, data, u_train)
         scores = score(system, f, {**theta, "_xi": xi_fit}, theta0, data["x_test"], data["u_test"])
         out[f"ude_{label}"] = {**scores, "n_terms": int(support.sum()), "refit": how,
@@ -234,7 +236,7 @@ def sindy_on_data(system, data, u_train, powers) -> dict:
     xdot = np.concatenate([np.asarray(diff(s, t)) for s in states])
     x = states.reshape(-1, d)
     u = None if u_train is None else u_train.reshape(-1, u_train.shape[-1])
-    guess = {k: float(v) for k, v in (system.theta_guess or _defaults(system.science)).items()}
+    guess = {k: float(v) for k, v in (system.theta_guess or read_signature(system.science)[1]).items()}
 
     def known(v, *uu):  # d f_j / d theta_k at the guesses, every (k, j) a column
         cols = []
@@ -259,11 +261,6 @@ def sindy_on_data(system, data, u_train, powers) -> dict:
     model.__name__ = "sindy_on_data"
     scores = score(system, model, {}, guess, data["x_test"], data["u_test"])
     return {**scores, "n_terms": int((xi != 0).sum())}
-
-
-def _defaults(f):
-    import inspect
-    return {k: p.default for k, p in inspect.signature(f).parameters.items() if p.default is not p.empty}
 
 
 def cases(names, noises, batches):

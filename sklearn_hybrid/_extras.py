@@ -270,9 +270,9 @@ class EstimatorExtras:
         lines = [f"science: {func}, structure: {fit['structure']}, method: {fit['method']}",
                  f"iterations: {self.n_iter_} of max_iter={fit['max_iter']} ({stop})",
                  f"training loss (last iteration): {self.history_['loss'][-1]:.4g}"]
-        layout = getattr(self.model_.structure, "layout", None)
-        if layout is not None and layout():  # X alone cannot say where a forced system's state ends
-            lines.append(layout())
+        layout = getattr(self.model_.structure, "layout", lambda: "")()
+        if layout:  # X alone cannot say where a forced system's state ends
+            lines.append(layout)
         if getattr(self, "_not_usable", None):  # first, before any number a reader might trust
             lines.insert(0, f"NOT USABLE: the training went bad: {self._not_usable}")
         if "validation_loss" in self.history_ and len(self.history_["validation_loss"]):
