@@ -33,7 +33,7 @@ from torch.func import functional_call, jacrev
 
 from sklearn_hybrid import _fast
 from sklearn_hybrid._validation import torch_threads
-from sklearn_hybrid.identifiability import ADVICE, IDENTIFIED
+from sklearn_hybrid.identifiability import IDENTIFIED
 from sklearn_hybrid.identifiability._members import check_level, fitted_problem, parameter_entries
 
 __all__ = ["laplace_theta", "ThetaLaplace"]
@@ -55,31 +55,6 @@ class ThetaLaplace:
     level: float
     prior_precision: float
     n_samples: int
-
-    def verdict_text(self, label: str) -> str:
-        """What the Laplace step says of one entry, in words, with its interval where identified."""
-        if self.verdicts[label] == "identified":
-            low, high = self.intervals[label]
-            return f"identified, {100 * self.level:.0f} % interval [{low:.5g}, {high:.5g}] (Laplace)"
-        return ("NOT IDENTIFIED: with the network integrated out, theta's interval is wider than its value "
-                "(the network can take over what this parameter does)")
-
-    def how(self) -> str:
-        """How the intervals were made, in one line."""
-        return (f"{100 * self.level:.0f} %, Laplace over theta and the network at the fit, the network integrated "
-                f"out, its prior precision {self.prior_precision:.3g} chosen by the evidence; {self.n_samples} samples")
-
-    def report(self) -> str:
-        """A text report: per parameter the verdict and the interval."""
-        lines = [f"[[Laplace]]  ({self.how()})"]
-        for label in self.verdicts:
-            lines.append(f"    {label}: {self.estimate[label]:.6g}  {self.verdict_text(label)}")
-        if any(v != IDENTIFIED for v in self.verdicts.values()):
-            lines.append(f"    ({ADVICE})")
-        return "\n".join(lines)
-
-    def __str__(self) -> str:
-        return self.report()
 
 
 def laplace_theta(estimator, X, y, level: float = 0.95, prior_precision: float | None = None) -> ThetaLaplace:
