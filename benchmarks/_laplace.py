@@ -31,7 +31,7 @@ import torch
 from scipy import stats
 from torch.func import functional_call, jacrev
 
-from sklearn_hybrid import _fast
+from sklearn_hybrid.integrate import fast as fast_rk4
 from sklearn_hybrid._validation import torch_threads
 from sklearn_hybrid.identifiability import IDENTIFIED
 from sklearn_hybrid.identifiability._members import check_level, fitted_problem, parameter_entries
@@ -125,7 +125,7 @@ def _weighted_jacobians(model, params, theta_keys, phi_keys, inputs, target, y_s
         return functional_call(model, p, one)[0].reshape(-1)
 
     A_rows, B_rows, preds = [], [], []
-    with torch.enable_grad(), _fast.disabled():  # the fast RK4's autograd function does not run under jacrev
+    with torch.enable_grad(), fast_rk4.disabled():  # the fast RK4's autograd function does not run under jacrev
         for i in range(n):
             one = tuple(t[i:i + 1] for t in inputs)
             jac = jacrev(predict)(params, one)

@@ -64,7 +64,7 @@ from sklearn_hybrid import HybridRegressor
 from sklearn_hybrid import datasets as ds
 from sklearn_hybrid import models
 from sklearn_hybrid.diagnosis import ZeroResidual
-from sklearn_hybrid.engine import DivergenceError, train
+from sklearn_hybrid.training.engine import DivergenceError, train
 
 CACHE = RESULTS / "table1_runs"
 SMOKE_CACHE = Path(tempfile.gettempdir()) / "sklearn_hybrid_table1_smoke"  # never committed

@@ -13,7 +13,7 @@ import importlib
 __version__ = "0.1.0"
 
 _LAZY = {"HybridRegressor": "._estimator", "HybridRegressorCV": "._cv",
-         "DivergenceError": ".engine", "make_theta_scorer": ".metrics",
+         "DivergenceError": ".training", "make_theta_scorer": ".metrics",
          "make_per_sample_theta_scorer": ".metrics", "make_flat_scorer": ".metrics",
          "theta_error": ".metrics", "pack_inputs": ".structures", "plot_fit": ".plotting"}
 

@@ -14,14 +14,14 @@ from sklearn.base import BaseEstimator, RegressorMixin, clone
 from sklearn.metrics import check_scoring
 from sklearn.utils.validation import check_is_fitted, validate_data
 
-from ._batched import train_members
+from .training.stacked import train_members
 from ._estimator import HybridRegressor, prepare_fit, store_fit
 from .methods import Method, make_method, stackable_methods
 from ._validation import check_n_jobs, set_feature_info, torch_threads, validate_into_copy
-from ._kernels import reusing_buffers
-from ._memory import check_fit_memory
+from .integrate.kernels import reusing_buffers
+from .training.memory import check_fit_memory
 from .metrics import make_flat_scorer
-from .engine import DivergenceError, train
+from .training.engine import DivergenceError, train
 
 __all__ = ["HybridRegressorCV"]
 

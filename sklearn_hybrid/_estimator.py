@@ -17,12 +17,12 @@ from sklearn.utils import Bunch, check_random_state
 from sklearn.utils.validation import check_is_fitted, validate_data
 
 from ._device import resolve_device
-from ._kernels import reusing_buffers
+from .integrate.kernels import reusing_buffers
 from . import encoder as _encoder
-from .engine import DivergenceError, TrainConfig, cosine_lr, explain_nonfinite, theta_drift, train
+from .training.engine import DivergenceError, TrainConfig, cosine_lr, explain_nonfinite, theta_drift, train
 from ._extras import EstimatorExtras, check_sample_weight, split_holdout
-from ._memory import check_fit_memory, explained_memory_errors
-from ._verdict import explain_start, judge_training
+from .training.memory import check_fit_memory, explained_memory_errors
+from .training.verdict import explain_start, judge_training
 from ._validation import (check_dtype_range, check_positive, check_target_layout, set_feature_info, torch_threads,
                           validate_into_copy)
 from ._fit_report import theta_uncertainty
@@ -208,7 +208,7 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
         How far each parameter still moved at the end of training: its largest
         relative change ``|theta_end - theta_start| / |theta_end|`` over the
         last iterations in which 10 % of theta's summed learning rate was
-        spent (see ``sklearn_hybrid.engine.theta_drift``).  A theta that
+        spent (see ``sklearn_hybrid.training.engine.theta_drift``).  A theta that
         settled moves by much less there than one the cosine schedule froze
         on its way (which moves about 10 % of its whole travel); a change of
         plain iterations would hide that, as the learning rate is close to
@@ -327,7 +327,7 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
         -------
         self : HybridRegressor
             The fitted estimator.  If training diverges, a
-            :class:`~sklearn_hybrid.engine.DivergenceError` is raised and an
+            :class:`~sklearn_hybrid.training.engine.DivergenceError` is raised and an
             earlier fit is left untouched.
         """
         setup = self._setup_fit(X, y)
@@ -446,7 +446,7 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
         over the training inputs ``setup.inputs``.  ``data`` is ``(inputs, y,
         sample_weight)`` of the trained samples, for the standard errors of
         theta (default: all samples of ``setup``, unweighted).  ``verdict``
-        (see :func:`~sklearn_hybrid._verdict.judge_training`) says whether the
+        (see :func:`~sklearn_hybrid.training.verdict.judge_training`) says whether the
         model is usable; ``fit_report`` repeats its reason.
         """
         model = setup.model

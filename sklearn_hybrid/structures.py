@@ -24,7 +24,7 @@ import numpy as np
 import torch
 from torch import nn
 
-from . import _fast
+from .integrate import fast
 from ._probe import call_science, probe_batch
 from ._validation import check_positive
 from .integrate import INPUT_INTERPOLATIONS, integrate, upsample_inputs
@@ -300,13 +300,13 @@ class OdeStructure:
         # the fast RK4 assumes one theta shared by every sample (not so with a theta encoder)
         if (use_residual and mask is None and torch.is_grad_enabled()
                 and not getattr(model, "per_sample_theta", False)
-                and _fast.supports(model.residual, self.state_shape, self.solver)):
-            # same RK4, gradients without per-stage autograd overhead (see _fast); without
+                and fast.supports(model.residual, self.state_shape, self.solver)):
+            # same RK4, gradients without per-stage autograd overhead (see integrate/fast.py); without
             # gradients (predict) the plain loop is faster, as nothing is kept for a backward
-            return _fast.hybrid_states(model.science, model.residual, x0, u_fine, n_steps, dt,
+            return fast.hybrid_states(model.science, model.residual, x0, u_fine, n_steps, dt,
                                        n_substeps)
-        if not getattr(model, "per_sample_theta", False):  # no gradients: theta read once (see _fast)
-            rhs = _fast.frozen_rhs(model.science, model.residual if use_residual else None, mask) or rhs
+        if not getattr(model, "per_sample_theta", False):  # no gradients: theta read once (see integrate/fast.py)
+            rhs = fast.frozen_rhs(model.science, model.residual if use_residual else None, mask) or rhs
         return integrate(rhs, x0, n_steps, dt, n_substeps=n_substeps, solver=self.solver,
                          u_fine=u_fine, solver_options=self.solver_options)
 

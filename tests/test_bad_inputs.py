@@ -443,7 +443,7 @@ def test_a_short_healthy_fit_is_not_flagged():
 ])
 def test_verdict_on_a_model_worse_than_the_mean(start, halved, phrase):
     """The verdict's rules, on a short fit to noise (training R^2 < 0) with the history it read."""
-    from sklearn_hybrid._verdict import judge_training
+    from sklearn_hybrid.training.verdict import judge_training
 
     X, y = _data()
     est = HybridRegressor(science=pendulum_f, **FAST).fit(X, y)
@@ -512,7 +512,7 @@ def test_offline_download_fails_within_seconds(tmp_path, monkeypatch):
 
 def test_a_smoke_test_of_two_iterations_is_not_judged():
     """One step on y = 0 may raise the loss a hundredfold from a start near zero: no divergence, no warning."""
-    from sklearn_hybrid._verdict import judge_training
+    from sklearn_hybrid.training.verdict import judge_training
 
     X, y = _data()
     est = HybridRegressor(science=pendulum_f, **FAST).fit(X, y)

@@ -6,7 +6,7 @@ import torch
 from sklearn.base import clone
 
 from sklearn_hybrid import DivergenceError, HybridRegressor, HybridRegressorCV, make_theta_scorer
-from sklearn_hybrid import _fast
+from sklearn_hybrid.integrate import fast as fast_rk4
 from sklearn_hybrid.models import pendulum_f
 
 
@@ -54,7 +54,7 @@ def test_batched_generic_path_equals_separate_fits():
                            residual={"hidden": (8,)}, dtype="float64")
     cv = HybridRegressorCV(base, rhos=[0.05, 0.5], seeds=[0, 1], validation_fraction=None).fit(X, y)
     _assert_members_equal_separate_fits(cv, base, X, y, 1e-10)
-    with _fast.disabled():  # an ODE through the generic batched path too
+    with fast_rk4.disabled():  # an ODE through the generic batched path too
         X2, y2 = X[:, :2], np.stack([X[:, :2]] * 2, axis=1)
         base2 = HybridRegressor(science=pendulum_f, method="fsam", dt=0.1, max_iter=3,
                                 residual={"hidden": (8,)}, dtype="float64")

@@ -910,7 +910,7 @@ def _decay_f(v, k=0.6):
 def test_the_loop_starts_the_default_network_at_zero_where_a_random_start_breaks_the_science():
     """States near zero, where the default network's random start pushes some below it: a plain fit's
     first integration is NaN. The loop's first fit starts the network at zero (from the science model)."""
-    from sklearn_hybrid.engine import DivergenceError
+    from sklearn_hybrid.training.engine import DivergenceError
 
     rng = np.random.default_rng(0)
     x0, t = rng.uniform(0.1, 0.3, size=(20, 1)), 0.5 * np.arange(11)

@@ -8,7 +8,7 @@ from sklearn.base import clone
 from sklearn.model_selection import GridSearchCV
 
 from sklearn_hybrid import HybridRegressor, HybridRegressorCV, pack_inputs
-from sklearn_hybrid._stopping import EarlyStopping
+from sklearn_hybrid.training.stopping import EarlyStopping
 from sklearn_hybrid.datasets import make_pendulum
 from sklearn_hybrid.diagnosis import free_run
 

@@ -53,10 +53,10 @@ def test_auto_takes_a_gpu_when_torch_sees_one(monkeypatch):
 
 
 def test_fast_path_is_cpu_only():
-    from sklearn_hybrid import _fast
+    from sklearn_hybrid.integrate import fast as fast_rk4
     from sklearn_hybrid.residual import MLP
 
     mlp = MLP(((2,),), (2,))
-    assert _fast.supports(mlp, (2,), "rk4")
+    assert fast_rk4.supports(mlp, (2,), "rk4")
     meta = MLP(((2,),), (2,)).to("meta")  # a module off the CPU, without needing a GPU
-    assert not _fast.supports(meta, (2,), "rk4")
+    assert not fast_rk4.supports(meta, (2,), "rk4")

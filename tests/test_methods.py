@@ -7,7 +7,7 @@ import pytest
 import torch
 from torch import nn
 
-from sklearn_hybrid.engine import TrainConfig, train
+from sklearn_hybrid.training.engine import TrainConfig, train
 from sklearn_hybrid.methods import (METHODS, asam_perturbation, fsam_perturbation, make_method,
                                     sam_perturbation)
 from sklearn_hybrid.science import ScienceModel
@@ -194,7 +194,7 @@ def test_penalties():
 @pytest.mark.parametrize("momentum", [0.1, None])
 def test_perturbed_pass_leaves_batchnorm_statistics_alone(momentum):
     """SAM's second pass must not count as a batch, also for a cumulative average (momentum=None)."""
-    from sklearn_hybrid.engine import _frozen_batchnorm_stats
+    from sklearn_hybrid.training.engine import _frozen_batchnorm_stats
 
     torch.manual_seed(0)
     batches = [torch.randn(8, 2) + i for i in range(3)]

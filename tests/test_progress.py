@@ -2,7 +2,7 @@
 
 import numpy as np
 
-import sklearn_hybrid.engine as engine
+import sklearn_hybrid.training.engine as engine
 from sklearn_hybrid import HybridRegressor
 
 FAST = dict(max_iter=15, residual={"hidden": (8, 8)}, random_state=0)

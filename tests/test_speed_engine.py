@@ -1,4 +1,4 @@
-"""The fast RK4 path (sklearn_hybrid._fast): same states and gradients as plain autograd."""
+"""The fast RK4 path (sklearn_hybrid.integrate.fast): same states and gradients as plain autograd."""
 
 import inspect
 
@@ -7,7 +7,7 @@ import pytest
 import torch
 
 from sklearn_hybrid import HybridRegressor
-from sklearn_hybrid import _fast, _kernels
+from sklearn_hybrid.integrate import fast as fast_rk4, kernels
 from sklearn_hybrid.datasets import make_duffing, make_pendulum
 from sklearn_hybrid.integrate import integrate
 from sklearn_hybrid.residual import MLP, ConvNet
@@ -46,8 +46,8 @@ def test_states_and_gradients_match_autograd(activation, forced):
 
     ref = _reference(science, theta, net, x0, u, n_steps, dt, n_sub)
     grads_ref = torch.autograd.grad((ref * w).sum(), params)
-    weights, biases, acts = _fast.mlp_parts(net)
-    fast = _fast.ode_states(science, list(theta), [t[None] for t in theta.values()],
+    weights, biases, acts = fast_rk4.mlp_parts(net)
+    fast = fast_rk4.ode_states(science, list(theta), [t[None] for t in theta.values()],
                             [p[None] for p in weights], [p[None] for p in biases], acts, x0[None],
                             None if u is None else u[None], n_steps, dt, n_sub)[0]
     grads = torch.autograd.grad((fast * w).sum(), params)
@@ -69,12 +69,12 @@ def test_stacked_members_get_their_own_gradients(science, forced, activation):
     nets = [MLP(ins, (2,), hidden=(8, 8), activation=activation).to(D) for _ in range(K)]
     names = {pendulum_f: ["omega"], spring_f: ["k"], forced_f: ["k", "c"]}[science]
     thetas = [torch.linspace(0.5, 0.7, K, dtype=D).requires_grad_() for _ in names]
-    parts = [_fast.mlp_parts(n) for n in nets]
+    parts = [fast_rk4.mlp_parts(n) for n in nets]
     weights = [torch.stack([p[0][i] for p in parts]).detach().requires_grad_() for i in range(3)]
     biases = [torch.stack([p[1][i] for p in parts]).detach().requires_grad_() for i in range(3)]
     x0, w = torch.randn(K, 4, 2, dtype=D), torch.randn(K, 4, n_steps, 2, dtype=D)
     u = torch.randn(K, 4, 2 * n_sub * n_steps + 1, 1, dtype=D) if forced else None
-    out = _fast.ode_states(science, names, thetas, weights, biases, parts[0][2], x0, u,
+    out = fast_rk4.ode_states(science, names, thetas, weights, biases, parts[0][2], x0, u,
                            n_steps, dt, n_sub)
     grads = torch.autograd.grad((out * w).sum(), [*thetas, *weights, *biases])
     n = len(names)
@@ -92,13 +92,13 @@ def test_stacked_members_get_their_own_gradients(science, forced, activation):
 
 def test_supports():
     mlp = MLP(((2,),), (2,))
-    assert _fast.supports(mlp, (2,), "rk4")
-    assert not _fast.supports(mlp, (2,), "dopri5")
-    assert not _fast.supports(MLP(((20,),), (20,)), (20,), "rk4")  # large state: autograd
-    assert not _fast.supports(ConvNet(((2, 4, 4),), (2, 4, 4)), (2, 4, 4), "rk4")
-    with _fast.disabled():
-        assert not _fast.supports(mlp, (2,), "rk4")
-    assert _fast.supports(mlp, (2,), "rk4")
+    assert fast_rk4.supports(mlp, (2,), "rk4")
+    assert not fast_rk4.supports(mlp, (2,), "dopri5")
+    assert not fast_rk4.supports(MLP(((20,),), (20,)), (20,), "rk4")  # large state: autograd
+    assert not fast_rk4.supports(ConvNet(((2, 4, 4),), (2, 4, 4)), (2, 4, 4), "rk4")
+    with fast_rk4.disabled():
+        assert not fast_rk4.supports(mlp, (2,), "rk4")
+    assert fast_rk4.supports(mlp, (2,), "rk4")
 
 
 @pytest.mark.parametrize("method", ["erm", "fsam", "f-reg"])
@@ -110,7 +110,7 @@ def test_fit_same_with_and_without_fast_path(method):
               residual={"hidden": (8, 8)}, theta_bounds={"omega": (0.1, 2.0)},
               observed=[0], random_state=0)
     fast = HybridRegressor(**kw).fit(X, y[..., :1])
-    with _fast.disabled():
+    with fast_rk4.disabled():
         slow = HybridRegressor(**kw).fit(X, y[..., :1])
     assert fast.theta_["omega"] == pytest.approx(slow.theta_["omega"], rel=1e-9)
     np.testing.assert_allclose(fast.history_["loss"], slow.history_["loss"], rtol=1e-9)
@@ -129,8 +129,8 @@ def test_masked_network_on_the_fast_path():
     kw = dict(science=pendulum_f, method="fsam", dt=0.2, max_iter=15, lr=1e-2, dtype="float64",
               residual=MLPOn([1], hidden=(8, 8), zero_init=False), random_state=0)
     fast = HybridRegressor(**kw).fit(X, y)
-    assert _fast.supports(fast.residual_, (2,), "rk4")
-    with _fast.disabled():
+    assert fast_rk4.supports(fast.residual_, (2,), "rk4")
+    with fast_rk4.disabled():
         slow = HybridRegressor(**kw).fit(X, y)
     assert fast.theta_["omega"] == pytest.approx(slow.theta_["omega"], rel=1e-9)
     np.testing.assert_allclose(fast.history_["loss"], slow.history_["loss"], rtol=1e-9)
@@ -158,7 +158,7 @@ def test_science_mixing_samples_falls_back_to_autograd():
     kw = dict(science=centred_f, method="erm", dt=0.1, max_iter=4, dtype="float64",
               residual={"hidden": (8,)}, random_state=0)
     fast = HybridRegressor(**kw).fit(X, y)
-    with _fast.disabled():
+    with fast_rk4.disabled():
         slow = HybridRegressor(**kw).fit(X, y)
     assert fast.theta_["k"] == pytest.approx(slow.theta_["k"], rel=1e-12)
 
@@ -187,25 +187,25 @@ def test_stage_buffers_are_reused_within_a_fit_and_freed_after_it(monkeypatch):
     X = rng.uniform(-1, 1, (6, 2))
     y = np.stack([X] * 3, axis=1)
     taken = []
-    original = _kernels.take
+    original = kernels.take
 
     def spy(shape, dtype):
         buffer = original(shape, dtype)
         taken.append(buffer)  # kept alive, so that distinct buffers have distinct ids
         return buffer
 
-    monkeypatch.setattr(_kernels, "take", spy)
+    monkeypatch.setattr(kernels, "take", spy)
     HybridRegressor(science=pendulum_f, method="erm", dt=0.1, max_iter=4,
                     residual={"hidden": (8,)}, random_state=0).fit(X, y)
     # states and one hidden layer forward, one delta buffer backward, per iteration:
     # after the first iteration every take is served from the pool
     assert len(taken) == 4 * 3 and len({id(b) for b in taken}) == 3
-    assert not _kernels._POOL  # nothing held once the fit is over
+    assert not kernels._POOL  # nothing held once the fit is over
 
 
 @pytest.mark.parametrize("activation", ["tanh", "softplus"])
 def test_simulation_without_gradients_same_as_modules(activation):
-    """simulate / predict read theta once and run the MLP as bare products (_fast.frozen_rhs):
+    """simulate / predict read theta once and run the MLP as bare products (fast_rk4.frozen_rhs):
     the same states as the modules, with and without the network, bounded theta included."""
     from sklearn_hybrid.diagnosis import MLPOn, free_run
 
@@ -218,15 +218,15 @@ def test_simulation_without_gradients_same_as_modules(activation):
     u = rng.normal(size=40)
     for use_residual in (True, False):
         fast = free_run(est, [0.3, -0.2], u=u, use_residual=use_residual)
-        with _fast.disabled():
+        with fast_rk4.disabled():
             slow = free_run(est, [0.3, -0.2], u=u, use_residual=use_residual)
         np.testing.assert_allclose(fast, slow, rtol=1e-12, atol=1e-12)
-    with _fast.disabled():
+    with fast_rk4.disabled():
         slow_predict = est.predict(X)
     np.testing.assert_allclose(est.predict(X), slow_predict, rtol=1e-12, atol=1e-12)
     with torch.no_grad():
-        assert _fast.frozen_rhs(est.model_.science, est.model_.residual) is not None
-    assert _fast.frozen_rhs(est.model_.science, est.model_.residual) is None  # gradients wanted
+        assert fast_rk4.frozen_rhs(est.model_.science, est.model_.residual) is not None
+    assert fast_rk4.frozen_rhs(est.model_.science, est.model_.residual) is None  # gradients wanted
 
 
 def test_recipes_free_runs_of_several_records_as_one_batch():
@@ -266,7 +266,7 @@ def test_a_science_that_ignores_the_state_trains_on_the_fast_path():
               residual={"hidden": (8,)}, random_state=0)
     X = pack_inputs(x0, u)
     fast = HybridRegressor(**kw).fit(X, y)
-    with _fast.disabled():
+    with fast_rk4.disabled():
         slow = HybridRegressor(**kw).fit(X, y)
     assert fast.theta_["b"] != 0.8
     assert fast.theta_["b"] == pytest.approx(slow.theta_["b"], rel=1e-9)

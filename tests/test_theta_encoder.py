@@ -222,7 +222,7 @@ def test_sam_family(decay, perturb):
 
 
 def test_sam_perturbs_the_encoder_only_with_perturb_all(decay, monkeypatch):
-    from sklearn_hybrid import engine
+    from sklearn_hybrid.training import engine
 
     X, y, _ = decay
     seen = {}

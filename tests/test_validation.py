@@ -145,7 +145,7 @@ def test_a_step_into_nan_is_undone_with_a_halved_learning_rate(data):
 
 
 def test_spike_guard_restores_the_last_good_state_and_gives_up_after_its_halvings():
-    from sklearn_hybrid._stopping import SpikeGuard
+    from sklearn_hybrid.training.stopping import SpikeGuard
 
     model = torch.nn.Linear(2, 1)
     optimizer = torch.optim.Adam(model.parameters(), lr=0.1)
@@ -226,7 +226,7 @@ def test_nan_prediction_names_the_science(data):
 
 
 def test_memory_of_a_fit_grows_with_batch_and_steps():
-    from sklearn_hybrid._memory import fit_memory_bytes
+    from sklearn_hybrid.training.memory import fit_memory_bytes
 
     X = np.random.default_rng(0).uniform(-1, 1, (4, 2))
     sizes = {}
@@ -243,7 +243,7 @@ def test_memory_check_stays_cheap_at_an_extreme_horizon():
     substeps, the memory check three (one and two substeps, extrapolated)."""
     import time
 
-    from sklearn_hybrid._memory import check_fit_memory
+    from sklearn_hybrid.training.memory import check_fit_memory
 
     calls = []
 
@@ -264,7 +264,8 @@ def test_memory_check_stays_cheap_at_an_extreme_horizon():
 @pytest.mark.parametrize("params", [{}, {"observed": [0]}, {"forced": True}])
 def test_memory_of_a_short_horizon_extrapolates_exactly(params):
     """The bytes the probe's second substep adds, counted per substep, are those of the whole horizon."""
-    from sklearn_hybrid import _memory, pack_inputs
+    from sklearn_hybrid import pack_inputs
+    from sklearn_hybrid.training import memory
 
     def forced(v, u, k=1.0):
         return torch.stack([v[:, 1], -k * v[:, 0] + u[:, 0]], dim=-1)
@@ -278,18 +279,18 @@ def test_memory_of_a_short_horizon_extrapolates_exactly(params):
         y = y[..., :1]
     setup = HybridRegressor(**params)._setup_fit(X, y)
     two = tuple(t[:2].clone() for t in setup.inputs)
-    whole = _memory._saved_bytes(setup.model, two)
-    assert _memory.fit_memory_bytes(setup.model, setup.inputs, 2) == int(_memory._PEAK_OVER_SAVED * whole)
+    whole = memory._saved_bytes(setup.model, two)
+    assert memory.fit_memory_bytes(setup.model, setup.inputs, 2) == int(memory._PEAK_OVER_SAVED * whole)
     # the other samples' inputs are not counted (a slice of them shares their storage)
-    assert _memory.fit_memory_bytes(setup.model, two, 2) == _memory.fit_memory_bytes(setup.model, setup.inputs, 2)
+    assert memory.fit_memory_bytes(setup.model, two, 2) == memory.fit_memory_bytes(setup.model, setup.inputs, 2)
 
 
 def test_fit_too_large_for_memory_says_what_to_change(data, monkeypatch):
-    from sklearn_hybrid import _memory
+    from sklearn_hybrid.training import memory
 
     est = fit(data)
     theta = dict(est.theta_)
-    monkeypatch.setattr(_memory, "available_memory_bytes", lambda device=None: 20_000)
+    monkeypatch.setattr(memory, "available_memory_bytes", lambda device=None: 20_000)
     with pytest.raises(MemoryError, match=r"would need about .* GB .*batch_size=\d+"):
         est.fit(*data)
     assert est.theta_ == theta
@@ -319,24 +320,24 @@ def test_random_state_none_uses_numpy_global_state_only(data):
 def test_fast_path_switch_is_per_thread():
     import threading
 
-    from sklearn_hybrid import _fast
+    from sklearn_hybrid.integrate import fast as fast_rk4
     from sklearn_hybrid.residual import MLP
 
     mlp, seen = MLP(((2,),), (2,)), {}
     inside, release = threading.Event(), threading.Event()
 
     def other():
-        with _fast.disabled():
+        with fast_rk4.disabled():
             inside.set()
             release.wait(5)
 
     thread = threading.Thread(target=other)
     thread.start()
     inside.wait(5)
-    seen["while other thread disabled it"] = _fast.supports(mlp, (2,), "rk4")
+    seen["while other thread disabled it"] = fast_rk4.supports(mlp, (2,), "rk4")
     release.set()
     thread.join()
-    assert seen["while other thread disabled it"] and _fast.supports(mlp, (2,), "rk4")
+    assert seen["while other thread disabled it"] and fast_rk4.supports(mlp, (2,), "rk4")
 
 
 def test_failed_refit_of_a_sweep_keeps_the_earlier_sweep(data):
@@ -352,7 +353,7 @@ def test_failed_refit_of_a_sweep_keeps_the_earlier_sweep(data):
 
 
 def test_memory_probe_leaves_batch_norm_statistics_alone():
-    from sklearn_hybrid._memory import fit_memory_bytes
+    from sklearn_hybrid.training.memory import fit_memory_bytes
 
     def net(in_shapes, out_shape):
         return torch.nn.Sequential(torch.nn.Flatten(), torch.nn.BatchNorm1d(2),
@@ -367,13 +368,14 @@ def test_memory_probe_leaves_batch_norm_statistics_alone():
 
 
 def test_sweep_counts_the_memory_of_every_stacked_member(data, monkeypatch):
-    from sklearn_hybrid import HybridRegressorCV, _memory
+    from sklearn_hybrid import HybridRegressorCV
+    from sklearn_hybrid.training import memory
 
     estimator = HybridRegressor(science=pendulum_f, method="erm", **FAST)
     setup = estimator._setup_fit(*data)
-    one = _memory.fit_memory_bytes(setup.model, setup.inputs, len(data[0]))
+    one = memory.fit_memory_bytes(setup.model, setup.inputs, len(data[0]))
     # room for two members, not for the four of the sweep (each trains on 3 of the 6 samples)
-    monkeypatch.setattr(_memory, "available_memory_bytes", lambda device=None: one / 0.8)
+    monkeypatch.setattr(memory, "available_memory_bytes", lambda device=None: one / 0.8)
     estimator.fit(*data)  # a single fit on all six samples fits
     with pytest.raises(MemoryError, match="4 models trained together"):
         HybridRegressorCV(estimator, seeds=[0, 1, 2, 3], validation_fraction=0.5).fit(*data)

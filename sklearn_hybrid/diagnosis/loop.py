@@ -19,7 +19,7 @@ from sklearn.utils import Bunch, check_random_state
 from sklearn.utils.validation import check_is_fitted
 from torch import nn
 
-from ..engine import DivergenceError
+from ..training.engine import DivergenceError
 from ..residual import MLP, MaskedMLP
 from ..science import read_signature
 from ._arguments import (check_names, check_options, check_param_names, check_refit_params, count_states,

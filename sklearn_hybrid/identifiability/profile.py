@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import stats
 
-from .._batched import evaluate_members, train_members
+from ..training.stacked import evaluate_members, train_members
 from ..methods import ERM
 from .._validation import check_n_jobs, torch_threads
 from ._members import (bounds_of, check_level, entry_values, fitted_problem, member_config,

@@ -1,4 +1,4 @@
-"""The RK4 loops of :mod:`sklearn_hybrid._fast`: one member, or K stacked members in one pass.
+"""The RK4 loops of :mod:`sklearn_hybrid.integrate.fast`: one member, or K stacked members in one pass.
 
 One member (:func:`forward_one`, :func:`backward_one`) runs on 2-D tensors,
 where every operation's cost is dispatch.  With K members

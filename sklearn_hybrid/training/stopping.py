@@ -83,7 +83,7 @@ class SpikeGuard:
     ``every`` accepted losses, is a spike: the copy is restored and every
     learning rate is halved (the cosine schedule goes on from the halved
     rates).  After ``max_halvings`` halvings a spike is a divergence.  The
-    stacked engine of sweeps (``_batched.py``) shares one optimiser among its
+    stacked engine of sweeps (``stacked.py``) shares one optimiser among its
     members and has no guard: a member that diverges there is reported as
     diverged, and a single fit of that configuration can be tried instead.
 

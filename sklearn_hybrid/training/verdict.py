@@ -1,6 +1,6 @@
 """After training, before a fit is handed back: did the run diverge, or never train?
 
-The spike guard of the training loop (``_stopping.SpikeGuard``) restores the
+The spike guard of the training loop (``stopping.SpikeGuard``) restores the
 last good state after a loss spike, but once its halvings are spent it trains
 through, and a run can then end far worse than it began (a training R^2 of
 -1e24 after ``lr=1``).  A run can also end without error and still be no model
@@ -16,7 +16,7 @@ import inspect
 import numpy as np
 import torch
 
-from ._stopping import SpikeGuard
+from .stopping import SpikeGuard
 from .engine import DivergenceError, data_loss, explain_nonfinite
 
 __all__ = ["TrainingVerdict", "judge_training", "explain_start"]
@@ -109,7 +109,7 @@ def judge_training(model, history: dict, inputs, y, sample_weight=None, *, theta
     model : HybridModule
         The trained model (put in evaluation mode).
     history : dict
-        What :func:`~sklearn_hybrid.engine.train` returned.
+        What :func:`~sklearn_hybrid.training.engine.train` returned.
     inputs : tuple of Tensor
         The trained samples' structure inputs.
     y : Tensor

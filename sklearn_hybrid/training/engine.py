@@ -17,8 +17,8 @@ import numpy as np
 import torch
 from torch import nn
 
-from . import _fast
-from ._stopping import EarlyStopping, SpikeGuard
+from ..integrate import fast
+from .stopping import EarlyStopping, SpikeGuard
 
 __all__ = ["TrainConfig", "train", "DivergenceError", "data_loss", "make_optimizer", "step_gradients", "progress_bar",
            "gradients_at_perturbed", "MiniBatches",
@@ -219,7 +219,7 @@ def explain_nonfinite(model: nn.Module, inputs: tuple[torch.Tensor, ...]) -> str
 
     hook = model.science.register_forward_hook(check)
     try:
-        with torch.no_grad(), _fast.disabled():  # the fast path calls science.func directly
+        with torch.no_grad(), fast.disabled():  # the fast path calls science.func directly
             model(*inputs)
     except _ScienceNotFinite as found:
         bad = ~torch.isfinite(found.out).reshape(len(found.out), -1).all(dim=1)
@@ -283,7 +283,7 @@ def train(model: nn.Module, method, inputs: tuple[torch.Tensor, ...], y: torch.T
         Per-sample weights of the data loss.
     validation : tuple, optional
         ``(inputs, y, sample_weight)`` of held-out samples whose data loss
-        early stopping monitors (see :class:`~sklearn_hybrid._stopping.EarlyStopping`).
+        early stopping monitors (see :class:`~sklearn_hybrid.training.stopping.EarlyStopping`).
 
     Returns
     -------
@@ -295,7 +295,7 @@ def train(model: nn.Module, method, inputs: tuple[torch.Tensor, ...], y: torch.T
         is the training objective at the unperturbed parameters, ``lr_theta``
         theta's learning rate of each step (0 where a loss spike was undone)
         and ``lr_halved_at`` the iterations of those spikes (see
-        :class:`~sklearn_hybrid._stopping.SpikeGuard`: the last good state is
+        :class:`~sklearn_hybrid.training.stopping.SpikeGuard`: the last good state is
         restored and the learning rates are halved).  With
         ``config.tol`` set, training stops before ``max_iter`` once the loss and
         theta have stopped changing.

@@ -11,7 +11,7 @@ from contextlib import contextmanager
 
 import torch
 
-from . import _fast
+from ..integrate import fast
 
 __all__ = ["fit_memory_bytes", "available_memory_bytes", "check_fit_memory",
            "explained_memory_errors"]
@@ -67,7 +67,7 @@ def _saved_bytes(model, probe: tuple[torch.Tensor, ...]) -> int:
     buffers = list(model.buffers())  # batch-norm running statistics: the probe must not move them
     saved = [b.clone() for b in buffers]
     try:
-        with torch.autograd.graph.saved_tensors_hooks(pack, lambda t: t), _fast.disabled():
+        with torch.autograd.graph.saved_tensors_hooks(pack, lambda t: t), fast.disabled():
             model(*probe)
     finally:
         with torch.no_grad():

@@ -11,7 +11,7 @@ floating-point summation order), while the K small problems share each
 operation, which amortises per-operation overhead and fills the matrix units.
 
 Three forward paths: hybrid ODEs with an MLP over a small state use the
-stacked RK4 of :mod:`sklearn_hybrid._fast`; other models run under
+stacked RK4 of :mod:`sklearn_hybrid.integrate.fast`; other models run under
 :func:`torch.func.vmap` with :func:`torch.func.functional_call`, except
 convolutional ones, which ``vmap`` would turn into slow grouped
 convolutions: those run member by member (already arithmetic-bound, they
@@ -26,9 +26,9 @@ from torch import nn
 
 from joblib import Parallel, delayed
 
-from . import _fast
-from ._kernels import reusing_buffers
-from ._validation import torch_threads
+from ..integrate import fast
+from ..integrate.kernels import reusing_buffers
+from .._validation import torch_threads
 from .engine import (TrainConfig, MiniBatches, gradients_at_perturbed, make_optimizer, progress_bar,
                      step_gradients)
 
@@ -50,9 +50,9 @@ class _StackedModel:
         self.buffers = {n: b for n, b in self.base.named_buffers()}
         structure = self.base.structure
         self.fast = (getattr(structure, "solver", None) is not None
-                     and _fast.supports(self.base.residual, tuple(structure.state_shape),
+                     and fast.supports(self.base.residual, tuple(structure.state_shape),
                                         structure.solver)
-                     and _fast.row_by_row(self.base.science.func, inputs[0],
+                     and fast.row_by_row(self.base.science.func, inputs[0],
                                            inputs[1] if len(inputs) > 1 else None,
                                            self.base.science.values()))
         if not self.fast and any(isinstance(m, nn.modules.batchnorm._BatchNorm) and m.track_running_stats
@@ -73,10 +73,10 @@ class _StackedModel:
         layers = [n for n in self.names if n.startswith("residual.")]
         weights = [self.params[n] for n in layers if n.endswith("weight")]
         biases = [self.params[n] for n in layers if n.endswith("bias")]
-        _, _, acts = _fast.mlp_parts(self.base.residual)
-        weights, biases = _fast.full_output(self.base.residual, weights, biases)
+        _, _, acts = fast.mlp_parts(self.base.residual)
+        weights, biases = fast.full_output(self.base.residual, weights, biases)
         x0, u_fine = inputs[0], (inputs[1] if len(inputs) > 1 else None)
-        states = _fast.ode_states(science.func, science.names, thetas, weights, biases, acts,
+        states = fast.ode_states(science.func, science.names, thetas, weights, biases, acts,
                                   x0, u_fine, structure.n_steps, structure.dt, structure.n_substeps)
         return states if structure.observed is None else states[..., structure.observed]
 
@@ -93,7 +93,7 @@ class _StackedModel:
             K = len(inputs[0])
             return torch.stack([member({n: p[k] for n, p in self.params.items()},
                                        *(t[k] for t in inputs)) for k in range(K)])
-        with _fast.disabled():  # the custom autograd function does not run under vmap
+        with fast.disabled():  # the custom autograd function does not run under vmap
             return torch.func.vmap(member)(self.params, *inputs)
 
 

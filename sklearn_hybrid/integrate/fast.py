@@ -4,7 +4,7 @@ Backpropagating through ``n_steps * n_substeps * 4`` small network
 evaluations with autograd costs far more in per-operation overhead than in
 arithmetic (about 2.5x on one CPU core for the pendulum).  This module
 computes exactly the same gradient with a different schedule (the loops are
-in :mod:`sklearn_hybrid._kernels`):
+in :mod:`sklearn_hybrid.integrate.kernels`):
 
 1. forward: the classic RK4 loop (the same arithmetic as
    :func:`sklearn_hybrid.integrate.integrate`), storing each stage's state and
@@ -38,9 +38,9 @@ from typing import Callable
 import torch
 from torch import nn
 
-from . import _kernels
-from .integrate import integrate
-from .residual import MLP, MaskedMLP
+from . import kernels
+from .solve import integrate
+from ..residual import MLP, MaskedMLP
 
 __all__ = ["supports", "mlp_parts", "ode_states", "disabled", "row_by_row"]
 
@@ -189,7 +189,7 @@ class _OdeMLP(torch.autograd.Function):
             p_in = torch.matmul(u_fine, w_u) + biases[0][:, None, None]
         if K == 1:
             with torch.inference_mode():  # lighter per-operation bookkeeping than no_grad
-                out, states, hidden = _kernels.forward_one(
+                out, states, hidden = kernels.forward_one(
                     cfg, x0[0], None if u_fine is None else u_fine[0],
                     None if p_in is None else p_in[0], [t[0] for t in thetas],
                     [w[0] for w in weights], [b[0] for b in biases])
@@ -197,7 +197,7 @@ class _OdeMLP(torch.autograd.Function):
             out = torch.stack(out, 1)[None]
         else:
             with torch.no_grad():
-                out, states, hidden = _kernels.forward_stacked(cfg, x0, u_fine, p_in, thetas,
+                out, states, hidden = kernels.forward_stacked(cfg, x0, u_fine, p_in, thetas,
                                                                weights, biases)
         ctx.cfg, ctx.released = cfg, False
         ctx.save_for_backward(x0, u_fine, states, *hidden, *tensors)
@@ -229,10 +229,10 @@ class _OdeMLP(torch.autograd.Function):
         h = cfg.dt / cfg.n_substeps
 
         if K == 1:  # 2-D tensors; weight gradients as one product over all stages
-            deltas = [_kernels.take((S, B, w.shape[1]), grad_out.dtype) for w in weights[:-1]]
+            deltas = [kernels.take((S, B, w.shape[1]), grad_out.dtype) for w in weights[:-1]]
             deltas.append(grad_out.new_empty(S, B, d))
             with torch.inference_mode():
-                adj = _kernels.backward_one(grad_out[0], jac.view(S, B, d, d), acts, slopes,
+                adj = kernels.backward_one(grad_out[0], jac.view(S, B, d, d), acts, slopes,
                                             [w[0] for w in weights], deltas, h, cfg.n_substeps)
             adj = adj[None].clone()
             layer_inputs = [v_all if u_all is None else torch.cat([v_all, u_all], -1)]
@@ -240,11 +240,11 @@ class _OdeMLP(torch.autograd.Function):
             net_grads = []
             for delta, inputs, w in zip(deltas, layer_inputs, weights):
                 delta = delta.view(1, N, -1)
-                grad_w = _kernels.weight_grad_buffer(w)
-                _kernels.accumulate_weight_grad(grad_w, delta, inputs)
+                grad_w = kernels.weight_grad_buffer(w)
+                kernels.accumulate_weight_grad(grad_w, delta, inputs)
                 net_grads += [grad_w.contiguous(), delta.sum(1)]
             cots = deltas[-1].view(1, N, d)
-            _kernels.release(*deltas[:-1])
+            kernels.release(*deltas[:-1])
         else:
             C = 4 * cfg.n_substeps
 
@@ -255,11 +255,11 @@ class _OdeMLP(torch.autograd.Function):
                 u_stage = None if u_all is None else interval_major(u_all)
                 stage_jac = jac.view(K, S, B, d, d).transpose(0, 1).contiguous().view(
                     cfg.n_steps, C, K, B, d, d)
-                adj, cots, grad_w, grad_b = _kernels.backward_stacked(
+                adj, cots, grad_w, grad_b = kernels.backward_stacked(
                     cfg, grad_out, states, acts, slopes, stage_jac, weights, u_stage)
             net_grads = [g for pair in zip(grad_w, grad_b) for g in pair]
             cots = cots.view(S, K, B, d).transpose(0, 1).reshape(K, N, d)
-        _kernels.release(states, *hidden)
+        kernels.release(states, *hidden)
         ctx.released = True
 
         grads = [None] * cfg.n_theta

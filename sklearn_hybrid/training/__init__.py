@@ -1,0 +1,17 @@
+"""Training a hybrid model: the loop, its watchers and the verdict on what it produced.
+
+- ``engine.py``: the training loop (Adam + cosine, full or mini-batch); ``step_gradients`` is
+  the one place a method's rule (``sklearn_hybrid.methods``) is called;
+- ``stacked.py``: K configurations trained as one stacked model (sweeps, profiles, bootstrap),
+  through the same ``step_gradients``;
+- ``stopping.py``: early stopping and the loss-spike guard;
+- ``memory.py``: the memory a fit will need, checked before training;
+- ``verdict.py``: a training that diverged or never trained is refused, not handed back.
+
+The methods themselves stay in :mod:`sklearn_hybrid.methods`: they are a choice the user
+makes (``method="fsam"`` or ``FisherSAM(rho=0.1)``), this package is how the choice is run.
+"""
+
+from .engine import DivergenceError, TrainConfig, train
+
+__all__ = ["train", "TrainConfig", "DivergenceError"]
