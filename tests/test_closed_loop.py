@@ -16,7 +16,8 @@ from sklearn_hybrid import HybridRegressor
 from sklearn_hybrid.datasets import make_duffing, make_pendulum
 from sklearn_hybrid.diagnosis import (CandidateLibrary, MLPOn, ResidualDiagnosis, ScienceFit, augment_science,
                                       close_the_loop, critical_value, evidence, fit_initial_state, free_run,
-                                      physics_terms, plot_unexplained, term_to_torch, ZeroResidual)
+                                      named_terms, physics_terms, plot_unexplained, SparseTermRegression, Term,
+                                      ZeroResidual)
 from sklearn_hybrid.models import duffing_f, pendulum_f
 
 NAMES = ["v", "v_dot"]
@@ -387,7 +388,7 @@ def test_physics_terms_and_shape_parameters():
     d = {"x": torch.tensor([-1.0, 0.5, 2.0], dtype=torch.float64), "u": torch.zeros(3, dtype=torch.float64)}
     np.testing.assert_allclose(terms["max(0, x - knot)"](d, knot=torch.tensor(0.4)).numpy(), [0.0, 0.1, 1.6])
     assert list(terms["max(0, x - knot)"].shape) == ["knot"]
-    assert terms["x|x|"].unit == "(m)^2" and len(terms["tanh(x/w)"].grid()) == 3
+    assert terms["x|x|"].unit == "m^2" and len(terms["tanh(x/w)"].grid()) == 3
     with pytest.raises(ValueError, match="Unknown term kinds"):
         physics_terms(["x"], values[:, :1], kinds=["polynom"])
     aug = augment_science(lambda v, k=1.0: -k * v, [{"component": 0, "term": "tanh(x/w)", "coef": 0.5,
@@ -413,17 +414,41 @@ def test_augment_science_signature_and_values():
     assert set(est.theta_) == {"omega", "c_v_dot", "k3"}
 
 
-def test_term_to_torch_forms_and_errors():
+def test_named_terms_forms_and_errors():
     d = {"x": torch.tensor([-2.0, 0.5]), "y": torch.tensor([3.0, -1.0])}
     cases = {"1": [1.0, 1.0], "x^2*y": [12.0, -0.25], "sin(x)": np.sin([-2.0, 0.5]), "sign(y)": [1.0, -1.0],
              "|x|": [2.0, 0.5], "x|x|": [-4.0, 0.25]}
+    catalogue = named_terms(["x", "y"])
     for term, expected in cases.items():
-        np.testing.assert_allclose(term_to_torch(term, ["x", "y"])(d).numpy(), expected, rtol=1e-6)
-    with pytest.raises(ValueError, match="term_functions"):
-        term_to_torch("tanh(x)", ["x", "y"])
-    assert term_to_torch("tanh(x)", ["x"], {"tanh(x)": lambda e: torch.tanh(e["x"])})(d).shape == (2,)
+        np.testing.assert_allclose(catalogue[term](d).numpy(), expected, rtol=1e-6)
+    identity = np.array([[1.0, 0.0], [0.0, 1.0]])
+    with pytest.raises(ValueError, match="Unknown term 'tanh\\(x\\)'.*give it as a Term"):
+        augment_science(lambda v, k=1.0: -k * v, [{"component": 0, "term": "tanh(x)", "coef": 1.0}], ["x", "y"])
+    tanh = Term("tanh(x)", lambda e: torch.tanh(e["x"]), "user")
+    aug = augment_science(lambda v, k=1.0: -k * v, [{"component": 0, "term": tanh, "coef": 2.0}], ["x", "y"])
+    np.testing.assert_allclose(aug(torch.tensor(identity)).numpy(), [[-1 + 2 * np.tanh(1.0), 0.0], [0.0, -1.0]])
     with pytest.raises(ValueError, match="n_states"):
         augment_science(lambda v, u, k=1.0: v, [], ["x", "u"])
+
+
+def test_one_vocabulary_the_library_columns_are_the_terms_added():
+    """A term the sparse regression selects is added to the science model as the library evaluated it."""
+    Z = np.random.default_rng(0).normal(size=(30, 2))
+    library = CandidateLibrary(degree=2, trigonometric=True, nonsmooth=["v_dot"],
+                               custom_terms={"tanh(v)": lambda A: np.tanh(A["v"])}).fit(Z, feature_names=NAMES)
+    Theta = library.transform(Z)
+    assert [t.name for t in library.terms_] == list(library.get_feature_names_out())
+    state = torch.tensor(Z)
+    for k, term in enumerate(library.terms_):
+        aug = augment_science(pendulum_f, [{"component": 1, "term": term, "coef": 1.0}], NAMES)
+        added = (aug(state) - pendulum_f(state))[:, 1].numpy()
+        np.testing.assert_allclose(added, Theta[:, k], rtol=1e-12, atol=1e-12, err_msg=term.name)
+        if term.kind != "user":  # a term of the vocabulary is also found by its name
+            assert named_terms(NAMES)[term.name].name == term.name
+    units = {"v": "rad", "v_dot": "rad/s"}
+    library = CandidateLibrary(degree=2, nonsmooth=["v_dot"], units=units).fit(Z, feature_names=NAMES)
+    reg = SparseTermRegression(n_bootstrap=2, random_state=0).fit(library.transform(Z), Z[:, 1], library.terms_)
+    assert list(reg.term_names_) == list(library.term_names_) and list(reg.term_units_) == list(library.term_units_)
 
 
 def test_free_run_matches_predict_and_initial_state(pendulum):

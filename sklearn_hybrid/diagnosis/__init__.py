@@ -8,7 +8,7 @@ model's residual by sparse regression on a :class:`CandidateLibrary` (an explora
 :func:`augment_science` adds chosen terms to a science function.
 """
 
-from .augment import AugmentedScience, augment_science, parameter_name, term_to_torch
+from .augment import AugmentedScience, augment_science, parameter_name
 from .evidence import critical_value, evidence, holm
 from .library import CandidateLibrary
 from .loop import MLPOn, ZeroResidual, close_the_loop
@@ -18,10 +18,10 @@ from .residual_diagnosis import ResidualDiagnosis
 from .sensitivity import science_sensitivities
 from .science_fit import ScienceFit
 from .sparse import SparseTermRegression
-from .terms import SCIENCE_OUTPUT, TERM_KINDS, Term, physics_terms
+from .terms import SCIENCE_OUTPUT, TERM_KINDS, Term, named_terms, physics_terms
 
 __all__ = ["CandidateLibrary", "SparseTermRegression", "ResidualDiagnosis", "science_sensitivities",
-           "augment_science", "AugmentedScience", "term_to_torch", "parameter_name", "close_the_loop", "free_run",
+           "augment_science", "AugmentedScience", "parameter_name", "close_the_loop", "free_run",
            "fit_initial_state", "MLPOn", "ZeroResidual", "LoopResult", "prediction_metrics", "format_table",
-           "plot_unexplained", "Term", "physics_terms", "TERM_KINDS", "SCIENCE_OUTPUT", "ScienceFit", "evidence",
+           "plot_unexplained", "Term", "physics_terms", "named_terms", "TERM_KINDS", "SCIENCE_OUTPUT", "ScienceFit", "evidence",
            "critical_value", "holm"]

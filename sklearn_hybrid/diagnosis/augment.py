@@ -15,68 +15,15 @@ from __future__ import annotations
 import inspect
 import re
 from collections.abc import Callable, Mapping, Sequence
-from functools import partial
 from typing import Any
 
 import numpy as np
 import torch
 
 from ..science import read_signature
-from .terms import SCIENCE_OUTPUT, abs_term, drag_term, constant, monomial
+from .terms import SCIENCE_OUTPUT, Term, named_terms
 
-__all__ = ["augment_science", "AugmentedScience", "term_to_torch", "parameter_name"]
-
-_FUNCS = {"sin": torch.sin, "cos": torch.cos, "sign": torch.sign}
-
-
-def _elementary(d, x, name):
-    return _FUNCS[name](d[x])
-
-
-def term_to_torch(term: str, variables: Sequence[str],
-                  term_functions: Mapping[str, Callable] | None = None) -> Callable[[dict], torch.Tensor]:
-    """Translate a library term name into a torch function of the named variables.
-
-    Parameters
-    ----------
-    term : str
-        A :class:`~sklearn_hybrid.diagnosis.CandidateLibrary` name: ``"1"``, a monomial such as
-        ``"v^2*v_dot"``, ``"sin(v)"``, ``"cos(v)"``, ``"sign(v)"``, ``"|v|"``, ``"v|v|"``, or a
-        name in ``term_functions``.
-    variables : list of str
-        The variable names.
-    term_functions : dict of str to callable, optional
-        Torch versions of custom terms: ``name -> f(d)`` where ``d`` maps variable names to tensors.
-
-    Returns
-    -------
-    callable
-        ``f(d) -> Tensor`` of shape (batch,).
-    """
-    if term_functions and term in term_functions:
-        return term_functions[term]
-    known = set(variables)
-    if term == "1":
-        return constant
-    match = re.fullmatch(r"(sin|cos|sign)\((.+)\)", term)
-    if match and match.group(2) in known:
-        return partial(_elementary, x=match.group(2), name=match.group(1))
-    match = re.fullmatch(r"\|(.+)\|", term)
-    if match and match.group(1) in known:
-        return partial(abs_term, x=match.group(1))
-    match = re.fullmatch(r"(.+)\|(.+)\|", term)
-    if match and match.group(1) == match.group(2) and match.group(1) in known:
-        return partial(drag_term, x=match.group(1))
-    factors = []
-    for part in term.split("*"):
-        name, _, power = part.partition("^")
-        if name not in known or (power and not power.isdigit()):
-            raise ValueError(
-                f"Cannot translate the term {term!r} into torch: give its torch version in "
-                f"term_functions={{{term!r}: lambda d: ...}} (d maps {list(variables)} to tensors).")
-        factors.append((name, int(power) if power else 1))
-    return partial(monomial, factors=tuple(factors))
-
+__all__ = ["augment_science", "AugmentedScience", "parameter_name"]
 
 def _flat(x: torch.Tensor, single: bool = False) -> torch.Tensor:
     """``x`` as (batch, columns); no operation when it already is. A 1-D ``x`` is a batch of scalars
@@ -104,7 +51,6 @@ def parameter_name(term: str, taken: Sequence[str], suffix: str = "", prefix: st
 
 def augment_science(science: Callable, terms: Sequence[Mapping[str, Any]], variable_names: Sequence[str], *,
                     n_states: int | None = None, theta: Mapping[str, Any] | None = None,
-                    term_functions: Mapping[str, Callable] | None = None,
                     name: str | None = None) -> AugmentedScience:
     """Build ``science + sum_i c_i * term_i`` as a new science function with named parameters.
 
@@ -114,10 +60,12 @@ def augment_science(science: Callable, terms: Sequence[Mapping[str, Any]], varia
         The original science function ``f(*inputs, **theta)``.
     terms : list of dict
         Each with ``"component"`` (index of the output component the term is added to), ``"term"``
-        (its library name) and ``"coef"`` (initial value of its new parameter), as in
-        :attr:`ResidualDiagnosis.new_terms_`; an optional ``"param"`` names the parameter. A term
-        may bring its own torch ``"function"`` ``f(d, **shape)`` (a :class:`~sklearn_hybrid.diagnosis.Term`)
-        with initial ``"shape"`` values (each a new parameter named ``<shape>_<label>``), and a
+        (a :class:`~sklearn_hybrid.diagnosis.Term`, or the name of a term without shape parameters:
+        ``"1"``, a monomial such as ``"v^2*v_dot"``, ``"sin(v)"``, ``"cos(v)"``, ``"sign(v)"``,
+        ``"|v|"``, ``"v|v|"``, ``"sqrt|v|"``; see :func:`~sklearn_hybrid.diagnosis.named_terms`) and
+        ``"coef"`` (initial value of its new parameter), as in :attr:`ResidualDiagnosis.new_terms_`;
+        an optional ``"param"`` names the parameter. A term may bring its torch ``"function"``
+        ``f(d, **shape)`` (a Term's, where ``"term"`` is only its name) with initial ``"shape"`` values (each a new parameter named ``<shape>_<label>``), and a
         ``"label"`` for the parameter names (default the term's name). An entry of ``"kind"``
         ``"offset"`` is a sensor offset on state ``"component"`` (a column of the first input): the
         right-hand side, original and added terms alike, sees ``x[component] - offset``, with
@@ -129,8 +77,6 @@ def augment_science(science: Callable, terms: Sequence[Mapping[str, Any]], varia
         Number of columns of the first input; default: all names when the function has one input.
     theta : dict, optional
         Initial values of the original parameters (e.g. a fitted ``theta_``); default their defaults.
-    term_functions : dict of str to callable, optional
-        Torch versions of custom terms (see :func:`term_to_torch`).
     name : str, optional
         ``__name__`` of the new function; default ``<original>_augmented``.
 
@@ -156,12 +102,16 @@ def augment_science(science: Callable, terms: Sequence[Mapping[str, Any]], varia
     values = {k: theta.get(k, v) for k, v in defaults.items()}
     values = {k: float(v) if np.ndim(v) == 0 else np.asarray(v, float).tolist() for k, v in values.items()}
 
-    added, taken = [], list(values) + list(inputs)
+    added, taken, catalogue = [], list(values) + list(inputs), None
     for t in terms:
         lacking = [key for key in ("component", "term", "coef") if key not in t]
         if lacking:
             raise ValueError(f"Each term needs 'component', 'term' and 'coef'; {dict(t)!r} lacks {lacking}.")
-        component, term = int(t["component"]), str(t["term"])
+        component, term = int(t["component"]), t["term"]
+        function = t.get("function")
+        if isinstance(term, Term):
+            term, function = term.name, function or term
+        term = str(term)
         if component < 0:
             raise ValueError(f"Term {term!r}: component must be a non-negative index, got {component}.")
         is_offset = t.get("kind") == "offset"
@@ -176,7 +126,14 @@ def augment_science(science: Callable, terms: Sequence[Mapping[str, Any]], varia
         taken.append(param)
         values[param] = float(t["coef"])
         # an offset has no function of its own: it shifts the state every other part sees
-        func = None if is_offset else (t.get("function") or term_to_torch(term, variable_names, term_functions))
+        if function is None and not is_offset:  # a term given by name is one of the named terms
+            catalogue = catalogue or named_terms(variable_names)
+            if term not in catalogue:
+                raise ValueError(f"Unknown term {term!r}: give it as a Term (sklearn_hybrid.diagnosis.Term(name, "
+                                 f"f, 'user'), with f(d) a torch function of d mapping {variable_names} to tensors), "
+                                 "or name one of named_terms(variable_names).")
+            function = catalogue[term]
+        func = None if is_offset else function
         # a term's nonlinear (shape) parameters become parameters of the new function too
         shape = {}
         for local, value in dict(t.get("shape") or {}).items():

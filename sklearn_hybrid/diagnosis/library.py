@@ -4,22 +4,24 @@ A :class:`CandidateLibrary` turns named variables (states, inputs, derivatives) 
 candidate terms: monomials up to a degree, optional ``sin``/``cos``, non-smooth friction-like terms
 (``sign(x)``, ``|x|``, ``x|x|``) and terms the user supplies by name. Each term can carry units so that
 the equations found by :class:`~sklearn_hybrid.diagnosis.SparseTermRegression` read in physical units.
+The columns are :class:`~sklearn_hybrid.diagnosis.Term` objects (``terms_``), the closed loop's own
+vocabulary, so that a term the regression selects is added to a science function as it is.
 """
 
 from __future__ import annotations
 
-import re
 from collections.abc import Callable, Mapping, Sequence
+from functools import partial
 from typing import Any
 
 import numpy as np
+import torch
 from sklearn.base import BaseEstimator, TransformerMixin
-from sklearn.preprocessing import PolynomialFeatures
 from sklearn.utils.validation import check_is_fitted, validate_data
 
-__all__ = ["CandidateLibrary"]
+from .terms import Term, constant, monomial_terms, nonsmooth_terms, trigonometric_terms
 
-_SIMPLE_UNIT = re.compile(r"^[A-Za-z_]\w*$")
+__all__ = ["CandidateLibrary", "numpy_term"]
 
 
 class _NamedColumns(np.ndarray):
@@ -48,19 +50,27 @@ class _NamedColumns(np.ndarray):
         return list(self._names)
 
 
-def _power_unit(unit: str, power: int) -> str:
-    """Units of ``x**power`` for ``x`` in ``unit``; '' when dimensionless."""
-    if unit in ("", "1") or power == 0:
-        return ""
-    if power == 1:
-        return unit
-    base = unit if _SIMPLE_UNIT.match(unit) else f"({unit})"
-    return f"{base}^{power}"
+def numpy_term(d: Mapping[str, torch.Tensor], func: Callable, name: str, names: Sequence[str]) -> torch.Tensor:
+    """A user's numpy term as a :class:`Term`'s function: ``func`` gets the variables as one array
+    indexable as ``Z[:, j]`` or ``Z["name"]`` (a copy: it cannot alter the caller's data).
 
-
-def _product(parts: list[str]) -> str:
-    parts = [p for p in parts if p]
-    return "*".join(parts) if parts else "1"
+    Computed in numpy, it carries no derivative by the state: in an augmented ODE it enters as a
+    known function of the visited states; write it with torch operations (a ``Term``) where the
+    refit needs derivatives through it.
+    """
+    first = d[names[0]]
+    Z = np.column_stack([d[v].detach().cpu().numpy().astype(np.float64, copy=False).reshape(-1) for v in names])
+    try:
+        values = func(_NamedColumns(Z.copy(), names))
+    except Exception as exc:
+        raise ValueError(f"custom term {name!r} failed on the data: {exc!r}. It receives an array "
+                         "indexable as Z[:, j] or Z['name'].") from exc
+    values = np.asarray(values, dtype=np.float64)
+    if values.ndim == 2 and values.shape[1] == 1:
+        values = values[:, 0]
+    if values.shape != (len(Z),):
+        raise ValueError(f"custom term {name!r} returned shape {values.shape}; expected ({len(Z)},).")
+    return torch.as_tensor(values, dtype=first.dtype, device=first.device).reshape(first.shape)
 
 
 def _selected_variables(option: bool | Sequence[str], names: list[str], label: str) -> list[str]:
@@ -92,10 +102,11 @@ class CandidateLibrary(TransformerMixin, BaseEstimator):
     nonsmooth : bool or list of str, default=False
         Add ``sign(x)``, ``|x|`` and ``x|x|`` (dry friction, quadratic drag) for every variable
         (``True``) or for the variables named.
-    custom_terms : dict of str to callable, default=None
-        Extra terms by name. Each callable gets the ``(n_samples, n_variables)`` data, which can be
+    custom_terms : dict of str to callable or Term, default=None
+        Extra terms by name. A callable gets the ``(n_samples, n_variables)`` data, which can be
         indexed by position (``Z[:, 0]``) or by variable name (``Z["v"]``), and returns
-        ``n_samples`` finite values.
+        ``n_samples`` finite values (numpy: it enters an augmented ODE without derivatives by the
+        state). A :class:`~sklearn_hybrid.diagnosis.Term` is a torch function of the variables by name.
     units : dict of str to str, default=None
         Units of every variable (and optionally of custom terms), e.g. ``{"theta": "rad",
         "omega": "rad/s"}``. Term units are then derived, e.g. ``"rad*rad/s"``; a custom term without
@@ -109,6 +120,9 @@ class CandidateLibrary(TransformerMixin, BaseEstimator):
         Names of the variables.
     feature_names_in_ : ndarray of str
         Column names, set only when ``Z`` was a DataFrame (scikit-learn convention).
+    terms_ : list of Term
+        The candidate terms, in column order of :meth:`transform`: each evaluates its column and
+        can be added to a science function (:func:`~sklearn_hybrid.diagnosis.augment_science`).
     term_names_ : ndarray of str
         Names of the candidate terms, in column order of :meth:`transform`.
     term_units_ : ndarray of str or None
@@ -168,20 +182,18 @@ class CandidateLibrary(TransformerMixin, BaseEstimator):
         self.variable_names_ = np.asarray(names, dtype=object)
         self._check_params(names)
 
-        self._poly = None
-        if self.degree >= 1:
-            self._poly = PolynomialFeatures(self.degree, interaction_only=self.interaction_only,
-                                            include_bias=False).fit(Z)
-        self._trig = _selected_variables(self.trigonometric, names, "trigonometric")
-        self._nonsmooth = _selected_variables(self.nonsmooth, names, "nonsmooth")
-        term_names, term_units = self._build_names(names)
-        if not term_names:
+        trig = _selected_variables(self.trigonometric, names, "trigonometric")
+        nonsmooth = _selected_variables(self.nonsmooth, names, "nonsmooth")
+        terms = self._build_terms(names, trig, nonsmooth)
+        if not terms:
             raise ValueError("The library has no terms: raise degree, set include_bias, or add terms.")
+        term_names = [t.name for t in terms]
         duplicated = sorted({t for t in term_names if term_names.count(t) > 1})
         if duplicated:
             raise ValueError(f"Duplicate term names {duplicated}: rename the custom terms or variables.")
+        self.terms_ = terms
         self.term_names_ = np.asarray(term_names, dtype=object)
-        self.term_units_ = None if self.units is None else np.asarray(term_units, dtype=object)
+        self.term_units_ = None if self.units is None else np.asarray([self._unit(t) for t in terms], dtype=object)
         self.n_terms_ = len(term_names)
         # Evaluate once so a broken custom term fails at fit, not later.
         self._evaluate(Z)
@@ -204,21 +216,11 @@ class CandidateLibrary(TransformerMixin, BaseEstimator):
         return self._evaluate(validate_data(self, Z, reset=False, dtype=np.float64))
 
     def _evaluate(self, Z: np.ndarray) -> np.ndarray:
-        names = list(self.variable_names_)
-        col = {name: Z[:, i] for i, name in enumerate(names)}
-        blocks = []
-        if self.include_bias:
-            blocks.append(np.ones((Z.shape[0], 1)))
-        if self._poly is not None:
-            blocks.append(self._poly.transform(Z))
-        for v in self._trig:
-            blocks.append(np.column_stack([np.sin(col[v]), np.cos(col[v])]))
-        for v in self._nonsmooth:
-            x = col[v]
-            blocks.append(np.column_stack([np.sign(x), np.abs(x), x * np.abs(x)]))
-        for term, func in (self.custom_terms or {}).items():
-            blocks.append(self._evaluate_custom(term, func, Z, names))
-        Theta = np.hstack(blocks) if blocks else np.empty((Z.shape[0], 0))
+        # copies: a term cannot alter the caller's data
+        d = {name: torch.tensor(Z[:, i]) for i, name in enumerate(self.variable_names_)}
+        with torch.no_grad():
+            columns = [np.broadcast_to(term(d).numpy(), (len(Z),)) for term in self.terms_]
+        Theta = np.column_stack(columns) if columns else np.empty((len(Z), 0))
         bad = ~np.all(np.isfinite(Theta), axis=0)
         if bad.any():
             raise ValueError(f"Terms {list(self.term_names_[bad])} are not finite on these data.")
@@ -270,6 +272,9 @@ class CandidateLibrary(TransformerMixin, BaseEstimator):
                 raise ValueError(f"custom term names must be non-empty strings, got {term!r}.")
             if not callable(func):
                 raise TypeError(f"custom term {term!r} is not callable.")
+            if isinstance(func, Term) and func.shape:
+                raise ValueError(f"custom term {term!r} has shape parameters {list(func.shape)}, which a library "
+                                 "column cannot fit; fix their values in the function.")
         if self.units is not None:
             if not isinstance(self.units, Mapping):
                 raise TypeError("units must be a dict mapping variable names to unit strings.")
@@ -282,40 +287,23 @@ class CandidateLibrary(TransformerMixin, BaseEstimator):
             if not all(isinstance(u, str) for u in self.units.values()):
                 raise TypeError("units values must be strings such as 'rad/s' ('' or '1' if dimensionless).")
 
-    def _build_names(self, names: list[str]) -> tuple[list[str], list[str]]:
+    def _build_terms(self, names: list[str], trig: list[str], nonsmooth: list[str]) -> list[Term]:
         units = dict(self.units or {})
-        u = {v: units.get(v, "") for v in names}
-        term_names, term_units = [], []
-        if self.include_bias:
-            term_names.append("1")
-            term_units.append("1")
-        if self._poly is not None:
-            for powers in self._poly.powers_:
-                factors = [(v, int(p)) for v, p in zip(names, powers) if p > 0]
-                term_names.append("*".join(v if p == 1 else f"{v}^{p}" for v, p in factors))
-                term_units.append(_product([_power_unit(u[v], p) for v, p in factors]))
-        for v in self._trig:
-            term_names += [f"sin({v})", f"cos({v})"]
-            term_units += ["1", "1"]
-        for v in self._nonsmooth:
-            term_names += [f"sign({v})", f"|{v}|", f"{v}|{v}|"]
-            term_units += ["1", _product([_power_unit(u[v], 1)]), _product([_power_unit(u[v], 2)])]
-        for term in self.custom_terms or {}:
-            term_names.append(term)
-            term_units.append(units.get(term, "?"))
-        return term_names, term_units
+        terms = [Term("1", constant, "polynomial")] if self.include_bias else []
+        terms += monomial_terms(names, self.degree, units, self.interaction_only)
+        for v in trig:
+            terms += trigonometric_terms(v)
+        for v in nonsmooth:
+            terms += nonsmooth_terms(v, units.get(v, ""))
+        for name, func in (self.custom_terms or {}).items():
+            if isinstance(func, Term):  # a torch term: enters an augmented ODE with its derivatives
+                terms.append(Term(name, func.func, "user", unit=func.unit))
+            else:
+                terms.append(Term(name, partial(numpy_term, func=func, name=name, names=tuple(names)), "user"))
+        return terms
 
-    @staticmethod
-    def _evaluate_custom(term: str, func: Callable, Z: np.ndarray, names: list[str]) -> np.ndarray:
-        view = _NamedColumns(Z.copy(), names)  # a copy: user code must not be able to alter Z
-        try:
-            values = func(view)
-        except Exception as exc:
-            raise ValueError(f"custom term {term!r} failed on the data: {exc!r}. It receives an array "
-                             "indexable as Z[:, j] or Z['name'].") from exc
-        values = np.asarray(values, dtype=np.float64)
-        if values.ndim == 2 and values.shape[1] == 1:
-            values = values[:, 0]
-        if values.shape != (Z.shape[0],):
-            raise ValueError(f"custom term {term!r} returned shape {values.shape}; expected ({Z.shape[0]},).")
-        return values[:, None]
+    def _unit(self, term: Term) -> str:
+        """The unit shown for a term: ``"1"`` when dimensionless, ``"?"`` for a custom term without one."""
+        if term.kind == "user":
+            return (self.units or {}).get(term.name, term.unit or "?")
+        return term.unit or "1"

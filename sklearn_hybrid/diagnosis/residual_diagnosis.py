@@ -251,7 +251,9 @@ class ResidualDiagnosis(BaseEstimator):
                           "fits noise. Pass y to keep only the terms that held-out samples support.",
                           UserWarning, stacklevel=3)
             return
-        verdicts = judge_terms(estimator, X, y, new, variables, n_states,
+        library = {term.name: term for term in self.library_.terms_}  # each name's Term, added as it is
+        placed = [{**t, "term": library[t["term"]]} for t in new]
+        verdicts = judge_terms(estimator, X, y, placed, variables, n_states,
                                validation_fraction=self.validation_fraction, z=self.z, min_gain=self.min_gain)
         for t, verdict in zip(new, verdicts):
             t["evidence"], t["kept"] = verdict, verdict["accepted"]

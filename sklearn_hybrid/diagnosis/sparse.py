@@ -22,6 +22,7 @@ from sklearn.utils.validation import check_is_fitted, validate_data
 from threadpoolctl import threadpool_limits
 
 from ._supports import select_support, support_shares, support_stats
+from .terms import Term
 
 __all__ = ["SparseTermRegression"]
 
@@ -106,8 +107,9 @@ class SparseTermRegression(RegressorMixin, BaseEstimator):
             Candidate terms ``Theta`` evaluated on the visited states (``CandidateLibrary.transform``).
         y : array-like of shape (n_samples,) or (n_samples, n_outputs)
             Residual ``r``, one column per component.
-        feature_names : list of str, default=None
+        feature_names : list of str or of Term, default=None
             Names of the terms; defaults to a DataFrame's columns, else ``theta0, theta1, ...``.
+            The library's terms themselves (``CandidateLibrary.terms_``) give the names and the units.
         term_units : list of str, default=None
             Units of the terms (``CandidateLibrary.term_units_``), shown in :meth:`equations`.
         output_names : list of str, default=None
@@ -126,6 +128,9 @@ class SparseTermRegression(RegressorMixin, BaseEstimator):
         if self.criterion == "cv" and n < self.cv:
             raise ValueError(f"criterion='cv' with cv={self.cv} needs at least {self.cv} samples, got n_samples={n}.")
         names = feature_names if feature_names is not None else getattr(self, "feature_names_in_", None)
+        if names is not None and not isinstance(names, str) and all(isinstance(t, Term) for t in names):
+            term_units = [t.unit or "1" for t in names] if term_units is None else term_units
+            names = [t.name for t in names]
         self.term_names_ = _names(names, p, "theta", "feature_names")
         self.term_units_ = None if term_units is None else _names(term_units, p, "", "term_units", unique=False)
         self.output_names_ = _names(output_names, m, "g", "output_names", brackets=True)

@@ -1,6 +1,9 @@
 """What physics usually misses: named candidate terms, some with a fitted nonlinear parameter.
 
-A :class:`Term` is a torch function of the named variables (states, then inputs) with, for some
+A :class:`Term` is the package's one vocabulary of candidate terms: the closed loop ranks and adds
+them, :class:`~sklearn_hybrid.diagnosis.CandidateLibrary` evaluates them as the columns of a sparse
+regression, and :func:`~sklearn_hybrid.diagnosis.augment_science` adds them to a science function.
+A term is a torch function of the named variables (states, then inputs) with, for some
 kinds, one *shape* parameter fitted together with its coefficient: the width ``w`` of dry friction
 ``tanh(v/w)``, the ``knot`` of a hinge ``max(0, x - knot)``, the constant ``K`` of a saturation
 ``x/(K + |x|)``, the rate ``k`` of ``exp(k x)``, the exponent ``p`` of a power law ``|x|^p`` or
@@ -24,13 +27,14 @@ from __future__ import annotations
 import re
 from collections.abc import Callable, Mapping, Sequence
 from functools import partial
-from itertools import combinations
+from itertools import combinations, combinations_with_replacement
 from typing import Any
 
 import numpy as np
 import torch
 
-__all__ = ["Term", "physics_terms", "TERM_KINDS", "SCIENCE_OUTPUT"]
+__all__ = ["Term", "physics_terms", "named_terms", "monomial_terms", "nonsmooth_terms", "trigonometric_terms",
+           "TERM_KINDS", "SCIENCE_OUTPUT", "power_unit", "product_unit"]
 
 TERM_KINDS = ("polynomial", "drag", "dry_friction", "hinge", "sqrt", "power", "exponential", "saturation", "periodic",
               "scaled", "user")
@@ -79,8 +83,21 @@ class Term:
         return f"Term({self.name!r}, kind={self.kind!r})"
 
 
-def _power(unit: str, p: int) -> str:
-    return "" if not unit else (unit if p == 1 else f"({unit})^{p}")
+_SIMPLE_UNIT = re.compile(r"^[A-Za-z_]\w*$")
+
+
+def power_unit(unit: str, power: int) -> str:
+    """Units of ``x**power`` for ``x`` in ``unit`` (``"m/s"``, 2 -> ``"(m/s)^2"``); ``""`` when dimensionless."""
+    if unit in ("", "1") or power == 0:
+        return ""
+    if power == 1:
+        return unit
+    return f"{unit if _SIMPLE_UNIT.match(unit) else f'({unit})'}^{power}"
+
+
+def product_unit(parts: Sequence[str]) -> str:
+    """Units of a product of factors in the given units; ``""`` when dimensionless."""
+    return "*".join(p for p in parts if p)
 
 
 # The term functions: module-level, bound to their variables with functools.partial, so that a
@@ -110,11 +127,19 @@ def abs_term(d, x):
     return d[x].abs()
 
 
+def sine(d, x):
+    return torch.sin(d[x])
+
+
+def cosine(d, x):
+    return torch.cos(d[x])
+
+
 def _dry_friction(d, x, w):
     return torch.tanh(d[x] / w)
 
 
-def _sign(d, x):
+def sign_term(d, x):
     return torch.sign(d[x])
 
 
@@ -169,6 +194,52 @@ def angle_factor(unit: str) -> float | None:
         return None
     scale = float(match["scale"]) if match["scale"] else 1.0
     return scale * (1.0 if match["unit"] == "rad" else np.pi / 180)
+
+
+def monomial_term(factors: Sequence[tuple[str, int]], units: Mapping[str, str] | None = None) -> Term:
+    """The product of ``name ** power`` over ``factors``, named as ``"x^2*v"`` (variables in the given order)."""
+    units = units or {}
+    name = "*".join(v if p == 1 else f"{v}^{p}" for v, p in factors)
+    unit = product_unit([power_unit(units.get(v, ""), p) for v, p in factors])
+    return Term(name, partial(monomial, factors=tuple((v, int(p)) for v, p in factors)), "polynomial", unit=unit)
+
+
+def monomial_terms(variables: Sequence[str], degree: int, units: Mapping[str, str] | None = None,
+                   interaction_only: bool = False) -> list[Term]:
+    """Every monomial of total degree 1 to ``degree``, degree by degree, in scikit-learn's
+    ``PolynomialFeatures`` order (so that the names are those of its powers)."""
+    variables, out = list(variables), []
+    combos = combinations if interaction_only else combinations_with_replacement
+    for total in range(1, degree + 1):
+        for combo in combos(range(len(variables)), total):
+            factors = [(variables[i], combo.count(i)) for i in sorted(set(combo))]
+            out.append(monomial_term(factors, units))
+    return out
+
+
+def trigonometric_terms(x: str) -> list[Term]:
+    """``sin(x)`` and ``cos(x)``."""
+    return [Term(f"sin({x})", partial(sine, x=x), "periodic"), Term(f"cos({x})", partial(cosine, x=x), "periodic")]
+
+
+def nonsmooth_terms(x: str, unit: str = "") -> list[Term]:
+    """``sign(x)`` (dry friction), ``|x|`` and ``x|x|`` (drag)."""
+    return [Term(f"sign({x})", partial(sign_term, x=x), "dry_friction"),
+            Term(f"|{x}|", partial(abs_term, x=x), "drag", unit=unit),
+            Term(f"{x}|{x}|", partial(drag_term, x=x), "drag", unit=power_unit(unit, 2))]
+
+
+def named_terms(variables: Sequence[str], units: Mapping[str, str] | None = None, degree: int = 5) -> dict[str, Term]:
+    """The terms without a shape parameter over ``variables``, by name: the constant ``"1"``, the
+    monomials up to ``degree``, ``sin``, ``cos``, ``sign``, ``|x|``, ``x|x|`` and ``sqrt|x|`` of each
+    variable. A term given by its name (``augment_science``) is one of these."""
+    units = units or {}
+    terms = [Term("1", constant, "polynomial"), *monomial_terms(variables, degree, units)]
+    for x in variables:
+        unit = units.get(x, "")
+        terms += [*trigonometric_terms(x), *nonsmooth_terms(x, unit),
+                  Term(f"sqrt|{x}|", partial(_signed_sqrt, x=x), "sqrt", unit=f"{unit}^(1/2)" if unit else "")]
+    return {t.name: t for t in terms}
 
 
 def physics_terms(variables: Sequence[str], values: np.ndarray, units: Mapping[str, str] | None = None,
@@ -273,15 +344,9 @@ def _check_user_term(name: str, func: Callable, variables: Sequence[str], values
 def _polynomials(variables: Sequence[str], units: Mapping[str, str]) -> list[Term]:
     """Constant, powers up to 3 and the products of two variables up to degree 3."""
     terms = [Term("1", constant, "polynomial")]
-    for x in variables:
-        for p in (1, 2, 3):
-            terms.append(Term(x if p == 1 else f"{x}^{p}", partial(monomial, factors=((x, p),)), "polynomial",
-                              unit=_power(units.get(x, ""), p)))
-    for x, z in combinations(variables, 2):
-        for px, pz in ((1, 1), (2, 1), (1, 2)):
-            name = "*".join(v if p == 1 else f"{v}^{p}" for v, p in ((x, px), (z, pz)))
-            unit = "*".join(filter(None, (_power(units.get(x, ""), px), _power(units.get(z, ""), pz))))
-            terms.append(Term(name, partial(monomial, factors=((x, px), (z, pz))), "polynomial", unit=unit))
+    terms += [monomial_term([(x, p)], units) for x in variables for p in (1, 2, 3)]
+    terms += [monomial_term([(x, px), (z, pz)], units)
+              for x, z in combinations(variables, 2) for px, pz in ((1, 1), (2, 1), (1, 2))]
     return terms
 
 
@@ -301,8 +366,8 @@ def _single_variable(x: str, col: np.ndarray, scale: float, unit: str, kinds: Se
     out = []
     wide = (1e-6 * scale, 1e3 * scale)
     if "drag" in kinds:
-        out.append(Term(f"{x}|{x}|", partial(drag_term, x=x), "drag", unit=_power(unit, 2)))
-        out.append(Term(f"|{x}|", partial(abs_term, x=x), "drag", unit=unit))
+        _, magnitude, drag = nonsmooth_terms(x, unit)
+        out += [drag, magnitude]
     if "dry_friction" in kinds:  # sign(x) smoothed over a fitted width w (-> sign as w -> 0)
         out.append(Term(f"tanh({x}/w)", partial(_dry_friction, x=x), "dry_friction",
                         {"w": ([0.01 * scale, 0.1 * scale, 0.5 * scale], wide)}))
@@ -310,7 +375,7 @@ def _single_variable(x: str, col: np.ndarray, scale: float, unit: str, kinds: Se
         # it (tanh(x/w) flattens in w once w is below most visited |x|). Only for a variable that changes
         # sign: otherwise it is the constant.
         if col.min() < 0 < col.max():
-            out.append(Term(f"sign({x})", partial(_sign, x=x), "dry_friction"))
+            out.append(nonsmooth_terms(x)[0])
     if "hinge" in kinds:  # a stop, an overflow, a dead zone: active beyond a fitted knot c
         knots = np.quantile(col, [0.1, 0.3, 0.5, 0.7, 0.9])
         bounds = (float(col.min()), float(col.max()))
