@@ -24,7 +24,7 @@ from . import HybridRegressor
 from ._validation import check_positive
 from .datasets import (estimate_derivative, fetch_cascaded_tanks, fetch_hare_lynx, fetch_silverbox,
                        load_pendulum_freeswing, make_duffing, make_pendulum, make_windows)
-from .diagnosis import (MLPOn, ZeroResidual, close_the_loop, fit_initial_state, free_run,
+from .diagnosis import (Evidence, MLPOn, ZeroResidual, close_the_loop, fit_initial_state, free_run,
                         prediction_metrics)
 from .models import duffing_f, pendulum_f
 
@@ -369,8 +369,8 @@ def run_case(name: str, fast: bool = False, method: str = "erm", max_iter: int |
                          state_names=case.state_names, input_names=case.input_names, units=case.units,
                          positive=case.get("positive", ()), offsets=case.get("offsets", ()),
                          param_names=case.param_names,
-                         theta_true=case.get("theta_true"), test_scorer=scorer, n_jobs=n_jobs, cv=cv,
-                         groups=case.groups if grouped else None,
+                         theta_true=case.get("theta_true"), test_scorer=scorer, n_jobs=n_jobs,
+                         evidence=Evidence(cv=cv, groups=case.groups if grouped else None),
                          fit_initial_states=case.get("fit_initial_states", False) if fit_initial_states is None
                          else fit_initial_states, verbose=verbose)
     out["case"] = case

@@ -94,11 +94,11 @@ def test_run_case_takes_the_case_s_evidence_settings(monkeypatch):
 
     monkeypatch.setitem(recipes.CASES, "windowed", windowed)
     recipes.run_case("windowed", fast=True, max_iter=1)
-    assert seen[-1]["cv"] == 3 and seen[-1]["groups"] is not None
+    assert seen[-1]["evidence"].cv == 3 and seen[-1]["evidence"].groups is not None
     recipes.run_case("windowed", fast=True, max_iter=1, cv=None, grouped=False)
-    assert seen[-1]["cv"] is None and seen[-1]["groups"] is None
+    assert seen[-1]["evidence"].cv is None and seen[-1]["evidence"].groups is None
     recipes.run_case("pendulum", fast=True, max_iter=1)
-    assert seen[-1]["cv"] is None and seen[-1]["groups"] is None
+    assert seen[-1]["evidence"].cv is None and seen[-1]["evidence"].groups is None
     with pytest.raises(ValueError, match="has no groups"):
         recipes.run_case("pendulum", fast=True, max_iter=1, grouped=True)
     with pytest.raises(ValueError, match="max_iter must be a positive integer, got 0"):  # not "the default"

@@ -14,7 +14,7 @@ from sklearn.base import clone
 
 from sklearn_hybrid import HybridRegressor
 from sklearn_hybrid.datasets import make_duffing, make_pendulum
-from sklearn_hybrid.diagnosis import (CandidateLibrary, MLPOn, ResidualDiagnosis, ScienceFit, augment_science,
+from sklearn_hybrid.diagnosis import (CandidateLibrary, Evidence, MLPOn, ResidualDiagnosis, ScienceFit, augment_science,
                                       close_the_loop, critical_value, evidence, fit_initial_state, free_run,
                                       named_terms, physics_terms, plot_unexplained, SparseTermRegression, Term,
                                       ZeroResidual)
@@ -267,12 +267,12 @@ def test_exact_components_and_bad_options(pendulum):
         close_the_loop(HybridRegressor(science=pendulum_f, dt=0.1, max_iter=2), X, y, state_names=NAMES,
                        exact=["w"])
     with pytest.raises(ValueError, match="validation_fraction"):
-        close_the_loop(est, X, y, validation_fraction=1.5)
+        close_the_loop(est, X, y, evidence=Evidence(validation_fraction=1.5))
     for z in (-1, 0, float("nan"), True):
         with pytest.raises(ValueError, match="z must be a positive"):
-            close_the_loop(est, X, y, z=z)
+            close_the_loop(est, X, y, evidence=Evidence(z=z))
     with pytest.raises(ValueError, match=r"min_gain must be in \[0, 1\)"):
-        close_the_loop(est, X, y, min_gain=2.0)
+        close_the_loop(est, X, y, evidence=Evidence(min_gain=2.0))
     # a misspelt unit name is refused before any fit (it would lose its unit silently); a user term's is kept
     unfitted = HybridRegressor(science=pendulum_f, dt=0.1, max_iter=2)
     with pytest.raises(ValueError, match=r"units names \['vdot'\], which the model does not have"):
@@ -489,8 +489,8 @@ def test_selection_judges_each_candidate_on_its_own_evidence():
     """The lowest held-out error without evidence must not hide a candidate that passed (the real
     pendulum's |theta_dot| at z 4.8 was dropped behind a hinge at z 2.9), and among those that
     passed and are within min_gain of the best, the simplest wins."""
-    from sklearn_hybrid.diagnosis.candidates import interleave
-    from sklearn_hybrid.diagnosis.stepwise import _simplest_of_the_best
+    from sklearn_hybrid.diagnosis.loop.candidates import interleave
+    from sklearn_hybrid.diagnosis.loop.stepwise import _simplest_of_the_best
 
     def tried(term, kind, shape, mse, accepted):
         return ({"term": term, "kind": kind, "shape": shape}, {}, {"mse_after": mse, "accepted": accepted},
@@ -538,7 +538,7 @@ def test_candidates_are_also_ranked_without_the_network(pendulum):
     point at the wrong term; the network-free ranking (a score test on the training trajectories)
     still brings the right one to the refit. Here the 'learned' residual is a wrong v^3."""
     from sklearn_hybrid.diagnosis.sensitivity import science_output
-    from sklearn_hybrid.diagnosis.stepwise import forward_selection
+    from sklearn_hybrid.diagnosis.loop.stepwise import forward_selection
 
     data, est = pendulum
     fit = ScienceFit(est, data.X_train, data.y_train)
@@ -556,7 +556,8 @@ def test_candidates_are_also_ranked_without_the_network(pendulum):
 
 def test_screening_refits_use_evenly_spaced_training_samples_and_the_kept_term_all_of_them(pendulum, monkeypatch):
     """Candidates are screened on a subsample (speed); the accepted term is refitted on every sample."""
-    from sklearn_hybrid.diagnosis import _judge, stepwise
+    from sklearn_hybrid.diagnosis import judge
+    from sklearn_hybrid.diagnosis.loop import stepwise
     from sklearn_hybrid.diagnosis.sensitivity import science_output
 
     data, est = pendulum
@@ -570,24 +571,24 @@ def test_screening_refits_use_evenly_spaced_training_samples_and_the_kept_term_a
         return original(self, science, theta, extra_bounds, max_nfev, fit_states)
 
     monkeypatch.setattr(ScienceFit, "fit", recording)
-    monkeypatch.setattr(_judge, "SCREENING_SAMPLES", 10)
+    monkeypatch.setattr(judge, "SCREENING_SAMPLES", 10)
     states = data.X_train
     learned = science_output(pendulum_f, {"omega": 2 / 3}, [states])
     learned[:, 1] -= 0.5 * states[:, 1]
     sel = stepwise.forward_selection(pendulum_f, {"omega": 0.6}, fit, [(np.arange(n - 12), np.arange(n - 12, n))],
                                      physics_terms(NAMES, states), NAMES, 2, [states], learned, [1], max_terms=1)
-    screens = [size for size, nfev in sizes if nfev == _judge.SCREENING_NFEV]
+    screens = [size for size, nfev in sizes if nfev == judge.SCREENING_NFEV]
     assert screens and set(screens) == {10}
     assert (n - 12, 100) in sizes  # the science alone and the kept term: every training sample
     assert [t["term"] for t in sel["added"]] == ["v_dot"]
     assert sel["theta"]["c_v_dot"] == pytest.approx(-0.5, rel=0.1)
-    assert _judge.evenly_spaced(np.arange(5, 105), 10)[[0, -1]].tolist() == [5, 104]
+    assert judge.evenly_spaced(np.arange(5, 105), 10)[[0, -1]].tolist() == [5, 104]
 
 
 def test_a_term_the_converged_test_drops_at_once_is_not_proposed_again(pendulum, monkeypatch):
     """Seen on a Gompertz growth system: the screening test accepted a term, the converged drop test removed
     it at once, and the selection proposed it again, forever. Now it is set aside and the selection goes on."""
-    from sklearn_hybrid.diagnosis import candidates, stepwise
+    from sklearn_hybrid.diagnosis.loop import candidates, stepwise
     from sklearn_hybrid.diagnosis.sensitivity import science_output
 
     data, est = pendulum
@@ -617,7 +618,7 @@ def test_a_term_the_converged_test_drops_at_once_is_not_proposed_again(pendulum,
 
 def _held_out_judge(pendulum):
     """The selection's judge of the pendulum's network-free fit, its last 12 samples held out."""
-    from sklearn_hybrid.diagnosis._judge import Judge
+    from sklearn_hybrid.diagnosis.judge import Judge
 
     data, est = pendulum
     fit = ScienceFit(est, data.X_train, data.y_train)
@@ -635,8 +636,8 @@ def _on_v_dot(pendulum, names, coef=0.0):
 
 def test_a_term_made_dispensable_by_a_later_one_is_dropped(pendulum):
     """Drag v_dot|v_dot| stands in for linear damping until v_dot itself is in; then it goes."""
-    from sklearn_hybrid.diagnosis.candidates import augment_with, with_fitted
-    from sklearn_hybrid.diagnosis.stepwise import _drop_dispensable
+    from sklearn_hybrid.diagnosis.loop.candidates import augment_with, with_fitted
+    from sklearn_hybrid.diagnosis.loop.stepwise import _drop_dispensable
 
     judge = _held_out_judge(pendulum)
     terms = physics_terms(NAMES, pendulum[0].X_train)
@@ -659,8 +660,8 @@ def test_a_screening_refit_that_gets_lost_starts_again_from_the_model_it_extends
     """A ranked coefficient that makes the simulation blow up leaves least squares stuck far from any
     minimum; the candidate is then refitted from its new coefficient at zero (the current model).
     (From 1e3 the plain refit recovers since diverged residuals are bounded; from 1e4 it stays put.)"""
-    from sklearn_hybrid.diagnosis.candidates import augment_with
-    from sklearn_hybrid.diagnosis.stepwise import _screen
+    from sklearn_hybrid.diagnosis.loop.candidates import augment_with
+    from sklearn_hybrid.diagnosis.loop.stepwise import _screen
 
     judge = _held_out_judge(pendulum)
     damped = augment_with(pendulum_f, _on_v_dot(pendulum, ["v_dot"], coef=1e4), NAMES, 2, None)
@@ -676,8 +677,8 @@ def test_a_screening_refit_that_raises_starts_again_from_the_model_it_extends(pe
     """Seen on a Brusselator (benchmark rerun): from its ranked coefficient, least squares raised
     ("array must not contain infs or NaNs") for the right term in every step, so the term was never
     judged. A refit that raises is tried again from the new coefficient at zero."""
-    from sklearn_hybrid.diagnosis.candidates import augment_with
-    from sklearn_hybrid.diagnosis.stepwise import _screen
+    from sklearn_hybrid.diagnosis.loop.candidates import augment_with
+    from sklearn_hybrid.diagnosis.loop.stepwise import _screen
 
     judge = _held_out_judge(pendulum)
     damped = augment_with(pendulum_f, _on_v_dot(pendulum, ["v_dot"], coef=3.0), NAMES, 2, None)
@@ -734,14 +735,14 @@ def test_cross_validated_evidence_judges_every_sample(pendulum):
     """cv=K: each contiguous block is predicted by a refit without it; the damping is still the one
     term, judged on every sample, and the report says how."""
     data, est = pendulum
-    out = close_the_loop(est, data.X_train, data.y_train, state_names=NAMES, cv=4, refit_params={"max_iter": 5})
+    out = close_the_loop(est, data.X_train, data.y_train, state_names=NAMES, evidence=Evidence(cv=4), refit_params={"max_iter": 5})
     assert [t["term"] for t in out.added] == ["v_dot"]
     assert f"all {len(data.y_train)} samples in 4 contiguous blocks" in out.report
     assert out.science_theta["c_v_dot"] == pytest.approx(-0.5, rel=0.1)
     with pytest.raises(ValueError, match="cv must be None or an integer"):
-        close_the_loop(est, data.X_train, data.y_train, cv=1)
+        close_the_loop(est, data.X_train, data.y_train, evidence=Evidence(cv=1))
     with pytest.raises(ValueError, match="give at most"):
-        close_the_loop(est, data.X_train, data.y_train, cv=len(data.y_train))
+        close_the_loop(est, data.X_train, data.y_train, evidence=Evidence(cv=len(data.y_train)))
 
 
 def test_held_out_splits_keep_groups_whole_and_match_the_ungrouped_split():
@@ -768,13 +769,13 @@ def test_held_out_splits_keep_groups_whole_and_match_the_ungrouped_split():
 def test_grouped_evidence_counts_each_group_once(pendulum):
     """Groups of samples are judged by their mean error: the threshold is Student's t for the number of
     groups, and the report says so; the damping still passes with 6 groups judged."""
-    from sklearn_hybrid.diagnosis import _judge
+    from sklearn_hybrid.diagnosis import judge
     from sklearn_hybrid.diagnosis.evidence import held_out_splits
 
     data, est = pendulum
     n = len(data.y_train)
     groups = np.arange(n) // 2  # as if every two samples were overlapping windows of one stretch
-    out = close_the_loop(est, data.X_train, data.y_train, state_names=NAMES, groups=groups,
+    out = close_the_loop(est, data.X_train, data.y_train, state_names=NAMES, evidence=Evidence(groups=groups),
                          refit_params={"max_iter": 5})
     n_groups = round(0.25 * n / 2)
     assert f"mean squared error on {n_groups} validation groups (a group's samples judged together" in out.report
@@ -783,13 +784,13 @@ def test_grouped_evidence_counts_each_group_once(pendulum):
     # the judge's errors are the group means of the per-sample errors
     splits, codes = held_out_splits(n, 0.25, None, groups)
     fit = ScienceFit(est, data.X_train, data.y_train)
-    per_sample = _judge.Judge(fit, splits).errors(pendulum_f, {"omega": 0.6})
-    per_group = _judge.Judge(fit, splits, codes).errors(pendulum_f, {"omega": 0.6})
+    per_sample = judge.Judge(fit, splits).errors(pendulum_f, {"omega": 0.6})
+    per_group = judge.Judge(fit, splits, codes).errors(pendulum_f, {"omega": 0.6})
     np.testing.assert_allclose(per_group, per_sample.reshape(-1, 2).mean(axis=1))
     with pytest.raises(ValueError, match="3 groups: a split needs 4 at least"):
-        close_the_loop(est, data.X_train, data.y_train, groups=np.arange(n) * 3 // n)
+        close_the_loop(est, data.X_train, data.y_train, evidence=Evidence(groups=np.arange(n) * 3 // n))
     with pytest.raises(ValueError, match="cv=4 blocks of 6 groups"):
-        close_the_loop(est, data.X_train, data.y_train, groups=np.arange(n) * 6 // n, cv=4)
+        close_the_loop(est, data.X_train, data.y_train, evidence=Evidence(groups=np.arange(n) * 6 // n, cv=4))
 
 
 def test_scoring_workers_leave_joblib_parallel_working(pendulum):
@@ -797,7 +798,7 @@ def test_scoring_workers_leave_joblib_parallel_working(pendulum):
     (a shared one, changed by close_the_loop, broke a later GridSearchCV(n_jobs=2))."""
     from joblib import Parallel, delayed
 
-    from sklearn_hybrid.diagnosis.report import Scoring
+    from sklearn_hybrid.diagnosis.loop.report import Scoring
 
     data, est = pendulum
     with Scoring(2, data.X_train, data.X_test, data.y_test, None, None) as scoring:
@@ -874,7 +875,7 @@ def select_on_simulated_data(science, theta, truth, x0, dt, n_steps, noise, rng,
     """forward_selection on trajectories of ``truth`` from ``x0`` (the last 12 samples judge), with the network's
     part taken as known: ``learned`` is the true right-hand side at the visited states. ``library(names, states)``
     gives the candidates."""
-    from sklearn_hybrid.diagnosis import stepwise
+    from sklearn_hybrid.diagnosis.loop import stepwise
 
     t = dt * np.arange(n_steps + 1)
     x = np.stack([solve_ivp(truth, (0, t[-1]), s, t_eval=t, rtol=rtol, atol=atol).y.T for s in x0])
@@ -912,8 +913,8 @@ def test_a_flux_between_two_components_is_added_to_both_at_once():
 
 
 def test_a_group_is_preferred_only_when_clearly_better_than_its_single_terms():
-    from sklearn_hybrid.diagnosis.candidates import candidate_groups
-    from sklearn_hybrid.diagnosis.stepwise import _simplest_of_the_best
+    from sklearn_hybrid.diagnosis.loop.candidates import candidate_groups
+    from sklearn_hybrid.diagnosis.loop.stepwise import _simplest_of_the_best
 
     single = {"component": 1, "term": "A*B", "kind": "polynomial", "shape": {}, "gain": 0.5, "coef": 1.0}
     other = {**single, "component": 0, "coef": -1.0}
@@ -1064,8 +1065,8 @@ def test_a_drop_refits_the_reduced_model_from_its_fit_on_the_path_too(pendulum):
     values, which without the dropped term made the simulation overflow; least squares stalled there, the
     drop test (is the term significantly better?) let the term go on the scattered errors, and the loop
     crashed later on a diverging model. The reduced model's fit on the path is now a second start."""
-    from sklearn_hybrid.diagnosis.candidates import augment_with, with_fitted
-    from sklearn_hybrid.diagnosis.stepwise import _drop_dispensable, _key, _refit_from_best
+    from sklearn_hybrid.diagnosis.loop.candidates import augment_with, with_fitted
+    from sklearn_hybrid.diagnosis.loop.stepwise import _drop_dispensable, _key, _refit_from_best
 
     judge = _held_out_judge(pendulum)
     placed = _on_v_dot(pendulum, ["v_dot", "v_dot|v_dot|"])
@@ -1091,7 +1092,7 @@ def test_a_drop_refits_the_reduced_model_from_its_fit_on_the_path_too(pendulum):
 def test_intervals_not_backed_while_a_candidate_is_left_open():
     """A term that gains at the last step without passing the evidence leaves the model possibly
     incomplete: its network-free intervals are not printed as identified."""
-    from sklearn_hybrid.diagnosis.loop import _open_question
+    from sklearn_hybrid.diagnosis.loop.close import _open_question
 
     steps = [{"step": 1, "term": "v_dot", "gain": 0.9, "z": 12.0, "accepted": True},
              {"step": 2, "term": "v^3", "gain": 0.01, "z": 2.5, "accepted": False}]

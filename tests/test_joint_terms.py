@@ -8,11 +8,12 @@ from scipy.integrate import solve_ivp
 from scipy.stats import norm
 
 from sklearn_hybrid import HybridRegressor
-from sklearn_hybrid.diagnosis import ScienceFit, physics_terms, stepwise
-from sklearn_hybrid.diagnosis.candidates import term_columns
+from sklearn_hybrid.diagnosis import ScienceFit, physics_terms
+from sklearn_hybrid.diagnosis.loop import stepwise
+from sklearn_hybrid.diagnosis.loop.candidates import term_columns
 from sklearn_hybrid.diagnosis.evidence import critical_value, evidence, holm
-from sklearn_hybrid.diagnosis.joint import joint_candidates
-from sklearn_hybrid.diagnosis.report import format_table
+from sklearn_hybrid.diagnosis.loop.joint import joint_candidates
+from sklearn_hybrid.diagnosis.loop.report import format_table
 
 NAMES = ["x", "v"]
 

@@ -6,7 +6,8 @@ import torch
 from scipy.integrate import solve_ivp
 
 from sklearn_hybrid import HybridRegressor
-from sklearn_hybrid.diagnosis import ScienceFit, physics_terms, stepwise
+from sklearn_hybrid.diagnosis import ScienceFit, physics_terms
+from sklearn_hybrid.diagnosis.loop import stepwise
 from sklearn_hybrid.diagnosis.terms import angle_factor
 
 NAMES, UNITS = ["theta", "omega"], {"theta": "rad", "omega": "rad/s"}

@@ -89,7 +89,8 @@ def fed_decay_f(v, u, k=0.5):
 def test_the_selection_finds_a_rate_that_follows_the_input():
     """dA/dt = (u - k A)(1 + 0.8 u): polynomial terms would need u^2 and A*u, one scaled term is exact."""
     from sklearn_hybrid import HybridRegressor, pack_inputs
-    from sklearn_hybrid.diagnosis import ScienceFit, stepwise
+    from sklearn_hybrid.diagnosis import ScienceFit
+    from sklearn_hybrid.diagnosis.loop import stepwise
 
     rng = np.random.default_rng(3)
     dt, n_steps, n = 0.25, 12, 40

@@ -6,9 +6,11 @@ import pytest
 from test_closed_loop import pendulum  # noqa: F401 (a fixture)
 
 from sklearn_hybrid import HybridRegressor
-from sklearn_hybrid.diagnosis import ScienceFit, _judge, physics_terms, stepwise
+from sklearn_hybrid.diagnosis import Evidence, ScienceFit, physics_terms
+from sklearn_hybrid.diagnosis.judge import training_folds
+from sklearn_hybrid.diagnosis.loop import stepwise
 from sklearn_hybrid.diagnosis.evidence import critical_value
-from sklearn_hybrid.diagnosis.report import format_table
+from sklearn_hybrid.diagnosis.loop.report import format_table
 
 
 def decay_f(v, k=0.5):
@@ -68,9 +70,9 @@ def test_second_look_needs_one_split_and_two_samples_a_fold():
     fit = object.__new__(ScienceFit)
     fit.y = np.zeros((10, 1))
     one_split = [(np.arange(7), np.arange(7, 10))]
-    assert _judge.training_folds(fit, one_split, None, None) is None
-    assert _judge.training_folds(fit, one_split + one_split, None, 4) is None  # every sample judges already
-    assert _judge.training_folds(fit, [(np.arange(3), np.arange(3, 10))], None, 4) is None  # one fold only
+    assert training_folds(fit, one_split, None, None) is None
+    assert training_folds(fit, one_split + one_split, None, 4) is None  # every sample judges already
+    assert training_folds(fit, [(np.arange(3), np.arange(3, 10))], None, 4) is None  # one fold only
 
 
 @pytest.mark.parametrize("folds", [1, 2.0, True, "4"])
@@ -79,7 +81,7 @@ def test_a_bad_number_of_second_look_folds_is_named(folds):
 
     X, y = np.ones((8, 1)), np.ones((8, 3, 1))
     with pytest.raises(ValueError, match="second_look must be None or a number of folds of at least 2"):
-        close_the_loop(HybridRegressor(science=decay_f, dt=0.1), X, y, second_look=folds)
+        close_the_loop(HybridRegressor(science=decay_f, dt=0.1), X, y, evidence=Evidence(second_look=folds))
 
 
 def test_a_term_accepted_on_a_second_look_is_dropped_by_the_same_judge(pendulum):  # noqa: F811 (the fixture)
@@ -87,12 +89,12 @@ def test_a_term_accepted_on_a_second_look_is_dropped_by_the_same_judge(pendulum)
     is judged on the training folds, and its row says so."""
     from test_closed_loop import NAMES, _held_out_judge, pendulum_f
 
-    from sklearn_hybrid.diagnosis.candidates import augment_with, with_fitted
+    from sklearn_hybrid.diagnosis.loop.candidates import augment_with, with_fitted
 
     judge = _held_out_judge(pendulum)
     fit = ScienceFit(pendulum[1], pendulum[0].X_train, pendulum[0].y_train)
     n = len(fit.y)
-    recheck = _judge.training_folds(fit, [(np.arange(n - 12), np.arange(n - 12, n))], None, 4)
+    recheck = training_folds(fit, [(np.arange(n - 12), np.arange(n - 12, n))], None, 4)
     terms = {t.name: t for t in physics_terms(NAMES, pendulum[0].X_train)}
     placed = [{"component": 1, "term": name, "kind": terms[name].kind, "unit": terms[name].unit,
                "function": terms[name].func, "shape": {}, "bounds": terms[name].shape, "coef": 0.0, "gain": 0.0}

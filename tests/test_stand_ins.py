@@ -7,9 +7,9 @@ from scipy.integrate import solve_ivp
 
 from sklearn_hybrid import HybridRegressor, pack_inputs
 from sklearn_hybrid.diagnosis import ScienceFit, physics_terms
-from sklearn_hybrid.diagnosis._judge import Judge
-from sklearn_hybrid.diagnosis.candidates import augment_with, shape_bounds, term_columns, with_fitted
-from sklearn_hybrid.diagnosis.collapse import replace_stand_ins
+from sklearn_hybrid.diagnosis.judge import Judge
+from sklearn_hybrid.diagnosis.loop.candidates import augment_with, shape_bounds, term_columns, with_fitted
+from sklearn_hybrid.diagnosis.loop.collapse import replace_stand_ins
 
 NAMES = ["T", "u"]
 

@@ -1,6 +1,7 @@
 """Accept a term on evidence: is a held-out error lower by more than the noise explains?
 
-:func:`evidence` compares the per-sample validation errors of two network-free refits
+:class:`Evidence` holds the settings of that test for :func:`~sklearn_hybrid.diagnosis.close_the_loop`
+(which samples judge, how strong the evidence must be, the second look); :func:`evidence` compares the per-sample validation errors of two network-free refits
 (:class:`~sklearn_hybrid.diagnosis.science_fit.ScienceFit`) of the science model, with and without
 a term; :func:`held_out_splits` says which samples fit and which judge, keeping overlapping windows
 of one stretch of a record together.
@@ -9,13 +10,71 @@ of one stretch of a record together.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
+from numbers import Real
 from typing import Any
 
 import numpy as np
 from scipy.stats import norm
 from scipy.stats import t as student_t
 
-__all__ = ["evidence", "critical_value", "holm"]
+__all__ = ["Evidence", "evidence", "critical_value", "holm"]
+
+
+@dataclass(frozen=True, eq=False)
+class Evidence:
+    """What a candidate term must show on held-out samples to be added: the closed loop's test.
+
+    Parameters
+    ----------
+    validation_fraction : float, default=0.25
+        The last share of the samples (of the groups, with ``groups``) that validate; the others fit.
+    cv : int, optional
+        Instead of one split, ``cv`` contiguous blocks of samples: each block is predicted by the
+        science model refitted on the others, and every sample judges (slower; for records too short
+        to spare a quarter).
+    second_look : int or None, default=4
+        With one split: a candidate that lowered the validation error by ``min_gain`` with z above 2
+        but not past the threshold is judged again by ``second_look`` contiguous folds of the
+        *training* samples, each predicted by a refit on the others, with the same test at the same
+        threshold; None: no second look.
+    groups : array-like of shape (n_samples,), optional
+        A label per sample: samples that share one (overlapping windows of one stretch of a record)
+        are never split between fitting and validation and count as one value.
+    z : float, default=3.0
+        The evidence asked for, a quantile of the standard normal (read through Student's t for the
+        number of validation samples, :func:`critical_value`), corrected by Holm's rule for the
+        number of candidates judged at a step (:func:`holm`).
+    min_gain : float, default=0.05
+        The least share of the held-out error a term must remove, however sure the test.
+    """
+
+    validation_fraction: float = 0.25
+    cv: int | None = None
+    second_look: int | None = 4
+    groups: Any = None
+    z: float = 3.0
+    min_gain: float = 0.05
+
+    def check(self) -> None:
+        """Raise ``ValueError`` naming the setting that is out of range."""
+        fraction = self.validation_fraction
+        if isinstance(fraction, bool) or not isinstance(fraction, Real) or not 0 < fraction < 1:
+            raise ValueError(f"validation_fraction must be in (0, 1), got {fraction!r}.")
+        z, min_gain, cv, second_look = self.z, self.min_gain, self.cv, self.second_look
+        if isinstance(z, bool) or not isinstance(z, Real) or not 0 < z < np.inf:
+            raise ValueError(f"z must be a positive number of standard errors, got {z!r}.")
+        if isinstance(min_gain, bool) or not isinstance(min_gain, Real) or not 0 <= min_gain < 1:
+            raise ValueError(f"min_gain must be in [0, 1) (a share of the held-out error), got {min_gain!r}.")
+        if cv is not None and (isinstance(cv, bool) or not isinstance(cv, (int, np.integer)) or cv < 2):
+            raise ValueError(f"cv must be None or an integer of at least 2, got {cv!r}.")
+        if second_look is not None and (isinstance(second_look, bool) or not isinstance(second_look, (int, np.integer))
+                                        or second_look < 2):
+            raise ValueError(f"second_look must be None or a number of folds of at least 2, got {second_look!r}.")
+
+    def splits(self, n: int) -> tuple[list[tuple[np.ndarray, np.ndarray]], np.ndarray | None]:
+        """The (training rows, validation rows) pairs and the group codes, as :func:`held_out_splits`."""
+        return held_out_splits(n, self.validation_fraction, self.cv, self.groups)
 
 
 def critical_value(z: float, n: int) -> float:

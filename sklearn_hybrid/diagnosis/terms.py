@@ -88,6 +88,7 @@ _SIMPLE_UNIT = re.compile(r"^[A-Za-z_]\w*$")
 
 def power_unit(unit: str, power: int) -> str:
     """Units of ``x**power`` for ``x`` in ``unit`` (``"m/s"``, 2 -> ``"(m/s)^2"``); ``""`` when dimensionless."""
+    unit = unit if isinstance(unit, str) else str(unit)  # a unit given as another object only labels the report
     if unit in ("", "1") or power == 0:
         return ""
     if power == 1:

@@ -4,7 +4,7 @@
 on training samples and returns its errors on held-out ones: one split, or contiguous folds where
 every sample judges. :func:`training_folds` builds the judge of a second look, folds of one split's
 training samples. :func:`~sklearn_hybrid.diagnosis.evidence.evidence` turns two models' errors into
-a verdict; :mod:`~sklearn_hybrid.diagnosis.stepwise` decides what to compare. :func:`judge_terms` holds
+a verdict; :mod:`~sklearn_hybrid.diagnosis.loop.stepwise` decides what to compare. :func:`judge_terms` holds
 the terms a :class:`~sklearn_hybrid.diagnosis.ResidualDiagnosis` reads off the residual to the same test.
 """
 

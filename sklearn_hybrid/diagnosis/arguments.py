@@ -14,20 +14,7 @@ from ..science import read_signature
 from .sensitivity import exact_components, state_labels, parameter_jacobian
 
 
-def check_options(validation_fraction, max_terms, n_candidates, cv, z, min_gain, n_jobs, X_test, y_test,
-                   second_look):
-    fraction = validation_fraction
-    if isinstance(fraction, bool) or not isinstance(fraction, Real) or not 0 < fraction < 1:
-        raise ValueError(f"validation_fraction must be in (0, 1), got {validation_fraction!r}.")
-    if isinstance(z, bool) or not isinstance(z, Real) or not 0 < z < np.inf:
-        raise ValueError(f"z must be a positive number of standard errors, got {z!r}.")
-    if isinstance(min_gain, bool) or not isinstance(min_gain, Real) or not 0 <= min_gain < 1:
-        raise ValueError(f"min_gain must be in [0, 1) (a share of the held-out error), got {min_gain!r}.")
-    if cv is not None and (isinstance(cv, bool) or not isinstance(cv, (int, np.integer)) or cv < 2):
-        raise ValueError(f"cv must be None or an integer of at least 2, got {cv!r}.")
-    if second_look is not None and (isinstance(second_look, bool) or not isinstance(second_look, (int, np.integer))
-                                    or second_look < 2):
-        raise ValueError(f"second_look must be None or a number of folds of at least 2, got {second_look!r}.")
+def check_options(max_terms, n_candidates, n_jobs, X_test, y_test):
     for name, value in (("max_terms", max_terms), ("n_candidates", n_candidates)):
         if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
             raise ValueError(f"{name} must be a positive integer, got {value!r}.")

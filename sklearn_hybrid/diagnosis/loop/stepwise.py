@@ -7,16 +7,16 @@ network-free model's training error its addition would remove (a score test on t
 which does not trust the network to have learned the effect). The best few of each ranking are
 added to the science model one at a time (and a term that ranks on several components also on all
 of them at once: a reaction's flux enters every balance it converts; and sets of terms on one equation
-that explain the residual only together, :func:`~sklearn_hybrid.diagnosis.joint.joint_candidates`,
+that explain the residual only together, :func:`~sklearn_hybrid.diagnosis.loop.joint.joint_candidates`,
 judged as one family per step by Holm's rule), refitted without the network
 (:class:`ScienceFit`, on at most 256 evenly spaced training samples) and judged on validation
-samples (:class:`~sklearn_hybrid.diagnosis._judge.Judge`, :func:`evidence`).
+samples (:class:`~sklearn_hybrid.diagnosis.judge.Judge`, :func:`evidence`).
 The best one that passes is refitted on every training sample and kept, and a term kept earlier
 that it makes dispensable (the model without it validates as well) is dropped; the next step
 starts from there. Selection stops when no candidate passes; an equation left with two or more
 terms, not all polynomial, then has them replaced by one term of another kind that validates as well
-(:func:`~sklearn_hybrid.diagnosis.collapse.replace_stand_ins`). The candidates, their rankings and
-their augmented models are built in :mod:`~sklearn_hybrid.diagnosis.candidates`.
+(:func:`~sklearn_hybrid.diagnosis.loop.collapse.replace_stand_ins`). The candidates, their rankings and
+their augmented models are built in :mod:`~sklearn_hybrid.diagnosis.loop.candidates`.
 """
 
 from __future__ import annotations
@@ -28,18 +28,18 @@ from typing import Any
 import numpy as np
 import torch
 
-from ..science import read_signature
-from ._judge import FIT_FAILURES, Judge, training_folds
+from ...science import read_signature
+from ..judge import FIT_FAILURES, Judge, training_folds
 from .candidates import (augment_with, term_entries, free_columns, candidate_groups, initial_values, interleave, merge_rankings,
                          count_parameters, offset_candidate, public_record, rank_by_residual, rank_by_fit, shape_bounds, term_columns, where_acts,
                          with_fitted)
 from .collapse import replace_stand_ins
-from .evidence import evidence, holm
+from ..evidence import evidence, holm
 from .joint import joint_candidates
 from .report import format_gain
-from .sensitivity import parameter_jacobian, science_output
-from .science_fit import ScienceFit
-from .terms import SCIENCE_OUTPUT, Term
+from ..sensitivity import parameter_jacobian, science_output
+from ..science_fit import ScienceFit
+from ..terms import SCIENCE_OUTPUT, Term
 
 __all__ = ["forward_selection"]
 

@@ -19,17 +19,17 @@ from sklearn.utils import Bunch, check_random_state
 from sklearn.utils.validation import check_is_fitted
 from torch import nn
 
-from ..training.engine import DivergenceError
-from ..residual import MLP, MaskedMLP
-from ..science import read_signature
-from ._arguments import (check_names, check_options, check_param_names, check_refit_params, count_states,
+from ...training.engine import DivergenceError
+from ...residual import MLP, MaskedMLP
+from ...science import read_signature
+from ..arguments import (check_names, check_options, check_param_names, check_refit_params, count_states,
                          offset_states, uncertain_components)
-from .evidence import held_out_splits
+from ..evidence import Evidence
 from .report import LoopResult, Scoring, format_table, residual_profile
-from .sensitivity import state_labels, science_output
-from .science_fit import ScienceFit
+from ..sensitivity import state_labels, science_output
+from ..science_fit import ScienceFit
 from .stepwise import forward_selection
-from .terms import Term, physics_terms
+from ..terms import Term, physics_terms
 
 __all__ = ["close_the_loop", "MLPOn", "ZeroResidual"]
 
@@ -115,10 +115,9 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
                    units: Mapping[str, str] | None = None, exact: str | Sequence[Any] | None = "auto",
                    terms: Sequence[Term] | None = None, term_kinds: Sequence[str] | None = None,
                    user_terms: Mapping[str, Callable] | None = None, positive: Sequence[str] = (),
-                   offsets: Sequence[Any] = (), validation_fraction: float = 0.25, cv: int | None = None,
-                   second_look: int | None = 4, groups: Any = None,
+                   offsets: Sequence[Any] = (), evidence: Evidence | None = None,
                    fit_initial_states: bool = False, max_terms: int = 4, n_candidates: int = 4,
-                   z: float = 3.0, min_gain: float = 0.05, param_names: Mapping[str, str] | None = None,
+                   param_names: Mapping[str, str] | None = None,
                    refit_params: Mapping[str, Any] | None = None, theta_true: Mapping[str, Any] | None = None,
                    test_scorer: Callable | None = None, n_jobs: int | None = None, random_state: Any = 0,
                    verbose: bool = False) -> LoopResult:
@@ -180,46 +179,22 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         index: each is a candidate at every step, judged like a term. Accepted, the model's state is
         the reading, and every equation sees the reading less the fitted offset. A level gauge with a
         shifted zero changes a Torricelli outflow ``sqrt(x)`` in a way no added term can.
-    validation_fraction : float, default=0.25
-        Share of the samples (the last ones) that judge each term.
-    cv : int, optional
-        Instead of one split, ``cv`` contiguous blocks of samples: each block is predicted by the
-        refit on the other samples, so every sample judges each term (one refit per block and
-        candidate). For a single short record, where the last quarter is a few windows of one
-        regime. Overlapping windows at a block's edges share samples with its neighbours.
-    second_look : int or None, default=4
-        With one split: a candidate that lowered the validation error by ``min_gain`` with z above 2
-        but not past the threshold is judged again by ``second_look`` contiguous folds of the
-        *training* samples (groups), each predicted by a refit on the others, with the same test at
-        the threshold for their number; it is accepted if it passes there. A dozen validation
-        trajectories cannot prove a real gain of 40 % when their spread is large; the training
-        samples can, and since the validation samples take no part, the second test is not the first
-        one repeated. It costs one refit per fold and promising candidate, at the steps where no
-        candidate passed (in the identification benchmark, 31 of 196 selections end on one).
-        Fewer folds where there are not two samples to a fold; None: no second look.
-    groups : array-like of shape (n_samples,), optional
-        A label per sample; samples that share one are judged together, as one mean error, and are
-        never split between fitting and validation (the split and the ``cv`` blocks cut between
-        groups, in order of first appearance). Windows cut from one record with a stride below
-        their length overlap, and their held-out errors are nearly the same numbers: counted one by
-        one they overstate the evidence. Label each by the non-overlapping stretch it starts in,
-        e.g. ``starts // length`` of :func:`~sklearn_hybrid.datasets.make_windows`.
+    evidence : Evidence, optional
+        The test a term must pass on held-out samples (:class:`~sklearn_hybrid.diagnosis.Evidence`):
+        which samples judge (``validation_fraction``, ``cv`` blocks, ``groups`` of samples judged
+        as one), the evidence asked (``z``, ``min_gain``) and the second look on the training
+        samples. Default ``Evidence()``: the last quarter of the samples judge, z 3, 5 % gain, a
+        second look on 4 folds.
     fit_initial_states : bool, default=False
         For an ODE whose ``observed`` leaves states unmeasured: the network-free refits fit the
         initial unobserved states of every sample too (see :class:`ScienceFit`), and the hybrid is
         refitted from the states the final one found. Use it when ``X`` holds estimates of those
         states (from the data's differences, or made with the science model, which are wrong
-        where the science misses an effect). It costs: every refit fits one more value per sample
-        and unobserved state. Silverbox: 217 s against 146 s on one machine, and a better model
-        (84 s with it on a faster machine; 150 s in ``benchmarks/results/closed_loop.md``); on the real
-        pendulum free swing, whose candidates carry widths and knots, a run was stopped unfinished
-        after many times the case's time without it, so its recipe leaves it off.
+        where the science misses an effect). It costs one more fitted value per sample and
+        unobserved state in every refit (see the closed-loop results pages for timings).
     max_terms, n_candidates : int, default=4
         At most this many terms added, and candidates taken from each ranking per step (up to
         twice as many refitted).
-    z, min_gain : float, default=3.0 and 0.05
-        The evidence a term needs (see :func:`~sklearn_hybrid.diagnosis.evidence`): ``z`` is a
-        normal quantile, turned into Student's t for the number of validation samples.
     param_names : dict of str to str, optional
         Names of the new coefficients by term, e.g. ``{"v_dot": "c_damping"}``.
     refit_params : dict, optional
@@ -258,10 +233,15 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         if verbose:
             print(message if message.startswith(("  ", "|")) or "\n" in message
                   else f"[{time.perf_counter() - start:4.0f} s] {message}", flush=True)
-    check_options(validation_fraction, max_terms, n_candidates, cv, z, min_gain, n_jobs, X_test, y_test,
-                   second_look)
+    evidence = Evidence() if evidence is None else evidence
+    if not isinstance(evidence, Evidence):
+        raise TypeError(f"evidence must be an Evidence (sklearn_hybrid.diagnosis.Evidence(z=..., cv=...)), got "
+                        f"{type(evidence).__name__}.")
+    evidence.check()
+    check_options(max_terms, n_candidates, n_jobs, X_test, y_test)
+    z, min_gain, cv, second_look = evidence.z, evidence.min_gain, evidence.cv, evidence.second_look
     # the held-out split checks the groups and its own limits before anything is fitted
-    splits, codes = held_out_splits(len(y), validation_fraction, cv, groups)
+    splits, codes = evidence.splits(len(y))
     _check_fitted_horizon(estimator, y)
     if fit_initial_states and (estimator.structure != "ode" or estimator.observed is None):
         raise ValueError("fit_initial_states=True needs an estimator with structure='ode' and observed=[...] "
@@ -349,7 +329,7 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
             X = np.array(X, dtype=float)
             X[:, :fit.initial_states.shape[1]] = fit.initial_states
         alone = _fixed_science(before, final, science_theta, X, y)
-        from ..identifiability import science_intervals  # the identifiability package reads this one's results
+        from ...identifiability import science_intervals  # the identifiability package reads this one's results
 
         intervals = science_intervals(alone, X, y, incomplete=_open_question(sel["steps"], min_gain),
                                        fitted_states=fit.latent or None)

@@ -16,11 +16,11 @@ from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
 
-from ..science import read_signature
-from ._judge import FIT_FAILURES, Judge
+from ...science import read_signature
+from ..judge import FIT_FAILURES, Judge
 from .candidates import (augment_with, count_parameters, initial_values, public_record, rank_by_residual,
                          shape_bounds, with_fitted)
-from .sensitivity import free_columns, parameter_jacobian, science_output
+from ..sensitivity import free_columns, parameter_jacobian, science_output
 
 __all__ = ["replace_stand_ins"]
 
@@ -37,7 +37,7 @@ def replace_stand_ins(science: Callable, current: Callable, added: list[dict], t
     science, current : callable
         The original science function, and it with the ``added`` terms.
     added : list of dict
-        The accepted terms (as :func:`~sklearn_hybrid.diagnosis.stepwise.forward_selection` keeps
+        The accepted terms (as :func:`~sklearn_hybrid.diagnosis.loop.stepwise.forward_selection` keeps
         them), with ``theta`` their model's parameters and ``errors`` its held-out errors.
     judge : Judge
         Refits and held-out errors, the selection's own.

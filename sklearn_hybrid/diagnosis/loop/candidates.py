@@ -5,7 +5,7 @@ on, its ``term`` name, ``kind``, ``function``, starting ``shape`` and ``coef``. 
 them by the residual the network still carries, :func:`rank_by_fit` by the network-free model's
 training error they would remove; :func:`augment_with` turns the placed candidates into an augmented
 science function (:func:`~sklearn_hybrid.diagnosis.augment_science`) for
-:mod:`~sklearn_hybrid.diagnosis.stepwise` to refit and judge.
+:mod:`~sklearn_hybrid.diagnosis.loop.stepwise` to refit and judge.
 """
 
 from __future__ import annotations
@@ -17,10 +17,10 @@ from typing import Any
 import numpy as np
 import torch
 
-from .augment import augment_science
-from .science_fit import ScienceFit
-from .sensitivity import finite_differences, free_columns
-from .terms import Term
+from ..augment import augment_science
+from ..science_fit import ScienceFit
+from ..sensitivity import finite_differences, free_columns
+from ..terms import Term
 
 
 def term_columns(terms: Sequence[Term], variables: dict[str, torch.Tensor]) -> list[tuple]:

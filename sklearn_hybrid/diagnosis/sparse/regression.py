@@ -6,7 +6,7 @@ least-squares fit; the support is chosen among them by an information criterion 
 negligible terms are pruned, and the coefficients are refitted by ordinary least squares (no
 shrinkage). A bootstrap repeats the whole selection to give each term an inclusion frequency.
 Supports are scored from Gram matrices, so a resample (integer row weights) or a fold is cheap
-(the selection itself: ``_supports.py``).
+(the selection itself: ``diagnosis/supports.py``).
 """
 
 from __future__ import annotations
@@ -21,8 +21,8 @@ from sklearn.utils import check_random_state
 from sklearn.utils.validation import check_is_fitted, validate_data
 from threadpoolctl import threadpool_limits
 
-from ._supports import select_support, support_shares, support_stats
-from .terms import Term
+from ..supports import select_support, support_shares, support_stats
+from ..terms import Term
 
 __all__ = ["SparseTermRegression"]
 

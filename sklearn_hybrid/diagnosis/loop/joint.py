@@ -7,9 +7,9 @@ polynomial with a linear and a cubic part that nearly cancel over the visited st
 law expanded into a few monomials. :func:`joint_candidates` proposes, per uncertain equation, the
 sets a least-squares fit of the network's residual favours: the best-ranked terms in pairs, each of
 them with the partners that explain most of what it leaves, and the support a sparse fit of the residual chooses
-(:func:`~sklearn_hybrid.diagnosis._supports.select_support`). A set is proposed only when together
+(:func:`~sklearn_hybrid.diagnosis.supports.select_support`). A set is proposed only when together
 its terms explain clearly more than the sum of what each explains alone; the selection
-(:mod:`~sklearn_hybrid.diagnosis.stepwise`) refits each without the network and judges it by the
+(:mod:`~sklearn_hybrid.diagnosis.loop.stepwise`) refits each without the network and judges it by the
 same evidence as a single term, with the threshold corrected for the number of sets judged
 (:func:`~sklearn_hybrid.diagnosis.evidence.holm`).
 """
@@ -21,7 +21,7 @@ from itertools import combinations
 
 import numpy as np
 
-from ._supports import select_support, support_stats
+from ..supports import select_support, support_stats
 
 __all__ = ["joint_candidates"]
 
@@ -39,7 +39,7 @@ def joint_candidates(columns: list[tuple], remaining: np.ndarray, jac: np.ndarra
     ----------
     columns : list of (Term, dict, ndarray)
         Every term at every starting shape on the visited states
-        (:func:`~sklearn_hybrid.diagnosis.candidates.term_columns`).
+        (:func:`~sklearn_hybrid.diagnosis.loop.candidates.term_columns`).
     remaining : ndarray of shape (n_points, n_outputs)
         What the hybrid learned beyond the current science model.
     jac : ndarray of shape (n_points, n_outputs, n_params)
@@ -62,7 +62,7 @@ def joint_candidates(columns: list[tuple], remaining: np.ndarray, jac: np.ndarra
     -------
     list of dict
         Candidates of kind ``"joint"`` on one ``component`` each, whose ``group`` holds the single
-        terms (each a candidate as :func:`~sklearn_hybrid.diagnosis.candidates.rank_by_residual`
+        terms (each a candidate as :func:`~sklearn_hybrid.diagnosis.loop.candidates.rank_by_residual`
         makes them, with its coefficient from the joint fit); ``gain`` is the share the set explains.
     """
     found: dict[frozenset, dict] = {}

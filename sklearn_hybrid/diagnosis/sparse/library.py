@@ -19,7 +19,7 @@ import torch
 from sklearn.base import BaseEstimator, TransformerMixin
 from sklearn.utils.validation import check_is_fitted, validate_data
 
-from .terms import Term, constant, monomial_terms, nonsmooth_terms, trigonometric_terms
+from ..terms import Term, constant, monomial_terms, nonsmooth_terms, trigonometric_terms
 
 __all__ = ["CandidateLibrary", "numpy_term"]
 

@@ -32,13 +32,13 @@ from sklearn.base import BaseEstimator, clone
 from sklearn.utils import check_random_state
 from sklearn.utils.validation import check_is_fitted
 
-from .._validation import check_positive
-from ._arguments import check_options
-from ._judge import judge_terms
-from .evidence import held_out_splits
+from ..._validation import check_positive
+
+from ..judge import judge_terms
+from ..evidence import Evidence, held_out_splits
 from .library import CandidateLibrary
-from .sensitivity import exact_components, root_mean_square, science_sensitivities, state_labels
-from .sparse import SparseTermRegression
+from ..sensitivity import exact_components, root_mean_square, science_sensitivities, state_labels
+from .regression import SparseTermRegression
 
 __all__ = ["ResidualDiagnosis"]
 
@@ -260,7 +260,7 @@ class ResidualDiagnosis(BaseEstimator):
 
     def _check_y(self, estimator, X, y) -> None:
         """The judge's options and ``y``'s layout, before anything is computed: the judge runs last."""
-        check_options(self.validation_fraction, 1, 1, None, self.z, self.min_gain, None, None, None, None)
+        Evidence(validation_fraction=self.validation_fraction, z=self.z, min_gain=self.min_gain).check()
         if getattr(estimator, "theta_encoder", None) is not None:
             raise ValueError("ResidualDiagnosis cannot judge terms of a model with a theta_encoder: its network-free "
                              "refits hold one theta shared by every sample. Fit it without y to read the terms.")

@@ -13,8 +13,8 @@ from joblib.externals.loky import ProcessPoolExecutor
 from sklearn.utils import Bunch
 from threadpoolctl import threadpool_limits
 
-from .evidence import critical_value
-from .sensitivity import root_mean_square, science_sensitivities
+from ..evidence import critical_value
+from ..sensitivity import root_mean_square, science_sensitivities
 
 __all__ = ["prediction_metrics", "format_table", "residual_profile", "plot_unexplained", "LoopResult"]
 

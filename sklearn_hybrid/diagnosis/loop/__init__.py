@@ -1,0 +1,15 @@
+"""The closed loop: find what the science misses, add it where held-out data support it, refit.
+
+``close.py`` holds :func:`close_the_loop`, the one call; ``stepwise.py`` the forward selection
+(screen, refit, judge, drop, second look); ``candidates.py`` the candidates and their rankings;
+``joint.py`` the sets of terms that explain the residual only together; ``collapse.py`` the single
+term that replaces stand-ins; ``report.py`` the :class:`LoopResult` that reports and plots itself.
+The judge, the network-free refits and the evidence rule are shared with the exploratory wing and
+live one floor up.
+"""
+
+from .close import MLPOn, ZeroResidual, close_the_loop
+from .report import LoopResult, format_table, plot_unexplained, prediction_metrics
+
+__all__ = ["close_the_loop", "MLPOn", "ZeroResidual", "LoopResult", "format_table", "plot_unexplained",
+           "prediction_metrics"]
