@@ -15,11 +15,11 @@ the truth, and ``|a| = sqrt(mean over test states of the sum over components of 
 - ``before_err``: ``rel_err`` of ``f`` at the hybrid fit's ``theta_`` (the science model before the loop);
 - controls (``m = 0``): the number of added terms (target 0) and ``|F - T| / |T|``.
 
-Every finished case is cached as ``results/identification_runs/<system>_noise<level>_seed<seed>.json`` and
+Every finished case is cached as ``results/runs/identification/<system>_noise<level>_seed<seed>.json`` and
 skipped on a rerun (``--rerun`` runs the given cases again; the first hybrid fit is kept in ``fits/`` beside
 them, outside git, and reused, so that a change of the selection is measured without refitting it);
 ``--fast`` (8 training trajectories, 40 iterations) only checks the plumbing, caches to
-``identification_runs_fast/`` and is never rendered into the results.
+``runs/identification/fast/`` and is never rendered into the results.
 
     python benchmarks/bench_identification.py                       # every case not cached yet, then the table
     python benchmarks/bench_identification.py --cases budworm --noise 0.05 --seeds 0 1
@@ -44,7 +44,7 @@ import numpy as np
 import torch
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import PACKAGE_COMMIT, RESULTS, machine_description  # noqa: E402
+from _common import PACKAGE_COMMIT, RESULTS, machine_description, runs_folder  # noqa: E402
 from _identification_systems import SYSTEMS, System, call_science, simulate  # noqa: E402
 
 from sklearn_hybrid import HybridRegressor, pack_inputs  # noqa: E402
@@ -288,7 +288,7 @@ RUN_ORDER = ["drag_oscillator", "control_rlc", "budworm", "enzyme_reactor", "sat
 
 def cache_dir(fast: bool) -> Path:
     """Folder of the cached cases (a separate one for the ``--fast`` smoke protocol)."""
-    return RESULTS / ("identification_runs_fast" if fast else "identification_runs")
+    return runs_folder("identification/fast" if fast else "identification")
 
 
 def _norm(a: np.ndarray) -> float:
@@ -531,8 +531,8 @@ def _periodic_section(records: list[dict]) -> list[str]:
     angles = {name for name, s in SYSTEMS.items() if any(angle_factor(u) is not None for u in s.units.values())
               and s.batch < PERIODIC_BATCH}
     mine = [r for r in records if r["system"] in angles]
-    checks = {(c["system"], c["noise"]): c for c in (json.loads(p.read_text())
-                                                      for p in sorted((RESULTS / PERIODIC_CHECKS).glob("*.json")))
+    folder = cache_dir(False) / PERIODIC_CHECKS
+    checks = {(c["system"], c["noise"]): c for c in (json.loads(p.read_text()) for p in sorted(folder.glob("*.json")))
               if c["package_commit"] == PERIODIC_SINCE}
     rerun = [(r, _record_at(BEFORE_PERIODIC, r)) for r in mine if r.get("package_commit") == PERIODIC_SINCE]
     if not mine or not (checks or rerun):
@@ -562,11 +562,18 @@ def _git(*args: str) -> subprocess.CompletedProcess:
     return subprocess.run(["git", *args], cwd=ROOT, capture_output=True, text=True)
 
 
+# Where the records lay before they moved under results/runs/ (issue 39): older revisions hold them there.
+RECORDS_BEFORE_MOVE = "benchmarks/results/identification_runs"
+
+
 def _record_at(rev: str, record: dict) -> dict | None:
     """The record of the same case at git revision ``rev`` (None if it had none)."""
-    path = cache_dir(False).relative_to(ROOT) / f"{case_name(record['system'], record['noise'], record['seed'])}.json"
-    shown = _git("show", f"{rev}:{path.as_posix()}")
-    return json.loads(shown.stdout) if shown.returncode == 0 else None
+    name = f"{case_name(record['system'], record['noise'], record['seed'])}.json"
+    for folder in (cache_dir(False).relative_to(ROOT).as_posix(), RECORDS_BEFORE_MOVE):
+        shown = _git("show", f"{rev}:{folder}/{name}")
+        if shown.returncode == 0:
+            return json.loads(shown.stdout)
+    return None
 
 
 def _rerun_pairs(records: list[dict]) -> list[tuple[dict, dict]]:
@@ -767,7 +774,7 @@ def _package_changes_note(records: list[dict]) -> str:
     """What 76a1151 and d850188 (diverged simulations in the network-free refits) and 4bb2d19 (a science output
     times an input) did to the records."""
     rerun = [r for r in records if r.get("package_commit") == "d850188"]
-    checks = [json.loads(p.read_text()) for p in sorted((RESULTS / "selection_checks").glob("*.json"))]
+    checks = [json.loads(p.read_text()) for p in sorted((cache_dir(False) / "selection_checks").glob("*.json"))]
     forced = {name for name, system in SYSTEMS.items() if system.forced}
     first = [c for c in checks if c["system"] not in forced]
     older = [r for r in records if SYSTEMS[r["system"]].batch < SECOND_LOOK_BATCH]  # made before the second look

@@ -6,7 +6,7 @@ candidate that lowered that held-out error by 5 % or more with z above 2 but und
 every trajectory judges (each of four blocks predicted by a refit on the other three), at the same z. This script
 closes the loop again on those records and on every control (where a term added would be a false one), from
 each case's stored first hybrid fit up to the network-free fit of the selected model, and scores that model as
-the benchmark does. Each finished case is cached in ``results/more_validation/``.
+the benchmark does. Each finished case is cached in ``results/runs/identification/more_validation/``.
 
     python benchmarks/bench_more_validation.py --cases NAME --noise LEVEL   # one case (or several)
     python benchmarks/bench_more_validation.py --list                       # the cases, in run order
@@ -31,7 +31,7 @@ from check_selection_unchanged import record_terms, selection, stored_record, te
 from inconclusive_candidates import inconclusive  # noqa: E402
 
 CV = 4
-CACHE = RESULTS / "more_validation"
+CACHE = bench.cache_dir(False) / "more_validation"
 
 
 def cases() -> list[tuple[str, float]]:
@@ -78,7 +78,7 @@ def render() -> None:
                      f"{r['seconds']:.0f} |")
     # the same cases' selections with one held-out split, timed by check_selection_unchanged.py
     split = {(c["system"], c["noise"]): c["seconds"] for c in
-             (json.loads(p.read_text()) for p in (RESULTS / "selection_checks").glob("*.json"))}
+             (json.loads(p.read_text()) for p in (bench.cache_dir(False) / "selection_checks").glob("*.json"))}
     timed = [r for r in rows if (r["system"], r["noise"]) in split]
     lines += ["", f"Time: the {len(timed)} of these cases that `selection_checks.md` also timed took "
               f"{sum(r['seconds'] for r in timed):.0f} s with cv={CV} against "

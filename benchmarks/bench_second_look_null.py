@@ -24,13 +24,13 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
-from _common import PACKAGE_COMMIT, RESULTS, machine_description, run_each_case  # noqa: E402
+from _common import PACKAGE_COMMIT, RESULTS, machine_description, run_each_case, runs_folder  # noqa: E402
 from _identification_systems import SYSTEMS  # noqa: E402
 from check_selection_unchanged import selection, term_names  # noqa: E402
 
 from sklearn_hybrid.diagnosis import stepwise  # noqa: E402
 
-CACHE = RESULTS / "second_look_null"
+CACHE = runs_folder("identification/second_look_null")
 CONTROLS = [name for name, system in SYSTEMS.items() if system.is_control]
 
 

@@ -68,7 +68,7 @@ def main() -> None:
     loops = []
     for name in args.loops:
         record = bench.run_case(SYSTEMS[name], 0.01, 0, False, "check_merged_science_functions")
-        stored = json.loads((RESULTS / "identification_runs" / f"{name}_noise0.01_seed0.json").read_text())
+        stored = json.loads((bench.cache_dir(False) / f"{name}_noise0.01_seed0.json").read_text())
         keys = [k for k in ("rel_err", "control_err", "before_err", "before_control_err") if k in stored]
         loops.append({"system": name, "errors identical": all(stored[k] == record[k] for k in keys),
                       "science_theta identical": stored["science_theta"] == record["science_theta"],

@@ -8,7 +8,7 @@ the network-free fit of the selected model, stops there (before the two hybrid f
 case's time), and compares the terms and every parameter value with the stored record. A case whose
 selection differs must be run again with ``bench_identification.py --rerun``.
 
-Each finished check is cached as ``results/selection_checks/<system>_noise<level>.json`` (with the package
+Each finished check is cached as ``results/runs/identification/selection_checks/<system>_noise<level>.json`` (with the package
 commit it checked); ``--render`` writes ``results/selection_checks.md`` from them.
 
     python benchmarks/check_selection_unchanged.py --cases radiating_body --noise 0.01
@@ -35,7 +35,7 @@ import bench_identification as bench  # noqa: E402
 from _common import PACKAGE_COMMIT, RESULTS, machine_description, run_each_case  # noqa: E402
 from _identification_systems import SYSTEMS  # noqa: E402
 
-CHECKS = RESULTS / "selection_checks"
+CHECKS = bench.cache_dir(False) / "selection_checks"
 # close_the_loop's module: the loop is stopped by replacing the function that starts its first hybrid fit
 # after the selection, which receives the selected model and its network-free fit.
 LOOP = importlib.import_module("sklearn_hybrid.diagnosis.loop")
@@ -125,14 +125,14 @@ def main() -> None:
     parser.add_argument("--noise", type=float, nargs="*", default=[0.01, 0.05])
     parser.add_argument("--render", action="store_true", help="write selection_checks.md from the cache")
     parser.add_argument("--into", default=CHECKS.name, metavar="FOLDER",
-                        help="folder of results/ for the checks of one change, kept apart from the others "
+                        help="folder of results/runs/identification/ for the checks of one change, kept apart from the others "
                              "(selection_checks_periodic: the harmonics of an angle)")
     args = parser.parse_args()
     if args.render:
         render()
         return
     # a check made for another package commit is made again
-    run_each_case(RESULTS / args.into, args.cases, args.noise, check,
+    run_each_case(CHECKS.parent / args.into, args.cases, args.noise, check,
                   lambda r: f"{'same' if r['same'] else 'DIFFERS'} ({r['seconds']:.0f} s)",
                   cached=lambda r: r["package_commit"] == PACKAGE_COMMIT)
 
