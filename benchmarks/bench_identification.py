@@ -25,6 +25,15 @@ them, outside git, and reused, so that a change of the selection is measured wit
     python benchmarks/bench_identification.py --cases budworm --noise 0.05 --seeds 0 1
     python benchmarks/bench_identification.py --batch 15                # one batch's cases, both noise levels
     python benchmarks/bench_identification.py --render              # rebuild identification.md/.json from the cache
+
+Its checks and side studies are options, each with its own run records and page (``_identification_checks.py``
+says what each does):
+
+    python benchmarks/bench_identification.py --check-selection --cases NAME --noise LEVEL [--into FOLDER]
+    python benchmarks/bench_identification.py --second-look-null [--cases NAME --noise LEVEL]
+    python benchmarks/bench_identification.py --inconclusive        # results/inconclusive_candidates.md
+    python benchmarks/bench_identification.py --more-validation --cases NAME --noise LEVEL   # --list: its cases
+    python benchmarks/bench_identification.py --check-selection --render   # or another option: its page only
 """
 
 from __future__ import annotations
@@ -522,7 +531,7 @@ def _second_look_section(records: list[dict]) -> list[str]:
 # Since this commit a variable whose unit is an angle also gets its harmonics sin(n a + phase) (kind "periodic");
 # BEFORE_PERIODIC holds every record made before. Only the systems with an angle among their units can change.
 PERIODIC_SINCE, BEFORE_PERIODIC = "be4acc7", "c995451"
-PERIODIC_CHECKS = "selection_checks_periodic"  # check_selection_unchanged.py --into selection_checks_periodic
+PERIODIC_CHECKS = "selection_checks_periodic"  # --check-selection --into selection_checks_periodic
 PERIODIC_BATCH = 14  # the first batch written with the harmonics: its records were made with them
 
 
@@ -544,7 +553,7 @@ def _periodic_section(records: list[dict]) -> list[str]:
           "turning body repeats with each turn. They came after batch 13's cogging torque had found no term, so no "
           f"batch up to 13 is fresh for them. Only the {len(angles)} systems with an angle among their units have a "
           f"new library; their {len(mine)} records were checked from their stored first fits "
-          f"(`check_selection_unchanged.py --cases NAME --noise LEVEL --into {PERIODIC_CHECKS}`): "
+          f"(`bench_identification.py --check-selection --cases NAME --noise LEVEL --into {PERIODIC_CHECKS}`): "
           f"{len(same)} select the same terms with the same values, and the {len(rerun)} others were run again "
           f"end to end at {PERIODIC_SINCE} (before: the records at {BEFORE_PERIODIC}). Batch {PERIODIC_BATCH}, the "
           "first written after them, ran with them.", ""]
@@ -795,7 +804,7 @@ def _package_changes_note(records: list[dict]) -> str:
             f"hybrid fit crashed). The {len(rerun)} records whose fits had raised were run again end to end at "
             "d850188: the same terms and parameter values, the same rel_err. The records of systems without inputs "
             f"were checked from their stored first fits up to the selected model's network-free fit "
-            "(`python benchmarks/check_selection_unchanged.py --cases NAME --noise LEVEL`, "
+            "(`python benchmarks/bench_identification.py --check-selection --cases NAME --noise LEVEL`, "
             f"`results/selection_checks.md`): {sum(c['same'] for c in first)} of {len(first)} select the same terms "
             "with the same parameter values (1e-7 relative); those of batch 12 were made at d7e787f. "
             f"Since {INPUT_SCALED_SINCE} a scaled term may also be an equation's science output times an input "
@@ -846,7 +855,8 @@ def changes_since(rev: str) -> list[str]:
 
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--cases", nargs="*", default=list(SYSTEMS), choices=list(SYSTEMS))
+    parser.add_argument("--cases", nargs="*", choices=list(SYSTEMS),
+                        help="system names (default: every system; with an option, as the option says)")
     parser.add_argument("--batch", nargs="*", type=int, choices=sorted(BATCHES | {1: None}),
                         help="only the cases of these batches (among --cases)")
     parser.add_argument("--noise", nargs="*", type=float, default=list(NOISE_LEVELS))
@@ -857,7 +867,31 @@ def main(argv=None) -> None:
                         help="list the cached cases whose record differs from git revision REV's, and stop")
     parser.add_argument("--rerun", action="store_true",
                         help="run the cases again though cached (each record is replaced once its new run ends)")
+    option = parser.add_mutually_exclusive_group()  # the checks and side studies (_identification_checks.py)
+    option.add_argument("--check-selection", action="store_true",
+                        help="close the given cases from their stored first fits up to the selected model and "
+                             "compare with their records (with --render: selection_checks.md)")
+    option.add_argument("--second-look-null", action="store_true",
+                        help="the second look without its gate on the controls (default: every control), then "
+                             "second_look_null.md")
+    option.add_argument("--inconclusive", action="store_true",
+                        help="write inconclusive_candidates.md from the stored records")
+    option.add_argument("--more-validation", action="store_true",
+                        help="close_the_loop(cv=4) on the given cases (with --render: more_validation.md)")
+    parser.add_argument("--into", metavar="FOLDER", default="selection_checks",
+                        help="with --check-selection: the folder of runs/identification/ for the checks of one "
+                             "change, kept apart from the others (selection_checks_periodic: the harmonics of an "
+                             "angle)")
+    parser.add_argument("--list", action="store_true",
+                        help="with --more-validation: print its cases, one 'NAME LEVEL' a line")
     args = parser.parse_args(argv)
+    if args.check_selection or args.second_look_null or args.inconclusive or args.more_validation:
+        import _identification_checks  # imports this module: not needed by the benchmark itself
+
+        _identification_checks.main(args)
+        return
+    if args.cases is None:
+        args.cases = list(SYSTEMS)
     if args.changes_since:
         print("\n".join(changes_since(args.changes_since)))
         return
