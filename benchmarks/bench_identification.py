@@ -755,7 +755,8 @@ def render(records: list[dict]) -> str:
            "the first fit, are identical to the previous module's, and `control_declared_gauges` and `allee` closed "
            "end to end again reproduced their stored records exactly (`science_theta`, errors, terms): "
            "`python benchmarks/check_merged_science_functions.py --loops control_declared_gauges allee`, "
-           "`results/merged_science_functions.md`.",
+           "`results/merged_science_functions.md` (a one-off check of that change, removed since with its page; "
+           "both are at 6181acc: `git show 6181acc:benchmarks/check_merged_science_functions.py`).",
            "", "Since 1818e3d a candidate's screening refit that ends worse on its own training samples than the "
            "model it extends (its new coefficients at zero) is started again from there: a ranked coefficient that "
            "made the simulation overflow left least squares stuck (training error infinite, seen on exp(k*x) screens). "
