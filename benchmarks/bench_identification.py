@@ -560,6 +560,23 @@ def _periodic_section(records: list[dict]) -> list[str]:
     return md + _before_after(rerun)
 
 
+# Where the options' results are: each has its own page, made from its own run records.
+CHECKS_SECTION = [
+    "", "## Checks and side studies", "",
+    "Options of `bench_identification.py` (`_identification_checks.py`), each with its run records in "
+    "`results/runs/identification/<folder>/` and its own page:", "",
+    "- `--check-selection --cases NAME --noise LEVEL`: does a change of the package change a record's selection? "
+    "The case closed from its stored first fit up to the selected model, against its record "
+    "(`results/selection_checks.md`; the checks with the harmonics of an angle, `--into "
+    f"{PERIODIC_CHECKS}`, are counted in the section on them above)",
+    "- `--second-look-null`: the second look without its gate, the only judge of every candidate on the controls "
+    "(`results/second_look_null.md`)",
+    "- `--inconclusive`: the records whose last step held a candidate the validation samples could not settle "
+    "(`results/inconclusive_candidates.md`, as made from the records before the second look)",
+    "- `--more-validation --cases NAME --noise LEVEL`: `close_the_loop(cv=4)` on those records and on the "
+    "controls (`results/more_validation.md`)"]
+
+
 def _before_after(pairs: list[tuple[dict, dict]]) -> list[str]:
     """The table of records run again: each (record, its record before) as rel_err and terms, before and after."""
     return (["| system | noise | rel_err before | after | terms before | after |", "|---|---|---|---|---|---|"]
@@ -712,7 +729,7 @@ def render(records: list[dict]) -> str:
             md += ["", heading, ""] + ([preface, ""] if preface else []) + _tables(batches[batch])
     machines = sorted({f"{r['machine']['cpu']}, {r['machine']['cores']} cores, torch {r['machine']['torch']}"
                        for r in records if "machine" in r})
-    md += ["", "## Machine and command", ""] + [f"- machine: {m}" for m in machines]
+    md += CHECKS_SECTION + ["", "## Machine and command", ""] + [f"- machine: {m}" for m in machines]
     commits = {}
     for r in records:
         commits.setdefault(r.get("package_commit") or "not recorded", []).append(f"{r['system']} {r['noise']:g}")
