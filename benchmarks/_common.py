@@ -12,6 +12,9 @@ from pathlib import Path
 from typing import Callable
 
 RESULTS = Path(__file__).resolve().parent / "results"
+#: Every study's run records, one folder per study (``runs/<study>/``); the summary pages stay in ``RESULTS``,
+#: where the documentation build reads them.
+RUNS = RESULTS / "runs"
 
 
 def _read_package_commit() -> str:
@@ -94,6 +97,11 @@ def selection_summary(out, fields: tuple = ("output", "term", "gain", "z")) -> d
     return {"threshold": first[0]["threshold"] if first else None,
             "best_first_step": [{k: s[k] for k in fields} for s in best],
             "added": [f"{t['term']} [{t['output']}]" for t in out.added]}
+
+
+def runs_folder(study: str) -> Path:
+    """The folder of one study's run records, ``results/runs/<study>`` (``study`` may name a sub-folder)."""
+    return RUNS / study
 
 
 def write_results(name: str, payload: dict, markdown: str) -> Path:

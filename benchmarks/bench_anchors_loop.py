@@ -3,9 +3,9 @@
 Item 5 of issue "Closed loop, part 3".  On cases of the identification benchmark (``bench_identification.py``;
 same systems, data, seeds and function-space scores), the same data through:
 
-(a) **the closed loop**: its stored record (``results/identification_runs/<case>.json``);
+(a) **the closed loop**: its stored record (``results/runs/identification/<case>.json``);
 (b) **UDE + SINDy** (SciML's "missing physics" recipe): the case's first hybrid fit (the loop's own, stored by
-    ``bench_identification.py`` in ``identification_runs/fits/`` and made again the same way where absent), the
+    ``bench_identification.py`` in ``runs/identification/fits/`` and made again the same way where absent), the
     network's output over the states it visited (``residual_trace``), then ``pysindy.STLSQ`` on pysindy's cubic
     ``PolynomialLibrary`` of the states (and the input of a forced system), per equation the network acts on,
     threshold by 5-fold CV with the one-standard-error rule on unit-RMS columns (``bench_sparse_regression``'s
@@ -17,7 +17,7 @@ same systems, data, seeds and function-space scores), the same data through:
 
 SBR (pysindy's sparse Bayesian regression) needs jax and numpyro: it is run in place of STLSQ in (b) where it can be
 imported, and the page says where it could not.  Systems with declared sensor offsets (batch 8) are left out: the
-anchors have no offsets.  Each case is cached in ``results/anchors_runs/<case>.json``.
+anchors have no offsets.  Each case is cached in ``results/runs/anchors/<case>.json``.
 
     python benchmarks/bench_anchors_loop.py --cases van_der_pol_like --noise 0.01
     python benchmarks/bench_anchors_loop.py --batches 15          # every case of batch 15 with a loop record
@@ -37,7 +37,7 @@ import numpy as np
 import torch
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import PACKAGE_COMMIT, RESULTS, write_results  # noqa: E402
+from _common import PACKAGE_COMMIT, runs_folder, write_results  # noqa: E402
 from _identification_systems import SYSTEMS, simulate  # noqa: E402
 from bench_identification import PROTOCOL, cache_dir, case_name, make_data, score  # noqa: E402
 from bench_sparse_regression import GRID, cv_choice  # noqa: E402
@@ -46,7 +46,7 @@ from sklearn_hybrid.science import read_signature  # noqa: E402
 
 import pysindy as ps  # noqa: E402  (the [sindy] extra)
 
-RUNS = RESULTS / "anchors_runs"
+RUNS = runs_folder("anchors")
 N_SUBSTEPS = 4
 
 

@@ -9,12 +9,12 @@ place.  The same systems, repeats, data, settings and seeds as
 and the profile interval of one row come from the same fit.  Methods erm and
 fsam (p-reg's penalty is part of its objective, not of the data's likelihood).
 
-Each repeat is cached as ``results/laplace_runs/<system>/<repeat>.json``;
+Each repeat is cached as ``results/runs/laplace/small/<system>/<repeat>.json``;
 a rerun resumes.  ``--render`` writes ``results/laplace.md`` and ``.json``.
 
 ``--network default``: the package's default network and training (what the
 Quick start fits; fsam only, no profile to compare with), on four of the
-systems, cached in ``results/laplace_runs_default/``: does the Laplace step
+systems, cached in ``results/runs/laplace/default/``: does the Laplace step
 hold with a network of about 17,000 weights instead of 1,200?  (The first 10
 repeats of the small network were made with a dense version of the same
 algebra, the rest with the eigendecomposition of ``_laplace.py``, which holds
@@ -37,13 +37,13 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import PACKAGE_COMMIT, RESULTS, write_results  # noqa: E402
+from _common import PACKAGE_COMMIT, runs_folder, write_results  # noqa: E402
 from _uncertainty_systems import SYSTEMS  # noqa: E402
 from bench_uncertainty import RUNS, SETTINGS, _row  # noqa: E402
 
 METHODS = ("erm", "fsam")
-LAPLACE_RUNS = RESULTS / "laplace_runs"
-DEFAULT_RUNS = RESULTS / "laplace_runs_default"
+LAPLACE_RUNS = runs_folder("laplace/small")
+DEFAULT_RUNS = runs_folder("laplace/default")
 DEFAULT_SYSTEMS = ("pendulum", "duffing", "heated_body", "damped_spring")
 
 

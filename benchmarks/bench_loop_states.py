@@ -14,7 +14,7 @@ Two systems written for this benchmark and kept out of the tests:
   level measured, the upper one's start unknown; the science lacks a linear
   leak of the lower tank (-0.05 h2), which the loop should name.
 
-Each repeat is cached in ``results/loop_states_runs/<system>/<repeat>.json``;
+Each repeat is cached in ``results/runs/loop_states/<system>/<repeat>.json``;
 ``--render`` writes ``results/loop_states.md`` and ``.json``.
 
     python benchmarks/bench_loop_states.py            # 20 repeats of each
@@ -34,9 +34,9 @@ import torch
 from scipy.integrate import solve_ivp
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import PACKAGE_COMMIT, RESULTS, write_results  # noqa: E402
+from _common import PACKAGE_COMMIT, runs_folder, write_results  # noqa: E402
 
-RUNS = RESULTS / "loop_states_runs"
+RUNS = runs_folder("loop_states")
 N, STEPS = 30, 25
 # The default network, which close_the_loop starts at zero (a random start drove the SIR model out of its domain
 # in a first run with a 32x32 network: its 4 records were discarded); fewer iterations than the default.

@@ -40,7 +40,7 @@ import warnings
 import numpy as np
 from sklearn.model_selection import KFold
 
-from _common import RESULTS, write_results
+from _common import RESULTS, RUNS, write_results
 from sklearn_hybrid.diagnosis import CandidateLibrary, SparseTermRegression
 
 try:
@@ -183,12 +183,14 @@ def main() -> None:
           "| seconds |", "|---|---|---|---|---|---|---|---|"]
     md += [f"| {s['family']} | {s['noise']:g} | {s['method']} | {s['exact_support']:.0%} | {s['false_terms']:.2f} | "
            f"{s['missed_terms']:.2f} | {s['coef_rel_error_median']:.3g} | {s['seconds_mean']:.3f} |" for s in summary]
-    runs = RESULTS / "sparse_regression_runs.csv"  # one row per (problem, method), beside the summary
+    runs = RUNS / "sparse_regression.csv"  # one row per (problem, method), beside the other studies' run records
+    runs.parent.mkdir(parents=True, exist_ok=True)
     with open(runs, "w", newline="") as fh:
         writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
         writer.writeheader()
         writer.writerows({k: f"{v:.4g}" if isinstance(v, float) else v for k, v in r.items()} for r in rows)
-    path = write_results("sparse_regression", {"command": command, "summary": summary, "runs": runs.name,
+    path = write_results("sparse_regression", {"command": command, "summary": summary,
+                                               "runs": runs.relative_to(RESULTS).as_posix(),
                                                "pysindy": getattr(pysindy, "__version__", None)}, "\n".join(md))
     print(path.read_text())
 

@@ -2,7 +2,7 @@
 
 Every probe fits the wind-tunnel task of ``table1.py`` (cpu budget: the SIMULATED stand-in
 where the measured files are absent; 1,500 iterations, lr 1e-3, seed 0 unless a probe says
-otherwise) and is cached as one JSON file in ``results/theta_convergence_runs/``;
+otherwise) and is cached as one JSON file in ``results/runs/theta_convergence/``;
 ``results/theta_convergence.md`` renders them. Hypotheses and the probe that tests each:
 
 * **data** -- does the stand-in identify r at all, and at which value? The science-only least
@@ -34,11 +34,11 @@ import time
 import numpy as np
 import torch
 
-from _common import RESULTS, write_results
+from _common import runs_folder, write_results
 import table1
 from sklearn_hybrid import HybridRegressor, models
 
-CACHE = RESULTS / "theta_convergence_runs"
+CACHE = runs_folder("theta_convergence")
 BASE = dict(lr=1e-3, max_iter=1500, seed=0)
 
 #: name -> settings (method, rho, lr_theta, max_iter, science_only, bounded)

@@ -7,7 +7,7 @@ seconds of that fit (``time.process_time``, one torch thread) and its theta erro
 error against the true theta), with today's defaults and with candidate defaults.  Target of
 issue 41: at most 60 s of CPU per fit, theta no worse than today's defaults.
 
-Each fit's result is cached in ``results/time_to_theta_runs/`` as soon as it ends, so a run that is
+Each fit's result is cached in ``results/runs/time_to_theta/`` as soon as it ends, so a run that is
 stopped resumes where it was.
 
 Usage: python benchmarks/bench_time_to_theta.py [--seeds 2] [--settings default proposed substeps2]
@@ -24,7 +24,7 @@ import time
 import numpy as np
 import torch
 
-from _common import PACKAGE_COMMIT, RESULTS, write_results
+from _common import PACKAGE_COMMIT, runs_folder, write_results
 from _time_to_theta_systems import SYSTEMS, simulate
 from sklearn_hybrid import HybridRegressor
 
@@ -36,7 +36,7 @@ SETTINGS = {
     # half the RK4 steps only (the network as by default): the larger part of the saving
     "substeps2": {"n_substeps": 2},
 }
-RUNS = RESULTS / "time_to_theta_runs"
+RUNS = runs_folder("time_to_theta")
 
 
 def relative_error(theta: dict, truth: dict) -> float:

@@ -5,7 +5,7 @@ states and noise): hybrid fits with erm, fsam and p-reg, each profiled
 (``profile_theta``: verdict and interval), fsam also bootstrapped
 (``bootstrap_theta``), and the closed loop's network-free refit
 (``close_the_loop(...).science_only``, intervals by ``science_intervals``).
-Each repeat is cached as ``results/uncertainty_runs/<system>/<repeat>.json``
+Each repeat is cached as ``results/runs/uncertainty/<system>/<repeat>.json``
 as soon as it ends; a rerun resumes.  ``--render`` writes
 ``results/uncertainty.md`` and ``.json``.
 
@@ -32,10 +32,10 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import PACKAGE_COMMIT, RESULTS, write_results  # noqa: E402
+from _common import PACKAGE_COMMIT, runs_folder, write_results  # noqa: E402
 from _uncertainty_systems import SYSTEMS  # noqa: E402
 
-RUNS = RESULTS / "uncertainty_runs"
+RUNS = runs_folder("uncertainty")
 HYBRID_METHODS = ("erm", "fsam", "p-reg")
 SETTINGS = {"residual": {"hidden": (32, 32)}, "max_iter": 300, "n_threads": 1}
 PROFILE = {"n_points": 5, "span": 0.5}

@@ -7,7 +7,7 @@ theta (the paper's figure).
 
 The paper's protocol (20,000 full-batch iterations at lr 1e-4, the CNN encoder 288/144 on 32 x 32 fields) is far
 beyond a shared 2-core CPU, so this runs a declared reduced protocol (``PROTOCOL`` below; it is written into the
-results file and its header).  Every finished run is cached as JSON under ``results/varying_theta_runs/`` and
+results file and its header).  Every finished run is cached as JSON under ``results/runs/varying_theta/`` and
 skipped when the script is run again, so an interrupted benchmark resumes.
 
     python benchmarks/bench_varying_theta.py                 # everything not cached yet, then the results
@@ -28,14 +28,14 @@ import numpy as np
 import torch
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import RESULTS, write_results  # noqa: E402
+from _common import RESULTS, runs_folder, write_results  # noqa: E402
 
 from sklearn_hybrid import HybridRegressor  # noqa: E402
 from sklearn_hybrid import datasets as ds  # noqa: E402
 from sklearn_hybrid import models  # noqa: E402
 
 FAST = os.environ.get("SKLEARN_HYBRID_FAST") == "1"
-CACHE = RESULTS / "varying_theta_runs"
+CACHE = runs_folder("varying_theta")
 
 PAPER = {"pendulum": {"erm": 0.098, "fsam": 0.046}, "pendulum_100": {"erm": 0.098, "fsam": 0.046},
          "duffing": {"erm": 0.45, "fsam": 0.40}, "reaction_diffusion": {"erm": 0.0033, "fsam": 0.0033}}
@@ -201,7 +201,7 @@ def _markdown(rows: list[dict], pending: list[tuple]) -> str:
     lines += ["`perturb=\"residual\"` (the default, the paper's method) perturbs the residual network only; "
               "`perturb=\"all\"` also perturbs the theta encoder.", "",
               "Scatter of inferred against true theta (seed 0): `varying_theta.png`.", "",
-              "Command: `python benchmarks/bench_varying_theta.py` (runs cached in `results/varying_theta_runs/`; "
+              "Command: `python benchmarks/bench_varying_theta.py` (runs cached in `results/runs/varying_theta/`; "
               "`--markdown-only` rebuilds this file from them)."]
     return "\n".join(lines)
 

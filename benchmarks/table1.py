@@ -1,6 +1,6 @@
 """The paper's Table 1 (and Table 2's ordinary fsam): six tasks x seven methods x seeds x grid.
 
-Every run is cached as one JSON file in ``results/table1_runs/`` the moment it finishes, so
+Every run is cached as one JSON file in ``results/runs/table1/`` the moment it finishes, so
 the table grows over several invocations and machines; ``results/table1.json`` gathers every
 cached run and ``results/table1.md`` renders it beside the paper's numbers, with two ways of
 choosing each method's hyperparameter:
@@ -59,14 +59,14 @@ import torch
 from joblib import Parallel, delayed
 from sklearn.utils import Bunch
 
-from _common import RESULTS, machine_description
+from _common import RESULTS, machine_description, runs_folder
 from sklearn_hybrid import HybridRegressor
 from sklearn_hybrid import datasets as ds
 from sklearn_hybrid import models
 from sklearn_hybrid.diagnosis import ZeroResidual
 from sklearn_hybrid.training.engine import DivergenceError, train
 
-CACHE = RESULTS / "table1_runs"
+CACHE = runs_folder("table1")
 SMOKE_CACHE = Path(tempfile.gettempdir()) / "sklearn_hybrid_table1_smoke"  # never committed
 RHOS = (0.01, 0.05, 0.2)
 LAMS = (1e-3, 1e-2, 1e-1)

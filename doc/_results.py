@@ -127,7 +127,8 @@ def render_all(names: list[str]) -> list[str]:
             continue
         rst = convert(src.read_text(), images=OUT)
         rst = (f".. This page is generated from benchmarks/results/{name}.md by doc/_results.py.\n\n"
-               + rst + f"\n*Source:* ``benchmarks/results/{name}.md`` (with its ``.json``).\n")
+               + rst + f"\n*Source:* ``benchmarks/results/{name}.md``"
+               + (" (with its ``.json``).\n" if (RESULTS / f"{name}.json").is_file() else ".\n"))
         (OUT / f"{name}.rst").write_text(rst)
         written.append(name)
     return written
