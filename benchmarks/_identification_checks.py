@@ -44,9 +44,10 @@ import bench_identification as bench
 from _common import PACKAGE_COMMIT, RESULTS, machine_description, run_each_case
 from _identification_systems import SYSTEMS
 
-from sklearn_hybrid.diagnosis import stepwise
-from sklearn_hybrid.diagnosis.stepwise import _SECOND_LOOK_Z as MIN_Z
-from sklearn_hybrid.diagnosis.stepwise import _promising
+from sklearn_hybrid.diagnosis import Evidence
+from sklearn_hybrid.diagnosis.loop import stepwise
+from sklearn_hybrid.diagnosis.loop.stepwise import _SECOND_LOOK_Z as MIN_Z
+from sklearn_hybrid.diagnosis.loop.stepwise import _promising
 
 CHECKS = bench.cache_dir(False) / "selection_checks"
 NULL_RUNS = bench.cache_dir(False) / "second_look_null"
@@ -56,7 +57,7 @@ MIN_GAIN = 0.05  # close_the_loop's min_gain, as the benchmark runs it
 CV = 4
 # close_the_loop's module: the loop is stopped by replacing the function that starts its first hybrid fit
 # after the selection, which receives the selected model and its network-free fit.
-LOOP = importlib.import_module("sklearn_hybrid.diagnosis.loop")
+LOOP = importlib.import_module("sklearn_hybrid.diagnosis.loop.close")
 
 #: What ``--second-look-null`` does (the first paragraph of its page).
 SECOND_LOOK_NULL = (
@@ -284,7 +285,7 @@ def more_validation(name: str, noise: float) -> dict:
     record = stored_record(name, noise)
     data = bench.make_data(system, noise, 0, False)
     start = time.perf_counter()
-    science, theta = selection(name, noise, data, cv=CV)
+    science, theta = selection(name, noise, data, evidence=Evidence(cv=CV))
     scores = bench.score(system, science, theta, record["before_theta"], data["x_test"], data["u_test"])
     return {"system": name, "noise": noise, "cv": CV, "terms": term_names(science),
             "record_terms": record_terms(record), **scores,
