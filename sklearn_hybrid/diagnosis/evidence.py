@@ -73,7 +73,7 @@ class Evidence:
             raise ValueError(f"second_look must be None or a number of folds of at least 2, got {second_look!r}.")
 
     def splits(self, n: int) -> tuple[list[tuple[np.ndarray, np.ndarray]], np.ndarray | None]:
-        """The (training rows, validation rows) pairs and the group codes, as :func:`held_out_splits`."""
+        """The (training rows, validation rows) pairs and the group codes (``held_out_splits``)."""
         return held_out_splits(n, self.validation_fraction, self.cv, self.groups)
 
 
