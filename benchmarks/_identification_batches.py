@@ -173,7 +173,8 @@ BATCHES = {
          "several-term effects within 10 %, no term on a control. First run at package commit c811053 (the joint "
          "candidates, the sign term, the fitted power laws and the replacement of stand-ins; main has since also "
          "paired the best-ranked terms with each other, 49846ef), in a session that ended before all its cases "
-         "had run: the rows below are those that did (every system at noise 0.01, four at 0.05). `headwind_cart` "
+         "had run (every system at noise 0.01, four at 0.05). The other twelve cases at noise 0.05 ran in the next "
+         "session at 99fd3cd, whose selection includes that pairing (each record names its commit). `headwind_cart` "
          "0.01 first crashed in its first hybrid fit: the fast RK4 path failed on a science function that reads "
          "only the input (`pushed_cart_f`); after the fix (4587301) it was run again at that commit's selection."),
 }

@@ -319,6 +319,7 @@ SCALED_SINCE, WITHOUT_SCALED = "e81d042", "0736e56"
 SCALED_BATCH = 11
 # Since this commit a scaled term may also be a science output times an input (f[x]*u).
 INPUT_SCALED_SINCE = "4bb2d19"
+JOINT_SINCE = "c811053"  # the joint candidates, Holm's rule, sign(x), the fitted power laws
 # Since SECOND_LOOK_SINCE close_the_loop judges a candidate one split leaves inconclusive again on folds of the
 # training trajectories (second_look=4); BEFORE_SECOND_LOOK holds every record made before.
 SECOND_LOOK_SINCE, BEFORE_SECOND_LOOK = "40847dc", "eb0d2e7"
@@ -529,6 +530,14 @@ def render(records: list[dict]) -> str:
         md += ["", f"All batches, as the stored records stand: {hit} of {len(effects)} effects within 10 % "
                    f"({100 * hit / len(effects):.0f} %; target >= 90 %), {clean} of {len(controls)} controls with "
                    "nothing added. " + history]
+        # the joint candidates and Holm's rule (issue 42) change what a control can be given: every control is
+        # run again with them, and the page says how many records already are
+        commits = {r.get("package_commit") for r in controls}
+        joint = {c for c in commits if c and _git("merge-base", "--is-ancestor", JOINT_SINCE, c).returncode == 0}
+        rerun = [r for r in controls if r.get("package_commit") in joint]
+        md += ["", f"Controls run with the joint candidates and Holm's rule (records at or after {JOINT_SINCE}): "
+                   f"{len(rerun)} of {len(controls)}, {sum(r.get('n_added', 0) == 0 for r in rerun)} of them with "
+                   "nothing added."]
         # batch 1 is what the selection was built on; the fresh batches are the honest forecast for new systems
         fresh = [r for r in effects if SYSTEMS[r["system"]].batch > 1]
         fresh_hit = sum(bool(r.get("identified")) for r in fresh)
