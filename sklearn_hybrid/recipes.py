@@ -24,7 +24,7 @@ from . import HybridRegressor
 from ._validation import check_positive
 from .datasets import (estimate_derivative, fetch_cascaded_tanks, fetch_hare_lynx, fetch_silverbox,
                        load_pendulum_freeswing, make_duffing, make_pendulum, make_windows)
-from .diagnosis import (Evidence, MLPOn, ZeroResidual, close_the_loop, fit_initial_state, free_run,
+from .diagnosis import (Candidates, Evidence, MLPOn, ZeroResidual, close_the_loop, fit_initial_state, free_run,
                         prediction_metrics)
 from .models import duffing_f, pendulum_f
 
@@ -367,7 +367,7 @@ def run_case(name: str, fast: bool = False, method: str = "erm", max_iter: int |
         scorer = _announced(scorer)
     out = close_the_loop(case.estimator, case.X, case.y, case.get("X_test"), case.get("y_test"),
                          state_names=case.state_names, input_names=case.input_names, units=case.units,
-                         positive=case.get("positive", ()), offsets=case.get("offsets", ()),
+                         candidates=Candidates(positive=case.get("positive", ())), offsets=case.get("offsets", ()),
                          param_names=case.param_names,
                          theta_true=case.get("theta_true"), test_scorer=scorer, n_jobs=n_jobs,
                          evidence=Evidence(cv=cv, groups=case.groups if grouped else None),

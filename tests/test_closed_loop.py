@@ -14,7 +14,7 @@ from sklearn.base import clone
 
 from sklearn_hybrid import HybridRegressor
 from sklearn_hybrid.datasets import make_duffing, make_pendulum
-from sklearn_hybrid.diagnosis import (CandidateLibrary, Evidence, MLPOn, ResidualDiagnosis, ScienceFit, augment_science,
+from sklearn_hybrid.diagnosis import (CandidateLibrary, Candidates, Evidence, MLPOn, ResidualDiagnosis, ScienceFit, augment_science,
                                       close_the_loop, critical_value, evidence, fit_initial_state, free_run,
                                       named_terms, physics_terms, plot_unexplained, SparseTermRegression, Term,
                                       ZeroResidual)
@@ -278,15 +278,18 @@ def test_exact_components_and_bad_options(pendulum):
     with pytest.raises(ValueError, match=r"units names \['vdot'\], which the model does not have"):
         close_the_loop(unfitted, X, y, state_names=NAMES, units={"v": "rad", "vdot": "rad/s"})
     # so are other names that name nothing, names used twice, and user terms that cannot work
-    refused = [({"positive": ["zz"]}, r"positive names \['zz'\]"),
+    refused = [({"candidates": Candidates(positive=["zz"])}, r"positive names \['zz'\]"),
                ({"input_names": ["u"]}, "the estimator has no inputs"),
                ({"state_names": ["v", "v"]}, r"\['v'\] name\(s\) more than one"),
-               ({"user_terms": {"v": lambda d: d["v"]}}, r"\['v'\] name\(s\) more than one"),
-               ({"user_terms": {"v_dot^2": lambda d: d["v"]}}, "the name of a variable or a built-in term"),
-               ({"user_terms": {"f": lambda d: d["vdot"]}}, r"'f' raised KeyError.*The variables are"),
-               ({"user_terms": {"f": lambda d: d["v"].numpy()}}, "returned ndarray for 12 points"),
-               ({"user_terms": {"f": lambda d: d["v"][:5]}}, r"returned \(5,\) for 12 points"),
-               ({"user_terms": {"f": lambda d: d["v"]}, "term_kinds": ["polynomial"]}, "leaves out 'user'"),
+               ({"candidates": Candidates(user_terms={"v": lambda d: d["v"]})}, r"\['v'\] name\(s\) more than one"),
+               ({"candidates": Candidates(user_terms={"v_dot^2": lambda d: d["v"]})},
+                "the name of a variable or a built-in term"),
+               ({"candidates": Candidates(user_terms={"f": lambda d: d["vdot"]})},
+                r"'f' raised KeyError.*The variables are"),
+               ({"candidates": Candidates(user_terms={"f": lambda d: d["v"].numpy()})}, "returned ndarray for 12 points"),
+               ({"candidates": Candidates(user_terms={"f": lambda d: d["v"][:5]})}, r"returned \(5,\) for 12 points"),
+               ({"candidates": Candidates(user_terms={"f": lambda d: d["v"]}, kinds=["polynomial"])},
+                "leaves out 'user'"),
                ({"n_jobs": 0}, "n_jobs must be None or a non-zero integer"),
                ({"X_test": X}, "X_test and y_test go together")]
     for options, message in refused:
@@ -297,7 +300,7 @@ def test_exact_components_and_bad_options(pendulum):
         close_the_loop(HybridRegressor(science=pendulum_f, dt=0.1, max_iter=2), X, y, exact=[0, 1])
     # "auto" on an unfitted estimator: the default network is kept out of the exact equation.
     out = close_the_loop(HybridRegressor(science=pendulum_f, dt=0.1, max_iter=3, method="erm"), X, y,
-                         state_names=NAMES, max_terms=1, n_candidates=1)
+                         state_names=NAMES, candidates=Candidates(max_terms=1, n_candidates=1))
     assert out.exact == [0] and isinstance(out.before.residual, MLPOn) and out.before.residual.components == [1]
     assert all(s["component"] == 1 for s in out.steps)
 
@@ -305,9 +308,10 @@ def test_exact_components_and_bad_options(pendulum):
 def test_a_user_term_is_named_with_its_unit(pendulum):
     """Your own term by name, with its unit in ``units`` beside the states'."""
     data, est = pendulum
-    out = close_the_loop(est, data.X_train, data.y_train, state_names=NAMES, term_kinds=["user"],
-                         user_terms={"friction": lambda d: d["v_dot"]},
-                         units={"v": "rad", "v_dot": "rad/s", "friction": "rad/s"}, max_terms=1)
+    out = close_the_loop(est, data.X_train, data.y_train, state_names=NAMES,
+                         candidates=Candidates(kinds=["user"], user_terms={"friction": lambda d: d["v_dot"]},
+                                               max_terms=1),
+                         units={"v": "rad", "v_dot": "rad/s", "friction": "rad/s"})
     assert [(t["term"], t["kind"], t["output"]) for t in out.added] == [("friction", "user", "g[v_dot]")]
     assert out.science_theta["c_friction"] == pytest.approx(-0.5, rel=0.05)
     assert "term in rad/s" in out.report
@@ -850,8 +854,8 @@ def test_close_the_loop_fits_unobserved_initial_states():
     X_given = X_wrong.copy()
     est = HybridRegressor(science=pendulum_f, dt=0.1, n_substeps=1, observed=[0], method="erm", max_iter=30,
                           lr=1e-2, residual=MLPOn([1], hidden=(16,)))
-    out = close_the_loop(est, X_wrong, y, state_names=NAMES, fit_initial_states=True, max_terms=1,
-                         term_kinds=["polynomial"], refit_params={"max_iter": 5})
+    out = close_the_loop(est, X_wrong, y, state_names=NAMES, fit_initial_states=True,
+                         candidates=Candidates(kinds=["polynomial"], max_terms=1), refit_params={"max_iter": 5})
     np.testing.assert_array_equal(X_wrong, X_given)
     assert [(t["output"], t["term"]) for t in out.added] == [("g[v_dot]", "v_dot")]
     assert out.added[0]["coef"] == pytest.approx(-0.5, rel=0.1)
@@ -971,7 +975,8 @@ def test_a_declared_sensor_offset_is_judged_like_a_term_and_fitted():
     X, y = _draining_tank(0.5)
     X_given = X.copy()
     est = HybridRegressor(science=_tank_f, dt=0.2, method="erm", max_iter=30, random_state=0)
-    options = dict(state_names=["h"], units={"h": "m"}, offsets=["h"], term_kinds=["polynomial"], max_terms=2,
+    options = dict(state_names=["h"], units={"h": "m"}, offsets=["h"],
+                   candidates=Candidates(kinds=["polynomial"], max_terms=2),
                    refit_params={"max_iter": 5})
     out = close_the_loop(est, X, y, **options)
     np.testing.assert_array_equal(X, X_given)
@@ -1028,7 +1033,7 @@ def test_a_sensor_offset_on_a_feature_of_a_static_model():
     x = rng.uniform(0.3, 3, size=(200, 1))
     y = 0.7 * np.sqrt(x[:, 0]) + 0.005 * rng.standard_normal(200)
     est = HybridRegressor(science=_root_law, structure="additive", method="erm", max_iter=50, random_state=0)
-    out = close_the_loop(est, x + 0.25, y, state_names=["x"], offsets=["x"], term_kinds=["polynomial"],
+    out = close_the_loop(est, x + 0.25, y, state_names=["x"], offsets=["x"], candidates=Candidates(kinds=["polynomial"]),
                          refit_params={"max_iter": 5})
     assert [t["term"] for t in out.added] == ["offset(x)"]
     assert out.science_theta["offset_x"] == pytest.approx(0.25, abs=0.01)
@@ -1047,8 +1052,8 @@ def test_a_sensor_offset_with_fitted_unobserved_initial_states():
     X_given = X.copy()
     est = HybridRegressor(science=pendulum_f, dt=0.1, n_substeps=1, observed=[0], method="erm", max_iter=30,
                           lr=1e-2, residual=MLPOn([1], hidden=(16,)))
-    out = close_the_loop(est, X, y, state_names=NAMES, fit_initial_states=True, offsets=["v"], max_terms=2,
-                         term_kinds=["polynomial"], refit_params={"max_iter": 5})
+    out = close_the_loop(est, X, y, state_names=NAMES, fit_initial_states=True, offsets=["v"],
+                         candidates=Candidates(kinds=["polynomial"], max_terms=2), refit_params={"max_iter": 5})
     np.testing.assert_array_equal(X, X_given)
     first = {s["term"]: s for s in out.steps if s["step"] == 1}
     assert first["offset(v)"]["gain"] == pytest.approx(first["1"]["gain"], abs=0.02)  # alike at small angles

@@ -8,8 +8,9 @@ The judge, the network-free refits and the evidence rule are shared with the exp
 live one floor up.
 """
 
+from .candidates import Candidates
 from .close import MLPOn, ZeroResidual, close_the_loop
 from .report import LoopResult, format_table, plot_unexplained, prediction_metrics
 
-__all__ = ["close_the_loop", "MLPOn", "ZeroResidual", "LoopResult", "format_table", "plot_unexplained",
+__all__ = ["close_the_loop", "Candidates", "MLPOn", "ZeroResidual", "LoopResult", "format_table", "plot_unexplained",
            "prediction_metrics"]

@@ -1,5 +1,7 @@
 """Candidates of a selection step: the terms' columns, the two rankings, and how a candidate becomes a model.
 
+:class:`Candidates` holds the user's settings of the search: which terms, how many may be added.
+
 A candidate is a dict: the ``component`` (output index, or a list of them for a group) it is placed
 on, its ``term`` name, ``kind``, ``function``, starting ``shape`` and ``coef``. :func:`rank_by_residual` ranks
 them by the residual the network still carries, :func:`rank_by_fit` by the network-free model's
@@ -11,6 +13,7 @@ science function (:func:`~sklearn_hybrid.diagnosis.augment_science`) for
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
 from itertools import zip_longest
 from typing import Any
 
@@ -21,6 +24,37 @@ from ..augment import augment_science
 from ..science_fit import ScienceFit
 from ..sensitivity import finite_differences, free_columns
 from ..terms import Term
+
+
+@dataclass(frozen=True, eq=False)
+class Candidates:
+    """Which terms :func:`~sklearn_hybrid.diagnosis.close_the_loop` may add, and how many.
+
+    Parameters
+    ----------
+    terms : list of Term, optional
+        The candidates; default :func:`~sklearn_hybrid.diagnosis.physics_terms` over the states and
+        inputs and, for an ODE, each uncertain equation's own science output times a state or an input
+        (kind ``"scaled"``).
+    kinds : list of str, optional
+        Which kinds of :func:`~sklearn_hybrid.diagnosis.physics_terms` (default all).
+    user_terms : dict of str to callable, optional
+        Your own terms by name: torch functions of a dict of variables (their units may be given in
+        ``close_the_loop``'s ``units`` by these names).
+    positive : list of str, optional
+        Variables that are never negative (levels, concentrations): no hinge below zero for them.
+    max_terms : int, default=4
+        At most this many terms added.
+    n_candidates : int, default=4
+        Candidates taken from each ranking per step (up to twice as many refitted).
+    """
+
+    terms: Sequence[Term] | None = None
+    kinds: Sequence[str] | None = None
+    user_terms: Mapping[str, Callable] | None = None
+    positive: Sequence[str] = ()
+    max_terms: int = 4
+    n_candidates: int = 4
 
 
 def term_columns(terms: Sequence[Term], variables: dict[str, torch.Tensor]) -> list[tuple]:

@@ -25,11 +25,12 @@ from ...science import read_signature
 from ..arguments import (check_names, check_options, check_param_names, check_refit_params, count_states,
                          offset_states, uncertain_components)
 from ..evidence import Evidence
+from .candidates import Candidates
 from .report import LoopResult, Scoring, format_table, residual_profile
 from ..sensitivity import state_labels, science_output
 from ..science_fit import ScienceFit
 from .stepwise import forward_selection
-from ..terms import Term, physics_terms
+from ..terms import physics_terms
 
 __all__ = ["close_the_loop", "MLPOn", "ZeroResidual"]
 
@@ -113,10 +114,9 @@ def _check_fitted_horizon(estimator: Any, y: Any) -> None:
 def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: Any = None, *,
                    state_names: Sequence[str] | None = None, input_names: Sequence[str] | None = None,
                    units: Mapping[str, str] | None = None, exact: str | Sequence[Any] | None = "auto",
-                   terms: Sequence[Term] | None = None, term_kinds: Sequence[str] | None = None,
-                   user_terms: Mapping[str, Callable] | None = None, positive: Sequence[str] = (),
+                   candidates: Candidates | None = None,
                    offsets: Sequence[Any] = (), evidence: Evidence | None = None,
-                   fit_initial_states: bool = False, max_terms: int = 4, n_candidates: int = 4,
+                   fit_initial_states: bool = False,
                    param_names: Mapping[str, str] | None = None,
                    refit_params: Mapping[str, Any] | None = None, theta_true: Mapping[str, Any] | None = None,
                    test_scorer: Callable | None = None, n_jobs: int | None = None, random_state: Any = 0,
@@ -168,12 +168,11 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         network does not act there. ``"auto"`` takes the components whose science output depends on
         no parameter -- the physicist's default: an equation with nothing to estimate is a
         definition, not a model. ``None`` makes every component uncertain.
-    terms : list of Term, optional
-        The candidates; default :func:`physics_terms` over the states and inputs and, for an ODE, each
-        uncertain equation's own science output times a state or an input (kind ``"scaled"``).
-    term_kinds, user_terms, positive : optional
-        Passed to :func:`physics_terms`: which kinds, your own terms by name (torch functions of a
-        dict of variables), variables that are never negative.
+    candidates : Candidates, optional
+        Which terms may be added and how many (:class:`~sklearn_hybrid.diagnosis.Candidates`: the
+        terms, or the kinds of :func:`physics_terms`, your own terms, variables that are never
+        negative, ``max_terms`` and ``n_candidates``). Default ``Candidates()``: every kind, at most
+        four terms.
     offsets : list of str or int, optional
         Measured states (or features) whose sensor may read with a constant offset, by name or
         index: each is a candidate at every step, judged like a term. Accepted, the model's state is
@@ -192,9 +191,6 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         states (from the data's differences, or made with the science model, which are wrong
         where the science misses an effect). It costs one more fitted value per sample and
         unobserved state in every refit (see the closed-loop results pages for timings).
-    max_terms, n_candidates : int, default=4
-        At most this many terms added, and candidates taken from each ranking per step (up to
-        twice as many refitted).
     param_names : dict of str to str, optional
         Names of the new coefficients by term, e.g. ``{"v_dot": "c_damping"}``.
     refit_params : dict, optional
@@ -238,6 +234,12 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         raise TypeError(f"evidence must be an Evidence (sklearn_hybrid.diagnosis.Evidence(z=..., cv=...)), got "
                         f"{type(evidence).__name__}.")
     evidence.check()
+    candidates = Candidates() if candidates is None else candidates
+    if not isinstance(candidates, Candidates):
+        raise TypeError(f"candidates must be a Candidates (sklearn_hybrid.diagnosis.Candidates(kinds=..., "
+                        f"max_terms=...)), got {type(candidates).__name__}.")
+    terms, term_kinds, user_terms = candidates.terms, candidates.kinds, candidates.user_terms
+    positive, max_terms, n_candidates = candidates.positive, candidates.max_terms, candidates.n_candidates
     check_options(max_terms, n_candidates, n_jobs, X_test, y_test)
     z, min_gain, cv, second_look = evidence.z, evidence.min_gain, evidence.cv, evidence.second_look
     # the held-out split checks the groups and its own limits before anything is fitted
