@@ -417,6 +417,11 @@ def _git(*args: str) -> subprocess.CompletedProcess:
     return subprocess.run(["git", *args], cwd=ROOT, capture_output=True, text=True)
 
 
+def commits_since(commits, base: str) -> set:
+    """The commits among ``commits`` made at or after ``base`` (on its line of history)."""
+    return {c for c in commits if c and _git("merge-base", "--is-ancestor", base, c).returncode == 0}
+
+
 # Where the records lay before they moved under results/runs/ (issue 39): older revisions hold them there.
 RECORDS_BEFORE_MOVE = "benchmarks/results/identification_runs"
 
@@ -434,7 +439,7 @@ def _record_at(rev: str, record: dict) -> dict | None:
 def _rerun_pairs(records: list[dict]) -> list[tuple[dict, dict]]:
     """(record, its record at WITHOUT_SCALED) for each case run again since the scaled terms came."""
     commits = {r.get("package_commit") for r in records}
-    since = {c for c in commits if c and _git("merge-base", "--is-ancestor", SCALED_SINCE, c).returncode == 0}
+    since = commits_since(commits, SCALED_SINCE)
     pairs = [(r, _record_at(WITHOUT_SCALED, r)) for r in records if r.get("package_commit") in since]
     return [(new, old) for new, old in pairs if old is not None]
 
@@ -533,7 +538,7 @@ def render(records: list[dict]) -> str:
         # the joint candidates and Holm's rule (issue 42) change what a control can be given: every control is
         # run again with them, and the page says how many records already are
         commits = {r.get("package_commit") for r in controls}
-        joint = {c for c in commits if c and _git("merge-base", "--is-ancestor", JOINT_SINCE, c).returncode == 0}
+        joint = commits_since(commits, JOINT_SINCE)
         rerun = [r for r in controls if r.get("package_commit") in joint]
         md += ["", f"Controls run with the joint candidates and Holm's rule (records at or after {JOINT_SINCE}): "
                    f"{len(rerun)} of {len(controls)}, {sum(r.get('n_added', 0) == 0 for r in rerun)} of them with "

@@ -290,11 +290,16 @@ def test_exact_components_and_bad_options(pendulum):
                ({"candidates": Candidates(user_terms={"f": lambda d: d["v"][:5]})}, r"returned \(5,\) for 12 points"),
                ({"candidates": Candidates(user_terms={"f": lambda d: d["v"]}, kinds=["polynomial"])},
                 "leaves out 'user'"),
+               ({"candidates": Candidates(max_terms=0)}, "max_terms must be a positive integer"),
+               ({"candidates": Candidates(n_candidates=True)}, "n_candidates must be a positive integer"),
                ({"n_jobs": 0}, "n_jobs must be None or a non-zero integer"),
                ({"X_test": X}, "X_test and y_test go together")]
     for options, message in refused:
         with pytest.raises(ValueError, match=message):
             close_the_loop(unfitted, X, y, **{"state_names": NAMES, **options})
+    for option, given in (("evidence", {"z": 2.0}), ("candidates", ["v_dot"])):  # a settings object, not its fields
+        with pytest.raises(TypeError, match=f"{option} must be a .* object"):
+            close_the_loop(unfitted, X, y, state_names=NAMES, **{option: given})
     assert not hasattr(unfitted, "model_")
     with pytest.raises(ValueError, match="Every component is exact"):
         close_the_loop(HybridRegressor(science=pendulum_f, dt=0.1, max_iter=2), X, y, exact=[0, 1])

@@ -16,7 +16,8 @@ model's residual by sparse regression on a :class:`CandidateLibrary` (an explora
 
 from .augment import AugmentedScience, augment_science, parameter_name
 from .evidence import Evidence, critical_value, evidence, holm
-from .loop import Candidates, LoopResult, MLPOn, ZeroResidual, close_the_loop, format_table, plot_unexplained, prediction_metrics
+from .loop import (Candidates, LoopResult, MLPOn, ZeroResidual, close_the_loop, format_table, plot_unexplained,
+                   prediction_metrics)
 from .records import fit_initial_state, free_run
 from .science_fit import ScienceFit
 from .sensitivity import science_sensitivities
@@ -26,5 +27,5 @@ from .terms import SCIENCE_OUTPUT, TERM_KINDS, Term, named_terms, physics_terms
 __all__ = ["CandidateLibrary", "SparseTermRegression", "ResidualDiagnosis", "science_sensitivities",
            "augment_science", "AugmentedScience", "parameter_name", "close_the_loop", "free_run",
            "fit_initial_state", "MLPOn", "ZeroResidual", "LoopResult", "prediction_metrics", "format_table",
-           "plot_unexplained", "Term", "physics_terms", "named_terms", "TERM_KINDS", "SCIENCE_OUTPUT", "ScienceFit", "Candidates", "Evidence", "evidence",
-           "critical_value", "holm"]
+           "plot_unexplained", "Term", "physics_terms", "named_terms", "TERM_KINDS", "SCIENCE_OUTPUT", "ScienceFit",
+           "Candidates", "Evidence", "evidence", "critical_value", "holm"]

@@ -6,7 +6,6 @@ Each names the problem: an unknown state, an option out of range, a unit for a v
 from __future__ import annotations
 
 from difflib import get_close_matches
-from numbers import Real
 
 import numpy as np
 
@@ -14,10 +13,8 @@ from ..science import read_signature
 from .sensitivity import exact_components, state_labels, parameter_jacobian
 
 
-def check_options(max_terms, n_candidates, n_jobs, X_test, y_test):
-    for name, value in (("max_terms", max_terms), ("n_candidates", n_candidates)):
-        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
-            raise ValueError(f"{name} must be a positive integer, got {value!r}.")
+def check_options(n_jobs, X_test, y_test) -> None:
+    """The options of ``close_the_loop`` that belong to no settings object."""
     if n_jobs is not None and (isinstance(n_jobs, bool) or not isinstance(n_jobs, (int, np.integer)) or n_jobs == 0):
         raise ValueError(f"n_jobs must be None or a non-zero integer (joblib's convention), got {n_jobs!r}.")
     if (X_test is None) != (y_test is None):

@@ -25,6 +25,7 @@ from .terms import SCIENCE_OUTPUT, Term, named_terms
 
 __all__ = ["augment_science", "AugmentedScience", "parameter_name"]
 
+
 def _flat(x: torch.Tensor, single: bool = False) -> torch.Tensor:
     """``x`` as (batch, columns); no operation when it already is. A 1-D ``x`` is a batch of scalars
     (a static model's output), or with ``single`` one sample (a state handed over by ``solve_ivp``,
@@ -65,11 +66,12 @@ def augment_science(science: Callable, terms: Sequence[Mapping[str, Any]], varia
         ``"|v|"``, ``"v|v|"``, ``"sqrt|v|"``; see :func:`~sklearn_hybrid.diagnosis.named_terms`) and
         ``"coef"`` (initial value of its new parameter), as in :attr:`ResidualDiagnosis.new_terms_`;
         an optional ``"param"`` names the parameter. A term may bring its torch ``"function"``
-        ``f(d, **shape)`` (a Term's, where ``"term"`` is only its name) with initial ``"shape"`` values (each a new parameter named ``<shape>_<label>``), and a
-        ``"label"`` for the parameter names (default the term's name). An entry of ``"kind"``
-        ``"offset"`` is a sensor offset on state ``"component"`` (a column of the first input): the
-        right-hand side, original and added terms alike, sees ``x[component] - offset``, with
-        ``"coef"`` the offset's initial value (parameter ``offset_<state>``).
+        ``f(d, **shape)`` (a Term's, where ``"term"`` is only its name) with initial ``"shape"``
+        values (each a new parameter named ``<shape>_<label>``), and a ``"label"`` for the parameter
+        names (default the term's name). An entry of ``"kind"`` ``"offset"`` is a sensor offset on
+        state ``"component"`` (a column of the first input): the right-hand side, original and added
+        terms alike, sees ``x[component] - offset``, with ``"coef"`` the offset's initial value
+        (parameter ``offset_<state>``).
     variable_names : list of str
         Names of the columns of the first input (the state or the features), then of the second
         input (the measured inputs of a forced ODE), if any.

@@ -1,7 +1,8 @@
 """Accept a term on evidence: is a held-out error lower by more than the noise explains?
 
 :class:`Evidence` holds the settings of that test for :func:`~sklearn_hybrid.diagnosis.close_the_loop`
-(which samples judge, how strong the evidence must be, the second look); :func:`evidence` compares the per-sample validation errors of two network-free refits
+(which samples judge, how strong the evidence must be, the second look); :func:`evidence` compares
+the per-sample validation errors of two network-free refits
 (:class:`~sklearn_hybrid.diagnosis.science_fit.ScienceFit`) of the science model, with and without
 a term; :func:`held_out_splits` says which samples fit and which judge, keeping overlapping windows
 of one stretch of a record together.

@@ -33,8 +33,8 @@ from typing import Any
 import numpy as np
 import torch
 
-__all__ = ["Term", "physics_terms", "named_terms", "monomial_terms", "nonsmooth_terms", "trigonometric_terms",
-           "TERM_KINDS", "SCIENCE_OUTPUT", "power_unit", "product_unit"]
+__all__ = ["Term", "physics_terms", "named_terms", "constant_term", "monomial_terms", "nonsmooth_terms",
+           "trigonometric_terms", "sqrt_term", "TERM_KINDS", "SCIENCE_OUTPUT", "power_unit", "product_unit"]
 
 TERM_KINDS = ("polynomial", "drag", "dry_friction", "hinge", "sqrt", "power", "exponential", "saturation", "periodic",
               "scaled", "user")
@@ -218,6 +218,16 @@ def monomial_terms(variables: Sequence[str], degree: int, units: Mapping[str, st
     return out
 
 
+def constant_term() -> Term:
+    """The constant ``"1"``."""
+    return Term("1", constant, "polynomial")
+
+
+def sqrt_term(x: str, unit: str = "") -> Term:
+    """``sqrt|x|`` signed as ``x`` (Torricelli outflow, turbulent flow): odd, so a flow keeps its direction."""
+    return Term(f"sqrt|{x}|", partial(_signed_sqrt, x=x), "sqrt", unit=f"{unit}^(1/2)" if unit else "")
+
+
 def trigonometric_terms(x: str) -> list[Term]:
     """``sin(x)`` and ``cos(x)``."""
     return [Term(f"sin({x})", partial(sine, x=x), "periodic"), Term(f"cos({x})", partial(cosine, x=x), "periodic")]
@@ -235,11 +245,10 @@ def named_terms(variables: Sequence[str], units: Mapping[str, str] | None = None
     monomials up to ``degree``, ``sin``, ``cos``, ``sign``, ``|x|``, ``x|x|`` and ``sqrt|x|`` of each
     variable. A term given by its name (``augment_science``) is one of these."""
     units = units or {}
-    terms = [Term("1", constant, "polynomial"), *monomial_terms(variables, degree, units)]
+    terms = [constant_term(), *monomial_terms(variables, degree, units)]
     for x in variables:
         unit = units.get(x, "")
-        terms += [*trigonometric_terms(x), *nonsmooth_terms(x, unit),
-                  Term(f"sqrt|{x}|", partial(_signed_sqrt, x=x), "sqrt", unit=f"{unit}^(1/2)" if unit else "")]
+        terms += [*trigonometric_terms(x), *nonsmooth_terms(x, unit), sqrt_term(x, unit)]
     return {t.name: t for t in terms}
 
 
@@ -344,7 +353,7 @@ def _check_user_term(name: str, func: Callable, variables: Sequence[str], values
 
 def _polynomials(variables: Sequence[str], units: Mapping[str, str]) -> list[Term]:
     """Constant, powers up to 3 and the products of two variables up to degree 3."""
-    terms = [Term("1", constant, "polynomial")]
+    terms = [constant_term()]
     terms += [monomial_term([(x, p)], units) for x in variables for p in (1, 2, 3)]
     terms += [monomial_term([(x, px), (z, pz)], units)
               for x, z in combinations(variables, 2) for px, pz in ((1, 1), (2, 1), (1, 2))]
@@ -386,9 +395,8 @@ def _single_variable(x: str, col: np.ndarray, scale: float, unit: str, kinds: Se
         if not (positive and bounds[0] >= 0 and knots[0] <= 0):
             out.append(Term(f"max(0, knot - {x})", partial(_hinge_below, x=x), "hinge",
                             {"knot": (knots[:-1], bounds)}, unit=unit))
-    if "sqrt" in kinds:  # Torricelli outflow, turbulent flow; signed so it stays odd
-        out.append(Term(f"sqrt|{x}|", partial(_signed_sqrt, x=x), "sqrt",
-                        unit=f"{unit}^(1/2)" if unit else ""))
+    if "sqrt" in kinds:
+        out.append(sqrt_term(x, unit))
     if "power" in kinds:  # a law outside the listed degrees: radiation, allometric scaling, a fitted Torricelli
         powers = ([0.5, 1.5, 2.5], (0.1, 5.0))  # the exponent p, fitted
         out.append(Term(f"|{x}|^p", partial(_power_abs, x=x), "power", {"p": powers}))

@@ -56,6 +56,14 @@ class Candidates:
     max_terms: int = 4
     n_candidates: int = 4
 
+    def check(self) -> None:
+        """Raise ``ValueError`` naming the setting that is out of range (the names and the terms
+        themselves are checked against the data by ``close_the_loop``)."""
+        for name in ("max_terms", "n_candidates"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
+                raise ValueError(f"{name} must be a positive integer, got {value!r}.")
+
 
 def term_columns(terms: Sequence[Term], variables: dict[str, torch.Tensor]) -> list[tuple]:
     """``(term, shape, values)`` of every term at every starting shape, on the visited states.

@@ -15,7 +15,7 @@ import numpy as np
 import torch
 from sklearn.base import clone
 from sklearn.exceptions import NotFittedError
-from sklearn.utils import Bunch, check_random_state
+from sklearn.utils import check_random_state
 from sklearn.utils.validation import check_is_fitted
 from torch import nn
 
@@ -96,6 +96,16 @@ class ZeroResidual:
 
     def __repr__(self) -> str:
         return "ZeroResidual()"
+
+
+def _settings(name: str, value: Any, cls: type, example: str) -> Any:
+    """A settings object of ``close_the_loop`` (``Evidence``, ``Candidates``): the default for None, checked."""
+    value = cls() if value is None else value
+    if not isinstance(value, cls):
+        raise TypeError(f"{name} must be a {cls.__name__} object (sklearn_hybrid.diagnosis.{example}), got "
+                        f"{type(value).__name__}.")
+    value.check()
+    return value
 
 
 def _check_fitted_horizon(estimator: Any, y: Any) -> None:
@@ -229,18 +239,11 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         if verbose:
             print(message if message.startswith(("  ", "|")) or "\n" in message
                   else f"[{time.perf_counter() - start:4.0f} s] {message}", flush=True)
-    evidence = Evidence() if evidence is None else evidence
-    if not isinstance(evidence, Evidence):
-        raise TypeError(f"evidence must be an Evidence (sklearn_hybrid.diagnosis.Evidence(z=..., cv=...)), got "
-                        f"{type(evidence).__name__}.")
-    evidence.check()
-    candidates = Candidates() if candidates is None else candidates
-    if not isinstance(candidates, Candidates):
-        raise TypeError(f"candidates must be a Candidates (sklearn_hybrid.diagnosis.Candidates(kinds=..., "
-                        f"max_terms=...)), got {type(candidates).__name__}.")
+    evidence = _settings("evidence", evidence, Evidence, "Evidence(z=..., cv=...)")
+    candidates = _settings("candidates", candidates, Candidates, "Candidates(kinds=..., max_terms=...)")
     terms, term_kinds, user_terms = candidates.terms, candidates.kinds, candidates.user_terms
     positive, max_terms, n_candidates = candidates.positive, candidates.max_terms, candidates.n_candidates
-    check_options(max_terms, n_candidates, n_jobs, X_test, y_test)
+    check_options(n_jobs, X_test, y_test)
     z, min_gain, cv, second_look = evidence.z, evidence.min_gain, evidence.cv, evidence.second_look
     # the held-out split checks the groups and its own limits before anything is fitted
     splits, codes = evidence.splits(len(y))

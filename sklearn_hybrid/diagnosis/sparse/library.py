@@ -19,7 +19,7 @@ import torch
 from sklearn.base import BaseEstimator, TransformerMixin
 from sklearn.utils.validation import check_is_fitted, validate_data
 
-from ..terms import Term, constant, monomial_terms, nonsmooth_terms, trigonometric_terms
+from ..terms import Term, constant_term, monomial_terms, nonsmooth_terms, trigonometric_terms
 
 __all__ = ["CandidateLibrary", "numpy_term"]
 
@@ -289,7 +289,7 @@ class CandidateLibrary(TransformerMixin, BaseEstimator):
 
     def _build_terms(self, names: list[str], trig: list[str], nonsmooth: list[str]) -> list[Term]:
         units = dict(self.units or {})
-        terms = [Term("1", constant, "polynomial")] if self.include_bias else []
+        terms = [constant_term()] if self.include_bias else []
         terms += monomial_terms(names, self.degree, units, self.interaction_only)
         for v in trig:
             terms += trigonometric_terms(v)
