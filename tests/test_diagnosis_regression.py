@@ -6,10 +6,11 @@ matplotlib.use("Agg")
 
 import numpy as np
 import pytest
+import torch
 from scipy.integrate import solve_ivp
 from sklearn.utils.estimator_checks import check_estimator
 
-from sklearn_hybrid.diagnosis import CandidateLibrary, SparseTermRegression
+from sklearn_hybrid.diagnosis import CandidateLibrary, SparseTermRegression, Term
 
 UNITS = {"v": "rad", "v_dot": "rad/s"}
 
@@ -270,6 +271,9 @@ def test_library_bad_input():
         CandidateLibrary(degree=0, include_bias=False).fit(Z)
     with pytest.raises(ValueError, match="Duplicate term names"):
         CandidateLibrary(degree=1, custom_terms={"v": lambda d: d["v"]}).fit(Z, feature_names=names)
+    shaped = Term("tanh(v/w)", lambda d, w: torch.tanh(d["v"] / w), "user", {"w": ([0.1], (1e-3, 1.0))})
+    with pytest.raises(ValueError, match=r"shape parameters \['w'\], which a library column cannot fit"):
+        CandidateLibrary(custom_terms={"tanh(v/w)": shaped}).fit(Z, feature_names=names)
 
 
 def test_regression_bad_input():
