@@ -92,7 +92,7 @@ def run_repeat(name, repeat):
                           theta_init=system["init"], random_state=repeat, **HYBRID)
     try:
         loop = close_the_loop(est, X, y, state_names=system["names"], fit_initial_states=True,
-                              random_state=repeat, refit_params={"max_iter": 1})
+                              random_state=repeat)
     except Exception as error:  # noqa: BLE001 -- a failed loop is a result of the benchmark
         return {"system": name, "repeat": repeat, "package_commit": PACKAGE_COMMIT,
                 "error": f"{type(error).__name__}: {error}"}

@@ -106,20 +106,48 @@ def _profile_verdicts(profile, truth: dict) -> dict:
 def run_one(path: str, name: str, seed: int) -> dict:
     """One path on one system and seed, in this process; returns the record."""
     import torch
-    from sklearn_hybrid import HybridRegressor
-    from sklearn_hybrid.diagnosis import close_the_loop
-    from sklearn_hybrid.identifiability import profile_theta
 
-    from _time_to_answer_systems import SYSTEMS, call_science, simulate, test_states
+    from _time_to_answer_systems import SYSTEMS, simulate
 
     torch.set_num_threads(1)
     system = SYSTEMS[name]
     X, y = simulate(system, seed)
     clock = Steps()
+    record = {"path": path, "system": name, "seed": seed}
+    try:
+        return _path(path, system, X, y, seed, clock, record)
+    except Exception as error:  # noqa: BLE001 -- a step that fails is what the user meets: a result
+        import traceback
+
+        step = f"after {list(clock.steps)[-1]}" if clock.steps else "in the fit"
+        clock.mark("failed step")
+        record.update(failed=f"{step}: {type(error).__name__}: {error}"[:600], traceback=traceback.format_exc(),
+                      steps=clock.steps, path_cpu_s=sum(s["cpu_s"] for s in clock.steps.values()),
+                      theta_within=False, confidently_wrong=[])
+        return record
+
+
+def _provenance(record: dict) -> dict:
+    import sklearn_hybrid
+
+    record["package"] = str(Path(sklearn_hybrid.__file__).parent)
+    record["package_commit"] = _commit_of(Path(sklearn_hybrid.__file__).parents[1])
+    record["machine"] = machine_description()
+    return record
+
+
+def _path(path, system, X, y, seed, clock, record) -> dict:
+    """The steps of ``path``, timed by ``clock``, scored into ``record``."""
+    from sklearn_hybrid import HybridRegressor
+    from sklearn_hybrid.diagnosis import close_the_loop
+    from sklearn_hybrid.identifiability import profile_theta
+
+    from _time_to_answer_systems import call_science, test_states
+
+    name = system.name
     est = HybridRegressor(science=system.science, dt=system.dt, random_state=seed, verbose=False).fit(X, y)
     clock.mark("fit")
-    record = {"path": path, "system": name, "seed": seed, "fit_iterations": int(est.n_iter_),
-              "fit_theta": {k: float(np.ravel(v)[0]) for k, v in est.theta_.items()}}
+    record.update(fit_iterations=int(est.n_iter_), fit_theta={k: float(np.ravel(v)[0]) for k, v in est.theta_.items()})
     if path == "recommended":
         report = est.fit_report()
         clock.mark("report")
@@ -163,10 +191,6 @@ def run_one(path: str, name: str, seed: int) -> dict:
     counted = [k for k in clock.steps if not k.endswith("(optional)")]
     record["path_cpu_s"] = sum(clock.steps[k]["cpu_s"] for k in counted)
     record["path_wall_s"] = sum(clock.steps[k]["wall_s"] for k in counted)
-    import sklearn_hybrid
-    record["package"] = str(Path(sklearn_hybrid.__file__).parent)
-    record["package_commit"] = _commit_of(Path(sklearn_hybrid.__file__).parents[1])
-    record["machine"] = machine_description()
     return record
 
 
@@ -203,8 +227,9 @@ def run_all(paths, names, seeds, package, rerun) -> None:
                 record = json.loads(done.stdout.strip().splitlines()[-1])
                 out.parent.mkdir(parents=True, exist_ok=True)
                 out.write_text(json.dumps(record, indent=1, default=float) + "\n")
-                print(f"{path} {name} seed {seed}: {record['path_cpu_s']:.0f} CPU s, theta error "
-                      f"{record['theta_max_rel_err']:.3f}, added {record['added']}", flush=True)
+                print(f"{path} {name} seed {seed}: {record['path_cpu_s']:.0f} CPU s, "
+                      + (record["failed"] if "failed" in record else
+                         f"theta error {record['theta_max_rel_err']:.3f}, added {record['added']}"), flush=True)
 
 
 def _load() -> list[dict]:
@@ -229,6 +254,11 @@ def render() -> None:
              "|---" * 16 + "|"]
     for r in sorted(records, key=lambda r: (r["system"], r["seed"], r["path"])):
         s = r["steps"]
+        if "failed" in r:
+            fit = f"{s['fit']['cpu_s']:.0f}" if "fit" in s else f"{s['failed step']['cpu_s']:.0f} (failed)"
+            lines.append(f"| {r['path']} | {r['system']} | {r['seed']} | {fit} | | | **{r['path_cpu_s']:.0f}** | | | "
+                         f"failed {r['failed'][:200].replace('|', '/')} | | no | | | | {r['package_commit']} |")
+            continue
         prof = s.get("profile", s.get("profile (optional)", {})).get("cpu_s", float("nan"))
         iv = r["intervals"].values()
         share = r.get("network_share")
@@ -247,15 +277,16 @@ def render() -> None:
         if not rs:
             continue
         cost = [r["path_cpu_s"] for r in rs]
-        ident = [v for r in rs for v in r["intervals"].values() if v["identified"]]
+        ident = [v for r in rs for v in r.get("intervals", {}).values() if v["identified"]]
         ratio = [s.get("profile", s.get("profile (optional)", {})).get("cpu_s", np.nan) / s["fit"]["cpu_s"]
-                 for s in (r["steps"] for r in rs)]
-        lines.append(f"| {path} | {len(rs)} | {np.median(cost):.0f} | {max(cost):.0f} | "
-                     f"{sum(r['theta_within'] for r in rs)} of {len(rs)} | "
+                 for s in (r["steps"] for r in rs) if "fit" in s] or [np.nan]
+        failed = sum("failed" in r for r in rs)
+        lines.append(f"| {path} | {len(rs)}{f' ({failed} failed)' if failed else ''} | {np.median(cost):.0f} | "
+                     f"{max(cost):.0f} | {sum(r['theta_within'] for r in rs)} of {len(rs)} | "
                      f"{sum(v['holds'] for v in ident)} of {len(ident)} | "
                      f"{sum(len(r['confidently_wrong']) for r in rs)} | {np.nanmedian(ratio):.2f} |")
-    pairs = [(a, b) for a in records if a["path"] == "recommended" for b in records
-             if b["path"] == "today" and (b["system"], b["seed"]) == (a["system"], a["seed"])]
+    pairs = [(a, b) for a in records if a["path"] == "recommended" and "failed" not in a for b in records
+             if b["path"] == "today" and "failed" not in b and (b["system"], b["seed"]) == (a["system"], a["seed"])]
     if pairs:
         ratios = [b["path_cpu_s"] / a["path_cpu_s"] for a, b in pairs]
         lines += ["", f"Side by side on {len(pairs)} system(s) (same data and seeds, each path in a fresh process "
@@ -281,7 +312,7 @@ def main(argv=None):
     args = parser.parse_args(argv)
     if args.one:
         path, name, seed = args.one
-        print(json.dumps(run_one(path, name, int(seed)), default=float))
+        print(json.dumps(_provenance(run_one(path, name, int(seed))), default=float))
         return
     if args.render:
         render()

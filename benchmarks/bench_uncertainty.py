@@ -90,11 +90,9 @@ def run_loop(system, X, y, dt, repeat):
     from sklearn_hybrid.diagnosis import close_the_loop
 
     start = time.perf_counter()
-    # refit_params: the hybrid refit after the selection is not scored here, only the network-free model
     loop = close_the_loop(HybridRegressor(science=system.science, dt=dt, method="erm",
                                           theta_init=system.theta_init, random_state=repeat, **LOOP_FIT),
-                          X, y, state_names=system.state_names, units=system.units, random_state=repeat,
-                          refit_params={"max_iter": 1})
+                          X, y, state_names=system.state_names, units=system.units, random_state=repeat)
     ci = loop.intervals  # science_intervals of the network-free model, gated on the selection's open questions
     return {"theta": {k: loop.science_theta[k] for k in system.theta_true},
             "added": [f"{t['term']} [{t['output']}]" for t in loop.added],

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import itertools
 import math
 import numbers
@@ -293,7 +295,9 @@ class HybridRegressorCV(RegressorMixin, BaseEstimator):
                               for n in histories[0]["theta"]},
                     "diverged_at": np.array([h["diverged_at"] for h in histories])}
         method = first.method.for_members(rho=rho, lam=lam)
-        history, models = train_members([s.model for s in setups], method, first.inputs, first.y, first.config,
+        # every member trains max_iter steps, as the report says (no early stop of the stack)
+        config = dataclasses.replace(first.config, tol=None)
+        history, models = train_members([s.model for s in setups], method, first.inputs, first.y, config,
                                         [s.seed for s in setups], n_jobs=n_jobs, n_threads=threads)
         for setup, model in zip(setups, models):  # trained copies when they come from a worker
             setup.model = model

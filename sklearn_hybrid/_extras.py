@@ -267,7 +267,9 @@ class EstimatorExtras:
         stop = (f"stopped early: loss and theta changed by less than tol={fit['tol']} over "
                 f"{fit['n_iter_no_change']} iterations" if self.stopped_early_ else
                 "ran to max_iter")
-        lines = [f"science: {func}, structure: {fit['structure']}, method: {fit['method']}",
+        chosen = getattr(self, "n_substeps_", None) if fit.get("n_substeps") == "auto" else None
+        lines = [f"science: {func}, structure: {fit['structure']}, method: {fit['method']}"
+                 + (f", n_substeps: {chosen} (auto)" if chosen else ""),
                  f"iterations: {self.n_iter_} of max_iter={fit['max_iter']} ({stop})",
                  f"training loss (last iteration): {self.history_['loss'][-1]:.4g}"]
         layout = getattr(self.model_.structure, "layout", lambda: "")()
@@ -304,11 +306,36 @@ class EstimatorExtras:
         if subset:
             how += f"; from {subset[0]} of {subset[1]} samples, scaled to all (a short training)"
         if profile is None:
-            after = ["(whether the data identify theta, and an interval that holds the truth: "
-                     "est.fit_report(profile=profile_theta(est, X, y)), from sklearn_hybrid.identifiability)"]
+            after = first_screen(getattr(self, "network_share_", None))
         return format_report("Hybrid fit", lines, self.theta_, self.theta_std_, how,
                              std_label="noise-only standard error", extra=notes, verdicts=verdicts,
                              notes_after=after)
+
+
+#: The network's share of the prediction from which the first screen says that the science model leaves out
+#: part of the data (the share of noise that a network fits stays well under it).
+SCREEN_SHARE = 0.05
+
+
+def first_screen(share: float | None) -> list[str]:
+    """The report's lines on what the network's share of the prediction implies, and the next step.
+
+    Free (read from the fit): it never calls theta identified, it only says where to go, so that no
+    one pays for a step whose only answer is "go to the next one".
+    """
+    loop = ("close_the_loop(est, X, y) (sklearn_hybrid.diagnosis) names what the science misses and refits theta "
+            "without the network, with intervals; it reuses this fit")
+    profile = ("profile_theta(est, X, y) (sklearn_hybrid.identifiability) tells whether this hybrid's theta is "
+               "identified; pass it as fit_report(profile=...)")
+    if share is None:
+        return [f"(whether the data identify theta: {profile})"]
+    if share >= SCREEN_SHARE:
+        return [f"(first screen: the network makes {share:.1%} of the prediction, so the science model leaves out "
+                "part of these data, and the network may have taken over part of what theta does: theta above is "
+                f"not yet a measurement. Next: {loop}. Or: {profile})"]
+    return [f"(first screen: the network makes {share:.1%} of the prediction; the science model explains nearly "
+            f"all of the fit. Whether the data pin theta down: {profile}; or {loop}, which also checks that "
+            "nothing is missing)"]
 
 
 def _profile_verdicts(profile, names) -> tuple[dict | None, list[str]]:

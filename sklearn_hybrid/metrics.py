@@ -10,10 +10,31 @@ from sklearn.metrics import get_scorer
 
 from ._validation import check_target_layout
 
-__all__ = ["theta_error", "make_theta_scorer", "ThetaScorer", "make_flat_scorer", "FlatScorer",
+__all__ = ["network_share", "theta_error", "make_theta_scorer", "ThetaScorer", "make_flat_scorer", "FlatScorer",
            "make_per_sample_theta_scorer", "PerSampleThetaScorer"]
 
 _METRICS = ("rmse", "cosine")
+
+
+def network_share(y_hybrid, y_science) -> float:
+    """The network's share of a hybrid's prediction: ``RMS(y_hybrid - y_science) / RMS(y_hybrid)``.
+
+    How much of the prediction would change if the network were switched off (0: the science
+    alone makes it; near 1: the network does).
+
+    Parameters
+    ----------
+    y_hybrid, y_science : array-like of the same shape
+        Predictions of the hybrid and of its science part alone (``predict``, ``predict_science``).
+
+    Returns
+    -------
+    float
+    """
+    y_hybrid, y_science = np.asarray(y_hybrid, dtype=float), np.asarray(y_science, dtype=float)
+    if y_hybrid.shape != y_science.shape:
+        raise ValueError(f"y_hybrid has shape {y_hybrid.shape} and y_science {y_science.shape}; they must match.")
+    return float(np.sqrt(np.mean((y_hybrid - y_science) ** 2) / max(np.mean(y_hybrid ** 2), 1e-300)))
 
 
 def _stack(theta: Mapping, names, what: str) -> np.ndarray:

@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .metrics import network_share
+
 __all__ = ["plot_fit", "plot_profile"]
 
 
@@ -106,7 +108,7 @@ def plot_fit(estimator, X, y, *, samples=3, components=None, names=None, fig=Non
         if col == 0:
             main.legend(fontsize=7, loc="best")
     # the network's share of the prediction, over every sample given: how much of the fit is not science
-    share = np.sqrt(np.mean((hybrid - science) ** 2) / max(np.mean(hybrid ** 2), 1e-300))
+    share = network_share(hybrid, science)
     fig.suptitle(f"{type(estimator).__name__}: the network's share of the prediction, RMS {share:.1%}",
                  fontsize=10)
     return fig

@@ -320,7 +320,7 @@ def _announced(scorer: Callable | None) -> Callable | None:
 def run_case(name: str, fast: bool = False, method: str = "erm", max_iter: int | None = None,
              verbose: bool = False, progress: bool = False, n_jobs: int | None = None,
              cv: int | str | None = "auto", fit_initial_states: bool | None = None, grouped: bool | None = None,
-             **options) -> Bunch:
+             refit_hybrid: bool = True, **options) -> Bunch:
     """Run :func:`~sklearn_hybrid.diagnosis.close_the_loop` on a named case; return its result plus ``case``.
 
     Parameters
@@ -345,6 +345,10 @@ def run_case(name: str, fast: bool = False, method: str = "erm", max_iter: int |
         Judge the windows of a measured record by the non-overlapping stretch each starts in (the
         case's ``groups``, passed to ``close_the_loop(groups=...)``): overlapping windows count once.
         Default: the case's choice (on for the tanks and the free swing, whose windows overlap).
+    refit_hybrid : bool, default=True
+        Also refit the hybrid with the augmented science, so that the report compares the measured
+        record's error of the hybrid before and after (see
+        :func:`~sklearn_hybrid.diagnosis.close_the_loop`).
     **options
         Further keyword arguments of the case function (``data_home``, ``random_state``).
 
@@ -372,6 +376,6 @@ def run_case(name: str, fast: bool = False, method: str = "erm", max_iter: int |
                          theta_true=case.get("theta_true"), test_scorer=scorer, n_jobs=n_jobs,
                          evidence=Evidence(cv=cv, groups=case.groups if grouped else None),
                          fit_initial_states=case.get("fit_initial_states", False) if fit_initial_states is None
-                         else fit_initial_states, verbose=verbose)
+                         else fit_initial_states, refit_hybrid=refit_hybrid, verbose=verbose)
     out["case"] = case
     return out

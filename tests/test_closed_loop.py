@@ -87,7 +87,7 @@ def test_residual_diagnosis_adds_nothing_to_complete_science():
 def test_close_the_loop_pendulum(pendulum):
     data, est = pendulum
     out = close_the_loop(est, data.X_train, data.y_train, data.X_test, data.y_test, state_names=NAMES,
-                         param_names={"v_dot": "c_damping"}, refit_params={"max_iter": 300},
+                         param_names={"v_dot": "c_damping"}, refit_params={"max_iter": 300}, refit_hybrid=True,
                          theta_true={"omega": 2 / 3, "c_damping": -0.5})
     assert out.before is est and out.after is not None
     assert [(t["output"], t["term"]) for t in out.added] == [("g[v_dot]", "v_dot")]
@@ -123,7 +123,7 @@ def test_duffing_cubic_recovered():
     est = _fit(duffing_f, data.X_train, data.y_train, dt=float(data.dt), max_iter=500, lr=2e-2, zero_init=False)
     assert est.theta_["alpha"] < 0.6  # the network took over much of the linear stiffness
     out = close_the_loop(est, data.X_train, data.y_train, data.X_test, data.y_test, state_names=NAMES,
-                         param_names={"v^3": "beta"}, refit_params={"max_iter": 400},
+                         param_names={"v^3": "beta"}, refit_params={"max_iter": 400}, refit_hybrid=True,
                          theta_true={"alpha": 1.0, "beta": 1.0})
     assert [(t["output"], t["term"]) for t in out.added] == [("g[v_dot]", "v^3")]
     # Without the network, the least-squares refit gives the stiffness back to the science model.
@@ -175,7 +175,8 @@ def _static_estimator(max_iter=300):
 def test_static_additive_model():
     """Static structure: y = a p + g(p, q); the network's part is 0.5 q^2 plus a correction of a."""
     X, y = _static_data(lambda X: 0.5 * X[:, 1] ** 2)
-    out = close_the_loop(_static_estimator(), X, y, X, y, state_names=["p", "q"], refit_params={"max_iter": 300})
+    out = close_the_loop(_static_estimator(), X, y, X, y, state_names=["p", "q"], refit_params={"max_iter": 300},
+                         refit_hybrid=True)
     assert [t["term"] for t in out.added] == ["q^2"]
     before, after, alone = out.table
     assert after["theta"]["c_q2"] == pytest.approx(0.5, rel=0.1)
@@ -189,7 +190,7 @@ def test_static_additive_model():
 def test_knot_of_a_hinge_is_fitted():
     """A one-sided effect beyond a threshold: the hinge's knot is fitted, not taken from a grid."""
     X, y = _static_data(lambda X: 0.8 * np.maximum(0.0, X[:, 1] - 0.35))
-    out = close_the_loop(_static_estimator(), X, y, state_names=["p", "q"], refit_params={"max_iter": 50})
+    out = close_the_loop(_static_estimator(), X, y, state_names=["p", "q"])
     assert [(t["kind"], t["term"]) for t in out.added] == [("hinge", "max(0, q - knot)")]
     term = out.added[0]
     assert term["shape"]["knot"] == pytest.approx(0.35, abs=0.03)
@@ -214,7 +215,7 @@ def test_the_models_the_loop_returns_can_be_saved():
 
     X, y = _static_data(lambda X: 0.8 * np.maximum(0.0, X[:, 1] - 0.35))
     est = _static_estimator().set_params(science=_linear_law)
-    out = close_the_loop(est, X, y, state_names=["p", "q"], refit_params={"max_iter": 5})
+    out = close_the_loop(est, X, y, state_names=["p", "q"], refit_params={"max_iter": 5}, refit_hybrid=True)
     assert out.added and out.science.shape_names[0]
     for model in (out.after, out.science_only):
         restored = pickle.loads(pickle.dumps(model))
@@ -732,7 +733,7 @@ def test_scoring_in_a_worker_process_gives_the_same_table(pendulum):
         return {"test_mse": float(np.mean((fitted.predict(X_test) - data.y_test) ** 2))}
 
     runs = [close_the_loop(est, data.X_train, data.y_train, state_names=NAMES, refit_params={"max_iter": 20},
-                           test_scorer=scorer, n_jobs=n_jobs) for n_jobs in (1, 2)]
+                           refit_hybrid=True, test_scorer=scorer, n_jobs=n_jobs) for n_jobs in (1, 2)]
     assert [t["term"] for t in runs[1].added] == [t["term"] for t in runs[0].added] == ["v_dot"]
     for one, two in zip(*(run.table for run in runs)):
         assert one["stage"] == two["stage"]
@@ -744,7 +745,7 @@ def test_cross_validated_evidence_judges_every_sample(pendulum):
     """cv=K: each contiguous block is predicted by a refit without it; the damping is still the one
     term, judged on every sample, and the report says how."""
     data, est = pendulum
-    out = close_the_loop(est, data.X_train, data.y_train, state_names=NAMES, evidence=Evidence(cv=4), refit_params={"max_iter": 5})
+    out = close_the_loop(est, data.X_train, data.y_train, state_names=NAMES, evidence=Evidence(cv=4))
     assert [t["term"] for t in out.added] == ["v_dot"]
     assert f"all {len(data.y_train)} samples in 4 contiguous blocks" in out.report
     assert out.science_theta["c_v_dot"] == pytest.approx(-0.5, rel=0.1)
@@ -784,8 +785,7 @@ def test_grouped_evidence_counts_each_group_once(pendulum):
     data, est = pendulum
     n = len(data.y_train)
     groups = np.arange(n) // 2  # as if every two samples were overlapping windows of one stretch
-    out = close_the_loop(est, data.X_train, data.y_train, state_names=NAMES, evidence=Evidence(groups=groups),
-                         refit_params={"max_iter": 5})
+    out = close_the_loop(est, data.X_train, data.y_train, state_names=NAMES, evidence=Evidence(groups=groups))
     n_groups = round(0.25 * n / 2)
     assert f"mean squared error on {n_groups} validation groups (a group's samples judged together" in out.report
     assert f"{critical_value(3.0, n_groups):.2f} standard errors" in out.report
@@ -860,7 +860,7 @@ def test_close_the_loop_fits_unobserved_initial_states():
     est = HybridRegressor(science=pendulum_f, dt=0.1, n_substeps=1, observed=[0], method="erm", max_iter=30,
                           lr=1e-2, residual=MLPOn([1], hidden=(16,)))
     out = close_the_loop(est, X_wrong, y, state_names=NAMES, fit_initial_states=True,
-                         candidates=Candidates(kinds=["polynomial"], max_terms=1), refit_params={"max_iter": 5})
+                         candidates=Candidates(kinds=["polynomial"], max_terms=1))
     np.testing.assert_array_equal(X_wrong, X_given)
     assert [(t["output"], t["term"]) for t in out.added] == [("g[v_dot]", "v_dot")]
     assert out.added[0]["coef"] == pytest.approx(-0.5, rel=0.1)
@@ -982,7 +982,7 @@ def test_a_declared_sensor_offset_is_judged_like_a_term_and_fitted():
     est = HybridRegressor(science=_tank_f, dt=0.2, method="erm", max_iter=30, random_state=0)
     options = dict(state_names=["h"], units={"h": "m"}, offsets=["h"],
                    candidates=Candidates(kinds=["polynomial"], max_terms=2),
-                   refit_params={"max_iter": 5})
+                   refit_params={"max_iter": 5}, refit_hybrid=True)
     out = close_the_loop(est, X, y, **options)
     np.testing.assert_array_equal(X, X_given)
     assert [(t["output"], t["term"], t["kind"]) for t in out.added] == [("h", "offset(h)", "offset")]
@@ -1038,8 +1038,7 @@ def test_a_sensor_offset_on_a_feature_of_a_static_model():
     x = rng.uniform(0.3, 3, size=(200, 1))
     y = 0.7 * np.sqrt(x[:, 0]) + 0.005 * rng.standard_normal(200)
     est = HybridRegressor(science=_root_law, structure="additive", method="erm", max_iter=50, random_state=0)
-    out = close_the_loop(est, x + 0.25, y, state_names=["x"], offsets=["x"], candidates=Candidates(kinds=["polynomial"]),
-                         refit_params={"max_iter": 5})
+    out = close_the_loop(est, x + 0.25, y, state_names=["x"], offsets=["x"], candidates=Candidates(kinds=["polynomial"]))
     assert [t["term"] for t in out.added] == ["offset(x)"]
     assert out.science_theta["offset_x"] == pytest.approx(0.25, abs=0.01)
     assert out.science_theta["a"] == pytest.approx(0.7, rel=0.01)
@@ -1058,7 +1057,7 @@ def test_a_sensor_offset_with_fitted_unobserved_initial_states():
     est = HybridRegressor(science=pendulum_f, dt=0.1, n_substeps=1, observed=[0], method="erm", max_iter=30,
                           lr=1e-2, residual=MLPOn([1], hidden=(16,)))
     out = close_the_loop(est, X, y, state_names=NAMES, fit_initial_states=True, offsets=["v"],
-                         candidates=Candidates(kinds=["polynomial"], max_terms=2), refit_params={"max_iter": 5})
+                         candidates=Candidates(kinds=["polynomial"], max_terms=2))
     np.testing.assert_array_equal(X, X_given)
     first = {s["term"]: s for s in out.steps if s["step"] == 1}
     assert first["offset(v)"]["gain"] == pytest.approx(first["1"]["gain"], abs=0.02)  # alike at small angles

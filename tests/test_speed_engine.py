@@ -11,7 +11,7 @@ from sklearn_hybrid.integrate import fast as fast_rk4, kernels
 from sklearn_hybrid.datasets import make_duffing, make_pendulum
 from sklearn_hybrid.integrate import integrate
 from sklearn_hybrid.residual import MLP, ConvNet
-from sklearn_hybrid.models import pendulum_f
+from sklearn_hybrid.models import duffing_f, pendulum_f
 
 D = torch.float64
 
@@ -163,15 +163,19 @@ def test_science_mixing_samples_falls_back_to_autograd():
     assert fast.theta_["k"] == pytest.approx(slow.theta_["k"], rel=1e-12)
 
 
-@pytest.mark.parametrize("make, accel", [
-    (make_pendulum, lambda v, w: -(2 * np.pi * 2 / 3) ** 2 * torch.sin(v) - 0.5 * w),
-    (make_duffing, lambda v, w: -v + v ** 3)])
-def test_default_solver_step_keeps_integration_error_far_below_the_noise(make, accel):
-    """The default RK4 step (n_substeps) is not a speed trade: on the paper's ODE tasks its
-    error against the data generator's tight-tolerance solution is under a tenth of the noise."""
+@pytest.mark.parametrize("make, science, accel", [
+    (make_pendulum, pendulum_f, lambda v, w: -(2 * np.pi * 2 / 3) ** 2 * torch.sin(v) - 0.5 * w),
+    (make_duffing, duffing_f, lambda v, w: -v + v ** 3)])
+def test_default_solver_step_keeps_integration_error_far_below_the_noise(make, science, accel):
+    """The RK4 step that n_substeps="auto" (the default) chooses from the science model is not a speed
+    trade: on the paper's ODE tasks its error against the data generator's tight-tolerance solution
+    is under a tenth of the noise."""
     data = make(50, 1, 1, noise=0.0, random_state=0)
     default_noise = inspect.signature(make).parameters["noise"].default
-    n_substeps = HybridRegressor().n_substeps
+    fitted = HybridRegressor(science=science, dt=float(data.dt), max_iter=1, residual={"hidden": (8,)},
+                             random_state=0).fit(data.X_train, data.y_train)
+    n_substeps = fitted.n_substeps_
+    assert HybridRegressor().n_substeps == "auto" and n_substeps in (1, 2, 4, 8, 16)
 
     def true_rhs(v, u):
         return torch.stack([v[:, 1], accel(v[:, 0], v[:, 1])], dim=-1)

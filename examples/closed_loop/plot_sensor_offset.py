@@ -59,8 +59,7 @@ X, y = readings[:, 0], readings[:, 1:]
 # Close the loop with the gauge declared
 # --------------------------------------
 est = HybridRegressor(science=tank_f, dt=dt, method="erm", max_iter=20 if FAST else 200, random_state=0)
-out = close_the_loop(est, X, y, state_names=["h"], units={"h": "m"}, offsets=["h"],
-                     refit_params={"max_iter": 10 if FAST else 200})
+out = close_the_loop(est, X, y, state_names=["h"], units={"h": "m"}, offsets=["h"])
 print(out.report)
 print({k: round(v, 3) for k, v in out.science_theta.items()})
 

@@ -47,16 +47,18 @@ def fitted_problem(estimator, X, y) -> Bunch:
                  n_samples=len(X))
 
 
-def member_config(fit: dict, max_iter: int, lr: float | None, verbose: bool) -> TrainConfig:
-    """The fit's optimisation settings for ``max_iter`` iterations of every member (no early stopping:
-    the members share one optimiser)."""
+def member_config(fit: dict, max_iter: int, lr: float | None, verbose: bool, stop_early: bool = False) -> TrainConfig:
+    """The fit's optimisation settings for at most ``max_iter`` iterations of every member; with
+    ``stop_early``, the fit's stopping rule (``tol``, ``n_iter_no_change``) ends the stacked training once
+    every member meets it."""
     if not (isinstance(max_iter, numbers.Integral) and not isinstance(max_iter, bool) and max_iter > 0):
         raise ValueError(f"max_iter must be a positive integer, got {max_iter!r}.")
     if lr is not None and not (isinstance(lr, numbers.Real) and 0 < lr < math.inf):
         raise ValueError(f"lr must be a positive number or None, got {lr!r}.")
     return TrainConfig(lr=lr or fit["lr"], lr_theta=None if lr else fit["lr_theta"], max_iter=int(max_iter),
                        batch_size=fit["batch_size"], weight_decay=fit["weight_decay"], perturb=fit["perturb"],
-                       verbose=verbose, tol=None)
+                       verbose=verbose, tol=fit["tol"] if stop_early else None,
+                       n_iter_no_change=fit["n_iter_no_change"])
 
 
 def parameter_entries(science, params) -> list[tuple[str, int, str]]:

@@ -26,6 +26,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import stats
 
+from ..training.engine import DivergenceError
 from ..training.stacked import evaluate_members, train_members
 from ..methods import ERM
 from .._validation import check_n_jobs, torch_threads
@@ -72,6 +73,13 @@ class ThetaProfile:
     objective_minimum : dict of str to float
         Where the method's objective is lowest along the profile: the value of
         theta the regulariser prefers (with ``objective=True``).
+    n_iter : int
+        Iterations the members trained (every member of a round trains until
+        all of them meet the fit's stopping rule, at most the fit's own count).
+    dropped : dict of str to list of float
+        Values whose member diverged in training: left out of the profile (a
+        diverged member says nothing of how well the data fit there), and said
+        in the report.
     """
 
     estimate: dict
@@ -87,6 +95,7 @@ class ThetaProfile:
     intervals: dict = field(default_factory=dict)
     verdicts: dict = field(default_factory=dict)
     objective_minimum: dict = field(default_factory=dict)
+    dropped: dict = field(default_factory=dict)
 
     def verdict_text(self, label: str) -> str:
         """What the profile says of one entry, in words, with its interval where identified."""
@@ -116,8 +125,12 @@ class ThetaProfile:
 
     def how(self) -> str:
         """How the profiles were made, in one line."""
+        dropped = sum(len(v) for v in self.dropped.values())
         return (f"{100 * self.level:.0f} %, F-test on {self.n_samples} samples; at each value the other parameters "
-                f"and the network re-trained from the fit on the plain loss, {self.n_iter} iterations")
+                f"and the network re-trained from the fit on the plain loss, {self.n_iter} iterations"
+                + (f"; {dropped} value(s) left out, their training diverged: "
+                   + ", ".join(f"{k} at {[float(f'{v:.5g}') for v in vs]}" for k, vs in self.dropped.items() if vs)
+                   if dropped else ""))
 
     def __str__(self) -> str:
         return self.report()
@@ -157,10 +170,12 @@ def profile_theta(estimator, X, y, params=None, *, grid=None, span=0.5, n_points
     level : float, default=0.95
         Confidence level of the intervals.
     max_iter : int, optional
-        Iterations of every member from the fit (default: as many as the fit
-        took, ``n_iter_``: each point of the profile gets the training the
-        estimate got; the network can take over more of a parameter the
-        longer it trains, so a shorter profile reads narrower).
+        Most iterations of every member from the fit (default: as many as the
+        fit took, ``n_iter_``: no point of the profile gets more training
+        than the estimate got).  The members of a round stop together once
+        every one meets the fit's stopping rule (``tol`` over
+        ``n_iter_no_change`` iterations, on its loss and theta): warm-started
+        from the fit, they settle sooner than the fit did.
     lr : float, optional
         Learning rate of the members (default: the fit's ``lr`` and ``lr_theta``).
     refine : bool, default=True
@@ -192,7 +207,8 @@ def profile_theta(estimator, X, y, params=None, *, grid=None, span=0.5, n_points
     problem = fitted_problem(estimator, X, y)
     science = problem.model.science
     entries = parameter_entries(science, params)
-    config = member_config(problem.fit, estimator.n_iter_ if max_iter is None else max_iter, lr, verbose)
+    config = member_config(problem.fit, estimator.n_iter_ if max_iter is None else max_iter, lr, verbose,
+                           stop_early=True)
     grids = _grids(science, entries, grid, span, n_points)
     n_free = sum(int(np.prod(science.shapes[n])) for n in science.names if science.raw[n].requires_grad)
     dof = problem.n_samples - n_free
@@ -203,19 +219,32 @@ def profile_theta(estimator, X, y, params=None, *, grid=None, span=0.5, n_points
     plain = ERM()  # what the data alone allow: every member minimises the plain loss
     points = [(label, name, k, v) for name, k, label in entries for v in grids[label]]
     found, free = _train_points(problem, plain, points, config, n_jobs, n_threads, with_free=True)
-    for name, k, label in entries:  # the free member is a point of every profile, at its own theta
-        found[label].append((free["theta"][name][k], free["loss"]))
+    if np.isfinite(free["loss"]):
+        for name, k, label in entries:  # the free member is a point of every profile, at its own theta
+            found[label].append((free["theta"][name][k], free["loss"]))
+    n_iter = free["n_iter"]
     threshold_of = lambda best: best * (1 + stats.f.ppf(level, 1, dof) / dof)  # noqa: E731
     if refine:
         best = min(p[1] for rows in found.values() for p in rows)
         extra = [(label, name, k, v) for name, k, label in entries
                  for v in _refinement(found[label], threshold_of(best))]
         if extra:
-            for label, rows in _train_points(problem, plain, extra, config, n_jobs, n_threads)[0].items():
+            more, second = _train_points(problem, plain, extra, config, n_jobs, n_threads)
+            n_iter = max(n_iter, second["n_iter"])
+            for label, rows in more.items():
                 found[label] += rows
+    dropped = {label: sorted(v for v, loss in rows if not np.isfinite(loss)) for label, rows in found.items()}
+    found = {label: [(v, loss) for v, loss in rows if np.isfinite(loss)] for label, rows in found.items()}
+    short = [label for label, rows in found.items() if len(rows) < 3]
+    if short:
+        raise DivergenceError(
+            f"The profile of {short} has fewer than 3 values whose training did not diverge (left out: "
+            f"{ {k: dropped[k] for k in short} }): no interval can be read from it. Profile with a lower lr "
+            "(profile_theta(..., lr=...)) or a narrower span.")
     best = float(min(p[1] for rows in found.values() for p in rows))
     out = ThetaProfile(estimate={}, values={}, loss={}, objective={}, threshold=threshold_of(best), best_loss=best,
-                       level=level, n_samples=problem.n_samples, n_iter=config.max_iter, method=problem.method.name)
+                       level=level, n_samples=problem.n_samples, n_iter=int(n_iter), method=problem.method.name,
+                       dropped={k: v for k, v in dropped.items() if v})
     for name, k, label in entries:
         values, loss = (np.array(c) for c in zip(*sorted(found[label])))
         out.estimate[label] = float(entry_values(science, name)[k])
@@ -235,8 +264,9 @@ def _train_points(problem, method, points, config, n_jobs, n_threads, with_free=
     held at ``value``, warm-started from the fit (and, ``with_free``, one member that holds nothing).
 
     Returns ``{label: [(value, loss), ...]}`` (the data loss, or with ``objective`` the method's
-    objective) and the free member's ``theta`` (name -> flat values) and ``loss`` (None without
-    it).  A member whose training diverged has an infinite loss.
+    objective) and a dict: the free member's ``theta`` (name -> flat values) and ``loss`` (None
+    without it), and ``n_iter``, the iterations the round trained.  A member whose training diverged
+    has an infinite loss.
     """
     science = problem.model.science
     models = [copy.deepcopy(problem.model)] if with_free else []
@@ -258,9 +288,9 @@ def _train_points(problem, method, points, config, n_jobs, n_threads, with_free=
     found = {}
     for i, (label, name, k, v) in enumerate(points):
         found.setdefault(label, []).append((float(v), float(loss[offset + i])))
-    free = None
+    free = {"theta": None, "loss": None, "n_iter": int(history["n_iter"])}
     if with_free:
-        free = {"theta": {n: entry_values(models[0].science, n) for n in science.names}, "loss": float(loss[0])}
+        free.update(theta={n: entry_values(models[0].science, n) for n in science.names}, loss=float(loss[0]))
     return found, free
 
 

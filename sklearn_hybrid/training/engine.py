@@ -20,7 +20,7 @@ from torch import nn
 from ..integrate import fast
 from .stopping import EarlyStopping, SpikeGuard
 
-__all__ = ["TrainConfig", "train", "DivergenceError", "data_loss", "make_optimizer", "step_gradients", "progress_bar",
+__all__ = ["TrainConfig", "train", "run_steps", "STEP", "SKIP", "STOP", "DivergenceError", "data_loss", "make_optimizer", "step_gradients", "progress_bar",
            "gradients_at_perturbed", "MiniBatches",
            "explain_nonfinite", "cosine_lr", "theta_drift"]
 
@@ -236,7 +236,7 @@ def explain_nonfinite(model: nn.Module, inputs: tuple[torch.Tensor, ...]) -> str
     return None
 
 
-def _loss_and_grads(model, method, inputs, y, params, weight=None):
+def _loss_and_grads(model, method, inputs, y, weight, params):
     pred, extras = model(*inputs)
     loss = data_loss(pred, y, weight) + method.penalty(model, pred, extras, weight)
     grads = torch.autograd.grad(loss, params, allow_unused=True)
@@ -258,6 +258,112 @@ class MiniBatches:
         idx = self.order[self.pos:self.pos + self.size]
         self.pos += self.size
         return idx
+
+
+#: What a watcher tells the loop after the first gradient of an iteration: take the step, skip it (the
+#: watcher undid something), or end the training.
+STEP, SKIP, STOP = "step", "skip", "stop"
+
+
+def run_steps(method, config: TrainConfig, optimizer, scheduler, params: list, perturbed: list, is_weight: list,
+              next_batch, loss_and_grads, watch, n_batch_dims: int = 0, desc: str | None = None,
+              at_perturbed=None) -> int:
+    """The loop body of every training: a single fit and the stacked members of sweeps, profiles and the
+    bootstrap.
+
+    Each iteration takes a batch (``next_batch()``), the loss and the gradients at the current point
+    (``loss_and_grads(batch, wrt)``, of the perturbed tensors alone for the SAM family), asks the
+    watcher (``watch.check(it, loss, batch)``: :data:`STEP`, :data:`SKIP` or :data:`STOP`), takes the
+    method's gradients (:func:`step_gradients`; the second pass by ``at_perturbed(batch)``), lets the
+    watcher mask them (``watch.masked(grads)``), steps the optimiser and the schedule, and asks the
+    watcher whether to stop (``watch.stepped(it, loss, rate)``, ``rate`` theta's learning rate of the
+    step).  The watcher keeps the records, the guards and the stopping rules; ``watch.bar`` is the
+    progress bar.
+
+    Returns
+    -------
+    int
+        The iterations run.
+    """
+    if at_perturbed is None:
+        def at_perturbed(batch):
+            return loss_and_grads(batch, params)
+    bar = progress_bar(config.max_iter, config.verbose, desc or method.name)
+    watch.bar = bar
+    n_iter = config.max_iter
+    try:
+        for it in bar:
+            rate = optimizer.param_groups[0]["lr"]  # theta's, for theta_drift
+            batch = next_batch()
+            # the SAM family needs only the perturbed tensors' gradients at the first point
+            loss, grads = loss_and_grads(batch, perturbed if method.perturbs else params)
+            action = watch.check(it, loss, batch)
+            if action == SKIP:
+                scheduler.step()
+                continue
+            if action == STOP:
+                n_iter = it + 1
+                break
+            grads = step_gradients(method, perturbed, grads, is_weight, lambda: at_perturbed(batch),
+                                   n_batch_dims=n_batch_dims)
+            grads = watch.masked(grads)
+            for p, g in zip(params, grads):
+                p.grad = g
+            optimizer.step()
+            scheduler.step()
+            if watch.stepped(it, loss, rate):
+                n_iter = it + 1
+                break
+    finally:
+        bar.close()
+    return n_iter
+
+
+class _FitWatch:
+    """A single fit's watcher: the records, the spike guard, divergence and early stopping."""
+
+    def __init__(self, model, config, optimizer, scheduler, y, validation):
+        self.model, self.config = model, config
+        self.names = model.science.names
+        self.losses, self.lr_theta = np.empty(config.max_iter), np.empty(config.max_iter)
+        self.thetas = {n: np.empty((config.max_iter, *model.science.shapes[n])) for n in self.names}
+        self.stopper = _make_stopper(model, config, y, validation)
+        self.guard = SpikeGuard(model, optimizer, scheduler)
+        self.bar = None
+
+    def record(self, it, loss_value, rate):
+        self.losses[it], self.lr_theta[it] = loss_value, rate
+        with torch.no_grad():
+            for n, v in self.model.theta_values().items():
+                self.thetas[n][it] = v.cpu().numpy()
+
+    def check(self, it, loss, batch):
+        loss_value = self.loss_value = float(loss)
+        guard = self.guard
+        if guard.is_spike(loss_value):
+            if guard.roll_back(it):  # no step this iteration; it records the loss level it returned to
+                self.record(it, guard.reference if guard.recent else loss_value, 0.0)
+                return SKIP
+            if not np.isfinite(loss_value):
+                cause = explain_nonfinite(self.model, batch[0])
+                raise DivergenceError(
+                    f"The training loss became {loss_value} at iteration {it}"
+                    + (f" (after halving the learning rates {len(guard.halved_at)} times)"
+                       if guard.halved_at else "") + ". " + (cause or (
+                        "Lower lr or rho, check the data scale, or bound theta with theta_bounds.")))
+        guard.accept(it, loss_value)  # out of halvings, a finite spike is trained through
+        return STEP
+
+    def masked(self, grads):
+        return grads
+
+    def stepped(self, it, loss, rate) -> bool:
+        self.record(it, self.loss_value, rate)
+        if self.config.verbose and (it % 25 == 0 or it == self.config.max_iter - 1):
+            self.bar.set_postfix(refresh=False, loss=f"{self.loss_value:.3g}", **{  # a refresh would skip the delay
+                n: np.array2string(self.thetas[n][it], precision=4) for n in self.names})
+        return self.stopper is not None and self.stopper.should_stop(
+            it, self.losses, np.concatenate([self.thetas[n][it].ravel() for n in self.names]))
 
 
 def train(model: nn.Module, method, inputs: tuple[torch.Tensor, ...], y: torch.Tensor,
@@ -320,70 +426,32 @@ def train(model: nn.Module, method, inputs: tuple[torch.Tensor, ...], y: torch.T
 
     optimizer, scheduler = make_optimizer(theta, phi + extra, config)
     batches = MiniBatches(len(y), config.batch_size, generator)
-    names = model.science.names
-    losses = np.empty(config.max_iter)
-    thetas = {n: np.empty((config.max_iter, *model.science.shapes[n])) for n in names}
+    watch = _FitWatch(model, config, optimizer, scheduler, y, validation)
 
-    stopper = _make_stopper(model, config, y, validation)
-    guard = SpikeGuard(model, optimizer, scheduler)
-    lr_theta = np.empty(config.max_iter)
-
-    def _record(it, loss_value, rate):
-        losses[it], lr_theta[it] = loss_value, rate
-        with torch.no_grad():
-            for n, v in model.theta_values().items():
-                thetas[n][it] = v.cpu().numpy()
-    n_iter = config.max_iter
-    bar = progress_bar(config.max_iter, config.verbose, method.name)
-    model.train()
-    for it in bar:
-        rate = optimizer.param_groups[0]["lr"]  # theta's, for theta_drift
+    def next_batch():
         idx = batches.next()
-        xb = inputs if idx is None else tuple(t[idx] for t in inputs)
-        yb = y if idx is None else y[idx]
-        wb = sample_weight if idx is None or sample_weight is None else sample_weight[idx]
-        # the SAM family needs only the perturbed tensors' gradients at the first point
-        loss, grads = _loss_and_grads(model, method, xb, yb, perturbed if method.perturbs else params,
-                                      wb)
-        loss_value = float(loss)
-        if guard.is_spike(loss_value):
-            if guard.roll_back(it):  # no step this iteration; it records the loss level it returned to
-                _record(it, guard.reference if guard.recent else loss_value, 0.0)
-                scheduler.step()
-                continue
-            if not np.isfinite(loss_value):
-                cause = explain_nonfinite(model, xb)
-                raise DivergenceError(
-                    f"The training loss became {loss_value} at iteration {it}"
-                    + (f" (after halving the learning rates {len(guard.halved_at)} times)"
-                       if guard.halved_at else "") + ". " + (cause or (
-                        "Lower lr or rho, check the data scale, or bound theta with theta_bounds.")))
-        guard.accept(it, loss_value)  # out of halvings, a finite spike is trained through
-        def at_perturbed():
-            with _frozen_batchnorm_stats(model):
-                return _loss_and_grads(model, method, xb, yb, params, wb)
+        if idx is None:
+            return inputs, y, sample_weight
+        return (tuple(t[idx] for t in inputs), y[idx],
+                None if sample_weight is None else sample_weight[idx])
 
-        grads = step_gradients(method, perturbed, grads, is_weight, at_perturbed)
-        for p, g in zip(params, grads):
-            p.grad = g
-        optimizer.step()
-        scheduler.step()
-        _record(it, loss_value, rate)
-        if config.verbose and (it % 25 == 0 or it == config.max_iter - 1):
-            bar.set_postfix(refresh=False, loss=f"{loss_value:.3g}", **{  # a refresh would skip the delay
-                n: np.array2string(thetas[n][it], precision=4) for n in names})
-        if stopper is not None and stopper.should_stop(
-                it, losses, np.concatenate([thetas[n][it].ravel() for n in names])):
-            n_iter = it + 1
-            break
-    bar.close()
+    def loss_and_grads(batch, wrt):
+        return _loss_and_grads(model, method, *batch, wrt)
+
+    def at_perturbed(batch):
+        with _frozen_batchnorm_stats(model):
+            return _loss_and_grads(model, method, *batch, params)
+
+    model.train()
+    n_iter = run_steps(method, config, optimizer, scheduler, params, perturbed, is_weight, next_batch,
+                       loss_and_grads, watch, at_perturbed=at_perturbed)
     if not all(torch.isfinite(p).all() for p in params):
         raise DivergenceError(f"A parameter became NaN or infinite at iteration {n_iter - 1}.")
-    history = {"loss": losses[:n_iter], "theta": {n: v[:n_iter] for n, v in thetas.items()},
+    history = {"loss": watch.losses[:n_iter], "theta": {n: v[:n_iter] for n, v in watch.thetas.items()},
                "n_iter": n_iter, "stopped_early": n_iter < config.max_iter,
-               "lr_theta": lr_theta[:n_iter], "lr_halved_at": list(guard.halved_at)}
-    if stopper is not None and validation is not None:
-        history["validation_loss"] = np.array(stopper.validation_history)
+               "lr_theta": watch.lr_theta[:n_iter], "lr_halved_at": list(watch.guard.halved_at)}
+    if watch.stopper is not None and validation is not None:
+        history["validation_loss"] = np.array(watch.stopper.validation_history)
     return history
 
 

@@ -20,6 +20,8 @@ gain nothing from stacking).
 
 from __future__ import annotations
 
+from collections import deque
+
 import numpy as np
 import torch
 from torch import nn
@@ -29,8 +31,8 @@ from joblib import Parallel, delayed
 from ..integrate import fast
 from ..integrate.kernels import reusing_buffers
 from .._validation import torch_threads
-from .engine import (TrainConfig, MiniBatches, gradients_at_perturbed, make_optimizer, progress_bar,
-                     step_gradients)
+from .engine import STEP, STOP, TrainConfig, MiniBatches, gradients_at_perturbed, make_optimizer, run_steps
+from .stopping import SPIKE_FACTOR, SPIKE_WINDOW, EarlyStopping
 
 __all__ = ["train_batched", "train_members", "evaluate_members"]
 
@@ -160,11 +162,15 @@ def train_batched(models: list, method, inputs: tuple, y: torch.Tensor, config: 
     Returns
     -------
     dict
-        ``"loss"``: (max_iter, K) the training objective; ``"theta"``: name ->
-        (max_iter, K, ...); ``"diverged_at"``: (K,) first iteration with a
-        non-finite loss, or -1.  A diverged member's values go on as NaN
-        without touching the others; training stops early when every member
-        has diverged.
+        ``"loss"``: (n_iter, K) the training objective; ``"theta"``: name ->
+        (n_iter, K, ...); ``"diverged_at"``: (K,) first iteration with a
+        non-finite loss, or -1; ``"n_iter"``.  A diverged member's values go
+        on as NaN without touching the others.  Training stops early when
+        every member has diverged, and, with ``config.tol`` set, once every
+        member that has not diverged meets the single fit's stopping rule
+        (:class:`~sklearn_hybrid.training.stopping.EarlyStopping` on its own
+        loss and theta): a member warm-started from a fit settles long
+        before the fit's budget.
     """
     _check_stackable(method)
     K = len(models)
@@ -174,53 +180,97 @@ def train_batched(models: list, method, inputs: tuple, y: torch.Tensor, config: 
 
     optimizer, scheduler = make_optimizer(theta, phi, config)
     batches = [MiniBatches(len(y), config.batch_size, g) for g in generators]
-    science = stacked.base.science
-    losses = np.empty((config.max_iter, K))
-    thetas = {n: np.empty((config.max_iter, K, *science.shapes[n])) for n in science.names}
-    diverged = np.full(K, -1)
     weight = None if sample_weight is None else torch.as_tensor(sample_weight, dtype=y.dtype, device=y.device)
     full = tuple(t.expand(K, *t.shape) for t in inputs), y.expand(K, *y.shape), weight
+    watch = _MembersWatch(stacked, config, y, masks, K)
 
-    def loss_and_grads(xb, yb, wb, wrt):
+    def next_batch():
+        idx = [b.next() for b in batches]
+        if idx[0] is None:
+            return full
+        idx = torch.stack(idx)
+        return (tuple(t[idx] for t in inputs), y[idx],
+                None if weight is None else torch.gather(weight, 1, idx))
+
+    def loss_and_grads(batch, wrt):
+        xb, yb, wb = batch
         loss = _member_loss(stacked.predictions(xb), yb, wb) + method.parameter_penalty(phi, n_batch_dims=1)
         grads = torch.autograd.grad(loss.sum(), wrt, allow_unused=True)
         return loss.detach(), [torch.zeros_like(p) if g is None else g for p, g in zip(wrt, grads)]
 
-    bar = progress_bar(config.max_iter, config.verbose, f"{K} members")
-    for it in bar:
-        idx = [b.next() for b in batches]
-        if idx[0] is None:
-            xb, yb, wb = full
-        else:
-            idx = torch.stack(idx)
-            xb, yb = tuple(t[idx] for t in inputs), y[idx]
-            wb = None if weight is None else torch.gather(weight, 1, idx)
-        # the SAM family needs only the perturbed tensors' gradients at the first point
-        loss, grads = loss_and_grads(xb, yb, wb, perturbed if method.perturbs else params)
-        bad = ~torch.isfinite(loss).numpy() & (diverged < 0)
-        diverged[bad] = it
-        if (diverged >= 0).all():  # nothing left to train
-            losses[it:], thetas = np.nan, {n: np.full_like(v, np.nan) for n, v in thetas.items()}
-            break
-        grads = step_gradients(method, perturbed, grads, is_weight,
-                               lambda: loss_and_grads(xb, yb, wb, params), n_batch_dims=1)
-        for i, mask in masks.items():  # held entries: no gradient, so Adam leaves them exactly
-            grads[i] = grads[i] * mask
-        for p, g in zip(params, grads):
-            p.grad = g
-        optimizer.step()
-        scheduler.step()
-        losses[it] = loss.numpy()
-        with torch.no_grad():
-            for n in science.names:
-                thetas[n][it] = science.transforms[n](stacked.params[f"science.raw.{n}"]).numpy()
-    bar.close()
+    n_iter = run_steps(method, config, optimizer, scheduler, params, perturbed, is_weight, next_batch,
+                       loss_and_grads, watch, n_batch_dims=1, desc=f"{K} members")
 
     with torch.no_grad():  # hand each member its slice
         for k, model in enumerate(models):
             for name, p in model.named_parameters():
                 p.copy_(stacked.params[name][k])
-    return {"loss": losses, "theta": thetas, "diverged_at": diverged}
+    return {"loss": watch.losses[:n_iter], "theta": {n: v[:n_iter] for n, v in watch.thetas.items()},
+            "diverged_at": watch.diverged, "n_iter": n_iter}
+
+
+class _MembersWatch:
+    """The stacked members' watcher: records, divergence and loss spikes per member, held entries, early stopping.
+
+    A member whose loss becomes non-finite, or leaps above ``SPIKE_FACTOR`` times the median of its last
+    ``SPIKE_WINDOW`` losses, is marked diverged at that iteration (``diverged_at``): a single fit would
+    roll back and halve its learning rates, which the members' shared optimiser cannot do for one of
+    them, so its result is refused rather than used (a profile leaves its value out, a sweep and the
+    bootstrap skip it).  Its values go on without touching the others; training ends when every member
+    has diverged, or, with ``config.tol``, once every other member meets the fit's stopping rule.
+    """
+
+    def __init__(self, stacked, config, y, masks, K):
+        self.stacked, self.masks = stacked, masks
+        science = stacked.base.science
+        self.science = science
+        self.losses = np.empty((config.max_iter, K))
+        self.thetas = {n: np.empty((config.max_iter, K, *science.shapes[n])) for n in science.names}
+        self.diverged = np.full(K, -1)
+        self.recent = deque(maxlen=SPIKE_WINDOW)
+        scale = float(y.reshape(len(y), -1).var(0, unbiased=False).mean()) if len(y) > 1 else 1.0
+        self.stoppers = None if config.tol is None else [
+            EarlyStopping(config.tol, config.n_iter_no_change, scale) for _ in range(K)]
+        self.bar = None
+
+    def check(self, it, loss, batch):
+        values = loss.numpy()
+        bad = ~np.isfinite(values)
+        if len(self.recent) == SPIKE_WINDOW:
+            with np.errstate(invalid="ignore"):
+                bad |= values > SPIKE_FACTOR * np.median(np.array(self.recent), axis=0)
+        self.diverged[bad & (self.diverged < 0)] = it
+        if (self.diverged >= 0).all():  # nothing left to train
+            self.losses[it:] = np.nan
+            for v in self.thetas.values():
+                v[it:] = np.nan
+            return STOP
+        self.recent.append(values)
+        self.values = values
+        return STEP
+
+    def masked(self, grads):
+        for i, mask in self.masks.items():  # held entries: no gradient, so Adam leaves them exactly
+            grads[i] = grads[i] * mask
+        return grads
+
+    def stepped(self, it, loss, rate) -> bool:
+        self.losses[it] = self.values
+        with torch.no_grad():
+            for n in self.science.names:
+                self.thetas[n][it] = self.science.transforms[n](self.stacked.params[f"science.raw.{n}"]).numpy()
+        return self.stoppers is not None and _all_settled(self.stoppers, it, self.losses, self.thetas,
+                                                           self.diverged)
+
+
+def _all_settled(stoppers, it, losses, thetas, diverged) -> bool:
+    """Every member's stopping rule asked at once (each keeps its own windows); diverged members do not wait."""
+    settled = True
+    for k, stopper in enumerate(stoppers):
+        theta = np.concatenate([v[:it + 1, k].reshape(it + 1, -1)[-1] for v in thetas.values()])
+        stops = stopper.should_stop(it, losses[:, k], theta)
+        settled &= bool(stops or diverged[k] >= 0)
+    return settled
 
 
 def evaluate_members(models: list, method, inputs: tuple, y: torch.Tensor, config: TrainConfig,
@@ -302,8 +352,13 @@ def train_members(models: list, method, inputs: tuple, y: torch.Tensor, config: 
                 n_threads, weight, masks)
 
     parts = Parallel(n_jobs=len(groups))(delayed(_train_group)(*part(g)) for g in groups)
-    history = {"loss": np.concatenate([h["loss"] for h, _ in parts], axis=1),
-               "theta": {n: np.concatenate([h["theta"][n] for h, _ in parts], axis=1)
+    n_iter = max(h["n_iter"] for h, _ in parts)  # groups that settled sooner stopped sooner: their last row held
+
+    def held(a):
+        return np.concatenate([a, np.repeat(a[-1:], n_iter - len(a), axis=0)]) if len(a) < n_iter else a
+
+    history = {"loss": np.concatenate([held(h["loss"]) for h, _ in parts], axis=1),
+               "theta": {n: np.concatenate([held(h["theta"][n]) for h, _ in parts], axis=1)
                          for n in parts[0][0]["theta"]},
-               "diverged_at": np.concatenate([h["diverged_at"] for h, _ in parts])}
+               "diverged_at": np.concatenate([h["diverged_at"] for h, _ in parts]), "n_iter": n_iter}
     return history, [m for _, group_models in parts for m in group_models]

@@ -11,7 +11,11 @@ from collections import deque
 
 import numpy as np
 
-__all__ = ["EarlyStopping", "SpikeGuard"]
+__all__ = ["EarlyStopping", "SpikeGuard", "SPIKE_FACTOR", "SPIKE_WINDOW"]
+
+#: A loss above this many times the median of the last ``SPIKE_WINDOW`` accepted losses is a spike.
+SPIKE_FACTOR = 10.0
+SPIKE_WINDOW = 25
 
 
 class EarlyStopping:
@@ -83,9 +87,9 @@ class SpikeGuard:
     ``every`` accepted losses, is a spike: the copy is restored and every
     learning rate is halved (the cosine schedule goes on from the halved
     rates).  After ``max_halvings`` halvings a spike is a divergence.  The
-    stacked engine of sweeps (``stacked.py``) shares one optimiser among its
-    members and has no guard: a member that diverges there is reported as
-    diverged, and a single fit of that configuration can be tried instead.
+    stacked members of sweeps, profiles and the bootstrap (``stacked.py``)
+    share one optimiser, whose rates cannot be halved for one of them: the
+    same test marks a member diverged there, and its result is refused.
 
     Parameters
     ----------
@@ -102,7 +106,7 @@ class SpikeGuard:
         Halvings allowed before :meth:`roll_back` reports failure.
     """
 
-    def __init__(self, model, optimizer, scheduler, factor: float = 10.0, every: int = 25,
+    def __init__(self, model, optimizer, scheduler, factor: float = SPIKE_FACTOR, every: int = SPIKE_WINDOW,
                  max_halvings: int = 5):
         self.model, self.optimizer, self.scheduler = model, optimizer, scheduler
         self.factor, self.every, self.max_halvings = float(factor), int(every), int(max_halvings)

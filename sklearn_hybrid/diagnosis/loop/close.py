@@ -129,8 +129,8 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
                    fit_initial_states: bool = False,
                    param_names: Mapping[str, str] | None = None,
                    refit_params: Mapping[str, Any] | None = None, theta_true: Mapping[str, Any] | None = None,
-                   test_scorer: Callable | None = None, n_jobs: int | None = None, random_state: Any = 0,
-                   verbose: bool = False) -> LoopResult:
+                   test_scorer: Callable | None = None, refit_hybrid: bool = False, n_jobs: int | None = None,
+                   random_state: Any = 0, verbose: bool = False) -> LoopResult:
     """Fit, find the residual, add the missing terms that held-out data support, refit, compare.
 
     1. The hybrid model is fitted (unless it already is). With exact components (below) and the
@@ -156,8 +156,10 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
        judged the same way on ``second_look`` folds of the training samples.
        This repeats from the augmented model until no candidate passes, so the augmented science
        never validates worse than the original.
-    4. The hybrid is refitted with the augmented science (``after``); the network-free model is
-       reported beside it (``science_only``).
+    4. The augmented science is refitted without the network on every sample (``science_only``, the
+       model an engineer keeps, with its parameters' intervals). With ``refit_hybrid=True`` the
+       hybrid is also trained again with the augmented science (``after``), a full second training,
+       for a report row that shows what the network still adds.
 
     Parameters
     ----------
@@ -209,6 +211,10 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         Known parameter values for the theta error (max relative error).
     test_scorer : callable, optional
         ``test_scorer(estimator) -> dict`` of named metrics, used instead of the default metrics.
+    refit_hybrid : bool, default=False
+        Also train the hybrid again with the augmented science (the ``after`` row): as long as the
+        first training, and not needed for the answer (the network-free model and its intervals).
+        ``refit_params`` apply to it.
     n_jobs : int or None, default=None
         Processes that score the models (joblib's convention: None is 1, -1 all cores). With 2,
         the first hybrid is scored in a second process while the terms are selected, and the
@@ -232,9 +238,18 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         ``steps`` (every candidate tried, with its validation error and verdict), ``exact``
         (the exact components), ``unexplained`` (what the final science model still misses:
         ``share`` per output and binned ``profiles``; see :func:`plot_unexplained`), ``table``,
-        ``report`` (markdown) and ``seconds``.
+        ``report`` (markdown), ``seconds`` and ``timings`` (CPU seconds of this process by stage: the
+        hybrid fit, when the loop made it, the selection, the final network-free refit with its
+        intervals, the hybrid refit and the scoring).
     """
     start = time.perf_counter()
+    timings, clock = {}, [time.process_time()]
+
+    def lap(stage: str) -> None:  # CPU seconds of this process by stage, for LoopResult.timings
+        now = time.process_time()
+        timings[stage] = timings.get(stage, 0.0) + now - clock[0]
+        clock[0] = now
+
     def log(message: str) -> None:  # stage lines carry the elapsed time: the long stages say how long
         if verbose:
             print(message if message.startswith(("  ", "|")) or "\n" in message
@@ -266,6 +281,12 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
                             n_states) if terms is None else terms
     check_param_names(param_names, {t.name for t in library} | {f"offset({variables[j]})" for j in offsets})
     check_refit_params(estimator, refit_params)
+    if not isinstance(refit_hybrid, (bool, np.bool_)):
+        raise TypeError(f"refit_hybrid must be True or False, got {refit_hybrid!r}.")
+    if refit_params and not refit_hybrid:  # silently unused settings would read as applied
+        raise ValueError("refit_params set the hybrid refit, which runs only with refit_hybrid=True: pass "
+                         "close_the_loop(..., refit_hybrid=True, refit_params=...).")
+    lap("set-up")
     try:
         check_is_fitted(estimator, "model_")
         before = estimator
@@ -280,6 +301,7 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
             before.set_params(residual=MLPOn(components))
         log("fitting the hybrid model ...")
         before.fit(X, y)
+        lap("hybrid fit")
     trace = before.residual_trace(X)
     points, inputs = trace["points"], trace["inputs"]
     keep = check_random_state(random_state).permutation(len(points))[:_MAX_POINTS]
@@ -304,6 +326,7 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         log("scoring the first hybrid ..." if scoring.executor is None else
             "scoring the first hybrid in a worker process ...")
         before_row = scoring.submit(before)
+        lap("scoring")
         fit = ScienceFit(before, X, y, fit_initial_states)
         judged = np.concatenate([te for _, te in splits])
         n_val = len(judged) if codes is None else len(np.unique(codes[judged]))
@@ -315,6 +338,7 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
                                 n_candidates=n_candidates, z=z, min_gain=min_gain, param_names=param_names,
                                 groups=codes, offsets=offsets, second_look=second_look, log=log)
         final = sel["science"]
+        lap("selection")
         bounds = {g: t["bounds"][loc][1] for t in sel["added"] for loc, g in t["shape_params"].items()}
         science_theta = fit.fit(final, sel["theta"], bounds)  # every sample, now that the terms are chosen
 
@@ -338,13 +362,15 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
 
         intervals = science_intervals(alone, X, y, incomplete=_open_question(sel["steps"], min_gain),
                                        fitted_states=fit.latent or None)
+        lap("network-free refit and intervals")
         log("scoring the network-free model ..." if scoring.executor is None else
             "scoring the network-free model in a worker process ...")
         alone_row = scoring.submit(alone)  # with a worker, scored during the refit
         rows = [{"stage": "before", "science": getattr(science, "__name__", "science"), "added": "",
                  **before_row()}]
         after, augmented = None, (final if sel["added"] else None)
-        if augmented is not None:
+        lap("scoring")
+        if augmented is not None and refit_hybrid:
             # theta starts from the network-free refit; the network starts afresh, since the first
             # fit's network already carries the effect and erm has no reason to hand it to the term
             after = clone(before).set_params(science=augmented, theta_init=_inside(science_theta, before.theta_bounds),
@@ -355,12 +381,14 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
             except DivergenceError as exc:  # reported, not raised: the selection itself stays useful
                 rows.append({"stage": "after", "theta": {}, "failed": f"refit diverged: {exc}"})
                 after = None
-            else:
+            lap("hybrid refit")
+            if after is not None:
                 log("scoring the refitted hybrid ...")
                 rows.append({"stage": "after", "science": augmented.__name__, "added": augmented.equation,
                              **scoring.submit(after)()})
         rows.append({"stage": "science only", "science": getattr(final, "__name__", "science"),
                      "added": getattr(augmented, "equation", ""), **alone_row()})
+        lap("scoring")
     unscored = sorted(set(theta_true or {}) - set(before.theta_) - set(science_theta))
     if unscored:  # only now known: theta_true may name the coefficient of a term the loop might add
         warnings.warn(f"theta_true names {unscored}, parameters of neither the science model nor the terms added: "
@@ -372,7 +400,8 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
                  intervals=intervals, initial_states=fit.initial_states.copy() if fit_initial_states else None,
                  added=added, steps=sel["steps"], exact=[] if uncertain is None else
                  [j for j in range(base.shape[1]) if j not in uncertain],
-                 unexplained=unexplained, table=rows, report=report, seconds=time.perf_counter() - start)
+                 unexplained=unexplained, table=rows, report=report, seconds=time.perf_counter() - start,
+                 timings=timings)
 
 
 _MAX_POINTS = 5000  # visited states used to rank candidates: plenty for a handful of columns

@@ -13,6 +13,7 @@ from joblib.externals.loky import ProcessPoolExecutor
 from sklearn.utils import Bunch
 from threadpoolctl import threadpool_limits
 
+from ...metrics import network_share
 from ..evidence import critical_value
 from ..sensitivity import root_mean_square, science_sensitivities
 
@@ -55,7 +56,7 @@ def prediction_metrics(y: np.ndarray, y_hybrid: np.ndarray, y_science: np.ndarra
         return float(root_mean_square(a, axis=None))
 
     return {"rmse": rms(y_hybrid - y), "rmse_science_only": rms(y_science - y),
-            "network_share": rms(y_hybrid - y_science) / max(rms(y_hybrid), 1e-300)}
+            "network_share": network_share(y_hybrid, y_science)}
 
 
 def _rhs_share(estimator: Any, X: Any) -> float:
