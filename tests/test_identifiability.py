@@ -280,3 +280,25 @@ def test_science_intervals_count_the_fitted_initial_states():
     with pytest.raises(ValueError, match="distinct state components"):
         science_intervals(est, X_fit, y, fitted_states=[2])
 
+
+
+def _singular_rate_f(v, k=0.9):
+    """A decay whose rate k / (1.5 - k) is infinite at k = 1.5: a profile member held there diverges."""
+    return -k / (1.5 - k) * v
+
+
+def test_a_diverged_profile_member_is_left_out_and_named():
+    """A member whose training diverged says nothing of how well the data fit at its value: the profile
+    leaves it out and says so, instead of reading it as a crossing of the threshold."""
+    rng = np.random.default_rng(0)
+    X = rng.uniform(0.5, 1.5, (20, 1))
+    y = (X[:, None, :] * np.exp(-2.0 * 0.1 * np.arange(1, 6))[None, :, None]
+         * (1 + 0.01 * rng.normal(size=(20, 5, 1))))  # the rate is 2 at k = 1
+    est = HybridRegressor(science=_singular_rate_f, dt=0.1, method="erm", max_iter=60, residual={"hidden": (8,)},
+                          random_state=0).fit(X, y)
+    profile = profile_theta(est, X, y, grid={"k": [0.7, 0.85, 1.0, 1.15, 1.5]}, refine=False)
+    assert profile.dropped == {"k": [1.5]}
+    assert 1.5 not in profile.values["k"] and np.all(np.isfinite(profile.loss["k"]))
+    assert "1 value(s) left out, their training diverged: k at [1.5]" in profile.report()
+    # members stop together once each has settled, within the fit's own budget
+    assert profile.n_iter <= est.n_iter_

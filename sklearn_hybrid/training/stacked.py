@@ -20,8 +20,6 @@ gain nothing from stacking).
 
 from __future__ import annotations
 
-from collections import deque
-
 import numpy as np
 import torch
 from torch import nn
@@ -32,7 +30,8 @@ from ..integrate import fast
 from ..integrate.kernels import reusing_buffers
 from .._validation import torch_threads
 from .engine import STEP, STOP, TrainConfig, MiniBatches, gradients_at_perturbed, make_optimizer, run_steps
-from .stopping import SPIKE_FACTOR, SPIKE_WINDOW, EarlyStopping
+from .stopping import EarlyStopping
+from .verdict import DIVERGED_FACTOR
 
 __all__ = ["train_batched", "train_members", "evaluate_members"]
 
@@ -200,6 +199,7 @@ def train_batched(models: list, method, inputs: tuple, y: torch.Tensor, config: 
 
     n_iter = run_steps(method, config, optimizer, scheduler, params, perturbed, is_weight, next_batch,
                        loss_and_grads, watch, n_batch_dims=1, desc=f"{K} members")
+    watch.judge_end(n_iter)
 
     with torch.no_grad():  # hand each member its slice
         for k, model in enumerate(models):
@@ -210,14 +210,16 @@ def train_batched(models: list, method, inputs: tuple, y: torch.Tensor, config: 
 
 
 class _MembersWatch:
-    """The stacked members' watcher: records, divergence and loss spikes per member, held entries, early stopping.
+    """The stacked members' watcher: records, divergence per member, held entries, early stopping.
 
-    A member whose loss becomes non-finite, or leaps above ``SPIKE_FACTOR`` times the median of its last
-    ``SPIKE_WINDOW`` losses, is marked diverged at that iteration (``diverged_at``): a single fit would
-    roll back and halve its learning rates, which the members' shared optimiser cannot do for one of
-    them, so its result is refused rather than used (a profile leaves its value out, a sweep and the
-    bootstrap skip it).  Its values go on without touching the others; training ends when every member
-    has diverged, or, with ``config.tol``, once every other member meets the fit's stopping rule.
+    A member diverged (``diverged_at``) when its loss becomes non-finite, or when it ends blown up:
+    ``DIVERGED_FACTOR`` times above the larger of its first loss and the variance of ``y``, the single
+    fit's test of a training that diverged (:func:`~sklearn_hybrid.training.verdict.judge_training`).  A single fit
+    would have rolled back and halved its learning rates at the spike, which the members' shared
+    optimiser cannot do for one of them; so the member's result is refused rather than used (a profile
+    leaves its value out, a sweep and the bootstrap skip it).  Its values go on without touching the
+    others; training ends when every member has diverged, or, with ``config.tol``, once every other
+    member meets the fit's stopping rule.
     """
 
     def __init__(self, stacked, config, y, masks, K):
@@ -227,27 +229,29 @@ class _MembersWatch:
         self.losses = np.empty((config.max_iter, K))
         self.thetas = {n: np.empty((config.max_iter, K, *science.shapes[n])) for n in science.names}
         self.diverged = np.full(K, -1)
-        self.recent = deque(maxlen=SPIKE_WINDOW)
-        scale = float(y.reshape(len(y), -1).var(0, unbiased=False).mean()) if len(y) > 1 else 1.0
+        scale = self.scale = float(y.reshape(len(y), -1).var(0, unbiased=False).mean()) if len(y) > 1 else 1.0
         self.stoppers = None if config.tol is None else [
             EarlyStopping(config.tol, config.n_iter_no_change, scale) for _ in range(K)]
         self.bar = None
 
     def check(self, it, loss, batch):
         values = loss.numpy()
-        bad = ~np.isfinite(values)
-        if len(self.recent) == SPIKE_WINDOW:
-            with np.errstate(invalid="ignore"):
-                bad |= values > SPIKE_FACTOR * np.median(np.array(self.recent), axis=0)
-        self.diverged[bad & (self.diverged < 0)] = it
+        self.diverged[~np.isfinite(values) & (self.diverged < 0)] = it
         if (self.diverged >= 0).all():  # nothing left to train
             self.losses[it:] = np.nan
             for v in self.thetas.values():
                 v[it:] = np.nan
             return STOP
-        self.recent.append(values)
         self.values = values
         return STEP
+
+    def judge_end(self, n_iter: int) -> None:
+        """Mark the members that ended blown up (see the class) as diverged at their largest loss."""
+        losses = self.losses[:n_iter]
+        with np.errstate(invalid="ignore"):
+            blown = (losses[-1] > DIVERGED_FACTOR * np.maximum(losses[0], self.scale)) & (self.diverged < 0)
+        for k in np.flatnonzero(blown):
+            self.diverged[k] = int(np.nanargmax(losses[:, k]))
 
     def masked(self, grads):
         for i, mask in self.masks.items():  # held entries: no gradient, so Adam leaves them exactly

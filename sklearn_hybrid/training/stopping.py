@@ -11,11 +11,7 @@ from collections import deque
 
 import numpy as np
 
-__all__ = ["EarlyStopping", "SpikeGuard", "SPIKE_FACTOR", "SPIKE_WINDOW"]
-
-#: A loss above this many times the median of the last ``SPIKE_WINDOW`` accepted losses is a spike.
-SPIKE_FACTOR = 10.0
-SPIKE_WINDOW = 25
+__all__ = ["EarlyStopping", "SpikeGuard"]
 
 
 class EarlyStopping:
@@ -88,8 +84,9 @@ class SpikeGuard:
     learning rate is halved (the cosine schedule goes on from the halved
     rates).  After ``max_halvings`` halvings a spike is a divergence.  The
     stacked members of sweeps, profiles and the bootstrap (``stacked.py``)
-    share one optimiser, whose rates cannot be halved for one of them: the
-    same test marks a member diverged there, and its result is refused.
+    share one optimiser, whose rates cannot be halved for one of them: a
+    member that ends blown up (the verdict's test of a single fit) is marked
+    diverged there, and its result is refused.
 
     Parameters
     ----------
@@ -106,7 +103,7 @@ class SpikeGuard:
         Halvings allowed before :meth:`roll_back` reports failure.
     """
 
-    def __init__(self, model, optimizer, scheduler, factor: float = SPIKE_FACTOR, every: int = SPIKE_WINDOW,
+    def __init__(self, model, optimizer, scheduler, factor: float = 10.0, every: int = 25,
                  max_halvings: int = 5):
         self.model, self.optimizer, self.scheduler = model, optimizer, scheduler
         self.factor, self.every, self.max_halvings = float(factor), int(every), int(max_halvings)
