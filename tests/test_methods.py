@@ -273,3 +273,31 @@ def test_method_given_as_an_object():
         HybridRegressor(method=FisherSAM(rho=-1.0), **common).fit(X, y)
     with pytest.raises(TypeError, match="method must be a name"):
         HybridRegressor(method=3, **common).fit(X, y)
+
+
+@pytest.mark.parametrize("n_batch_dims", [0, 1])
+def test_a_perturbation_that_blows_the_loss_up_is_halved_for_that_step(n_batch_dims):
+    """SAM's radius is absolute: where the loss is not finite at the perturbed point (a network moved by rho
+    blows a long integration up), the perturbation is halved for that step, member by member, instead of
+    handing NaN gradients to theta."""
+    from sklearn_hybrid.methods import SAM
+    from sklearn_hybrid.training.engine import step_gradients
+
+    shape = (2, 3) if n_batch_dims else (3,)
+    p = torch.nn.Parameter(torch.zeros(shape))
+    grads = [torch.ones(shape)]
+    seen = []
+
+    def recompute():  # finite only within 0.3 of the origin, per member
+        norm = p.detach().reshape(-1, 3).norm(dim=-1) if n_batch_dims else p.detach().norm()
+        seen.append(norm.clone())
+        loss = torch.where(norm <= 0.3, norm, torch.full_like(norm, float("inf")))
+        return loss, [torch.where(torch.isfinite(loss).reshape(*loss.shape, *(1,) * (p.dim() - loss.dim())),
+                                  torch.ones_like(p), torch.full_like(p, float("nan")))]
+
+    rho = torch.tensor([1.0, 0.2]) if n_batch_dims else 1.0
+    out = step_gradients(SAM(rho=rho), [p], grads, [True], recompute, n_batch_dims=n_batch_dims)
+    assert torch.isfinite(out[0]).all()
+    assert torch.equal(p.detach(), torch.zeros(shape))  # restored exactly after every pass
+    expected = torch.tensor([0.25, 0.2]) if n_batch_dims else torch.tensor(0.25)  # 1 -> 0.5 -> 0.25
+    torch.testing.assert_close(seen[-1], expected)

@@ -28,6 +28,8 @@ __all__ = ["TrainConfig", "train", "run_steps", "STEP", "SKIP", "STOP", "Diverge
 #: Seconds a fit with ``verbose="auto"`` (the default) runs before its progress bar appears: a
 #: short fit prints nothing, a longer one shows signs of life and its estimated time.
 AUTO_DELAY = 5.0
+#: Halvings of a SAM perturbation at which the loss is not finite (see :func:`step_gradients`).
+RADIUS_HALVINGS = 5
 
 
 class DivergenceError(FloatingPointError):
@@ -149,11 +151,29 @@ def step_gradients(method, perturbed: list, grads: list, is_weight: list, recomp
     ``recompute()`` (which returns ``(loss, grads)``), the parameters then being
     restored exactly.  A single fit (:func:`train`) and the stacked members of
     a sweep or profile (``n_batch_dims=1``, one norm per member) both step here.
+
+    A perturbation at which the loss is not finite (the radius is absolute in
+    the network's parameters: over a long integration of slow dynamics a
+    network moved by ``rho`` can blow the trajectories up) is outside the
+    model's domain, not a measure of sharpness: it is halved, member by
+    member, up to ``RADIUS_HALVINGS`` times, for this step only.  Otherwise its
+    NaN gradients would reach theta, and the spike guard's halving of the
+    learning rates could not help.
     """
     if not method.perturbs:
         return grads
     with torch.no_grad():
         eps = method.perturbation(perturbed, grads, is_weight, n_batch_dims=n_batch_dims)
+    for _ in range(RADIUS_HALVINGS):
+        loss, out = gradients_at_perturbed(perturbed, eps, recompute)
+        bad = ~torch.isfinite(loss.reshape(-1)[0] if n_batch_dims == 0 else loss)
+        if n_batch_dims == 0:
+            bad = bad | ~torch.stack([torch.isfinite(g).all() for g in out]).all()
+        if not bad.any():
+            return out
+        with torch.no_grad():  # halve the radius of the members (or the fit) that blew up
+            half = torch.where(bad, 0.5, 1.0).to(eps[0].dtype)
+            eps = [e * (half if n_batch_dims == 0 else half.reshape(-1, *(1,) * (e.dim() - 1))) for e in eps]
     return gradients_at_perturbed(perturbed, eps, recompute)[1]
 
 
