@@ -1,14 +1,15 @@
 """
-=================================================================
-Quick start: fit the pendulum, plot the fit, is omega identified?
-=================================================================
+==========================================================================
+Quick start: fit the pendulum, close the loop, plot, is omega identified?
+==========================================================================
 
 The README's Quick start at full size, with its two plots: the fit against
 the data (:func:`~sklearn_hybrid.plot_fit`) and the profile of omega
 (:func:`~sklearn_hybrid.identifiability.plot_profile`).  The data come from a
 damped pendulum (true omega = 2/3); the science model ``pendulum_f`` is the
 undamped one, so the network has the damping to learn.  About 20 s for the
-fit and one to two minutes for the profile on one core.
+fit, a few more for the loop, and about as much as the fit for the profile
+on one core.
 """
 
 # %%
@@ -25,6 +26,7 @@ import torch
 
 from sklearn_hybrid import HybridRegressor, plot_fit
 from sklearn_hybrid.datasets import make_pendulum
+from sklearn_hybrid.diagnosis import close_the_loop
 from sklearn_hybrid.identifiability import profile_theta
 
 FAST = os.environ.get("SKLEARN_HYBRID_FAST", "0") == "1"  # tiny run for tests
@@ -42,6 +44,17 @@ data = make_pendulum(random_state=0)
 X, y = data.X_train, data.y_train
 settings = {"max_iter": 20} if FAST else {}  # the defaults, as in the Quick start
 est = HybridRegressor(science=pendulum_f, dt=0.2, random_state=0, **settings).fit(X, y)
+print(est.fit_report())  # ends with the first screen: what the network's share implies
+
+# %%
+# Close the loop on the same fit
+# ------------------------------
+# The screen says the network makes a third of the prediction: the science
+# model leaves something out.  ``close_the_loop`` names it from what the
+# network learned and refits omega without the network.
+result = close_the_loop(est, X, y, state_names=["v", "v_dot"])
+print(result.report.splitlines()[-2])
+print(result.intervals)
 
 # %%
 # The fit against the data
@@ -54,8 +67,8 @@ fig = plot_fit(est, data.X_test, data.y_test, names=names)
 plt.show()
 
 # %%
-# Is omega identified?
-# --------------------
+# Is the hybrid's own omega identified?
+# -------------------------------------
 # The profile holds omega at values around the fit and re-trains the network
 # (and any other parameter) at each; where the data fit significantly worse
 # (the horizontal threshold, an F-test) bounds the interval.  The report gives
