@@ -1112,3 +1112,51 @@ def test_intervals_not_backed_while_a_candidate_is_left_open():
     assert _open_question(steps, 0.05) is None
     steps.append({"step": "2, second look", "term": "T^2", "gain": 0.3, "z": 2.4, "accepted": False})
     assert "T^2" in _open_question(steps, 0.05)
+
+
+def _linear_oscillator_f(v, k=1.0):
+    return torch.stack([v[:, 1], -k * v[:, 0]], -1)
+
+
+def test_cut_windows_keeps_each_record_in_order():
+    from sklearn_hybrid.diagnosis.loop.close import cut_windows
+
+    X = np.array([[0.0, 10.0], [100.0, 110.0]])
+    y = X[:, None] + np.arange(1, 8)[None, :, None]  # 7 steps of two records
+    X_w, y_w, record = cut_windows(X, y, 3)
+    assert record.tolist() == [0, 0, 1, 1]  # 7 steps hold two windows of 3; the last step is left over
+    np.testing.assert_array_equal(X_w[:, 0], [0, 3, 100, 103])  # a window starts from the state before it
+    np.testing.assert_array_equal(y_w[1, :, 0], [4, 5, 6])
+    np.testing.assert_array_equal(y_w[3, :, 1], [114, 115, 116])
+
+
+def test_a_long_record_is_selected_on_windows_and_refitted_whole():
+    """Records much longer than a window: the candidates are fitted and judged on windows started from the
+    measured states (their refits integrate a window, not the record), and the chosen model is refitted on
+    the whole records."""
+    rng = np.random.default_rng(0)
+    X = rng.uniform(-1, 1, (4, 2))
+    k, c, dt, n_steps = 1.5, 0.1, 0.1, 160
+    v, states = X.copy(), []
+    for _ in range(n_steps):  # exact flow of the damped oscillator, sampled
+        for _ in range(20):
+            h = dt / 20
+            f = lambda s: np.stack([s[:, 1], -k * s[:, 0] - c * s[:, 1]], -1)  # noqa: E731
+            k1 = f(v); k2 = f(v + h / 2 * k1); k3 = f(v + h / 2 * k2); k4 = f(v + h * k3)
+            v = v + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+        states.append(v)
+    y = np.stack(states, 1) + 0.005 * rng.standard_normal((4, n_steps, 2))
+    est = HybridRegressor(science=_linear_oscillator_f, dt=dt, method="erm", max_iter=20, n_substeps=2,
+                          residual=MLPOn([1], hidden=(16,)), random_state=0).fit(X, y)
+    out = close_the_loop(est, X, y, state_names=["x", "x_dot"], evidence=Evidence(window=20),
+                         candidates=Candidates(kinds=["polynomial"], max_terms=1))
+    assert [(t["output"], t["term"]) for t in out.added] == [("g[x_dot]", "x_dot")]
+    assert out.science_theta["c_x_dot"] == pytest.approx(-c, rel=0.05)
+    assert out.science_theta["k"] == pytest.approx(k, rel=0.01)
+    assert "windows of 20 steps cut from the 4 records" in out.report
+    # whole records (Evidence(window=None)): two of the four records judge, too few to pass Student's t
+    whole = close_the_loop(est, X, y, state_names=["x", "x_dot"], evidence=Evidence(window=None),
+                           candidates=Candidates(kinds=["polynomial"], max_terms=1))
+    assert whole.added == [] and "windows of" not in whole.report and "on 2 validation samples" in whole.report
+    with pytest.raises(ValueError, match="window must be"):
+        close_the_loop(est, X, y, evidence=Evidence(window=1))

@@ -22,6 +22,13 @@ from scipy.stats import t as student_t
 __all__ = ["Evidence", "evidence", "critical_value", "holm"]
 
 
+#: ``Evidence(window="auto")``: records longer than ``LONG_RECORD`` steps are judged on windows of
+#: ``AUTO_WINDOW`` steps (long enough for a missing effect to build up over a window, short enough that a
+#: refit's sequential integration stays short).
+LONG_RECORD = 100
+AUTO_WINDOW = 25
+
+
 @dataclass(frozen=True, eq=False)
 class Evidence:
     """What a candidate term must show on held-out samples to be added: the closed loop's test.
@@ -48,6 +55,16 @@ class Evidence:
         number of candidates judged at a step (:func:`holm`).
     min_gain : float, default=0.05
         The least share of the held-out error a term must remove, however sure the test.
+    window : int, "auto" or None, default="auto"
+        Long records of an unforced, fully observed ODE: the selection fits and judges its
+        candidates on non-overlapping windows of this many steps cut from the records, each started
+        from the measured state at its beginning, so that every refit integrates ``window`` steps
+        for all windows at once instead of every step of the record in sequence (its cost no longer
+        grows with the record's length).  The measured start of a window carries its noise, a small
+        error for the comparison of candidates; the chosen model is refitted on the whole records,
+        and its intervals are theirs.  ``"auto"``: windows of 25 steps for records longer than 100
+        steps; an integer: windows of that length for records more than twice as long; None: whole
+        records always.  ``groups`` then label the records, and each window takes its record's.
     """
 
     validation_fraction: float = 0.25
@@ -56,6 +73,7 @@ class Evidence:
     groups: Any = None
     z: float = 3.0
     min_gain: float = 0.05
+    window: int | str | None = "auto"
 
     def check(self) -> None:
         """Raise ``ValueError`` naming the setting that is out of range."""
@@ -72,6 +90,18 @@ class Evidence:
         if second_look is not None and (isinstance(second_look, bool) or not isinstance(second_look, (int, np.integer))
                                         or second_look < 2):
             raise ValueError(f"second_look must be None or a number of folds of at least 2, got {second_look!r}.")
+        window = self.window
+        if not (window is None or (isinstance(window, str) and window == "auto")
+                or (isinstance(window, (int, np.integer)) and not isinstance(window, bool) and window >= 2)):
+            raise ValueError(f"window must be 'auto', None or a number of steps of at least 2, got {window!r}.")
+
+    def window_for(self, n_steps: int) -> int | None:
+        """The window length the selection uses on records of ``n_steps`` steps (None: whole records)."""
+        if self.window is None:
+            return None
+        if isinstance(self.window, str):  # "auto"
+            return AUTO_WINDOW if n_steps > LONG_RECORD else None
+        return int(self.window) if n_steps > 2 * self.window else None
 
     def splits(self, n: int) -> tuple[list[tuple[np.ndarray, np.ndarray]], np.ndarray | None]:
         """The (training rows, validation rows) pairs and the group codes (``held_out_splits``)."""

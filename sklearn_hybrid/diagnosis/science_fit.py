@@ -8,6 +8,7 @@ on held-out samples.
 
 from __future__ import annotations
 
+import copy
 import math
 from collections.abc import Callable, Mapping
 from types import SimpleNamespace
@@ -41,6 +42,9 @@ class ScienceFit:
         wrong exactly where the science misses something, and would count against the term that
         mends it. :meth:`errors` then fits them on the judged samples too (they are states, not
         parameters of the model being judged), and ``initial_states`` holds the last values.
+    n_steps : int, optional
+        An ODE's horizon, when ``y`` holds windows shorter than the estimator's fit (default: the
+        fit's).
 
     Attributes
     ----------
@@ -50,9 +54,13 @@ class ScienceFit:
         sample as infinitely wrong.
     """
 
-    def __init__(self, estimator: Any, X: Any, y: Any, fit_initial_states: bool = False) -> None:
+    def __init__(self, estimator: Any, X: Any, y: Any, fit_initial_states: bool = False,
+                 n_steps: int | None = None) -> None:
         X, _ = fitted_data(estimator, X)
         self.structure = estimator.model_.structure
+        if n_steps is not None:  # windows shorter than the fit's horizon (a long record's selection)
+            self.structure = copy.copy(self.structure)
+            self.structure.n_steps = int(n_steps)
         self.bounds = dict(estimator.theta_bounds or {})
         self.fixed = set(estimator.theta_fixed or ())  # held at the value a fit starts from
         with torch.no_grad():

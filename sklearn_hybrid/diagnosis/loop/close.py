@@ -9,6 +9,7 @@ import math
 import time
 import warnings
 from collections.abc import Callable, Mapping, Sequence
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -328,15 +329,27 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         before_row = scoring.submit(before)
         lap("scoring")
         fit = ScienceFit(before, X, y, fit_initial_states)
-        judged = np.concatenate([te for _, te in splits])
-        n_val = len(judged) if codes is None else len(np.unique(codes[judged]))
-        unit = "samples" if codes is None else "groups"
+        # a long record's candidates are fitted and judged on windows of it (Evidence.window); the chosen
+        # model is refitted on the whole records below
+        window = None if fit_initial_states or not _windowable(before) else evidence.window_for(before.y_shape_[0])
+        select, select_splits, select_codes = fit, splits, codes
+        if window:
+            X_w, y_w, record = cut_windows(X, y, window)
+            select = ScienceFit(before, X_w, y_w, n_steps=window)
+            groups_w = None if evidence.groups is None else np.asarray(evidence.groups)[record]
+            select_splits, select_codes = replace(evidence, groups=groups_w).splits(len(y_w))
+        judged = np.concatenate([te for _, te in select_splits])
+        n_val = len(judged) if select_codes is None else len(np.unique(select_codes[judged]))
+        unit = "samples" if select_codes is None else "groups"
+        if window:
+            unit = (f"{unit} (windows of {window} steps cut from the {len(y)} records, each started from its "
+                    "measured first state; the chosen model refitted on the whole records)")
         log(f"selecting terms ({len(terms)} candidates on {len(components)} component(s), "
             f"{n_val} validation {unit}{'' if cv is None else f' in {cv} blocks'}) ...")
-        sel = forward_selection(science, before.theta_, fit, splits, terms,
+        sel = forward_selection(science, before.theta_, select, select_splits, terms,
                                 variables, n_states, args, learned, components, max_terms=max_terms,
                                 n_candidates=n_candidates, z=z, min_gain=min_gain, param_names=param_names,
-                                groups=codes, offsets=offsets, second_look=second_look, log=log)
+                                groups=select_codes, offsets=offsets, second_look=second_look, log=log)
         final = sel["science"]
         lap("selection")
         bounds = {g: t["bounds"][loc][1] for t in sel["added"] for loc, g in t["shape_params"].items()}
@@ -405,6 +418,43 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
 
 
 _MAX_POINTS = 5000  # visited states used to rank candidates: plenty for a handful of columns
+
+
+def _windowable(estimator: Any) -> bool:
+    """Whether a long record of ``estimator``'s data can be cut into windows started from measured states:
+    an unforced ODE that observes every state component."""
+    structure = estimator.model_.structure
+    return (estimator.structure == "ode" and getattr(structure, "observed", 0) is None
+            and not getattr(structure, "n_inputs", 0))
+
+
+def cut_windows(X: Any, y: Any, window: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Non-overlapping windows of ``window`` steps cut from fully observed ODE records.
+
+    Parameters
+    ----------
+    X : array-like of shape (n_records, *state_shape)
+        The initial states.
+    y : array-like of shape (n_records, n_steps, *state_shape) or flattened per record
+        The states at the output times.
+    window : int
+        Steps per window.
+
+    Returns
+    -------
+    X_windows : ndarray of shape (n_windows, *state_shape)
+        Each window's first state: ``X`` for the first window of a record, else the measured state
+        before the window.
+    y_windows : ndarray of shape (n_windows, window, *state_shape)
+    record : ndarray of int, shape (n_windows,)
+        The record each window was cut from (records in order, each record's windows in time order).
+    """
+    X = np.asarray(X, dtype=float)
+    states = np.concatenate([X[:, None], np.asarray(y, dtype=float).reshape(len(X), -1, *X.shape[1:])], axis=1)
+    starts = np.arange(0, states.shape[1] - window, window)
+    X_w = states[:, starts].reshape(-1, *X.shape[1:])
+    y_w = np.stack([states[:, s + 1:s + window + 1] for s in starts], axis=1).reshape(-1, window, *X.shape[1:])
+    return X_w, y_w, np.repeat(np.arange(len(X)), len(starts))
 
 #: A candidate left at the last step that lowered the held-out error by ``min_gain`` at this z (one
 #: standard error) is evidence, short of the threshold, that the final model misses something.
