@@ -1,0 +1,128 @@
+"""The closed loop on long records: CPU seconds of the selection, against a kept copy of the old code.
+
+Issue "The right answer in a minute": ``close_the_loop`` on 6 trajectories of 1,500 steps spent
+816 of 840 CPU seconds in the selection's network-free refits, each integrating every record step
+by step.  Here: an oscillator whose science model lacks its damping (``x'' = -k x``, truth
+``-1.5 x - 0.1 x'``, a system of this benchmark's own), 6 records of 1,500 steps at dt = 0.1 with
+noise 0.01; the hybrid is fitted once per process with a small budget (erm, a 32x32 network on the
+acceleration, 30 iterations, 4 RK4 steps per interval: the same fit in both codes), then
+``close_the_loop(est, X, y)`` is timed (``time.process_time``).  Each code runs in its own process:
+
+    python benchmarks/bench_long_record.py                       # the package of this checkout
+    python benchmarks/bench_long_record.py --package ../old      # a checkout of the old code
+    python benchmarks/bench_long_record.py --render
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from _common import machine_description, runs_folder, write_results
+
+FOLDER = runs_folder("long_record")
+N_RECORDS, N_STEPS, DT, NOISE = 6, 1500, 0.1, 0.01
+TRUTH = {"k": 1.5, "c_x_dot": -0.1}
+
+
+def simulate(seed: int = 0):
+    rng = np.random.default_rng(seed)
+    X = rng.uniform(-1, 1, (N_RECORDS, 2))
+    v, out, h = X.copy(), [], DT / 16
+    f = lambda s: np.stack([s[:, 1], -1.5 * s[:, 0] - 0.1 * s[:, 1]], -1)  # noqa: E731
+    for _ in range(N_STEPS):
+        for _ in range(16):
+            k1 = f(v); k2 = f(v + h / 2 * k1); k3 = f(v + h / 2 * k2); k4 = f(v + h * k3)  # noqa: E702
+            v = v + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+        out.append(v)
+    y = np.stack(out, 1)
+    return X, y + NOISE * rng.standard_normal(y.shape)
+
+
+def oscillator_f(v, k=1.0):
+    import torch
+
+    return torch.stack([v[:, 1], -k * v[:, 0]], -1)
+
+
+def run_one() -> dict:
+    import torch
+
+    import sklearn_hybrid
+    from sklearn_hybrid import HybridRegressor
+    from sklearn_hybrid.diagnosis import MLPOn, close_the_loop
+
+    torch.set_num_threads(1)
+    X, y = simulate()
+    start = time.process_time()
+    est = HybridRegressor(science=oscillator_f, dt=DT, method="erm", max_iter=30, n_substeps=4,
+                          residual=MLPOn([1], hidden=(32, 32)), random_state=0, verbose=False).fit(X, y)
+    fitted = time.process_time()
+    res = close_the_loop(est, X, y, state_names=["x", "x_dot"])
+    done = time.process_time()
+    theta = {k: float(v) for k, v in res.science_theta.items() if np.ndim(v) == 0}
+    root = Path(sklearn_hybrid.__file__).parents[1]
+    commit = subprocess.run(["git", "log", "-1", "--format=%h", "--", "sklearn_hybrid"], capture_output=True,
+                            text=True, cwd=root).stdout.strip()
+    return {"package": str(root), "package_commit": commit, "fit_cpu_s": fitted - start, "loop_cpu_s": done - fitted,
+            "loop_timings": res.get("timings"), "added": [f"{t['term']} [{t['output']}]" for t in res.added],
+            "theta": theta, "theta_rel_err": {k: abs(theta.get(k, np.nan) - v) / abs(v) for k, v in TRUTH.items()},
+            "windows": "windows of" in res.report, "machine": machine_description()}
+
+
+def render() -> None:
+    records = {p.stem: json.loads(p.read_text()) for p in sorted(FOLDER.glob("*.json"))}
+    lines = ["# The closed loop on long records", "",
+             f"{N_RECORDS} records of {N_STEPS} steps (dt {DT}, noise {NOISE}) of an oscillator whose science lacks "
+             "its damping (truth k = 1.5, c = -0.1 x_dot); the hybrid fitted once per process (erm, 32x32 network on "
+             "the acceleration, 30 iterations); `close_the_loop(est, X, y)` timed in CPU seconds of its process. "
+             "The new code fits and judges the candidates on windows of 25 steps (`Evidence(window='auto')`) and "
+             "refits the chosen model on the whole records.", "",
+             "| code | package commit | loop CPU s | of which selection | fit CPU s | added | k | c_x_dot | windows |",
+             "|---|---|---|---|---|---|---|---|---|"]
+    for name, r in records.items():
+        sel = (r.get("loop_timings") or {}).get("selection")
+        lines.append(f"| {name} | {r['package_commit']} | {r['loop_cpu_s']:.0f} | "
+                     f"{'' if sel is None else f'{sel:.0f}'} | {r['fit_cpu_s']:.0f} | "
+                     f"{'; '.join(r['added']) or 'nothing'} | {r['theta'].get('k', float('nan')):.4f} | "
+                     f"{r['theta'].get('c_x_dot', float('nan')):.4f} | {'yes' if r['windows'] else 'no'} |")
+    if {"old", "new"} <= set(records):
+        ratio = records["old"]["loop_cpu_s"] / records["new"]["loop_cpu_s"]
+        lines += ["", f"The old code's loop takes {ratio:.1f} times the new one's CPU seconds on the same records "
+                  "(each in a fresh process of one run of this script). Target: at most 60 CPU s."]
+    write_results("long_record", {"records": records}, "\n".join(lines))
+    print("\n".join(lines))
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--package", default=None, help="a checkout of the old code (recorded as 'old')")
+    parser.add_argument("--render", action="store_true")
+    parser.add_argument("--one", action="store_true", help=argparse.SUPPRESS)
+    args = parser.parse_args(argv)
+    if args.one:
+        print(json.dumps(run_one(), default=float))
+        return
+    if not args.render:
+        env = dict(os.environ, OMP_NUM_THREADS="1")
+        if args.package:
+            env["PYTHONPATH"] = str(Path(args.package).resolve()) + os.pathsep + env.get("PYTHONPATH", "")
+        done = subprocess.run([sys.executable, __file__, "--one"], env=env, capture_output=True, text=True,
+                              cwd=Path(__file__).parent)
+        if done.returncode:
+            sys.exit(done.stderr[-3000:])
+        FOLDER.mkdir(parents=True, exist_ok=True)
+        name = "old" if args.package else "new"
+        (FOLDER / f"{name}.json").write_text(done.stdout.strip().splitlines()[-1] + "\n")
+    render()
+
+
+if __name__ == "__main__":
+    main()
