@@ -1,6 +1,7 @@
 """Close the loop: fit a hybrid model, diagnose its residual, add the missing terms, refit, compare.
 
-:func:`close_the_loop` is the one call; :class:`MLPOn` keeps the network out of exact equations.
+:func:`close_the_loop` is the one call; it keeps the network out of exact equations with
+:class:`~sklearn_hybrid.diagnosis.MLPOn`.
 """
 
 from __future__ import annotations
@@ -12,17 +13,16 @@ from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
-import torch
 from sklearn.base import clone
 from sklearn.exceptions import NotFittedError
 from sklearn.utils import check_random_state
 from sklearn.utils.validation import check_is_fitted
-from torch import nn
 
+from ...identifiability import science_intervals
 from ...training.engine import DivergenceError
-from ...residual import MLP, MaskedMLP
+from ...residual import MLPOn, ZeroResidual
 from ...science import read_signature
-from ..arguments import (check_names, check_options, check_param_names, check_refit_params, count_states,
+from .arguments import (check_names, check_options, check_param_names, check_refit_params, count_states,
                          offset_states, uncertain_components)
 from ..evidence import Evidence
 from .candidates import Candidates
@@ -32,70 +32,7 @@ from ..science_fit import ScienceFit
 from .stepwise import forward_selection
 from ..terms import physics_terms
 
-__all__ = ["close_the_loop", "MLPOn", "ZeroResidual"]
-
-
-class MLPOn:
-    """Residual factory: an MLP that acts on some state components only (zero on the others).
-
-    Physics often fixes part of the right-hand side exactly (``d angle/dt = velocity``); letting
-    the network change it would let it re-define the hidden state.
-
-    Parameters
-    ----------
-    components : list of int
-        Components of the (flattened) output the network may change.
-    hidden : tuple of int, default=(64, 64)
-        Hidden layer widths.
-    activation : str, default="tanh"
-        Activation (smooth activations give smooth residuals, easier to explain).
-    zero_init : bool, default=True
-        Start the last layer at zero, so that training starts from the science model alone rather
-        than from a random force the optimiser must first undo.
-    """
-
-    def __init__(self, components: Sequence[int], hidden: Sequence[int] = (64, 64), activation: str = "tanh",
-                 zero_init: bool = True):
-        self.components, self.hidden, self.activation = list(components), tuple(hidden), activation
-        self.zero_init = zero_init
-
-    def __call__(self, in_shapes, out_shape) -> nn.Module:
-        size = math.prod(out_shape)
-        if not self.components or not all(0 <= c < size for c in self.components):
-            raise ValueError(f"MLPOn components {self.components} must index an output of size {size}.")
-        mlp = MLP(in_shapes, (len(self.components),), self.hidden, self.activation)
-        if self.zero_init:
-            with torch.no_grad():
-                mlp.net[-1].weight.zero_()
-                mlp.net[-1].bias.zero_()
-        return MaskedMLP(mlp, self.components, out_shape)
-
-    def __repr__(self) -> str:
-        return (f"MLPOn({self.components}, hidden={self.hidden}, activation={self.activation!r}, "
-                f"zero_init={self.zero_init})")
-
-
-class _Zero(nn.Module):
-    """No network: zeros of the output shape (one unused parameter keeps the optimiser content)."""
-
-    def __init__(self, out_shape):
-        super().__init__()
-        self.out_shape = tuple(out_shape)
-        self.unused = nn.Parameter(torch.zeros(1))
-
-    def forward(self, *inputs):
-        # times the unused parameter: the loss stays differentiable when every theta is fixed
-        return self.unused * torch.zeros(len(inputs[0]), *self.out_shape, dtype=inputs[0].dtype)
-
-
-class ZeroResidual:
-    """Residual factory of a network that contributes nothing: fits the science model alone."""
-
-    def __call__(self, in_shapes, out_shape) -> nn.Module:
-        return _Zero(out_shape)
-
-    def __repr__(self) -> str:
-        return "ZeroResidual()"
+__all__ = ["close_the_loop"]
 
 
 def _settings(name: str, value: Any, cls: type, example: str) -> Any:
@@ -334,8 +271,6 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
             X = np.array(X, dtype=float)
             X[:, :fit.initial_states.shape[1]] = fit.initial_states
         alone = _fixed_science(before, final, science_theta, X, y)
-        from ...identifiability import science_intervals  # the identifiability package reads this one's results
-
         intervals = science_intervals(alone, X, y, incomplete=_open_question(sel["steps"], min_gain),
                                        fitted_states=fit.latent or None)
         log("scoring the network-free model ..." if scoring.executor is None else

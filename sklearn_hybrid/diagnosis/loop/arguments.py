@@ -9,8 +9,8 @@ from difflib import get_close_matches
 
 import numpy as np
 
-from ..science import read_signature
-from .sensitivity import exact_components, state_labels, parameter_jacobian
+from ...science import read_signature
+from ..sensitivity import exact_components, state_labels, parameter_jacobian
 
 
 def check_options(n_jobs, X_test, y_test) -> None:
