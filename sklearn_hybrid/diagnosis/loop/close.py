@@ -32,7 +32,8 @@ from ..science_fit import ScienceFit
 from .stepwise import forward_selection
 from ..terms import physics_terms
 
-__all__ = ["close_the_loop"]
+# fixed_science is public: the identification benchmark stops the loop there (--check-selection)
+__all__ = ["close_the_loop", "fixed_science"]
 
 
 def _settings(name: str, value: Any, cls: type, example: str) -> Any:
@@ -270,7 +271,7 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         if fit_initial_states:  # the hybrid refit starts every sample from the states fitted with the final model
             X = np.array(X, dtype=float)
             X[:, :fit.initial_states.shape[1]] = fit.initial_states
-        alone = _fixed_science(before, final, science_theta, X, y)
+        alone = fixed_science(before, final, science_theta, X, y)
         intervals = science_intervals(alone, X, y, incomplete=_open_question(sel["steps"], min_gain),
                                        fitted_states=fit.latent or None)
         log("scoring the network-free model ..." if scoring.executor is None else
@@ -350,7 +351,7 @@ def _inside(theta: dict, bounds: Mapping | None) -> dict:
     return out
 
 
-def _fixed_science(before, science, theta, X, y):
+def fixed_science(before, science, theta, X, y):
     """An estimator holding ``science`` at ``theta``, no network: the model an engineer keeps."""
     names = list(read_signature(science)[1])
     est = clone(before).set_params(science=science, residual=ZeroResidual(), method="erm", max_iter=1,
