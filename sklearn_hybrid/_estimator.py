@@ -403,7 +403,7 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
                 torch.manual_seed(seed)
                 in_shapes, out_shape = structure.residual_shapes()
                 residual = build_residual(self.residual, in_shapes, out_shape, dtype)
-                reduction = structure.make_reduction(dtype) if method.name == "f-reg" else None
+                reduction = structure.make_reduction(dtype) if method.needs_reduction else None
                 encoder = None
                 if self.theta_encoder is not None:
                     encoder = _encoder.make_theta_encoder(self.theta_encoder, science, X.shape[1:], dtype)
