@@ -74,7 +74,7 @@ def _estimator_private_uses():
     """``(module, line, name)`` wherever a module other than the estimator's own touches a private member of
     HybridRegressor on another object than ``self``: what the package's modules need of a fit goes through
     the estimator's module functions (``prepare_fit``, ``store_fit``, ``fitted_data``, ``fitted_settings``,
-    ``structure_X``)."""
+    ``structure_X``, ``ode_structure``)."""
     from sklearn_hybrid import HybridRegressor
 
     private = {n for cls in HybridRegressor.__mro__ if cls.__module__.startswith("sklearn_hybrid")

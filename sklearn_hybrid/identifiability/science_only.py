@@ -27,7 +27,7 @@ import torch
 from scipy import stats
 from sklearn.utils.validation import check_is_fitted
 
-from .._estimator import fitted_data, fitted_settings
+from .._estimator import fitted_data, fitted_settings, ode_structure
 from .._validation import check_target_layout, torch_threads
 from .._fit_report import theta_jacobian
 from ..residual import ZeroResidual
@@ -155,7 +155,7 @@ def _check_fitted_states(fitted_states, estimator) -> list[int]:
     if fitted_states is None:
         return []
     shape = tuple(getattr(estimator.model_.structure, "state_shape", ()))
-    if estimator.structure != "ode" or len(shape) != 1:
+    if ode_structure(estimator) is None or len(shape) != 1:
         raise ValueError("fitted_states names components of an initial state: it needs structure='ode' with a "
                          "state vector.")
     states = [int(j) for j in np.atleast_1d(fitted_states)]

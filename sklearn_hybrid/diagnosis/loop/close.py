@@ -18,6 +18,7 @@ from sklearn.exceptions import NotFittedError
 from sklearn.utils import check_random_state
 from sklearn.utils.validation import check_is_fitted
 
+from ..._estimator import ode_structure
 from ...identifiability import science_intervals
 from ...training.engine import DivergenceError
 from ...residual import MLPOn, ZeroResidual
@@ -186,7 +187,8 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
     # the held-out split checks the groups and its own limits before anything is fitted
     splits, codes = evidence.splits(len(y))
     _check_fitted_horizon(estimator, y)
-    if fit_initial_states and (estimator.structure != "ode" or estimator.observed is None):
+    ode = ode_structure(estimator)
+    if fit_initial_states and (ode is None or ode.observed is None):
         raise ValueError("fit_initial_states=True needs an estimator with structure='ode' and observed=[...] "
                          "leaving some states unmeasured: only their initial values are fitted.")
     if getattr(estimator, "theta_encoder", None) is not None:
@@ -196,7 +198,7 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
     offsets = offset_states(estimator, X, y, offsets, state_names)
     variables, first_values = check_names(estimator, X, y, state_names, input_names, units, user_terms, positive)
     # the user's terms are tried on the data's first states before anything is fitted
-    n_states = count_states(estimator, X, y) if estimator.structure == "ode" else None
+    n_states = count_states(estimator, X, y) if ode is not None else None
     # an ODE's uncertain equations may have a parameter that varies with the state or an input: f_j(x) * x_k
     scaled = (None if n_states is None else
               {j: variables[j] for j in (range(n_states) if uncertain is None else uncertain)})
@@ -209,7 +211,7 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         before = estimator
     except NotFittedError:
         before = clone(estimator)
-        if before.structure == "ode" and _is_default_network(before.residual):
+        if ode is not None and _is_default_network(before.residual):
             # The default network is started at zero, so training starts from the science model: a random
             # start can push a state out of the science function's domain (an infected share below zero
             # makes S I grow without bound) and must first be undone. It acts on the uncertain components
@@ -232,7 +234,7 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
     n_states = points[0].size
     states = state_labels(state_names, n_states, "x", "state_names")
     variables = states + ([] if inputs is None else state_labels(input_names, inputs.shape[1], "u", "input_names"))
-    outputs = [f"g[{s}]" for s in states] if before.structure == "ode" else [f"g[{j}]" for j in range(base.shape[1])]
+    outputs = [f"g[{s}]" for s in states] if ode is not None else [f"g[{j}]" for j in range(base.shape[1])]
     components = list(range(base.shape[1])) if uncertain is None else uncertain
     values = np.hstack([a.reshape(len(a), -1) for a in args])
     if terms is None:
