@@ -30,7 +30,7 @@ from .metrics import network_share
 from .methods import make_method
 from .residual import build_residual
 from .science import ScienceModel
-from .structures import HybridModule, make_structure
+from .structures import HybridModule, OdeStructure, make_structure
 
 __all__ = ["HybridRegressor"]
 
@@ -85,9 +85,14 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
         arguments with a numeric default are the parameters theta, e.g.
         ``def pendulum_f(v, omega=0.5): ...``.  For ``"ode"`` it returns the
         known part of ``dv/dt``.
-    structure : {"ode", "compose", "additive"} or callable, default="ode"
-        How science and network combine (see :mod:`sklearn_hybrid.structures`);
-        a callable ``structure(x, f, g) -> y`` gives any nested composition.
+    structure : {"ode", "compose", "additive"}, OdeStructure or callable, default="ode"
+        How science and network combine (see :mod:`sklearn_hybrid.structures`),
+        by name or as an object, as scikit-learn takes ``kernel="rbf"`` or
+        ``kernel=RBF()``: ``OdeStructure(dt=0.1, observed=[0])`` carries the
+        ODE's options, which the name ``"ode"`` takes from ``dt``, ``n_substeps``,
+        ``solver``, ``observed``, ``n_inputs`` and ``input_interp`` below (left
+        at their defaults they defer to the object; given, they must agree with
+        it); a callable ``structure(x, f, g) -> y`` gives any nested composition.
     residual : str, dict or callable, default="mlp"
         Specification of the network g_phi (see
         :func:`sklearn_hybrid.residual.build_residual`); built inside ``fit``.
@@ -438,7 +443,7 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
                 torch.manual_seed(seed)
                 in_shapes, out_shape = structure.residual_shapes()
                 residual = build_residual(self.residual, in_shapes, out_shape, dtype)
-                reduction = structure.make_reduction(dtype) if method.name == "f-reg" else None
+                reduction = structure.make_reduction(dtype) if method.needs_reduction else None
                 encoder = None
                 if self.theta_encoder is not None:
                     encoder = _encoder.make_theta_encoder(self.theta_encoder, science, X.shape[1:], dtype)
@@ -465,9 +470,10 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
         """What the structure reads of ``X`` (the last state of each window with an encoder)."""
         if self.theta_encoder is None:
             return X
-        if self.n_inputs:
+        ode = ode_structure(self)
+        if (self.n_inputs if ode is None else ode.n_inputs):
             raise ValueError("theta_encoder does not support forced ODEs (n_inputs > 0) yet.")
-        return _encoder.split_window(self.structure, X)
+        return _encoder.split_window(ode is not None, X)
 
     def _inputs(self, X, dtype, device):
         """Model inputs of validated ``X``: the structure's tensors, then the encoder's window."""
@@ -705,6 +711,14 @@ def fitted_settings(estimator: HybridRegressor) -> dict:
     check_is_fitted(estimator)
     # a fit pickled before the parameters at fit were kept: its current ones
     return dict(getattr(estimator, "_fitted_params", None) or estimator.get_params(deep=False))
+
+
+def ode_structure(estimator: HybridRegressor) -> OdeStructure | None:
+    """The ODE structure ``estimator`` fits, not set up (its options from ``structure`` and the
+    estimator's keywords), or None for a static structure: what the package's modules ask instead
+    of comparing ``estimator.structure`` with ``"ode"``, which an OdeStructure object is not."""
+    structure = estimator._make_structure()
+    return structure if isinstance(structure, OdeStructure) else None
 
 
 def structure_X(estimator: HybridRegressor, X: np.ndarray) -> np.ndarray:

@@ -299,7 +299,13 @@ class EstimatorExtras:
         if inferred:
             how = "no standard errors: theta is inferred per sample; predict_theta(X) gives it for each"
             return format_report("Hybrid fit", lines, self.theta_, None, how, extra=notes)
-        verdicts, after = _profile_verdicts(profile, science.names)
+        verdicts, after = None, []
+        if profile is not None:
+            # the profile says what the report prints of it: this module imports nothing of identifiability/
+            if not callable(getattr(profile, "fit_report_lines", None)):
+                raise TypeError("profile must be the ThetaProfile of profile_theta(est, X, y), "
+                                f"got {type(profile).__name__}.")
+            verdicts, after = profile.fit_report_lines(science.names)
         how = ("noise-only standard error: Gauss-Newton with the network held fixed, not an interval of theta, "
                "since the network can trade with theta")
         subset = getattr(self, "_standard_error_samples", None)
@@ -337,23 +343,3 @@ def first_screen(share: float | None) -> list[str]:
             f"all of the fit. Whether the data pin theta down: {profile}; or {loop}, which also checks that "
             "nothing is missing)"]
 
-
-def _profile_verdicts(profile, names) -> tuple[dict | None, list[str]]:
-    """The verdict text of each parameter from a ``ThetaProfile`` (entries of a vector joined),
-    and the lines the report prints after the table."""
-    if profile is None:
-        return None, []
-    from .identifiability import ADVICE, IDENTIFIED, ThetaProfile
-
-    if not isinstance(profile, ThetaProfile):
-        raise TypeError(f"profile must be the ThetaProfile of profile_theta(est, X, y), got {type(profile).__name__}.")
-    verdicts = {}
-    for name in names:
-        labels = [label for label in profile.verdicts if label == name or label.startswith(name + "[")]
-        if labels:
-            verdicts[name] = "; ".join((f"{label}: " if label != name else "") + profile.verdict_text(label)
-                                       for label in labels)
-    after = [f"(profiles: {profile.how()})"]
-    if any(v != IDENTIFIED for v in profile.verdicts.values()):
-        after.append(f"({ADVICE})")
-    return verdicts, after

@@ -30,6 +30,16 @@ __all__ = ["main"]
 DATASETS = ("silverbox", "tanks", "pendulum-freeswing", "hare-lynx", "pendulum", "duffing")
 
 
+def _method_name(name: str) -> str:
+    """``--method``, checked against the registry; read when the argument is parsed, so that ``--help``
+    needs no torch (the methods import it)."""
+    from .methods import METHODS
+
+    if name not in METHODS:
+        raise argparse.ArgumentTypeError(f"invalid choice: {name!r} (choose from {', '.join(METHODS)})")
+    return name
+
+
 def _parser() -> argparse.ArgumentParser:
     from . import __version__
 
@@ -40,7 +50,8 @@ def _parser() -> argparse.ArgumentParser:
     loop = sub.add_parser("loop", help="fit -> diagnose the residual -> add the missing terms -> refit -> compare")
     loop.add_argument("dataset", choices=DATASETS, help="measured (silverbox, tanks, pendulum-freeswing, "
                                                         "hare-lynx) or synthetic (pendulum, duffing)")
-    loop.add_argument("--method", default="erm", choices=("erm", "p-reg", "f-reg", "sam", "asam", "fsam"))
+    loop.add_argument("--method", default="erm", type=_method_name,
+                      help="training method, a name of sklearn_hybrid.methods.METHODS (default: erm)")
     loop.add_argument("--max-iter", type=int, default=None, help="optimisation steps per fit (default per data set)")
     loop.add_argument("--fast", action="store_true", help="tiny data and few iterations: checks the pipeline only")
     loop.add_argument("--seed", type=int, default=0)

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ._estimator import ode_structure
 from .metrics import network_share
 
 __all__ = ["plot_fit", "plot_profile"]
@@ -74,7 +75,8 @@ def plot_fit(estimator, X, y, *, samples=3, components=None, names=None, fig=Non
     hybrid = estimator.predict(X)
     science = estimator.predict_science(X)
     y = np.asarray(y, dtype=float).reshape(hybrid.shape)  # a flattened y is accepted, as by score
-    trajectories = estimator.structure == "ode" and hybrid.ndim in (2, 3)
+    ode = ode_structure(estimator)
+    trajectories = ode is not None and hybrid.ndim in (2, 3)
     if trajectories and hybrid.ndim == 2:  # one observed component: (n, n_steps)
         hybrid, science, y = hybrid[..., None], science[..., None], y[..., None]
     if not trajectories:
@@ -96,7 +98,7 @@ def plot_fit(estimator, X, y, *, samples=3, components=None, names=None, fig=Non
         top = fig.add_subplot(grid[0, col])
         main = fig.add_subplot(grid[1, col], sharex=top)
         if trajectories:
-            _trajectories(top, main, estimator.dt, y[idx, :, c], hybrid[idx, :, c], science[idx, :, c])
+            _trajectories(top, main, ode.dt, y[idx, :, c], hybrid[idx, :, c], science[idx, :, c])
             main.set_xlabel("time")
         else:
             _parity(top, main, y[idx][:, c], hybrid[idx][:, c], science[idx][:, c])

@@ -113,3 +113,16 @@ def test_loop_json_lists_the_added_terms(tmp_path, capsys):
     saved = json.loads(path.read_text())
     assert saved["dataset"] == "pendulum" and saved["table"][0]["stage"] == "before"
     assert all(set(t) == {"output", "term", "kind", "coef", "param"} for t in saved["added"])
+
+
+def test_method_names_come_from_the_registry(monkeypatch, capsys):
+    """--method takes any registered method (the CLI keeps no copy of the names) and refuses others."""
+    from sklearn_hybrid.methods import METHODS, SAM
+
+    monkeypatch.setitem(METHODS, "another-sam", SAM)
+    assert cli._parser().parse_args(["loop", "pendulum", "--method", "another-sam"]).method == "another-sam"
+    with pytest.raises(SystemExit) as exit_:
+        cli._parser().parse_args(["loop", "pendulum", "--method", "adam"])
+    assert exit_.value.code == 2
+    err = capsys.readouterr().err
+    assert "invalid choice: 'adam'" in err and "another-sam" in err and "fsam" in err

@@ -123,6 +123,33 @@ class ThetaProfile:
             lines.append(f"    ({ADVICE})")
         return "\n".join(lines)
 
+    def fit_report_lines(self, names) -> tuple[dict, list[str]]:
+        """What ``HybridRegressor.fit_report(profile=...)`` prints of these profiles, said by the profile
+        so that the estimator's report imports nothing of this module.
+
+        Parameters
+        ----------
+        names : sequence of str
+            The fit's parameter names; the entries of a vector parameter (``name[k]``) are joined.
+
+        Returns
+        -------
+        verdicts : dict of str to str
+            Per parameter the verdict text of its profiled entries.
+        after : list of str
+            The lines printed after the report's table.
+        """
+        verdicts = {}
+        for name in names:
+            labels = [label for label in self.verdicts if label == name or label.startswith(name + "[")]
+            if labels:
+                verdicts[name] = "; ".join((f"{label}: " if label != name else "") + self.verdict_text(label)
+                                           for label in labels)
+        after = [f"(profiles: {self.how()})"]
+        if any(v != IDENTIFIED for v in self.verdicts.values()):
+            after.append(f"({ADVICE})")
+        return verdicts, after
+
     def how(self) -> str:
         """How the profiles were made, in one line."""
         dropped = sum(len(v) for v in self.dropped.values())

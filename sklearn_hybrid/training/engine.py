@@ -436,13 +436,12 @@ def train(model: nn.Module, method, inputs: tuple[torch.Tensor, ...], y: torch.T
     phi = list(model.residual.parameters())
     extra = [] if model.reduction is None else list(model.reduction.parameters())
     params = theta + phi + extra
-    perturbed = phi + theta if config.perturb == "all" else phi
-    n_perturbed = len(perturbed)
-    is_weight = ["weight" in name for name, _ in model.residual.named_parameters()]
-    if config.perturb == "all" and model.encoder is not None:  # ASAM scales the encoder's weights too
+    phi_is_weight = ["weight" in name for name, _ in model.residual.named_parameters()]
+    theta_is_weight = [False] * len(theta)
+    if model.encoder is not None:  # ASAM scales the encoder's weights too (perturbed with perturb="all")
         encoder = list(model.encoder.named_parameters())
-        is_weight += [False] * (len(theta) - len(encoder)) + ["weight" in n for n, _ in encoder]
-    is_weight += [False] * (n_perturbed - len(is_weight))
+        theta_is_weight = [False] * (len(theta) - len(encoder)) + ["weight" in n for n, _ in encoder]
+    perturbed, is_weight = method.perturbed(phi, theta, phi_is_weight, theta_is_weight, config.perturb)
 
     optimizer, scheduler = make_optimizer(theta, phi + extra, config)
     batches = MiniBatches(len(y), config.batch_size, generator)

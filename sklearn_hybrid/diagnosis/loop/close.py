@@ -1,6 +1,7 @@
 """Close the loop: fit a hybrid model, diagnose its residual, add the missing terms, refit, compare.
 
-:func:`close_the_loop` is the one call; :class:`MLPOn` keeps the network out of exact equations.
+:func:`close_the_loop` is the one call; it keeps the network out of exact equations with
+:class:`~sklearn_hybrid.diagnosis.MLPOn`.
 """
 
 from __future__ import annotations
@@ -13,17 +14,17 @@ from dataclasses import replace
 from typing import Any
 
 import numpy as np
-import torch
 from sklearn.base import clone
 from sklearn.exceptions import NotFittedError
 from sklearn.utils import check_random_state
 from sklearn.utils.validation import check_is_fitted
-from torch import nn
 
+from ..._estimator import ode_structure
+from ...identifiability import science_intervals
 from ...training.engine import DivergenceError
-from ...residual import MLP, MaskedMLP
+from ...residual import MLPOn, ZeroResidual
 from ...science import read_signature
-from ..arguments import (check_names, check_options, check_param_names, check_refit_params, count_states,
+from .arguments import (check_names, check_options, check_param_names, check_refit_params, count_states,
                          offset_states, uncertain_components)
 from ..evidence import Evidence
 from .candidates import Candidates
@@ -33,70 +34,8 @@ from ..science_fit import ScienceFit
 from .stepwise import forward_selection
 from ..terms import physics_terms
 
-__all__ = ["close_the_loop", "MLPOn", "ZeroResidual"]
-
-
-class MLPOn:
-    """Residual factory: an MLP that acts on some state components only (zero on the others).
-
-    Physics often fixes part of the right-hand side exactly (``d angle/dt = velocity``); letting
-    the network change it would let it re-define the hidden state.
-
-    Parameters
-    ----------
-    components : list of int
-        Components of the (flattened) output the network may change.
-    hidden : tuple of int, default=(64, 64)
-        Hidden layer widths.
-    activation : str, default="tanh"
-        Activation (smooth activations give smooth residuals, easier to explain).
-    zero_init : bool, default=True
-        Start the last layer at zero, so that training starts from the science model alone rather
-        than from a random force the optimiser must first undo.
-    """
-
-    def __init__(self, components: Sequence[int], hidden: Sequence[int] = (64, 64), activation: str = "tanh",
-                 zero_init: bool = True):
-        self.components, self.hidden, self.activation = list(components), tuple(hidden), activation
-        self.zero_init = zero_init
-
-    def __call__(self, in_shapes, out_shape) -> nn.Module:
-        size = math.prod(out_shape)
-        if not self.components or not all(0 <= c < size for c in self.components):
-            raise ValueError(f"MLPOn components {self.components} must index an output of size {size}.")
-        mlp = MLP(in_shapes, (len(self.components),), self.hidden, self.activation)
-        if self.zero_init:
-            with torch.no_grad():
-                mlp.net[-1].weight.zero_()
-                mlp.net[-1].bias.zero_()
-        return MaskedMLP(mlp, self.components, out_shape)
-
-    def __repr__(self) -> str:
-        return (f"MLPOn({self.components}, hidden={self.hidden}, activation={self.activation!r}, "
-                f"zero_init={self.zero_init})")
-
-
-class _Zero(nn.Module):
-    """No network: zeros of the output shape (one unused parameter keeps the optimiser content)."""
-
-    def __init__(self, out_shape):
-        super().__init__()
-        self.out_shape = tuple(out_shape)
-        self.unused = nn.Parameter(torch.zeros(1))
-
-    def forward(self, *inputs):
-        # times the unused parameter: the loss stays differentiable when every theta is fixed
-        return self.unused * torch.zeros(len(inputs[0]), *self.out_shape, dtype=inputs[0].dtype)
-
-
-class ZeroResidual:
-    """Residual factory of a network that contributes nothing: fits the science model alone."""
-
-    def __call__(self, in_shapes, out_shape) -> nn.Module:
-        return _Zero(out_shape)
-
-    def __repr__(self) -> str:
-        return "ZeroResidual()"
+# fixed_science is public: the identification benchmark stops the loop there (--check-selection)
+__all__ = ["close_the_loop", "fixed_science"]
 
 
 def _settings(name: str, value: Any, cls: type, example: str) -> Any:
@@ -264,7 +203,8 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
     # the held-out split checks the groups and its own limits before anything is fitted
     splits, codes = evidence.splits(len(y))
     _check_fitted_horizon(estimator, y)
-    if fit_initial_states and (estimator.structure != "ode" or estimator.observed is None):
+    ode = ode_structure(estimator)
+    if fit_initial_states and (ode is None or ode.observed is None):
         raise ValueError("fit_initial_states=True needs an estimator with structure='ode' and observed=[...] "
                          "leaving some states unmeasured: only their initial values are fitted.")
     if getattr(estimator, "theta_encoder", None) is not None:
@@ -274,7 +214,7 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
     offsets = offset_states(estimator, X, y, offsets, state_names)
     variables, first_values = check_names(estimator, X, y, state_names, input_names, units, user_terms, positive)
     # the user's terms are tried on the data's first states before anything is fitted
-    n_states = count_states(estimator, X, y) if estimator.structure == "ode" else None
+    n_states = count_states(estimator, X, y) if ode is not None else None
     # an ODE's uncertain equations may have a parameter that varies with the state or an input: f_j(x) * x_k
     scaled = (None if n_states is None else
               {j: variables[j] for j in (range(n_states) if uncertain is None else uncertain)})
@@ -293,7 +233,7 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         before = estimator
     except NotFittedError:
         before = clone(estimator)
-        if before.structure == "ode" and _is_default_network(before.residual):
+        if ode is not None and _is_default_network(before.residual):
             # The default network is started at zero, so training starts from the science model: a random
             # start can push a state out of the science function's domain (an infected share below zero
             # makes S I grow without bound) and must first be undone. It acts on the uncertain components
@@ -317,7 +257,7 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
     n_states = points[0].size
     states = state_labels(state_names, n_states, "x", "state_names")
     variables = states + ([] if inputs is None else state_labels(input_names, inputs.shape[1], "u", "input_names"))
-    outputs = [f"g[{s}]" for s in states] if before.structure == "ode" else [f"g[{j}]" for j in range(base.shape[1])]
+    outputs = [f"g[{s}]" for s in states] if ode is not None else [f"g[{j}]" for j in range(base.shape[1])]
     components = list(range(base.shape[1])) if uncertain is None else uncertain
     values = np.hstack([a.reshape(len(a), -1) for a in args])
     if terms is None:
@@ -370,9 +310,7 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         if fit_initial_states:  # the hybrid refit starts every sample from the states fitted with the final model
             X = np.array(X, dtype=float)
             X[:, :fit.initial_states.shape[1]] = fit.initial_states
-        alone = _fixed_science(before, final, science_theta, X, y)
-        from ...identifiability import science_intervals  # the identifiability package reads this one's results
-
+        alone = fixed_science(before, final, science_theta, X, y)
         intervals = science_intervals(alone, X, y, incomplete=_open_question(sel["steps"], min_gain),
                                        fitted_states=fit.latent or None)
         lap("network-free refit and intervals")
@@ -423,9 +361,8 @@ _MAX_POINTS = 5000  # visited states used to rank candidates: plenty for a handf
 def _windowable(estimator: Any) -> bool:
     """Whether a long record of ``estimator``'s data can be cut into windows started from measured states:
     an unforced ODE that observes every state component."""
-    structure = estimator.model_.structure
-    return (estimator.structure == "ode" and getattr(structure, "observed", 0) is None
-            and not getattr(structure, "n_inputs", 0))
+    structure = ode_structure(estimator)
+    return structure is not None and structure.observed is None and not structure.n_inputs
 
 
 def cut_windows(X: Any, y: Any, window: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -494,7 +431,7 @@ def _inside(theta: dict, bounds: Mapping | None) -> dict:
     return out
 
 
-def _fixed_science(before, science, theta, X, y):
+def fixed_science(before, science, theta, X, y):
     """An estimator holding ``science`` at ``theta``, no network: the model an engineer keeps."""
     names = list(read_signature(science)[1])
     est = clone(before).set_params(science=science, residual=ZeroResidual(), method="erm", max_iter=1,
