@@ -6,6 +6,7 @@ import copy
 import math
 import numbers
 import threading
+import uuid
 import warnings
 
 import numpy as np
@@ -486,6 +487,8 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
                 UserWarning, stacklevel=3)
         self._not_usable = None if verdict is None or verdict.usable else verdict.summary()
         self._fitted_params = self.get_params(deep=False)  # what the report and the structure check read
+        # which fit this is: a profile records it, and fit_report refuses a profile of another fit
+        self._fit_token = uuid.uuid4().hex
         set_feature_info(self, setup.features)
 
     def _fitted_X(self, X):

@@ -22,6 +22,7 @@ from sklearn.exceptions import ConvergenceWarning, NotFittedError
 from sklearn_hybrid import DivergenceError, HybridRegressor, HybridRegressorCV, pack_inputs
 from sklearn_hybrid.datasets import get_data_home, make_pendulum
 from sklearn_hybrid.diagnosis import ResidualDiagnosis, close_the_loop
+from sklearn_hybrid.identifiability import profile_theta, science_intervals
 from sklearn_hybrid.models import pendulum_f
 from sklearn_hybrid.residual import MLP
 
@@ -184,6 +185,25 @@ def with_nan(where):
     return transform
 
 
+def short_profile(est, X, y):
+    """A profile cheap enough for the table (three points, three iterations each)."""
+    return profile_theta(est, X, y, n_points=3, max_iter=3, refine=False)
+
+
+def report_with_profile_of(**other_params):
+    """fit_report of the earlier fit with the profile of another fit (``other_params`` set on a copy)."""
+    def run(est, X, y):
+        other = copy.deepcopy(est).set_params(**other_params).fit(X, y)
+        return est.fit_report(profile=short_profile(other, X, y))
+    return Call({}, run)
+
+
+def report_of_fixed_fit_with_profile_of_earlier(est, X, y):
+    """The issue's case: a fit that held omega fixed at 0.8 given the earlier fit's profile."""
+    fixed = copy.deepcopy(est).set_params(theta_fixed={"omega": 0.8}).fit(X, y)
+    return fixed.fit_report(profile=short_profile(est, X, y))
+
+
 CASES = [
     # item 1: the layout of y for "ode"
     ("y with 3 components for 2 states", fit_on(lambda X, y: (X, np.concatenate([y, y[..., :1]], -1))),
@@ -342,6 +362,12 @@ CASES = [
      ValueError, "cannot judge terms of a model with a theta_encoder"),
     ("ResidualDiagnosis exact naming an unknown state", diagnose(lambda X, y: (X, y), exact=["omega"]),
      ValueError, "exact entry 'omega' is neither a state name of ['x0', 'x1'] nor an index below 2"),
+    # issue 49: silent wrong results on the new surfaces
+    ("fit_report with the profile of another fit", report_with_profile_of(theta_init={"omega": 0.7}),
+     ValueError, "The profile was made for another fit (omega="),
+    ("fit_report of a fit holding omega fixed, with a profile of omega",
+     Call({}, report_of_fixed_fit_with_profile_of_earlier),
+     ValueError, "which this fit held fixed (omega=0.8"),
 ]
 
 
@@ -382,7 +408,7 @@ def test_bad_input_is_named_and_changes_nothing(earlier, what, call, error, phra
 
 def test_table_size():
     """The closing note quotes this count; keep it in step with CASES."""
-    assert len(CASES) == 79
+    assert len(CASES) == 81
 
 
 def test_data_home_that_is_a_file(tmp_path, monkeypatch):
@@ -544,3 +570,14 @@ def test_forced_inputs_packed_beyond_ys_steps_cannot_be_told_from_a_larger_state
     right = HybridRegressor(**params).fit(pack_inputs(X, u[:, :6]), y)
     assert right.model_.structure.state_shape == (2,)
     assert "X read as a state of 2 component(s), then 6 samples" in right.fit_report()
+
+
+def test_fit_report_refuses_a_profile_made_before_a_refit():
+    """A refit on other data makes the profile of the earlier fit stale: refused, not printed as this fit's."""
+    X, y = _data()
+    est = HybridRegressor(science=pendulum_f, **FAST).fit(X, y)
+    profile = short_profile(est, X, y)
+    assert "(profile)" in est.fit_report(profile=profile) or "NOT IDENTIFIED" in est.fit_report(profile=profile)
+    est.fit(X[:5], y[:5])
+    with pytest.raises(ValueError, match=r"or for this estimator before it was refit.*profile_theta\(est, X, y\)"):
+        est.fit_report(profile=profile)

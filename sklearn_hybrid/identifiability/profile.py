@@ -72,6 +72,10 @@ class ThetaProfile:
     objective_minimum : dict of str to float
         Where the method's objective is lowest along the profile: the value of
         theta the regulariser prefers (with ``objective=True``).
+    fit_token : str or None
+        Which fit of the estimator was profiled: ``fit_report(profile=...)``
+        refuses a profile of another fit, or of this estimator before a refit,
+        whose intervals would not be this fit's.
     """
 
     estimate: dict
@@ -87,6 +91,7 @@ class ThetaProfile:
     intervals: dict = field(default_factory=dict)
     verdicts: dict = field(default_factory=dict)
     objective_minimum: dict = field(default_factory=dict)
+    fit_token: str | None = None
 
     def verdict_text(self, label: str) -> str:
         """What the profile says of one entry, in words, with its interval where identified."""
@@ -215,7 +220,8 @@ def profile_theta(estimator, X, y, params=None, *, grid=None, span=0.5, n_points
                 found[label] += rows
     best = float(min(p[1] for rows in found.values() for p in rows))
     out = ThetaProfile(estimate={}, values={}, loss={}, objective={}, threshold=threshold_of(best), best_loss=best,
-                       level=level, n_samples=problem.n_samples, n_iter=config.max_iter, method=problem.method.name)
+                       level=level, n_samples=problem.n_samples, n_iter=config.max_iter, method=problem.method.name,
+                       fit_token=getattr(estimator, "_fit_token", None))
     for name, k, label in entries:
         values, loss = (np.array(c) for c in zip(*sorted(found[label])))
         out.estimate[label] = float(entry_values(science, name)[k])
