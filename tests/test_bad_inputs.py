@@ -204,6 +204,14 @@ def report_of_fixed_fit_with_profile_of_earlier(est, X, y):
     return fixed.fit_report(profile=short_profile(est, X, y))
 
 
+def intervals_with_nan_in_y(est, X, y):
+    """science_intervals of a network-free copy of the earlier fit, with one NaN in y."""
+    from sklearn_hybrid.diagnosis import ZeroResidual
+
+    free = copy.deepcopy(est).set_params(residual=ZeroResidual()).fit(X, y)
+    return science_intervals(free, *with_nan("y")(X, y))
+
+
 CASES = [
     # item 1: the layout of y for "ode"
     ("y with 3 components for 2 states", fit_on(lambda X, y: (X, np.concatenate([y, y[..., :1]], -1))),
@@ -368,6 +376,8 @@ CASES = [
     ("fit_report of a fit holding omega fixed, with a profile of omega",
      Call({}, report_of_fixed_fit_with_profile_of_earlier),
      ValueError, "which this fit held fixed (omega=0.8"),
+    ("science_intervals with NaN in y", Call({}, intervals_with_nan_in_y),
+     ValueError, "y contains NaN or infinite values"),
 ]
 
 
@@ -408,7 +418,7 @@ def test_bad_input_is_named_and_changes_nothing(earlier, what, call, error, phra
 
 def test_table_size():
     """The closing note quotes this count; keep it in step with CASES."""
-    assert len(CASES) == 81
+    assert len(CASES) == 82
 
 
 def test_data_home_that_is_a_file(tmp_path, monkeypatch):
