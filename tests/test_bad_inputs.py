@@ -212,6 +212,18 @@ def intervals_with_nan_in_y(est, X, y):
     return science_intervals(free, *with_nan("y")(X, y))
 
 
+def plot_on(transform):
+    """plot_fit of the earlier fit against (transformed) data."""
+    def run(est, X, y):
+        import matplotlib
+
+        matplotlib.use("Agg")
+        from sklearn_hybrid import plot_fit
+
+        return plot_fit(est, *transform(X, y))
+    return Call({}, run)
+
+
 CASES = [
     # item 1: the layout of y for "ode"
     ("y with 3 components for 2 states", fit_on(lambda X, y: (X, np.concatenate([y, y[..., :1]], -1))),
@@ -378,6 +390,10 @@ CASES = [
      ValueError, "which this fit held fixed (omega=0.8"),
     ("science_intervals with NaN in y", Call({}, intervals_with_nan_in_y),
      ValueError, "y contains NaN or infinite values"),
+    ("plot_fit with y transposed", plot_on(lambda X, y: (X, np.swapaxes(y, 1, 2))),
+     ValueError, "y has shape (6, 2, 5); the model predicts (6, 5, 2)"),
+    ("plot_fit with y of other samples", plot_on(lambda X, y: (X, y[:-1])),
+     ValueError, "y has shape (5, 5, 2); the model predicts (6, 5, 2)"),
 ]
 
 
@@ -418,7 +434,7 @@ def test_bad_input_is_named_and_changes_nothing(earlier, what, call, error, phra
 
 def test_table_size():
     """The closing note quotes this count; keep it in step with CASES."""
-    assert len(CASES) == 82
+    assert len(CASES) == 84
 
 
 def test_data_home_that_is_a_file(tmp_path, monkeypatch):
