@@ -583,17 +583,24 @@ def test_forced_inputs_packed_beyond_ys_steps_cannot_be_told_from_a_larger_state
     remains. Packed with 8 input samples where y's 5 steps need 6, the 2-state X is, column for column,
     the X of a 4-state system packed right: no rule can tell them apart. Where the science function
     or y fixes the state's size the surplus is refused (the rows above); where neither does (this
-    function, observed=[0, 1]) the fit reads 4 states, and fit_report() says how X was read. What the
-    user must pass: u with y's n_steps + 1 samples, pack_inputs(x0, u[:, :n_steps + 1])."""
+    function, observed=[0, 1]) the fit reads 4 states and warns, at fit, that a smaller state fits X
+    too, and fit_report() says how X was read. What the user must pass: u with y's n_steps + 1
+    samples, pack_inputs(x0, u[:, :n_steps + 1]). Packed right, the 2-state fit is silent: observed=[0, 1]
+    rules out any smaller state."""
     X, y = _data()
     packed, _ = packed_with(8)(X, y)
     u = np.linspace(-1, 1, len(X) * 8).reshape(len(X), 8, 1)
     np.testing.assert_array_equal(packed, pack_inputs(packed[:, :4], packed[:, 4:].reshape(len(X), 6, 1)))
     params = {**FAST, "science": any_size, "n_inputs": 1, "observed": [0, 1]}
-    surplus = HybridRegressor(**params).fit(packed, y)
+    with pytest.warns(UserWarning, match=r"X read as a state of 4 component\(s\), then 6 samples of 1 input\(s\)"
+                                         r".*works for a state of 3 or 2 component\(s\) too.*"
+                                         r"pack_inputs\(x0, u\[:, :6\]\)"):
+        surplus = HybridRegressor(**params).fit(packed, y)
     assert surplus.model_.structure.state_shape == (4,)
     assert "X read as a state of 4 component(s), then 6 samples of 1 input(s)" in surplus.fit_report()
-    right = HybridRegressor(**params).fit(pack_inputs(X, u[:, :6]), y)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", UserWarning)
+        right = HybridRegressor(**params).fit(pack_inputs(X, u[:, :6]), y)
     assert right.model_.structure.state_shape == (2,)
     assert "X read as a state of 2 component(s), then 6 samples" in right.fit_report()
 
