@@ -108,8 +108,13 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
         sample; ``theta_fixed`` parameters stay shared.  The encoder is part
         of theta: ``lr_theta``, no weight decay, perturbed by the SAM family
         only with ``perturb="all"``.
-    dt : float, default=1.0
-        ``"ode"``: time between consecutive outputs (outputs at ``dt, 2 dt, ...``).
+    dt : float or None, default=None
+        ``"ode"``: time between consecutive outputs (outputs at ``dt, 2 dt, ...``),
+        in the time unit of theta's rates.  None: an ODE fit warns and takes
+        ``dt=1.0`` (the output step as the time unit; pass ``dt=1.0`` to say
+        so without a warning): the data cannot tell the time step, and a
+        wrong one scales every rate in theta without a sign.  Other
+        structures do not read it.
     n_substeps : int, default=4
         ``"ode"``: steps per output interval of ``"rk4"`` and of torchdiffeq's
         fixed-grid methods (``"euler"``, ``"midpoint"``...).
@@ -239,7 +244,7 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
 
     def __init__(self, science=None, *, structure="ode", residual="mlp", method="fsam",
                  rho=0.05, lam=1e-3, eta=None, perturb="residual", theta_init=None,
-                 theta_bounds=None, theta_fixed=None, theta_encoder=None, dt=1.0, n_substeps=4,
+                 theta_bounds=None, theta_fixed=None, theta_encoder=None, dt=None, n_substeps=4,
                  solver="rk4",
                  observed=None, n_inputs=0, input_interp="cubic", lr=1e-2, lr_theta=None,
                  max_iter=2000, tol=1e-3, n_iter_no_change=100, validation_fraction=None,
@@ -305,7 +310,8 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
         return make_method(self.method, rho=self.rho, lam=self.lam, eta=self.eta)
 
     def _make_structure(self):
-        return make_structure(self.structure, dt=self.dt, n_substeps=self.n_substeps,
+        dt = 1.0 if self.dt is None else self.dt  # None: the output step is the time unit (fit warns)
+        return make_structure(self.structure, dt=dt, n_substeps=self.n_substeps,
                               solver=self.solver, observed=self.observed,
                               n_inputs=self.n_inputs, input_interp=self.input_interp)
 
@@ -374,6 +380,12 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
         ``inputs``, ``y`` (tensor), ``config``, ``seed`` and ``y_shape``.
         """
         method = self._check_params()
+        if self.dt is None and isinstance(self.structure, str) and self.structure == "ode":
+            # theta's rates are per time unit: a guessed step scales them all, and nothing in the data shows it
+            warnings.warn("dt was not given: the ODE is integrated with dt=1.0, one time unit between consecutive "
+                          "outputs of y, and theta's rates are per that unit. Give the time between outputs, e.g. "
+                          "HybridRegressor(..., dt=0.1) for data sampled every 0.1 s (dt=1.0 keeps the output step "
+                          "as the time unit, without this warning).", UserWarning, stacklevel=3)
         y = None if y is None else np.asarray(y)  # None: validate_data says y is required
         y_shape = () if y is None else y.shape[1:]
         if len(y_shape) > 1:  # scikit-learn validates 2-D targets; predict restores the shape

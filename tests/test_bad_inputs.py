@@ -614,3 +614,19 @@ def test_fit_report_refuses_a_profile_made_before_a_refit():
     est.fit(X[:5], y[:5])
     with pytest.raises(ValueError, match=r"or for this estimator before it was refit.*profile_theta\(est, X, y\)"):
         est.fit_report(profile=profile)
+
+
+def test_an_ode_fit_without_dt_says_it_guessed_the_time_step():
+    """Data sampled every 0.2 fitted without dt would train at dt=1.0, every rate in theta scaled to match:
+    the fit warns and says how to give dt; dt=1.0 given, or a structure without time, fits silently."""
+    X, y = _data()
+    params = {**FAST, "science": pendulum_f}
+    del params["dt"]
+    with pytest.warns(UserWarning, match=r"dt was not given: the ODE is integrated with dt=1.0.*dt=0.1"):
+        guessed = HybridRegressor(**params).fit(X, y)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", UserWarning)
+        given = HybridRegressor(**params, dt=1.0).fit(X, y)
+        HybridRegressor(science=scalar_of_x, structure="additive", max_iter=3, random_state=0).fit(X, X[:, 0])
+    assert guessed.dt is None and guessed.model_.structure.dt == 1.0
+    assert guessed.theta_ == given.theta_
