@@ -24,8 +24,8 @@ from .training.engine import DivergenceError, TrainConfig, cosine_lr, explain_no
 from ._extras import EstimatorExtras, check_sample_weight, split_holdout
 from .training.memory import check_fit_memory, explained_memory_errors
 from .training.verdict import explain_start, judge_training
-from ._validation import (check_dtype_range, check_positive, check_target_layout, set_feature_info, torch_threads,
-                          validate_into_copy)
+from ._validation import (check_dtype_range, check_not_nested, check_positive, check_target_layout, set_feature_info,
+                          torch_threads, validate_into_copy)
 from ._fit_report import theta_uncertainty
 from .methods import make_method
 from .residual import build_residual
@@ -386,7 +386,7 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
                           "outputs of y, and theta's rates are per that unit. Give the time between outputs, e.g. "
                           "HybridRegressor(..., dt=0.1) for data sampled every 0.1 s (dt=1.0 keeps the output step "
                           "as the time unit, without this warning).", UserWarning, stacklevel=3)
-        y = None if y is None else np.asarray(y)  # None: validate_data says y is required
+        y = None if y is None else check_not_nested(y)  # None: validate_data says y is required
         y_shape = () if y is None else y.shape[1:]
         if len(y_shape) > 1:  # scikit-learn validates 2-D targets; predict restores the shape
             y = np.reshape(y, (len(y), math.prod(y_shape)))

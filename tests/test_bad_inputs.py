@@ -79,6 +79,10 @@ def raises(v, omega=0.5):
     raise RuntimeError("division by the unknown")
 
 
+def returns_int(v, omega=0.5):  # a rounding to integers: no gradient, and no dtype a fit computes in
+    return (pendulum_f(v, omega) * 10).long()
+
+
 def returns_numpy(v, omega=0.5):
     return np.zeros((len(v), 2))
 
@@ -210,6 +214,22 @@ def intervals_with_nan_in_y(est, X, y):
 
     free = copy.deepcopy(est).set_params(residual=ZeroResidual()).fit(X, y)
     return science_intervals(free, *with_nan("y")(X, y))
+
+
+def loop(transform=lambda X, y: (X, y), **kwargs):
+    """close_the_loop of the earlier fit on (transformed) data, with keyword arguments."""
+    return Call({}, lambda est, X, y: close_the_loop(est, *transform(X, y), **kwargs))
+
+
+def candidates_of(terms):
+    from sklearn_hybrid.diagnosis import Candidates
+
+    return Call({}, lambda est, X, y: close_the_loop(est, X, y, candidates=Candidates(terms=terms)))
+
+
+def y_test_of(transform):
+    """close_the_loop of the earlier fit with the training data as test data, y_test transformed."""
+    return Call({}, lambda est, X, y: close_the_loop(est, X, y, X, transform(y)))
 
 
 def plot_on(transform):
@@ -394,6 +414,30 @@ CASES = [
      ValueError, "y has shape (6, 2, 5); the model predicts (6, 5, 2)"),
     ("plot_fit with y of other samples", plot_on(lambda X, y: (X, y[:-1])),
      ValueError, "y has shape (5, 5, 2); the model predicts (6, 5, 2)"),
+    # issue 49: unclear errors
+    ("close_the_loop(z=2), moved into Evidence", loop(z=2),
+     TypeError, "z moved into Evidence: close_the_loop(..., evidence=Evidence(z=2))"),
+    ("close_the_loop(max_terms=2, cv=3), moved into both", loop(max_terms=2, cv=3),
+     TypeError, "cv moved into Evidence: close_the_loop(..., evidence=Evidence(cv=3)); max_terms moved into "
+                "Candidates: close_the_loop(..., candidates=Candidates(max_terms=2))"),
+    ("close_the_loop(term_kinds=...), now Candidates(kinds=...)", loop(term_kinds=["drag"]),
+     TypeError, "candidates=Candidates(kinds=['drag'])"),
+    ("close_the_loop with a misspelt keyword", loop(verbos=True),
+     TypeError, "unexpected keyword argument 'verbos'; did you mean 'verbose'?"),
+    ("Candidates(terms=['v_dot'])", candidates_of(["v_dot"]),
+     TypeError, "terms holds 'v_dot' (a str); it must hold Term objects: a term by its name: named_terms("),
+    ("Candidates(terms=[a plain function])", candidates_of([lambda d: d["x0"]]),
+     TypeError, "(a function); it must hold Term objects"),
+    ("close_the_loop with inf in y", loop(one_large("y", np.inf)),
+     ValueError, "y is not finite: sample(s) [0] hold NaN or infinite values"),
+    ("close_the_loop with y_test of one state of two", y_test_of(lambda y: y[..., :1]),
+     ValueError, "y_test has per-sample shape (5, 1); y has (5, 2)"),
+    ("close_the_loop with y_test of other steps", y_test_of(lambda y: y[:, :3]),
+     ValueError, "y_test has per-sample shape (3, 2); y has (5, 2)"),
+    ("y as a pandas Series of arrays", fit_on(lambda X, y: (X, __import__("pandas").Series(list(y)))),
+     ValueError, "y holds one array per sample (ndarray of shape (5, 2) in an object array of shape (6,)"),
+    ("science returns an int tensor", fit(science=returns_int),
+     ValueError, "returned torch.int64 values for torch.float32 inputs: it computes in integers"),
 ]
 
 
@@ -434,7 +478,7 @@ def test_bad_input_is_named_and_changes_nothing(earlier, what, call, error, phra
 
 def test_table_size():
     """The closing note quotes this count; keep it in step with CASES."""
-    assert len(CASES) == 84
+    assert len(CASES) == 95
 
 
 def test_data_home_that_is_a_file(tmp_path, monkeypatch):
