@@ -307,6 +307,8 @@ def test_exact_components_and_bad_options(pendulum):
     out = close_the_loop(HybridRegressor(science=pendulum_f, dt=0.1, max_iter=3, method="erm"), X, y,
                          state_names=NAMES, candidates=Candidates(max_terms=1, n_candidates=1))
     assert out.exact == [0] and isinstance(out.before.residual, MLPOn) and out.before.residual.components == [1]
+    assert "rmse" not in out.report.splitlines()[0]  # no test data: no error columns, and the report says why
+    assert "No test data given: the table has no error columns. Pass X_test, y_test" in out.report
     assert all(s["component"] == 1 for s in out.steps)
 
 

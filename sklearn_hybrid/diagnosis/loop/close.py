@@ -436,7 +436,7 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         warnings.warn(f"theta_true names {unscored}, parameters of neither the science model nor the terms added: "
                       "their error is not reported.", UserWarning, stacklevel=2)
     report = format_table(rows, added, sel["steps"], unexplained, n_val, z=z, min_gain=min_gain, cv=cv,
-                          unit=unit)
+                          unit=unit, tested=X_test is not None or test_scorer is not None)
     log(report)
     return LoopResult(before=before, after=after, science=augmented, science_theta=science_theta, science_only=alone,
                  intervals=intervals, initial_states=fit.initial_states.copy() if fit_initial_states else None,
