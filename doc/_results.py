@@ -79,7 +79,7 @@ def convert(markdown: str, images: Path | None = None) -> str:
             while i < len(lines) and not lines[i].startswith("```"):
                 block.append(lines[i])
                 i += 1
-            out += ["", "::", ""] + ["    " + b for b in block] + [""]
+            out += ["", ".. code-block:: text", ""] + ["    " + b for b in block] + [""]  # printed output
             i += 1
         elif line.lstrip().startswith("|"):
             rows = []
