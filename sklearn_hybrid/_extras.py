@@ -332,7 +332,7 @@ def _profile_verdicts(profile, names, estimator, notes) -> tuple[dict | None, li
                          f"have ({list(names)}): it is the profile of another model. {again}")
     fixed = sorted({base(label) for label in profile.verdicts if notes.get(base(label)) == "(fixed)"})
     if fixed:
-        held = ", ".join(f"{name}={estimator.theta_[name]}" for name in fixed)
+        held = ", ".join(f"{name}={np.round(estimator.theta_[name], 6)}" for name in fixed)  # float32 digits off
         raise ValueError(f"The profile holds parameter(s) {fixed}, which this fit held fixed ({held}, theta_fixed): "
                          f"it is the profile of another fit, whose intervals are not this fit's. {again}")
     token = getattr(estimator, "_fit_token", None)
