@@ -305,6 +305,7 @@ class EstimatorExtras:
             if not callable(getattr(profile, "fit_report_lines", None)):
                 raise TypeError("profile must be the ThetaProfile of profile_theta(est, X, y), "
                                 f"got {type(profile).__name__}.")
+            _check_profile_of_this_fit(profile, science.names, self, notes)
             verdicts, after = profile.fit_report_lines(science.names)
         how = ("noise-only standard error: Gauss-Newton with the network held fixed, not an interval of theta, "
                "since the network can trade with theta")
@@ -343,3 +344,23 @@ def first_screen(share: float | None) -> list[str]:
             f"all of the fit. Whether the data pin theta down: {profile}; or {loop}, which also checks that "
             "nothing is missing)"]
 
+
+def _check_profile_of_this_fit(profile, names, estimator, notes) -> None:
+    """Refuse a profile of another fit, or of this estimator before a refit: its intervals and verdicts
+    would be printed as this fit's, beside this fit's theta."""
+    again = "Profile this fit: est.fit_report(profile=profile_theta(est, X, y))."
+    base = lambda label: label.split("[")[0]  # noqa: E731  "k[1]" -> "k"
+    unknown = sorted({base(label) for label in profile.verdicts} - set(names))
+    if unknown:
+        raise ValueError(f"The profile holds parameter(s) {unknown}, which this fit's science function does not "
+                         f"have ({list(names)}): it is the profile of another model. {again}")
+    fixed = sorted({base(label) for label in profile.verdicts if notes.get(base(label)) == "(fixed)"})
+    if fixed:
+        held = ", ".join(f"{name}={np.round(estimator.theta_[name], 6)}" for name in fixed)  # float32 digits off
+        raise ValueError(f"The profile holds parameter(s) {fixed}, which this fit held fixed ({held}, theta_fixed): "
+                         f"it is the profile of another fit, whose intervals are not this fit's. {again}")
+    token = getattr(estimator, "_fit_token", None)
+    if profile.fit_token is not None and profile.fit_token != token:
+        made = ", ".join(f"{label}={value:.6g}" for label, value in profile.estimate.items())
+        raise ValueError(f"The profile was made for another fit ({made}), or for this estimator before it was "
+                         f"refit: its intervals are not this fit's. {again}")

@@ -13,8 +13,9 @@ Examples
 
 Only argparse is imported at start: torch and the package load after the
 arguments are parsed, so ``--help`` and ``--version`` answer at once.  A
-missing data file or a bad argument ends with one line on stderr and exit
-status 2 (``--traceback`` shows the full error).
+bad argument ends with one line on stderr and exit status 2, a missing data
+file with that line and where to put the file and get it (``--traceback``
+shows the full error).
 """
 
 from __future__ import annotations
@@ -85,14 +86,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     except (FileNotFoundError, ValueError, OSError) as exc:
         if args.traceback:
             raise
-        first = str(exc).strip().splitlines()[0].rstrip(":") if str(exc).strip() else type(exc).__name__
-        hint = ""
+        lines = str(exc).strip().splitlines() or [type(exc).__name__]
+        first, rest = lines[0].rstrip(":"), []
         if isinstance(exc, FileNotFoundError):
             from .datasets import get_data_home
 
-            hint = (f" (data home: {get_data_home(getattr(args, 'data_home', None)).resolve()}; "
-                    "pass --data-home DIR or set SKLEARN_HYBRID_DATA)")
-        print(f"sklearn-hybrid: error: {first}{hint}", file=sys.stderr)
+            first += (f" (data home: {get_data_home(getattr(args, 'data_home', None)).resolve()}; "
+                      "pass --data-home DIR or set SKLEARN_HYBRID_DATA)")
+            # a missing data file: where to put it and where to get it are the answer, not details
+            rest = [line for line in lines[1:] if "Traceback" not in line]
+        print("\n".join([f"sklearn-hybrid: error: {first}", *rest]), file=sys.stderr)
         return 2
 
 

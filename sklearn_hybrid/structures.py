@@ -27,6 +27,7 @@ import inspect
 import math
 import numbers
 from types import SimpleNamespace
+import warnings
 from typing import Callable
 
 import numpy as np
@@ -110,8 +111,9 @@ def pack_inputs(x0: np.ndarray, u: np.ndarray) -> np.ndarray:
     ``n_steps + 1`` input samples.  ``X`` alone cannot tell a surplus input sample from a state
     component, so pack exactly ``y``'s ``n_steps + 1`` samples (``u[:, :n_steps + 1]``).  A
     surplus is refused where the science function or ``y`` fixes the state's size; where neither
-    does (a function such as ``-k * v + u`` and ``observed`` set) it becomes state components,
-    and only ``fit_report()``, which says how ``X`` was read, shows it.
+    does (a function such as ``-k * v + u`` and ``observed`` set) it becomes state components:
+    the fit then warns that ``X`` could also be read as a smaller state, and ``fit_report()``
+    says how it was read.
     """
     x0, u = np.asarray(x0, float), np.asarray(u, float)
     if u.ndim == 2:
@@ -349,6 +351,40 @@ class OdeStructure:
                 raise
             n = self.state_shape[0]
             raise ValueError(str(error) + self._packing_note(np.empty((0, n + (self.n_steps + 1) * self.n_inputs))))
+        smaller = self._smaller_states_accepted(science, v, u)
+        if smaller:
+            # X cannot say which it is; the user can, once told (4 levels up: the caller of fit)
+            warnings.warn(
+                f"{self.layout()}. Neither y (observed={self.observed}) nor the science function "
+                f"{science.name!r}, which works for a state of {' or '.join(map(str, smaller))} component(s) too, "
+                "fixes the state's size, so X packed with more input samples than y's steps need would read "
+                f"as this larger state. If the state has fewer components, pack exactly y's n_steps + 1 = "
+                f"{self.n_steps + 1} input samples: pack_inputs(x0, u[:, :{self.n_steps + 1}]).",
+                UserWarning, stacklevel=4)
+
+    def _smaller_states_accepted(self, science, v, u) -> list[int]:
+        """Smaller state sizes that a forced X with surplus input samples would also fit (largest first).
+
+        k surplus input samples read as ``k * n_inputs`` extra state components.  Where ``y``
+        observes the whole state it fixes the state's size and ``setup`` refused a surplus; with
+        ``observed`` set, a smaller state that holds the observed components and that the science
+        function maps to its own shape is as consistent with ``X`` as the state read.
+        """
+        if not self.n_inputs or self.observed is None or len(self.state_shape) != 1:
+            return []
+        sizes = []
+        for k in range(1, 9):  # a few surplus samples: the usual mistake is u of the full record
+            size = self.state_shape[0] - k * self.n_inputs
+            if size <= max(self.observed):
+                break
+            try:
+                with torch.no_grad():
+                    out = science(*self._args(v[:, :size].detach(), u.detach()))
+            except Exception:  # it needs the larger state: the size is fixed
+                continue
+            if isinstance(out, torch.Tensor) and tuple(out.shape) == (len(v), size):
+                sizes.append(size)
+        return sizes
 
     def residual_shapes(self):
         ins = (tuple(self.state_shape),) + (((self.n_inputs,),) if self.n_inputs else ())

@@ -80,6 +80,10 @@ class ThetaProfile:
         Values whose member diverged in training: left out of the profile (a
         diverged member says nothing of how well the data fit there), and said
         in the report.
+    fit_token : str or None
+        Which fit of the estimator was profiled: ``fit_report(profile=...)``
+        refuses a profile of another fit, or of this estimator before a refit,
+        whose intervals would not be this fit's.
     """
 
     estimate: dict
@@ -96,6 +100,7 @@ class ThetaProfile:
     verdicts: dict = field(default_factory=dict)
     objective_minimum: dict = field(default_factory=dict)
     dropped: dict = field(default_factory=dict)
+    fit_token: str | None = None
 
     def verdict_text(self, label: str) -> str:
         """What the profile says of one entry, in words, with its interval where identified."""
@@ -271,7 +276,7 @@ def profile_theta(estimator, X, y, params=None, *, grid=None, span=0.5, n_points
     best = float(min(p[1] for rows in found.values() for p in rows))
     out = ThetaProfile(estimate={}, values={}, loss={}, objective={}, threshold=threshold_of(best), best_loss=best,
                        level=level, n_samples=problem.n_samples, n_iter=int(n_iter), method=problem.method.name,
-                       dropped={k: v for k, v in dropped.items() if v})
+                       dropped={k: v for k, v in dropped.items() if v}, fit_token=getattr(estimator, "_fit_token", None))
     for name, k, label in entries:
         values, loss = (np.array(c) for c in zip(*sorted(found[label])))
         out.estimate[label] = float(entry_values(science, name)[k])

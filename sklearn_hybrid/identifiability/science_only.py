@@ -112,6 +112,9 @@ def science_intervals(estimator, X, y, level=0.95, incomplete: str | None = None
     X, inputs = fitted_data(estimator, X, torch.float64)
     states = _check_fitted_states(fitted_states, estimator)
     y = check_target_layout(y, np.empty((len(X), *estimator.y_shape_))).reshape(len(X), -1)
+    if not np.all(np.isfinite(y)):  # a NaN residual makes every standard error NaN: "not identified", wrongly
+        raise ValueError("y contains NaN or infinite values. Intervals need every output value: drop the samples "
+                         "that hold them (keep = np.isfinite(y).reshape(len(y), -1).all(axis=1); X[keep], y[keep]).")
     model = copy.deepcopy(model).to(torch.float64).eval()
     science = model.science
     with torch_threads(estimator.n_threads), torch.no_grad():

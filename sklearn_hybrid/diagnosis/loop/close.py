@@ -24,6 +24,7 @@ from ...identifiability import science_intervals
 from ...training.engine import DivergenceError
 from ...residual import MLPOn, ZeroResidual
 from ...science import read_signature
+from ..._validation import check_not_nested
 from .arguments import (check_names, check_options, check_param_names, check_refit_params, count_states,
                          offset_states, uncertain_components)
 from ..evidence import Evidence
@@ -48,6 +49,67 @@ def _settings(name: str, value: Any, cls: type, example: str) -> Any:
     return value
 
 
+#: Keywords of close_the_loop that moved into its settings objects: name -> (class, its field).
+MOVED = {**{name: ("Evidence", name) for name in ("validation_fraction", "cv", "second_look", "groups", "z",
+                                                  "min_gain")},
+         **{name: ("Candidates", name) for name in ("terms", "kinds", "user_terms", "positive", "max_terms",
+                                                     "n_candidates")},
+         "term_kinds": ("Candidates", "kinds")}
+
+
+def _refuse_moved(moved: Mapping[str, Any]) -> None:
+    """Say where each keyword that moved into ``Evidence`` / ``Candidates`` went (Python's own
+    TypeError for any other unknown keyword)."""
+    import inspect
+    from difflib import get_close_matches
+
+    unknown = [name for name in moved if name not in MOVED]
+    if unknown:
+        known = [name for name in inspect.signature(close_the_loop).parameters if name != "moved"]
+        close = get_close_matches(unknown[0], known, n=1)
+        raise TypeError(f"close_the_loop() got an unexpected keyword argument {unknown[0]!r}"
+                        + (f"; did you mean {close[0]!r}?" if close else ""))
+    lines = []
+    for cls in ("Evidence", "Candidates"):
+        names = [name for name in moved if MOVED[name][0] == cls]
+        if names:
+            shown = ", ".join(f"{MOVED[name][1]}={_short(moved[name])}" for name in names)
+            lines.append(f"{' and '.join(names)} moved into {cls}: close_the_loop(..., {cls.lower()}={cls}({shown}))")
+    raise TypeError("; ".join(lines) + " (from sklearn_hybrid.diagnosis).")
+
+
+def _short(value: Any) -> str:
+    text = repr(value)
+    return text if len(text) <= 30 and "\n" not in text else "..."
+
+
+def _check_targets(X: Any, y: Any, X_test: Any, y_test: Any, test_scorer: Callable | None) -> None:
+    """Refuse what would fail deep inside a refit or the scoring: y or y_test not finite, y_test of
+    other states or steps (without a ``test_scorer``, y_test is scored against the predictions).
+
+    The arguments are read, never changed: what the estimator is given stays the caller's.
+    """
+    y = np.atleast_1d(np.asarray(check_not_nested(y), dtype=float))
+    tested = [("y", X, y)]
+    scored = y_test is not None and test_scorer is None
+    if scored:
+        tested.append(("y_test", X_test, np.atleast_1d(np.asarray(check_not_nested(y_test, "y_test"), dtype=float))))
+    for name, X_, values in tested:
+        bad = ~np.isfinite(values.reshape(len(values), -1)).all(axis=1)
+        if np.any(bad):
+            raise ValueError(f"{name} is not finite: sample(s) {np.flatnonzero(bad)[:5].tolist()} hold NaN or "
+                             "infinite values, which no least-squares refit can match. Drop them: keep = "
+                             f"np.isfinite({name}).reshape(len({name}), -1).all(axis=1).")
+        if len(values) != len(X_):
+            raise ValueError(f"{name} has {len(values)} samples and {name.replace('y', 'X')} {len(X_)}.")
+    if scored:
+        shape, test_shape = y.shape[1:], tested[1][2].shape[1:]
+        if test_shape != shape and test_shape != (math.prod(shape),):
+            raise ValueError(f"y_test has per-sample shape {test_shape}; y has {shape}: the test data must hold the "
+                             "same observed components over the same steps as y (for a longer horizon, "
+                             "give test_scorer, a function of the fitted estimator that runs est.simulate).")
+
+
 def _check_fitted_horizon(estimator: Any, y: Any) -> None:
     """A fitted estimator predicts y's per-sample shape of its fit: refuse another (torch would say
     only that a shape is invalid, deep inside a refit)."""
@@ -70,7 +132,7 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
                    param_names: Mapping[str, str] | None = None,
                    refit_params: Mapping[str, Any] | None = None, theta_true: Mapping[str, Any] | None = None,
                    test_scorer: Callable | None = None, refit_hybrid: bool = False, n_jobs: int | None = None,
-                   random_state: Any = 0, verbose: bool = False) -> LoopResult:
+                   random_state: Any = 0, verbose: bool = False, **moved: Any) -> LoopResult:
     """Fit, find the residual, add the missing terms that held-out data support, refit, compare.
 
     1. The hybrid model is fitted (unless it already is). With exact components (below) and the
@@ -164,6 +226,11 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         Seeds the subsampling of visited states.
     verbose : bool, default=False
         Print progress.
+    **moved
+        Nothing is accepted here: a keyword that moved into ``Evidence`` (``z``, ``cv``,
+        ``validation_fraction``, ``min_gain``, ``groups``, ``second_look``) or ``Candidates``
+        (``terms``, ``kinds``, ``user_terms``, ``positive``, ``max_terms``, ``n_candidates``) raises a
+        ``TypeError`` that says where it went, any other Python's own.
 
     Returns
     -------
@@ -182,6 +249,8 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         hybrid fit, when the loop made it, the selection, the final network-free refit with its
         intervals, the hybrid refit and the scoring).
     """
+    if moved:
+        _refuse_moved(moved)
     start = time.perf_counter()
     timings, clock = {}, [time.process_time()]
 
@@ -199,6 +268,7 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
     terms, term_kinds, user_terms = candidates.terms, candidates.kinds, candidates.user_terms
     positive, max_terms, n_candidates = candidates.positive, candidates.max_terms, candidates.n_candidates
     check_options(n_jobs, X_test, y_test)
+    _check_targets(X, y, X_test, y_test, test_scorer)
     z, min_gain, cv, second_look = evidence.z, evidence.min_gain, evidence.cv, evidence.second_look
     # the held-out split checks the groups and its own limits before anything is fitted
     splits, codes = evidence.splits(len(y))
@@ -345,7 +415,7 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         warnings.warn(f"theta_true names {unscored}, parameters of neither the science model nor the terms added: "
                       "their error is not reported.", UserWarning, stacklevel=2)
     report = format_table(rows, added, sel["steps"], unexplained, n_val, z=z, min_gain=min_gain, cv=cv,
-                          unit=unit)
+                          unit=unit, tested=X_test is not None or test_scorer is not None)
     log(report)
     return LoopResult(before=before, after=after, science=augmented, science_theta=science_theta, science_only=alone,
                  intervals=intervals, initial_states=fit.initial_states.copy() if fit_initial_states else None,
