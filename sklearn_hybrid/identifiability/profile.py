@@ -178,7 +178,7 @@ def _fmt(value) -> str:
 
 def profile_theta(estimator, X, y, params=None, *, grid=None, span=0.5, n_points=5, level=0.95,
                   max_iter=None, lr=None, refine=True, objective=False, n_jobs=None,
-                  verbose=False) -> ThetaProfile:
+                  verbose="auto") -> ThetaProfile:
     """Profile each parameter of a fitted hybrid model: an interval and a verdict per parameter.
 
     Parameters
@@ -223,8 +223,9 @@ def profile_theta(estimator, X, y, params=None, *, grid=None, span=0.5, n_points
     n_jobs : int, optional
         Train the members in this many worker processes (joblib; under
         ``joblib.parallel_backend("dask")`` on a Dask cluster).
-    verbose : bool, default=False
-        A progress bar over the members' iterations.
+    verbose : bool or "auto", default="auto"
+        A progress bar over the members' iterations: ``"auto"`` once they
+        have trained 5 seconds, in a terminal or a notebook (as a fit's).
 
     Returns
     -------

@@ -7,6 +7,7 @@
 from __future__ import annotations
 
 import math
+import sys
 import time
 import warnings
 from collections.abc import Callable, Mapping, Sequence
@@ -21,7 +22,7 @@ from sklearn.utils.validation import check_is_fitted
 
 from ..._estimator import ode_structure
 from ...identifiability import science_intervals
-from ...training.engine import DivergenceError
+from ...training.engine import DivergenceError, is_interactive
 from ...residual import MLPOn, ZeroResidual
 from ...science import read_signature
 from ..._validation import check_not_nested
@@ -132,7 +133,7 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
                    param_names: Mapping[str, str] | None = None,
                    refit_params: Mapping[str, Any] | None = None, theta_true: Mapping[str, Any] | None = None,
                    test_scorer: Callable | None = None, refit_hybrid: bool = False, n_jobs: int | None = None,
-                   random_state: Any = 0, verbose: bool = False, **moved: Any) -> LoopResult:
+                   random_state: Any = 0, verbose: bool | str = "auto", **moved: Any) -> LoopResult:
     """Fit, find the residual, add the missing terms that held-out data support, refit, compare.
 
     1. The hybrid model is fitted (unless it already is). With exact components (below) and the
@@ -224,8 +225,10 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         (Silverbox), that is most of the scoring time.
     random_state : int, default=0
         Seeds the subsampling of visited states.
-    verbose : bool, default=False
-        Print progress.
+    verbose : bool or "auto", default="auto"
+        Print progress: True every stage and candidate, and the report; ``"auto"`` the stages with
+        their elapsed time, in a terminal or a notebook (not in logs or captured output); False
+        nothing.
     **moved
         Nothing is accepted here: a keyword that moved into ``Evidence`` (``z``, ``cv``,
         ``validation_fraction``, ``min_gain``, ``groups``, ``second_look``) or ``Candidates``
@@ -259,10 +262,13 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         timings[stage] = timings.get(stage, 0.0) + now - clock[0]
         clock[0] = now
 
+    auto = isinstance(verbose, str) and verbose == "auto"
+    show = is_interactive(sys.stdout) if auto else bool(verbose)
+
     def log(message: str) -> None:  # stage lines carry the elapsed time: the long stages say how long
-        if verbose:
-            print(message if message.startswith(("  ", "|")) or "\n" in message
-                  else f"[{time.perf_counter() - start:4.0f} s] {message}", flush=True)
+        detail = message.startswith(("  ", "|")) or "\n" in message
+        if show and not (auto and detail):  # "auto": the stages only
+            print(message if detail else f"[{time.perf_counter() - start:4.0f} s] {message}", flush=True)
     evidence = _settings("evidence", evidence, Evidence, "Evidence(z=..., cv=...)")
     candidates = _settings("candidates", candidates, Candidates, "Candidates(kinds=..., max_terms=...)")
     terms, term_kinds, user_terms = candidates.terms, candidates.kinds, candidates.user_terms
