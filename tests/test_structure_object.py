@@ -56,10 +56,12 @@ def test_the_estimators_keywords_defer_to_the_object_or_must_agree_with_it():
     assert agreeing.theta_ == HybridRegressor(science=pendulum_f, structure=structure, **FAST).fit(X, y).theta_
     with pytest.raises(ValueError, match=r"structure=OdeStructure\(dt=0.2\) and dt=0.1 disagree: give dt once"):
         HybridRegressor(science=pendulum_f, structure=structure, dt=0.1, **FAST).fit(X, y)
-    # a keyword left alone defers to the object: the estimator's defaults are OdeStructure's
+    # a keyword left alone defers to the object: the estimator's defaults are OdeStructure's, but dt's, None
+    # ("not given": an ODE fit without a structure object warns and takes OdeStructure's 1.0)
     keywords = inspect.signature(HybridRegressor).parameters
     assert {k: keywords[k].default for k in ODE_DEFAULTS if k in keywords} == {
-        k: v for k, v in ODE_DEFAULTS.items() if k in keywords}
+        k: v for k, v in ODE_DEFAULTS.items() if k in keywords} | {"dt": None}
+    assert ODE_DEFAULTS["dt"] == 1.0
 
 
 def test_clone_and_params_with_a_structure_object():
