@@ -46,8 +46,8 @@ from _identification_systems import SYSTEMS
 
 from sklearn_hybrid.diagnosis import Evidence
 from sklearn_hybrid.diagnosis.loop import stepwise
-from sklearn_hybrid.diagnosis.loop.stepwise import _SECOND_LOOK_Z as MIN_Z
-from sklearn_hybrid.diagnosis.loop.stepwise import _promising
+from sklearn_hybrid.diagnosis.loop.stepwise import SECOND_LOOK_Z as MIN_Z
+from sklearn_hybrid.diagnosis.loop.stepwise import worth_a_second_look
 
 CHECKS = bench.cache_dir(False) / "selection_checks"
 NULL_RUNS = bench.cache_dir(False) / "second_look_null"
@@ -102,13 +102,13 @@ def selection(name: str, noise: float, data: dict | None = None, **options) -> t
     system = SYSTEMS[name]
     data = bench.make_data(system, noise, 0, False) if data is None else data
     est = pickle.loads((bench.cache_dir(False) / "fits" / f"{bench.case_name(name, noise, 0)}.pkl").read_bytes())
-    original, LOOP._fixed_science = LOOP._fixed_science, _stop
+    original, LOOP.fixed_science = LOOP.fixed_science, _stop
     try:
         bench.close_the_loop(est, data["X"], data["y"], **bench.loop_arguments(system), **options)
     except _Selected as done:
         return done.science, {k: np.asarray(v, float).tolist() for k, v in done.theta.items()}
     finally:
-        LOOP._fixed_science = original
+        LOOP.fixed_science = original
     raise RuntimeError("the loop ended without reaching its network-free fit")
 
 
@@ -170,7 +170,7 @@ def render_selection_checks() -> None:
 def second_look_null(name: str, noise: float) -> dict:
     """The control's selection with every candidate of 5 % gain looked at again; its second-look rows."""
     looked: list[dict] = []
-    original_look, original_gate = stepwise._second_look, stepwise._promising
+    original_look, original_gate = stepwise.look_again, stepwise.worth_a_second_look
 
     def recording(recheck, tried, current, theta, added, steps, *args):
         n = len(steps)
@@ -179,12 +179,12 @@ def second_look_null(name: str, noise: float) -> dict:
                       | {"kept": best is not None and best[5] == i} for i in range(n, len(steps)))
         return best
 
-    stepwise._second_look, stepwise._promising = recording, lambda verdict, min_gain: True
+    stepwise.look_again, stepwise.worth_a_second_look = recording, lambda verdict, min_gain: True
     start = time.perf_counter()
     try:
         science, _ = selection(name, noise)
     finally:
-        stepwise._second_look, stepwise._promising = original_look, original_gate
+        stepwise.look_again, stepwise.worth_a_second_look = original_look, original_gate
     passed = [r for r in looked if r["z"] > r["threshold"] and r["gain"] >= 0.05]
     return {"system": name, "noise": noise, "looked": looked, "n_looked": len(looked), "n_passed": len(passed),
             "added": term_names(science), "seconds": time.perf_counter() - start, "package_commit": PACKAGE_COMMIT,
@@ -238,7 +238,7 @@ def inconclusive(record: dict) -> list[tuple[str, float, float]]:
         if step != last or accepted != "no" or not gain.endswith("%"):
             continue
         gain, z = float(gain.rstrip("%")) / 100, float(z)
-        if _promising({"gain": gain, "z": z}, MIN_GAIN) and z < float(threshold.group(1)):
+        if worth_a_second_look({"gain": gain, "z": z}, MIN_GAIN) and z < float(threshold.group(1)):
             out.append((term.replace("\\|", "|"), gain, z))
     return out
 

@@ -3,8 +3,8 @@
 Long free runs (the test records of a closed loop: 40,000 samples) call the right-hand side
 tens of thousands of times, one small batch at a time, so module dispatch and re-deriving theta
 through its bounded map at every call cost more than the arithmetic. Without gradients,
-``simulate`` reads theta once and runs the MLP as bare ``addmm`` products (``_fast.frozen_rhs``);
-``_fast.disabled()`` gives the module path it replaced. The model has the Silverbox recipe's
+``simulate`` reads theta once and runs the MLP as bare ``addmm`` products (``frozen_rhs`` of
+``sklearn_hybrid.integrate.fast``); ``fast.disabled()`` gives the module path it replaced. The model has the Silverbox recipe's
 shape (2 states, 1 input, linear science with 4 parameters, MLP 32 x 32 on the acceleration),
 fitted for a few iterations on random data (the speed does not depend on the weights).
 
@@ -24,8 +24,9 @@ import numpy as np
 import torch
 
 from _common import write_results
-from sklearn_hybrid import HybridRegressor, _fast
+from sklearn_hybrid import HybridRegressor
 from sklearn_hybrid.diagnosis import MLPOn, free_run
+from sklearn_hybrid.integrate import fast
 from sklearn_hybrid.recipes import silverbox_f
 
 
@@ -55,7 +56,7 @@ def main() -> None:
     for use_residual in (True, False):
         times = {"modules": [], "frozen": []}
         for _ in range(args.rounds):
-            with _fast.disabled():
+            with fast.disabled():
                 times["modules"].append(per_step(use_residual))
             times["frozen"].append(per_step(use_residual))
         ratios = np.array(times["modules"]) / np.array(times["frozen"])

@@ -39,7 +39,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import PACKAGE_COMMIT, runs_folder, write_results  # noqa: E402
 from _uncertainty_systems import SYSTEMS  # noqa: E402
-from bench_uncertainty import RUNS, SETTINGS, _row  # noqa: E402
+from bench_uncertainty import RUNS, SETTINGS, member_row  # noqa: E402
 
 METHODS = ("erm", "fsam")
 LAPLACE_RUNS = runs_folder("laplace/small")
@@ -126,7 +126,7 @@ def _laplace_row(system, method, label, true, got):
     as_profile = [{"theta": r["theta"], "fit_s": r["fit_s"], "profile_s": r["laplace_s"],
                    "profile": {label: {"interval": r["intervals"][label], "verdict": r["verdicts"][label]}}}
                   for r in got]
-    return _row(system, method, label, true, as_profile)
+    return member_row(system, method, label, true, as_profile)
 
 
 def render():
@@ -140,7 +140,7 @@ def render():
                 continue
             for label, true in system.theta_true.items():
                 for kind, row in (("laplace", _laplace_row(system, f"{method} laplace", label, true, got)),
-                                  ("profile", _row(system, f"{method} profile", label, true, got))):
+                                  ("profile", member_row(system, f"{method} profile", label, true, got))):
                     row["kind"] = kind
                     rows.append(row)
     for name in DEFAULT_SYSTEMS:

@@ -86,7 +86,7 @@ def _drift_lr(r, lr_t):
 
 def data_probe() -> dict:
     """Closed-form science-only least squares of r on the training split."""
-    d = table1._wind_tunnel("cpu").data
+    d = table1.wind_tunnel_spec("cpu").data
     b = models.wind_tunnel_f(torch.tensor(d.X_train), r=0.0).numpy()
     y, hatch = d.y_train, d.X_train[..., 2]
     out = {}
@@ -133,7 +133,7 @@ def run_probe(name: str) -> dict:
         return json.loads(path.read_text())
     torch.set_num_threads(1)
     cfg = {**BASE, **PROBES[name]}
-    spec = table1._wind_tunnel("cpu")
+    spec = table1.wind_tunnel_spec("cpu")
     d = spec.data
     kw = dict(spec.kw, lr=cfg["lr"], max_iter=cfg["max_iter"], random_state=cfg["seed"],
               method=cfg["method"], tol=None)

@@ -155,11 +155,11 @@ def summarise(records, system):
         if not got:
             continue
         for label, true in system.theta_true.items():
-            rows.append(_row(system, method, label, true, got))
+            rows.append(member_row(system, method, label, true, got))
     return rows
 
 
-def _row(system, method, label, true, got):
+def member_row(system, method, label, true, got):
     intervals, identified, estimates = zip(*(_interval_of(r, method, label) for r in got))
     low, high = np.array([i[0] for i in intervals]), np.array([i[1] for i in intervals])
     est = np.array(estimates)

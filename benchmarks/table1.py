@@ -203,7 +203,7 @@ def _pendulum_images(budget):
     return Bunch(data=d, kw=kw, theta=d.theta_true, source="synthetic")
 
 
-def _wind_tunnel(budget):
+def wind_tunnel_spec(budget):
     try:
         raw, source = ds.fetch_wind_tunnel(download_if_missing=False), "MEASURED"
     except (FileNotFoundError, OSError):
@@ -248,7 +248,7 @@ def _light_tunnel(budget, n_samples=None):
 
 
 TASKS = {"pendulum": _pendulum, "reaction_diffusion": _reaction_diffusion, "duffing": _duffing,
-         "pendulum_images": _pendulum_images, "wind_tunnel": _wind_tunnel,
+         "pendulum_images": _pendulum_images, "wind_tunnel": wind_tunnel_spec,
          "light_tunnel": _light_tunnel}
 
 

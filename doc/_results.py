@@ -79,7 +79,7 @@ def convert(markdown: str, images: Path | None = None) -> str:
             while i < len(lines) and not lines[i].startswith("```"):
                 block.append(lines[i])
                 i += 1
-            out += ["", "::", ""] + ["    " + b for b in block] + [""]
+            out += ["", ".. code-block:: text", ""] + ["    " + b for b in block] + [""]  # printed output
             i += 1
         elif line.lstrip().startswith("|"):
             rows = []
@@ -175,7 +175,8 @@ def render_snippets() -> list[str]:
             theta = "; ".join(f"{k}={', '.join(f'{v:.4g}' for v in vals)}" for k, vals in r["theta"].items())
             rows.append([r["method"], r["source"], str(r["n_train"]), str(r["max_iter"]), theta,
                          f"{r['theta_error']:.4g}", f"{r['theta_error_best']:.4g}", f"{r['y_error']:.4g}"])
-        (SNIPPETS / f"task_{task}.rst").write_text(note + "\n\n" + "\n".join(_table(rows)) + "\n")
+        (SNIPPETS / f"task_{task}.rst").write_text(note + "\n\n" + "\n".join(_table(rows)) + "\n"
+                                                   + _gallery_figures(task))
         written.append(f"task_{task}")
     varying = (RESULTS / "varying_theta.md").read_text()
     table = [line for line in varying.splitlines() if line.startswith("|")]
@@ -191,6 +192,27 @@ def render_snippets() -> list[str]:
     (SNIPPETS / "loop_silverbox.rst").write_text(
         f"*Committed full run* of ``benchmarks/bench_closed_loop.py`` ({_escape(_machine(payload))}; "
         "``benchmarks/results/closed_loop.md``), not run during this documentation build:\n\n"
-        + convert(_section(loop, "silverbox")))
+        + convert(_section(loop, "silverbox")) + _gallery_figures("silverbox_loop"))
     written.append("loop_silverbox")
     return written
+
+
+def _gallery_figures(example: str) -> str:
+    """The figures of a committed full run of a gallery example (``benchmarks/gallery_figures.py``), as rst.
+
+    Empty where none was committed; otherwise the images (copied beside the snippets) under a line
+    that says where and when they were made, as the numbers above them do.
+    """
+    import json
+
+    path = RESULTS / "gallery.json"
+    entry = json.loads(path.read_text())["examples"].get(example) if path.is_file() else None
+    if not entry or not entry["figures"]:
+        return ""
+    out = ["", f"*Figures of a committed full run* of ``{entry['example']}`` ({_escape(entry['cpu'])}, "
+               f"{entry['date']}, {entry['seconds']} s; ``benchmarks/gallery_figures.py``), not run during this "
+               "documentation build:", ""]
+    for name in entry["figures"]:
+        shutil.copy(RESULTS / "gallery" / name, SNIPPETS / name)
+        out += [f".. image:: /_generated/snippets/{name}", "   :width: 100%", ""]
+    return "\n".join(out)

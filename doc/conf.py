@@ -92,7 +92,8 @@ sphinx_gallery_conf = {
 templates_path = []
 exclude_patterns = ["_build", "auto_examples/*.ipynb", "auto_examples/*.py", "_generated/snippets/*"]
 html_theme = "alabaster"
-html_static_path = []
+html_static_path = ["_static"]
+html_css_files = ["wrap.css"]  # printed reports wrap instead of being cut on the right
 html_theme_options = {
     "description": "Hybrid models that estimate the science",
     "page_width": "1240px",

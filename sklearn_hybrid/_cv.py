@@ -42,13 +42,20 @@ def _values(name, values, default, kind=numbers.Real, positive=True):
     return values
 
 
-def member_estimator(estimator, rho, lam, seed):
-    """A clone of ``estimator`` with one member's settings; a method given as an object gets
-    its ``rho`` / ``lam`` replaced in a copy (the estimator's own ``rho`` / ``lam`` are not read then)."""
-    member = clone(estimator).set_params(random_state=seed)
+def member_estimator(estimator, params: dict):
+    """A clone of ``estimator`` with one member's settings (``random_state`` and the swept keywords);
+    a method given as an object gets those of its fields replaced in a copy (the estimator's own
+    keywords are not read then)."""
+    swept = _configuration(params)
+    member = clone(estimator).set_params(random_state=params["random_state"])
     if isinstance(estimator.method, Method):
-        return member.set_params(method=estimator.method.for_members(rho=rho, lam=lam))
-    return member.set_params(rho=rho, lam=lam)
+        return member.set_params(method=estimator.method.for_members(**swept))
+    return member.set_params(**swept)
+
+
+def _configuration(params: dict) -> dict:
+    """A member's swept keywords without its seed: members that share them differ by the seed only."""
+    return {k: v for k, v in params.items() if k != "random_state"}
 
 
 def _train_member(model, method, inputs, y, config, seed, n_threads):
@@ -220,7 +227,7 @@ class HybridRegressorCV(RegressorMixin, BaseEstimator):
             allow_nd=True, multi_output=True, y_numeric=True)
         X_arr = np.asarray(X)
         train_idx, val_idx = self._split(len(X_arr), params[0]["random_state"])
-        members = [member_estimator(self.estimator, p["rho"], p["lam"], p["random_state"]) for p in params]
+        members = [member_estimator(self.estimator, p) for p in params]
         setups = [prepare_fit(m, X_arr[train_idx], y_arr[train_idx]) for m in members]
         # the members share shapes: measure one, count those in memory at once (all of them
         # when stacked, one per worker when members with an encoder train one by one)
@@ -256,7 +263,7 @@ class HybridRegressorCV(RegressorMixin, BaseEstimator):
         self.theta_ = self.best_estimator_.theta_
         self.cv_results_ = self._results(params, scores, diverged)
         same = [k for k, p in enumerate(params)
-                if (p["rho"], p["lam"]) == (params[best]["rho"], params[best]["lam"]) and diverged[k] < 0]
+                if _configuration(p) == _configuration(params[best]) and diverged[k] < 0]
         self.theta_std_ = {}
         for name, value in self.theta_.items():
             spread = np.std([np.asarray(members[k].theta_[name]) for k in same], axis=0)
@@ -279,7 +286,6 @@ class HybridRegressorCV(RegressorMixin, BaseEstimator):
     def _train(self, setups, params):
         """Train the members, in ``n_jobs`` groups at once (worker processes of one torch thread each)."""
         first = setups[0]
-        rho, lam = np.array([p["rho"] for p in params]), np.array([p["lam"] for p in params])
         n_jobs = self._n_groups()
         threads = self.estimator.n_threads if min(n_jobs, len(setups)) == 1 else 1
         if self.estimator.theta_encoder is not None:  # member by member (see Notes)
@@ -294,7 +300,9 @@ class HybridRegressorCV(RegressorMixin, BaseEstimator):
                     "theta": {n: np.stack([h["theta"][n] for h in histories], axis=1)
                               for n in histories[0]["theta"]},
                     "diverged_at": np.array([h["diverged_at"] for h in histories])}
-        method = first.method.for_members(rho=rho, lam=lam)
+        # one value per member of each swept keyword; the method takes those it has fields for
+        method = first.method.for_members(**{k: np.array([p[k] for p in params])
+                                             for k in _configuration(params[0])})
         # every member trains max_iter steps, as the report says (no early stop of the stack)
         config = dataclasses.replace(first.config, tol=None)
         history, models = train_members([s.model for s in setups], method, first.inputs, first.y, config,
@@ -305,7 +313,7 @@ class HybridRegressorCV(RegressorMixin, BaseEstimator):
 
     def _results(self, params, scores, diverged):
         results = {"params": params, "score": scores, "diverged_at": diverged}
-        for key in ("rho", "lam"):
+        for key in _configuration(params[0]):
             results[key] = np.array([p[key] for p in params], dtype=float)
         results["seed"] = np.array([p["random_state"] for p in params])
         for name in self.estimators_[0].theta_:

@@ -6,6 +6,7 @@ import copy
 import math
 import numbers
 import threading
+import uuid
 import warnings
 
 import numpy as np
@@ -23,14 +24,14 @@ from .training.engine import DivergenceError, TrainConfig, cosine_lr, explain_no
 from ._extras import EstimatorExtras, check_sample_weight, split_holdout
 from .training.memory import check_fit_memory, explained_memory_errors
 from .training.verdict import explain_start, judge_training
-from ._validation import (check_dtype_range, check_positive, check_target_layout, set_feature_info, torch_threads,
-                          validate_into_copy)
+from ._validation import (check_dtype_range, check_not_nested, check_positive, check_target_layout, set_feature_info,
+                          torch_threads, validate_into_copy)
 from ._fit_report import theta_uncertainty
 from .metrics import network_share
 from .methods import make_method
 from .residual import build_residual
 from .science import ScienceModel
-from .structures import HybridModule, make_structure
+from .structures import HybridModule, OdeStructure, make_structure
 
 __all__ = ["HybridRegressor"]
 
@@ -85,9 +86,14 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
         arguments with a numeric default are the parameters theta, e.g.
         ``def pendulum_f(v, omega=0.5): ...``.  For ``"ode"`` it returns the
         known part of ``dv/dt``.
-    structure : {"ode", "compose", "additive"} or callable, default="ode"
-        How science and network combine (see :mod:`sklearn_hybrid.structures`);
-        a callable ``structure(x, f, g) -> y`` gives any nested composition.
+    structure : {"ode", "compose", "additive"}, OdeStructure or callable, default="ode"
+        How science and network combine (see :mod:`sklearn_hybrid.structures`),
+        by name or as an object, as scikit-learn takes ``kernel="rbf"`` or
+        ``kernel=RBF()``: ``OdeStructure(dt=0.1, observed=[0])`` carries the
+        ODE's options, which the name ``"ode"`` takes from ``dt``, ``n_substeps``,
+        ``solver``, ``observed``, ``n_inputs`` and ``input_interp`` below (left
+        at their defaults they defer to the object; given, they must agree with
+        it); a callable ``structure(x, f, g) -> y`` gives any nested composition.
     residual : str, dict or callable, default="mlp"
         Specification of the network g_phi (see
         :func:`sklearn_hybrid.residual.build_residual`); built inside ``fit``.
@@ -127,8 +133,13 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
         sample; ``theta_fixed`` parameters stay shared.  The encoder is part
         of theta: ``lr_theta``, no weight decay, perturbed by the SAM family
         only with ``perturb="all"``.
-    dt : float, default=1.0
-        ``"ode"``: time between consecutive outputs (outputs at ``dt, 2 dt, ...``).
+    dt : float or None, default=None
+        ``"ode"``: time between consecutive outputs (outputs at ``dt, 2 dt, ...``),
+        in the time unit of theta's rates.  None: an ODE fit warns and takes
+        ``dt=1.0`` (the output step as the time unit; pass ``dt=1.0`` to say
+        so without a warning): the data cannot tell the time step, and a
+        wrong one scales every rate in theta without a sign.  Other
+        structures do not read it.
     n_substeps : int or "auto", default="auto"
         ``"ode"``: steps per output interval of ``"rk4"`` and of torchdiffeq's
         fixed-grid methods (``"euler"``, ``"midpoint"``...).  ``"auto"``: for
@@ -273,7 +284,7 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
 
     def __init__(self, science=None, *, structure="ode", residual="mlp", method="fsam",
                  rho=0.05, lam=1e-3, eta=None, perturb="residual", theta_init=None,
-                 theta_bounds=None, theta_fixed=None, theta_encoder=None, dt=1.0, n_substeps="auto",
+                 theta_bounds=None, theta_fixed=None, theta_encoder=None, dt=None, n_substeps="auto",
                  solver="rk4",
                  observed=None, n_inputs=0, input_interp="cubic", lr=1e-2, lr_theta=None,
                  max_iter=2000, tol=1e-3, n_iter_no_change=100, validation_fraction=None,
@@ -339,7 +350,8 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
         return make_method(self.method, rho=self.rho, lam=self.lam, eta=self.eta)
 
     def _make_structure(self):
-        return make_structure(self.structure, dt=self.dt, n_substeps=self.n_substeps,
+        dt = 1.0 if self.dt is None else self.dt  # None: the output step is the time unit (fit warns)
+        return make_structure(self.structure, dt=dt, n_substeps=self.n_substeps,
                               solver=self.solver, observed=self.observed,
                               n_inputs=self.n_inputs, input_interp=self.input_interp)
 
@@ -408,7 +420,13 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
         ``inputs``, ``y`` (tensor), ``config``, ``seed`` and ``y_shape``.
         """
         method = self._check_params()
-        y = None if y is None else np.asarray(y)  # None: validate_data says y is required
+        if self.dt is None and isinstance(self.structure, str) and self.structure == "ode":
+            # theta's rates are per time unit: a guessed step scales them all, and nothing in the data shows it
+            warnings.warn("dt was not given: the ODE is integrated with dt=1.0, one time unit between consecutive "
+                          "outputs of y, and theta's rates are per that unit. Give the time between outputs, e.g. "
+                          "HybridRegressor(..., dt=0.1) for data sampled every 0.1 s (dt=1.0 keeps the output step "
+                          "as the time unit, without this warning).", UserWarning, stacklevel=3)
+        y = None if y is None else check_not_nested(y)  # None: validate_data says y is required
         y_shape = () if y is None else y.shape[1:]
         if len(y_shape) > 1:  # scikit-learn validates 2-D targets; predict restores the shape
             y = np.reshape(y, (len(y), math.prod(y_shape)))
@@ -438,7 +456,7 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
                 torch.manual_seed(seed)
                 in_shapes, out_shape = structure.residual_shapes()
                 residual = build_residual(self.residual, in_shapes, out_shape, dtype)
-                reduction = structure.make_reduction(dtype) if method.name == "f-reg" else None
+                reduction = structure.make_reduction(dtype) if method.needs_reduction else None
                 encoder = None
                 if self.theta_encoder is not None:
                     encoder = _encoder.make_theta_encoder(self.theta_encoder, science, X.shape[1:], dtype)
@@ -465,9 +483,10 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
         """What the structure reads of ``X`` (the last state of each window with an encoder)."""
         if self.theta_encoder is None:
             return X
-        if self.n_inputs:
+        ode = ode_structure(self)
+        if (self.n_inputs if ode is None else ode.n_inputs):
             raise ValueError("theta_encoder does not support forced ODEs (n_inputs > 0) yet.")
-        return _encoder.split_window(self.structure, X)
+        return _encoder.split_window(ode is not None, X)
 
     def _inputs(self, X, dtype, device):
         """Model inputs of validated ``X``: the structure's tensors, then the encoder's window."""
@@ -528,6 +547,8 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
                 UserWarning, stacklevel=3)
         self._not_usable = None if verdict is None or verdict.usable else verdict.summary()
         self._fitted_params = self.get_params(deep=False)  # what the report and the structure check read
+        # which fit this is: a profile records it, and fit_report refuses a profile of another fit
+        self._fit_token = uuid.uuid4().hex
         set_feature_info(self, setup.features)
 
     def _fitted_X(self, X):
@@ -705,6 +726,14 @@ def fitted_settings(estimator: HybridRegressor) -> dict:
     check_is_fitted(estimator)
     # a fit pickled before the parameters at fit were kept: its current ones
     return dict(getattr(estimator, "_fitted_params", None) or estimator.get_params(deep=False))
+
+
+def ode_structure(estimator: HybridRegressor) -> OdeStructure | None:
+    """The ODE structure ``estimator`` fits, not set up (its options from ``structure`` and the
+    estimator's keywords), or None for a static structure: what the package's modules ask instead
+    of comparing ``estimator.structure`` with ``"ode"``, which an OdeStructure object is not."""
+    structure = estimator._make_structure()
+    return structure if isinstance(structure, OdeStructure) else None
 
 
 def structure_X(estimator: HybridRegressor, X: np.ndarray) -> np.ndarray:

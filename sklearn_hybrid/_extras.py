@@ -299,7 +299,14 @@ class EstimatorExtras:
         if inferred:
             how = "no standard errors: theta is inferred per sample; predict_theta(X) gives it for each"
             return format_report("Hybrid fit", lines, self.theta_, None, how, extra=notes)
-        verdicts, after = _profile_verdicts(profile, science.names)
+        verdicts, after = None, []
+        if profile is not None:
+            # the profile says what the report prints of it: this module imports nothing of identifiability/
+            if not callable(getattr(profile, "fit_report_lines", None)):
+                raise TypeError("profile must be the ThetaProfile of profile_theta(est, X, y), "
+                                f"got {type(profile).__name__}.")
+            _check_profile_of_this_fit(profile, science.names, self, notes)
+            verdicts, after = profile.fit_report_lines(science.names)
         how = ("noise-only standard error: Gauss-Newton with the network held fixed, not an interval of theta, "
                "since the network can trade with theta")
         subset = getattr(self, "_standard_error_samples", None)
@@ -338,22 +345,22 @@ def first_screen(share: float | None) -> list[str]:
             "nothing is missing)"]
 
 
-def _profile_verdicts(profile, names) -> tuple[dict | None, list[str]]:
-    """The verdict text of each parameter from a ``ThetaProfile`` (entries of a vector joined),
-    and the lines the report prints after the table."""
-    if profile is None:
-        return None, []
-    from .identifiability import ADVICE, IDENTIFIED, ThetaProfile
-
-    if not isinstance(profile, ThetaProfile):
-        raise TypeError(f"profile must be the ThetaProfile of profile_theta(est, X, y), got {type(profile).__name__}.")
-    verdicts = {}
-    for name in names:
-        labels = [label for label in profile.verdicts if label == name or label.startswith(name + "[")]
-        if labels:
-            verdicts[name] = "; ".join((f"{label}: " if label != name else "") + profile.verdict_text(label)
-                                       for label in labels)
-    after = [f"(profiles: {profile.how()})"]
-    if any(v != IDENTIFIED for v in profile.verdicts.values()):
-        after.append(f"({ADVICE})")
-    return verdicts, after
+def _check_profile_of_this_fit(profile, names, estimator, notes) -> None:
+    """Refuse a profile of another fit, or of this estimator before a refit: its intervals and verdicts
+    would be printed as this fit's, beside this fit's theta."""
+    again = "Profile this fit: est.fit_report(profile=profile_theta(est, X, y))."
+    base = lambda label: label.split("[")[0]  # noqa: E731  "k[1]" -> "k"
+    unknown = sorted({base(label) for label in profile.verdicts} - set(names))
+    if unknown:
+        raise ValueError(f"The profile holds parameter(s) {unknown}, which this fit's science function does not "
+                         f"have ({list(names)}): it is the profile of another model. {again}")
+    fixed = sorted({base(label) for label in profile.verdicts if notes.get(base(label)) == "(fixed)"})
+    if fixed:
+        held = ", ".join(f"{name}={np.round(estimator.theta_[name], 6)}" for name in fixed)  # float32 digits off
+        raise ValueError(f"The profile holds parameter(s) {fixed}, which this fit held fixed ({held}, theta_fixed): "
+                         f"it is the profile of another fit, whose intervals are not this fit's. {again}")
+    token = getattr(estimator, "_fit_token", None)
+    if profile.fit_token is not None and profile.fit_token != token:
+        made = ", ".join(f"{label}={value:.6g}" for label, value in profile.estimate.items())
+        raise ValueError(f"The profile was made for another fit ({made}), or for this estimator before it was "
+                         f"refit: its intervals are not this fit's. {again}")

@@ -61,11 +61,20 @@ def call_science(science, args, expected_shape, what, differentiable=False):
             "`v.mul_(k)` or `v[:, 0].clamp_(min=0)`); it would rewrite the data at every call. Use "
             "out-of-place operations (`v = v * k`, `v[:, 0].clamp(min=0)`, `torch.stack`)."
         )
+    if out.dtype != args[0].dtype and not out.dtype.is_floating_point:  # no fit computes in it
+        raise ValueError(
+            f"The science function {name!r} returned {out.dtype} values for {args[0].dtype} inputs: it computes "
+            "in integers or booleans (a constant such as torch.tensor(2), a comparison, .long() or .round() "
+            "to an integer type), which carry no gradient to theta. Return floats of the inputs' dtype: "
+            "write constants as floats (torch.tensor(2.0)) or convert with .to(v.dtype)."
+        )
     if out.dtype != args[0].dtype:
+        fits = str(out.dtype).removeprefix("torch.")
         raise ValueError(
             f"The science function {name!r} returned {out.dtype} values for {args[0].dtype} inputs: make its "
-            "constants with the inputs' dtype (`torch.tensor(c, dtype=v.dtype)`), or fit with "
-            f"dtype={str(out.dtype).removeprefix('torch.')!r} when it must compute in that precision."
+            "constants with the inputs' dtype (`torch.tensor(c, dtype=v.dtype)`)"
+            + (f", or fit with dtype={fits!r} when it must compute in that precision." if fits in ("float32", "float64")
+               else " (fits compute in float32 or float64).")
         )
     batch = args[0].shape[0]
     if expected_shape is not None and tuple(out.shape) != tuple(expected_shape):

@@ -13,7 +13,7 @@ import torch
 from sklearn.utils.validation import validate_data
 
 __all__ = ["torch_threads", "validate_into_copy", "set_feature_info", "check_positive", "check_target_layout",
-           "check_dtype_range"]
+           "check_dtype_range", "check_not_nested"]
 
 
 @contextmanager
@@ -71,6 +71,22 @@ def check_target_layout(y, pred: np.ndarray, name: str = "y") -> np.ndarray:
         raise ValueError(f"{name} has shape {y.shape}; the model predicts {pred.shape} for these X "
                          f"({flat} flattened per sample is accepted too).")
     return y.reshape(pred.shape)
+
+
+def check_not_nested(a, name: str = "y"):
+    """``a`` as an array, refusing one whose entries are arrays (a pandas Series of arrays).
+
+    numpy makes such a column an object array of shape ``(n,)``; scikit-learn's NaN check then
+    compares arrays and fails with "The truth value of an array ... is ambiguous", which names
+    neither ``y`` nor the fix.
+    """
+    a = np.asarray(a)
+    if a.dtype == object and a.size and isinstance(a.flat[0], (np.ndarray, list, tuple)):
+        shape = np.shape(a.flat[0])
+        raise ValueError(f"{name} holds one array per sample ({type(a.flat[0]).__name__} of shape {shape} in an "
+                         f"object array of shape {a.shape}, as a pandas Series of arrays gives): stack them into one "
+                         f"array, {name} = np.stack({name}), of shape {(len(a), *shape)}.")
+    return a
 
 
 def check_dtype_range(dtype: torch.dtype, X, y) -> None:

@@ -13,8 +13,9 @@ Examples
 
 Only argparse is imported at start: torch and the package load after the
 arguments are parsed, so ``--help`` and ``--version`` answer at once.  A
-missing data file or a bad argument ends with one line on stderr and exit
-status 2 (``--traceback`` shows the full error).
+bad argument ends with one line on stderr and exit status 2, a missing data
+file with that line and where to put the file and get it (``--traceback``
+shows the full error).
 """
 
 from __future__ import annotations
@@ -30,6 +31,16 @@ __all__ = ["main"]
 DATASETS = ("silverbox", "tanks", "pendulum-freeswing", "hare-lynx", "pendulum", "duffing")
 
 
+def _method_name(name: str) -> str:
+    """``--method``, checked against the registry; read when the argument is parsed, so that ``--help``
+    needs no torch (the methods import it)."""
+    from .methods import METHODS
+
+    if name not in METHODS:
+        raise argparse.ArgumentTypeError(f"invalid choice: {name!r} (choose from {', '.join(METHODS)})")
+    return name
+
+
 def _parser() -> argparse.ArgumentParser:
     from . import __version__
 
@@ -40,7 +51,8 @@ def _parser() -> argparse.ArgumentParser:
     loop = sub.add_parser("loop", help="fit -> diagnose the residual -> add the missing terms -> refit -> compare")
     loop.add_argument("dataset", choices=DATASETS, help="measured (silverbox, tanks, pendulum-freeswing, "
                                                         "hare-lynx) or synthetic (pendulum, duffing)")
-    loop.add_argument("--method", default="erm", choices=("erm", "p-reg", "f-reg", "sam", "asam", "fsam"))
+    loop.add_argument("--method", default="erm", type=_method_name,
+                      help="training method, a name of sklearn_hybrid.methods.METHODS (default: erm)")
     loop.add_argument("--max-iter", type=int, default=None, help="optimisation steps per fit (default per data set)")
     loop.add_argument("--fast", action="store_true", help="tiny data and few iterations: checks the pipeline only")
     loop.add_argument("--seed", type=int, default=0)
@@ -74,14 +86,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     except (FileNotFoundError, ValueError, OSError) as exc:
         if args.traceback:
             raise
-        first = str(exc).strip().splitlines()[0].rstrip(":") if str(exc).strip() else type(exc).__name__
-        hint = ""
+        lines = str(exc).strip().splitlines() or [type(exc).__name__]
+        first, rest = lines[0].rstrip(":"), []
         if isinstance(exc, FileNotFoundError):
             from .datasets import get_data_home
 
-            hint = (f" (data home: {get_data_home(getattr(args, 'data_home', None)).resolve()}; "
-                    "pass --data-home DIR or set SKLEARN_HYBRID_DATA)")
-        print(f"sklearn-hybrid: error: {first}{hint}", file=sys.stderr)
+            first += (f" (data home: {get_data_home(getattr(args, 'data_home', None)).resolve()}; "
+                      "pass --data-home DIR or set SKLEARN_HYBRID_DATA)")
+            # a missing data file: where to put it and where to get it are the answer, not details
+            rest = [line for line in lines[1:] if "Traceback" not in line]
+        print("\n".join([f"sklearn-hybrid: error: {first}", *rest]), file=sys.stderr)
         return 2
 
 

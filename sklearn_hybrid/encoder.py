@@ -261,22 +261,22 @@ class BoundModel:
         self.structure = model.structure
 
 
-def split_window(structure_name, X):
-    """The structure's ``X`` from the encoder's: the last state of each window for ``"ode"``.
+def split_window(ode: bool, X):
+    """The structure's ``X`` from the encoder's: the last state of each window for an ODE.
 
     Parameters
     ----------
-    structure_name : str or callable
-        The estimator's ``structure``.
+    ode : bool
+        Whether the estimator's structure is an ODE.
     X : ndarray of shape (n_samples, ...)
-        Encoder input (for ``"ode"``: windows ``(n, m_x, *state_shape)``).
+        Encoder input (for an ODE: windows ``(n, m_x, *state_shape)``).
 
     Returns
     -------
     ndarray
-        What the structure reads: ``X[:, -1]`` for ``"ode"``, ``X`` otherwise.
+        What the structure reads: ``X[:, -1]`` for an ODE, ``X`` otherwise.
     """
-    if structure_name == "ode":
+    if ode:
         if X.ndim < 3:
             raise ValueError(
                 "With theta_encoder and structure='ode', X must hold input windows of shape "

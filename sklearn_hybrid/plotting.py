@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ._estimator import ode_structure
 from .metrics import network_share
 
 __all__ = ["plot_fit", "plot_profile"]
@@ -65,6 +66,8 @@ def plot_fit(estimator, X, y, *, samples=3, components=None, names=None, fig=Non
     """
     from sklearn.utils.validation import check_is_fitted
 
+    from ._validation import check_target_layout
+
     check_is_fitted(estimator)
     plt = _pyplot()
     X = np.asarray(X)
@@ -73,8 +76,11 @@ def plot_fit(estimator, X, y, *, samples=3, components=None, names=None, fig=Non
         raise ValueError(f"samples must pick at least one of the {len(X)} samples, got {samples!r}.")
     hybrid = estimator.predict(X)
     science = estimator.predict_science(X)
-    y = np.asarray(y, dtype=float).reshape(hybrid.shape)  # a flattened y is accepted, as by score
-    trajectories = estimator.structure == "ode" and hybrid.ndim in (2, 3)
+    # as score reads it: flattened per sample is accepted, another layout or sample count is refused
+    # (a reshape would draw a transposed y as data)
+    y = check_target_layout(y, hybrid)
+    ode = ode_structure(estimator)
+    trajectories = ode is not None and hybrid.ndim in (2, 3)
     if trajectories and hybrid.ndim == 2:  # one observed component: (n, n_steps)
         hybrid, science, y = hybrid[..., None], science[..., None], y[..., None]
     if not trajectories:
@@ -96,7 +102,8 @@ def plot_fit(estimator, X, y, *, samples=3, components=None, names=None, fig=Non
         top = fig.add_subplot(grid[0, col])
         main = fig.add_subplot(grid[1, col], sharex=top)
         if trajectories:
-            _trajectories(top, main, estimator.dt, y[idx, :, c], hybrid[idx, :, c], science[idx, :, c])
+            dt = estimator.model_.structure.dt  # the fit's, whatever set_params says since
+            _trajectories(top, main, dt, y[idx, :, c], hybrid[idx, :, c], science[idx, :, c])
             main.set_xlabel("time")
         else:
             _parity(top, main, y[idx][:, c], hybrid[idx][:, c], science[idx][:, c])

@@ -14,7 +14,8 @@ from typing import Sequence
 import torch
 from torch import nn
 
-__all__ = ["MLP", "MaskedMLP", "ConvNet", "build_residual", "RESIDUALS", "new_module", "from_registry"]
+__all__ = ["MLP", "MaskedMLP", "ConvNet", "MLPOn", "ZeroResidual", "build_residual", "RESIDUALS", "new_module",
+           "from_registry"]
 
 _ACTIVATIONS = {"relu": nn.ReLU, "tanh": nn.Tanh, "elu": nn.ELU, "gelu": nn.GELU,
                 "silu": nn.SiLU, "leaky_relu": nn.LeakyReLU, "softplus": nn.Softplus}
@@ -140,6 +141,69 @@ class ConvNet(nn.Module):
 
 
 RESIDUALS: dict[str, type[nn.Module]] = {"mlp": MLP, "cnn": ConvNet}
+
+
+class MLPOn:
+    """Residual factory: an MLP that acts on some state components only (zero on the others).
+
+    Physics often fixes part of the right-hand side exactly (``d angle/dt = velocity``); letting
+    the network change it would let it re-define the hidden state.
+
+    Parameters
+    ----------
+    components : list of int
+        Components of the (flattened) output the network may change.
+    hidden : tuple of int, default=(64, 64)
+        Hidden layer widths.
+    activation : str, default="tanh"
+        Activation (smooth activations give smooth residuals, easier to explain).
+    zero_init : bool, default=True
+        Start the last layer at zero, so that training starts from the science model alone rather
+        than from a random force the optimiser must first undo.
+    """
+
+    def __init__(self, components: Sequence[int], hidden: Sequence[int] = (64, 64), activation: str = "tanh",
+                 zero_init: bool = True):
+        self.components, self.hidden, self.activation = list(components), tuple(hidden), activation
+        self.zero_init = zero_init
+
+    def __call__(self, in_shapes, out_shape) -> nn.Module:
+        size = math.prod(out_shape)
+        if not self.components or not all(0 <= c < size for c in self.components):
+            raise ValueError(f"MLPOn components {self.components} must index an output of size {size}.")
+        mlp = MLP(in_shapes, (len(self.components),), self.hidden, self.activation)
+        if self.zero_init:
+            with torch.no_grad():
+                mlp.net[-1].weight.zero_()
+                mlp.net[-1].bias.zero_()
+        return MaskedMLP(mlp, self.components, out_shape)
+
+    def __repr__(self) -> str:
+        return (f"MLPOn({self.components}, hidden={self.hidden}, activation={self.activation!r}, "
+                f"zero_init={self.zero_init})")
+
+
+class _Zero(nn.Module):
+    """No network: zeros of the output shape (one unused parameter keeps the optimiser content)."""
+
+    def __init__(self, out_shape):
+        super().__init__()
+        self.out_shape = tuple(out_shape)
+        self.unused = nn.Parameter(torch.zeros(1))
+
+    def forward(self, *inputs):
+        # times the unused parameter: the loss stays differentiable when every theta is fixed
+        return self.unused * torch.zeros(len(inputs[0]), *self.out_shape, dtype=inputs[0].dtype)
+
+
+class ZeroResidual:
+    """Residual factory of a network that contributes nothing: fits the science model alone."""
+
+    def __call__(self, in_shapes, out_shape) -> nn.Module:
+        return _Zero(out_shape)
+
+    def __repr__(self) -> str:
+        return "ZeroResidual()"
 
 
 def new_module(module, what: str) -> nn.Module:

@@ -12,13 +12,22 @@ functional regulariser of ``method="f-reg"`` (``functional_penalty``, one value 
 ``"additive"``  static additive model ``y = f_theta(x) + g_phi(x)``
 callable        ``structure(x, f, g) -> y`` for anything more nested
 ==============  =========================================================
+
+The estimator takes a name or the object itself, as scikit-learn takes
+``kernel="rbf"`` or ``kernel=RBF()``: ``structure=OdeStructure(dt=0.1,
+observed=[0])`` carries the ODE's options, ``structure="ode"`` takes them from
+the estimator's keywords (``dt``, ``n_substeps``, ...).  A fit sets up a fresh
+copy, never the object given.
 """
 
 from __future__ import annotations
 
+import copy
+import inspect
 import math
 import numbers
 from types import SimpleNamespace
+import warnings
 from typing import Callable
 
 import numpy as np
@@ -30,7 +39,8 @@ from ._probe import call_science, probe_batch
 from ._validation import check_positive
 from .integrate import INPUT_INTERPOLATIONS, integrate, upsample_inputs
 
-__all__ = ["HybridModule", "make_structure", "STRUCTURES", "pack_inputs"]
+__all__ = ["HybridModule", "make_structure", "STRUCTURES", "pack_inputs", "OdeStructure", "ComposeStructure",
+           "AdditiveStructure", "ode_options"]
 
 
 class HybridModule(nn.Module):
@@ -101,8 +111,9 @@ def pack_inputs(x0: np.ndarray, u: np.ndarray) -> np.ndarray:
     ``n_steps + 1`` input samples.  ``X`` alone cannot tell a surplus input sample from a state
     component, so pack exactly ``y``'s ``n_steps + 1`` samples (``u[:, :n_steps + 1]``).  A
     surplus is refused where the science function or ``y`` fixes the state's size; where neither
-    does (a function such as ``-k * v + u`` and ``observed`` set) it becomes state components,
-    and only ``fit_report()``, which says how ``X`` was read, shows it.
+    does (a function such as ``-k * v + u`` and ``observed`` set) it becomes state components:
+    the fit then warns that ``X`` could also be read as a smaller state, and ``fit_report()``
+    says how it was read.
     """
     x0, u = np.asarray(x0, float), np.asarray(u, float)
     if u.ndim == 2:
@@ -145,6 +156,19 @@ class OdeStructure:
     initial state followed by the inputs on the output grid (see
     :func:`pack_inputs`).  ``y`` holds the observed states at ``dt, ...,
     n_steps * dt``, shaped ``(n, n_steps, n_observed)`` or flattened.
+
+    Parameters
+    ----------
+    dt, n_substeps, solver, observed, n_inputs, input_interp
+        As the estimator's keywords of the same names (see
+        :class:`~sklearn_hybrid.HybridRegressor`).
+    solver_options : dict, optional
+        Extra keyword arguments of torchdiffeq's adaptive solvers (``rtol``, ``atol``).
+
+    Examples
+    --------
+    ``HybridRegressor(science=f, structure=OdeStructure(dt=0.1, observed=[0]))``
+    fits as ``HybridRegressor(science=f, dt=0.1, observed=[0])`` does.
     """
 
     additive = True
@@ -155,6 +179,7 @@ class OdeStructure:
         # "auto" is chosen from the data at fit (choose_substeps) where the RK4 integrates a free state; a forced
         # system's input grid and other solvers take the fixed default
         self.auto_substeps = isinstance(n_substeps, str) and n_substeps == "auto"
+        self.substeps_option = n_substeps  # as given: what a fresh copy is built from
         if self.auto_substeps:
             n_substeps = DEFAULT_SUBSTEPS
             self.auto_substeps = solver == "rk4" and not n_inputs
@@ -170,6 +195,21 @@ class OdeStructure:
         self.observed = None if observed is None else _check_observed(observed)
         self.n_inputs, self.input_interp = int(n_inputs), input_interp
         self.solver_options = solver_options
+
+    def options(self) -> dict:
+        """The options as stored (``dt`` a float, ``observed`` a list): what a fresh copy is built from."""
+        return {"dt": self.dt, "n_substeps": "auto" if isinstance(self.substeps_option, str) else self.n_substeps,
+                "solver": self.solver, "observed": self.observed,
+                "n_inputs": self.n_inputs, "input_interp": self.input_interp, "solver_options": self.solver_options}
+
+    def __eq__(self, other) -> bool:  # equal options: a refit with an equal object changes nothing
+        return type(other) is type(self) and self.options() == other.options()
+
+    __hash__ = None  # mutable (a fit's copy is set up), so unhashable, as a list
+
+    def __repr__(self) -> str:
+        given = [f"{k}={v!r}" for k, v in self.options().items() if v != ODE_DEFAULTS[k]]
+        return f"OdeStructure({', '.join(given)})"
 
     def setup(self, X: np.ndarray, y_shape: tuple) -> None:
         """Learn the state shape and ``n_steps``; ``y`` is (n, n_steps, *observed shape)."""
@@ -311,6 +351,40 @@ class OdeStructure:
                 raise
             n = self.state_shape[0]
             raise ValueError(str(error) + self._packing_note(np.empty((0, n + (self.n_steps + 1) * self.n_inputs))))
+        smaller = self._smaller_states_accepted(science, v, u)
+        if smaller:
+            # X cannot say which it is; the user can, once told (4 levels up: the caller of fit)
+            warnings.warn(
+                f"{self.layout()}. Neither y (observed={self.observed}) nor the science function "
+                f"{science.name!r}, which works for a state of {' or '.join(map(str, smaller))} component(s) too, "
+                "fixes the state's size, so X packed with more input samples than y's steps need would read "
+                f"as this larger state. If the state has fewer components, pack exactly y's n_steps + 1 = "
+                f"{self.n_steps + 1} input samples: pack_inputs(x0, u[:, :{self.n_steps + 1}]).",
+                UserWarning, stacklevel=4)
+
+    def _smaller_states_accepted(self, science, v, u) -> list[int]:
+        """Smaller state sizes that a forced X with surplus input samples would also fit (largest first).
+
+        k surplus input samples read as ``k * n_inputs`` extra state components.  Where ``y``
+        observes the whole state it fixes the state's size and ``setup`` refused a surplus; with
+        ``observed`` set, a smaller state that holds the observed components and that the science
+        function maps to its own shape is as consistent with ``X`` as the state read.
+        """
+        if not self.n_inputs or self.observed is None or len(self.state_shape) != 1:
+            return []
+        sizes = []
+        for k in range(1, 9):  # a few surplus samples: the usual mistake is u of the full record
+            size = self.state_shape[0] - k * self.n_inputs
+            if size <= max(self.observed):
+                break
+            try:
+                with torch.no_grad():
+                    out = science(*self._args(v[:, :size].detach(), u.detach()))
+            except Exception:  # it needs the larger state: the size is fixed
+                continue
+            if isinstance(out, torch.Tensor) and tuple(out.shape) == (len(v), size):
+                sizes.append(size)
+        return sizes
 
     def residual_shapes(self):
         ins = (tuple(self.state_shape),) + (((self.n_inputs,),) if self.n_inputs else ())
@@ -387,6 +461,9 @@ class ComposeStructure:
 
     def __init__(self, **_):
         pass
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}()"
 
     def setup(self, X, y_shape):
         self.x_shape, self.y_shape = X.shape[1:], tuple(y_shape)
@@ -502,15 +579,58 @@ class CallableStructure(ComposeStructure):
 
 STRUCTURES = {"ode": OdeStructure, "compose": ComposeStructure, "additive": AdditiveStructure}
 
+#: OdeStructure's options and their defaults, which the estimator's keywords of the same names share.
+ODE_DEFAULTS = {name: p.default for name, p in inspect.signature(OdeStructure).parameters.items()}
+
+
+def ode_options(structure: OdeStructure, **keywords) -> dict:
+    """The options of ``structure`` with the estimator's keywords of the same names.
+
+    A keyword left at its default defers to the object; one given must agree with it, since two
+    values of ``dt`` would leave the reader to guess which one the fit used.
+
+    Parameters
+    ----------
+    structure : OdeStructure
+        The estimator's ``structure``.
+    **keywords
+        The estimator's ``dt``, ``n_substeps``, ``solver``, ``observed``, ``n_inputs``, ``input_interp``.
+
+    Returns
+    -------
+    dict
+        The options a fresh OdeStructure is built from.
+
+    Raises
+    ------
+    ValueError
+        If a keyword given differs from the object's option.
+    """
+    options = structure.options()
+    for name, value in keywords.items():
+        if value is ODE_DEFAULTS[name] or (not isinstance(value, np.ndarray) and value == ODE_DEFAULTS[name]):
+            continue
+        stored = OdeStructure(**{name: value}).options()[name]  # as the object stores it: dt a float...
+        if stored != options[name]:
+            raise ValueError(f"structure={structure!r} and {name}={value!r} disagree: give {name} once, in "
+                             f"OdeStructure({name}=...) or as the estimator's {name}.")
+    return options
+
 
 def make_structure(spec, **options):
-    """Instantiate a structure from its name (with options) or wrap a callable."""
+    """A fresh structure from its name (with the estimator's ``options``), from a structure object (a copy,
+    which a fit sets up; an OdeStructure's options merged with ``options`` by :func:`ode_options`), or from
+    a callable ``structure(x, f, g) -> y``."""
+    if isinstance(spec, OdeStructure):
+        return OdeStructure(**ode_options(spec, **options))
+    if isinstance(spec, ComposeStructure):
+        return copy.deepcopy(spec)
     if callable(spec) and not isinstance(spec, type):
         return CallableStructure(spec)
     if spec not in STRUCTURES:
         raise ValueError(
-            f"Unknown structure {spec!r}; choose one of {sorted(STRUCTURES)} or pass a "
-            "callable structure(x, f, g) -> y."
+            f"Unknown structure {spec!r}; choose one of {sorted(STRUCTURES)}, pass a structure object such "
+            "as OdeStructure(dt=0.1) or a callable structure(x, f, g) -> y."
         )
     if spec == "ode":
         return OdeStructure(**options)

@@ -20,20 +20,38 @@ def test_version_and_help_do_not_import_torch():
     assert out.strip().splitlines()[-1] == "False"
 
 
-def test_missing_data_is_one_line_on_stderr(tmp_path, capsys, monkeypatch):
+def test_missing_data_says_where_to_put_it_and_get_it(tmp_path, capsys, monkeypatch):
+    """No traceback, but the answer kept: the reason, then where the file goes and where it comes from."""
     import sklearn_hybrid.recipes as recipes
+    from sklearn_hybrid.datasets._base import RemoteFile, _missing_message
+
+    remote = RemoteFile("silverbox/SNLS80mV.csv", "https://example.invalid/SNLS80mV.csv", "0" * 64)
 
     def missing(*args, **kwargs):  # as fetch_silverbox reports an absent file offline
-        raise FileNotFoundError("Could not download silverbox/SNLS80mV.csv:\n  details ...")
+        raise FileNotFoundError(_missing_message(tmp_path / remote.filename, remote,
+                                                 "Could not download silverbox/SNLS80mV.csv: no answer."))
 
     monkeypatch.setattr(recipes, "fetch_silverbox", missing)
     assert cli.main(["loop", "silverbox", "--fast", "--data-home", str(tmp_path)]) == 2
-    err = capsys.readouterr().err.strip()
-    assert len(err.splitlines()) == 1
-    assert err.startswith("sklearn-hybrid: error: Could not download silverbox/SNLS80mV.csv")
-    assert str(tmp_path) in err and "--data-home" in err
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err[0].startswith("sklearn-hybrid: error: Could not download silverbox/SNLS80mV.csv")
+    assert str(tmp_path) in err[0] and "--data-home" in err[0]
+    assert "Put the file at" in err and f"  {tmp_path / remote.filename}" in err
+    assert "  https://example.invalid/SNLS80mV.csv" in err and not any("Traceback" in line for line in err)
     with pytest.raises(FileNotFoundError):
         cli.main(["--traceback", "loop", "silverbox", "--fast", "--data-home", str(tmp_path)])
+
+
+def test_a_bad_argument_is_one_line_on_stderr(capsys, monkeypatch):
+    import sklearn_hybrid.recipes as recipes
+
+    def bad(*args, **kwargs):
+        raise ValueError("max_iter must be a positive integer, got -1.\n  details ...")
+
+    monkeypatch.setattr(recipes, "run_case", bad)
+    assert cli.main(["loop", "pendulum", "--fast"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == "sklearn-hybrid: error: max_iter must be a positive integer, got -1."
 
 
 def test_data_home_reaches_the_loader(tmp_path, monkeypatch):
@@ -113,3 +131,16 @@ def test_loop_json_lists_the_added_terms(tmp_path, capsys):
     saved = json.loads(path.read_text())
     assert saved["dataset"] == "pendulum" and saved["table"][0]["stage"] == "before"
     assert all(set(t) == {"output", "term", "kind", "coef", "param"} for t in saved["added"])
+
+
+def test_method_names_come_from_the_registry(monkeypatch, capsys):
+    """--method takes any registered method (the CLI keeps no copy of the names) and refuses others."""
+    from sklearn_hybrid.methods import METHODS, SAM
+
+    monkeypatch.setitem(METHODS, "another-sam", SAM)
+    assert cli._parser().parse_args(["loop", "pendulum", "--method", "another-sam"]).method == "another-sam"
+    with pytest.raises(SystemExit) as exit_:
+        cli._parser().parse_args(["loop", "pendulum", "--method", "adam"])
+    assert exit_.value.code == 2
+    err = capsys.readouterr().err
+    assert "invalid choice: 'adam'" in err and "another-sam" in err and "fsam" in err

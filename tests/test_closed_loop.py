@@ -1,6 +1,7 @@
 """Closing the loop: residual diagnosis, augmentation and refit recover undeclared terms."""
 
 import inspect
+import warnings
 
 import matplotlib
 
@@ -308,6 +309,8 @@ def test_exact_components_and_bad_options(pendulum):
     out = close_the_loop(HybridRegressor(science=pendulum_f, dt=0.1, max_iter=3, method="erm"), X, y,
                          state_names=NAMES, candidates=Candidates(max_terms=1, n_candidates=1))
     assert out.exact == [0] and isinstance(out.before.residual, MLPOn) and out.before.residual.components == [1]
+    assert "rmse" not in out.report.splitlines()[0]  # no test data: no error columns, and the report says why
+    assert "No test data given: the table has no error columns. Pass X_test, y_test" in out.report
     assert all(s["component"] == 1 for s in out.steps)
 
 
@@ -365,7 +368,10 @@ def test_a_sample_whose_simulation_blew_up_counts_as_infinitely_wrong(pendulum):
     assert blown_finite.sum() >= 5 and np.all(np.isinf(runaway[blown_finite]))
     untouched = np.all(fit.predict(_runaway_f, {"c": 1e4}) == fit.predict(_runaway_f, {"c": 0.0}), axis=1)
     assert untouched.sum() >= 10 and np.array_equal(runaway[untouched], calm[untouched])
-    assert evidence(runaway, calm)["accepted"]  # the model without the runaway is better, however scattered
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)  # an infinite error is decided on, not left to numpy's NaN
+        verdict = evidence(runaway, calm)
+    assert verdict["accepted"] and verdict["z"] == np.inf  # the model without the runaway is better, however scattered
 
 
 def test_science_fit_vectorised_jacobian_same_fit_and_fallback(pendulum, monkeypatch):

@@ -109,8 +109,13 @@ def test_sweep_with_nan_scores_is_refused_not_decided_by_order(data):
     """R^2 on one validation sample is NaN; np.argmax picked the first member listed."""
     sweep = HybridRegressorCV(HybridRegressor(science=pendulum_f, method="erm", **FAST), rhos=[0.01, 0.5],
                               validation_fraction=0.2)
-    with pytest.raises(ValueError, match="Every member's validation score is NaN"):
-        sweep.fit(data.X_train[:5], data.y_train[:5])
+    from sklearn.exceptions import UndefinedMetricWarning
+
+    with warnings.catch_warnings(record=True) as seen:
+        warnings.simplefilter("always")
+        with pytest.raises(ValueError, match="Every member's validation score is NaN"):
+            sweep.fit(data.X_train[:5], data.y_train[:5])
+    assert any(issubclass(w.category, UndefinedMetricWarning) for w in seen)  # scikit-learn's word on the NaN
 
 
 def test_sweep_checks_feature_names_and_reports_its_own_seeds(data):

@@ -1,6 +1,7 @@
 """Update rules of the training methods against hand computations on a tiny model."""
 
 import copy
+from dataclasses import dataclass
 
 import numpy as np
 import pytest
@@ -8,7 +9,7 @@ import torch
 from torch import nn
 
 from sklearn_hybrid.training.engine import TrainConfig, train
-from sklearn_hybrid.methods import (METHODS, asam_perturbation, fsam_perturbation, make_method,
+from sklearn_hybrid.methods import (METHODS, Method, asam_perturbation, fsam_perturbation, make_method,
                                     sam_perturbation)
 from sklearn_hybrid.science import ScienceModel
 from sklearn_hybrid.structures import HybridModule, make_structure
@@ -224,6 +225,7 @@ def test_a_new_method_registered_once_trains_alike_alone_and_stacked(monkeypatch
     class SignSAM(Method):  # ascent along sign(g): a rule no built-in method has
         rho: float = 0.05
         name = "sign-sam"
+        hyperparameters = ("rho",)
         perturbs = True
 
         def perturbation(self, params, grads, is_weight, n_batch_dims=0):
@@ -301,3 +303,114 @@ def test_a_perturbation_that_blows_the_loss_up_is_halved_for_that_step(n_batch_d
     assert torch.equal(p.detach(), torch.zeros(shape))  # restored exactly after every pass
     expected = torch.tensor([0.25, 0.2]) if n_batch_dims else torch.tensor(0.25)  # 1 -> 0.5 -> 0.25
     torch.testing.assert_close(seen[-1], expected)
+
+
+@dataclass
+class ReachSAM(Method):
+    """SAM with its radius called ``reach``: a method and a hyperparameter no module of the package names."""
+
+    reach: float = 0.05
+    name = "reach-sam"
+    hyperparameters = ("reach",)
+    perturbs = True
+
+    def perturbation(self, params, grads, is_weight, n_batch_dims=0):
+        return sam_perturbation(grads, self.reach, n_batch_dims=n_batch_dims)
+
+
+@pytest.fixture
+def reach_sam(monkeypatch):
+    """ReachSAM in the registry for one test (monkeypatch takes it out again)."""
+    monkeypatch.setitem(METHODS, ReachSAM.name, ReachSAM)
+    return ReachSAM
+
+
+def _pendulum_data(seed=0):
+    rng = np.random.default_rng(seed)
+    X = rng.uniform(-1, 1, (10, 2))
+    return X, np.stack([X * np.cos(0.5 * k) for k in range(1, 4)], axis=1)
+
+
+def _reach_fit(method, **params):
+    from sklearn_hybrid import HybridRegressor
+    from sklearn_hybrid.models import pendulum_f
+
+    settings = dict(science=pendulum_f, dt=0.2, max_iter=6, residual={"hidden": (8,)}, dtype="float64",
+                    random_state=3)
+    return HybridRegressor(method=method, **{**settings, **params})
+
+
+def test_a_new_method_with_its_own_hyperparameter_trains_alone(reach_sam):
+    """Registered once, a method with a hyperparameter of its own name trains as an object and by name,
+    its radius reaching its rule (the same rule as SAM's, so the same fit as SAM at that rho)."""
+    X, y = _pendulum_data()
+    alone = _reach_fit(ReachSAM(reach=0.5)).fit(X, y)
+    assert alone.theta_ == _reach_fit("sam", rho=0.5).fit(X, y).theta_
+    assert alone.theta_ != _reach_fit("sam", rho=0.05).fit(X, y).theta_  # the radius counts
+    by_name = _reach_fit("reach-sam").fit(X, y)  # the method's default radius, rho is not its field
+    assert by_name.theta_ == _reach_fit("sam", rho=0.05).fit(X, y).theta_
+    assert "ReachSAM(reach=0.5)" in alone.fit_report()
+    with pytest.raises(ValueError, match="ReachSAM.reach must be a positive number"):
+        _reach_fit(ReachSAM(reach=-1.0)).fit(X, y)
+
+
+def test_a_new_method_with_its_own_hyperparameter_trains_in_a_sweep(reach_sam):
+    """Stacked members in two groups (worker processes) each get their own radius, and train as a single
+    fit with it does; a HybridRegressorCV over seeds carries the object's radius to every member."""
+    from sklearn.base import clone
+
+    from sklearn_hybrid import HybridRegressorCV
+    from sklearn_hybrid._estimator import prepare_fit
+    from sklearn_hybrid.training.stacked import train_members
+
+    X, y = _pendulum_data()
+    radii = [0.5, 5.0]
+    setups = [prepare_fit(_reach_fit(ReachSAM(reach=r)), X, y) for r in radii]
+    method = setups[0].method.for_members(reach=radii)
+    history, _ = train_members([s.model for s in setups], method, setups[0].inputs, setups[0].y,
+                               setups[0].config, [s.seed for s in setups], n_jobs=2)
+    for k, r in enumerate(radii):
+        alone = _reach_fit(ReachSAM(reach=r)).fit(X, y)
+        np.testing.assert_allclose(history["loss"][:, k], alone.history_["loss"], rtol=1e-12)
+    assert not np.allclose(history["loss"][:, 0], history["loss"][:, 1])
+    base = _reach_fit(ReachSAM(reach=5.0))
+    cv = HybridRegressorCV(base, seeds=[3, 4], validation_fraction=None).fit(X, y)
+    for params, member in zip(cv.cv_results_["params"], cv.estimators_):
+        assert member.method == ReachSAM(reach=5.0)
+        alone = clone(base).set_params(random_state=params["random_state"]).fit(X, y)
+        np.testing.assert_allclose(member.history_["loss"], alone.history_["loss"], rtol=1e-12)
+
+
+def test_a_new_method_with_its_own_hyperparameter_trains_in_a_profile(reach_sam):
+    """The profile of the fit's own objective trains and evaluates members with the fit's method: with the
+    same rule as SAM, the same objective as SAM's at that rho."""
+    from sklearn_hybrid.identifiability import profile_theta
+
+    X, y = _pendulum_data()
+    options = dict(grid={"omega": [0.8, 1.2]}, max_iter=3, refine=False, objective=True)
+    mine = profile_theta(_reach_fit(ReachSAM(reach=0.5)).fit(X, y), X, y, **options)
+    sam = profile_theta(_reach_fit("sam", rho=0.5).fit(X, y), X, y, **options)
+    other = profile_theta(_reach_fit(ReachSAM(reach=5.0)).fit(X, y), X, y, **options)
+    np.testing.assert_allclose(mine.objective["omega"], sam.objective["omega"], rtol=1e-12)
+    assert not np.allclose(mine.objective["omega"], other.objective["omega"])
+    assert mine.method == "reach-sam"
+
+
+def test_no_module_of_the_package_names_the_new_method():
+    """What the tests above ran, the package ran without a line about it: neither the method's name nor
+    its hyperparameter's is an identifier, keyword or string anywhere in the package."""
+    import ast
+    from pathlib import Path
+
+    import sklearn_hybrid
+
+    names = {ReachSAM.name, "ReachSAM", *ReachSAM.hyperparameters}
+    found = []
+    for path in Path(sklearn_hybrid.__file__).parent.rglob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text())):
+            said = {ast.Name: "id", ast.Attribute: "attr", ast.keyword: "arg", ast.arg: "arg",
+                    ast.Constant: "value"}.get(type(node))
+            if said and getattr(node, said) in names:
+                found.append((path.name, node.lineno))
+    assert found == []
+    assert ReachSAM.name not in METHODS  # the fixture took it out again

@@ -26,7 +26,7 @@ def test_the_default_is_auto_and_a_short_fit_prints_nothing(capsys):
 
 def test_auto_shows_the_bar_once_the_fit_has_run_its_delay(capsys, monkeypatch):
     monkeypatch.setattr(engine, "AUTO_DELAY", 0.0)  # every fit is "long" now
-    monkeypatch.setattr(engine, "_interactive", lambda stream: True)  # as in a terminal
+    monkeypatch.setattr(engine, "is_interactive", lambda stream: True)  # as in a terminal
     HybridRegressor(science=cooling_f, dt=0.3, **FAST).fit(*data())
     err = capsys.readouterr().err
     assert "15/15" in err and "k=" in err and "it/s" in err
@@ -37,17 +37,38 @@ def test_auto_stays_out_of_logs_and_captured_output(capsys, monkeypatch):
     monkeypatch.setattr(engine, "AUTO_DELAY", 0.0)
     HybridRegressor(science=cooling_f, dt=0.3, **FAST).fit(*data())  # pytest's capture is no terminal
     assert capsys.readouterr().err == ""
-    assert not engine._interactive(None)
+    assert not engine.is_interactive(None)
 
     class Closed:
         def isatty(self):
             raise ValueError("I/O operation on closed file")
 
-    assert not engine._interactive(Closed())
+    assert not engine.is_interactive(Closed())
 
 
 def test_verbose_false_silences_it(capsys, monkeypatch):
     monkeypatch.setattr(engine, "AUTO_DELAY", 0.0)
-    monkeypatch.setattr(engine, "_interactive", lambda stream: True)
+    monkeypatch.setattr(engine, "is_interactive", lambda stream: True)
     HybridRegressor(science=cooling_f, dt=0.3, verbose=False, **FAST).fit(*data())
     assert capsys.readouterr().err == ""
+
+
+def test_the_profile_and_the_loop_show_their_progress_in_a_terminal(capsys, monkeypatch):
+    """The steps after a fit show signs of life by default too: the profile's members a bar, the loop its stages."""
+    import sklearn_hybrid.diagnosis.loop.close as close
+    from sklearn_hybrid.diagnosis import Candidates
+    from sklearn_hybrid.identifiability import profile_theta
+
+    X, y = data()
+    est = HybridRegressor(science=cooling_f, dt=0.3, verbose=False, **FAST).fit(X, y)
+    profile_theta(est, X, y, n_points=3, refine=False, max_iter=5)  # captured output is no terminal: silent
+    close.close_the_loop(est, X, y, candidates=Candidates(kinds=["polynomial"], max_terms=1))
+    assert capsys.readouterr() == ("", "")
+    monkeypatch.setattr(engine, "AUTO_DELAY", 0.0)
+    monkeypatch.setattr(engine, "is_interactive", lambda stream: True)  # as in a terminal
+    monkeypatch.setattr(close, "is_interactive", lambda stream: True)
+    profile_theta(est, X, y, n_points=3, refine=False, max_iter=5)
+    assert "3 members" in capsys.readouterr().err  # two values of k and the free member
+    close.close_the_loop(est, X, y, candidates=Candidates(kinds=["polynomial"], max_terms=1))
+    out = capsys.readouterr().out
+    assert "selecting terms" in out and "step 1:" not in out  # the stages, not every candidate

@@ -27,7 +27,7 @@ Full-run results
 ----------------
 A full run takes 84 to 217 s on 2-core machines,
 longer than the documentation build allows, so the build does not run this
-example: below are the committed full-run numbers
+example: below are the committed full-run numbers and figures
 (run it yourself with ``python examples/closed_loop/plot_silverbox_loop.py``). The rows below are the benchmark's Silverbox loop, the case this example runs.
 
 .. include:: /_generated/snippets/loop_silverbox.rst

@@ -27,7 +27,7 @@ Full-run results
 ----------------
 A full run takes about 5 minutes for the two methods on a shared 2-core machine,
 longer than the documentation build allows, so the build does not run this
-example: below are the committed full-run numbers
+example: below are the committed full-run numbers and figures
 (run it yourself with ``python examples/light_tunnel/plot_light_tunnel.py``).
 
 .. include:: /_generated/snippets/task_light_tunnel.rst

@@ -17,7 +17,7 @@ Full-run results
 ----------------
 A full run takes about 9 minutes for the two methods on a shared 2-core machine,
 longer than the documentation build allows, so the build does not run this
-example: below are the committed full-run numbers
+example: below are the committed full-run numbers and figures
 (run it yourself with ``python examples/reaction_diffusion/plot_reaction_diffusion.py``).
 
 .. include:: /_generated/snippets/task_reaction_diffusion.rst

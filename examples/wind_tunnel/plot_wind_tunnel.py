@@ -25,7 +25,7 @@ Full-run results
 ----------------
 A full run takes about 8 minutes for the two methods on a shared 2-core machine,
 longer than the documentation build allows, so the build does not run this
-example: below are the committed full-run numbers
+example: below are the committed full-run numbers and figures
 (run it yourself with ``python examples/wind_tunnel/plot_wind_tunnel.py``).
 
 .. include:: /_generated/snippets/task_wind_tunnel.rst

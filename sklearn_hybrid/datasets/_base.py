@@ -189,8 +189,8 @@ def _answering(urls) -> set:
         try:
             port = parts.port or (443 if parts.scheme == "https" else 80)
             socket.create_connection((parts.hostname, port), timeout=_REACH_TIMEOUT_S).close()
-        except (OSError, ValueError):
-            return
+        except Exception:  # noqa: BLE001  whatever failed, the address did not answer; and a probe that
+            return         # outlives the deadline must not raise into threading's excepthook after the call
         answered.add(url)
 
     threads = [threading.Thread(target=probe, args=(url,), daemon=True) for url in urls]

@@ -3,8 +3,7 @@
 Two wings over a shared floor. The closed loop (``loop/``) and the exploratory sparse reading
 (``sparse/``) share the vocabulary of terms (``terms.py``, ``augment.py``), the network-free refits
 (``science_fit.py``), the held-out test (``evidence.py``, ``judge.py``), the science helpers
-(``sensitivity.py``), the support selection (``supports.py``), the checks of names and options
-(``arguments.py``) and free runs (``records.py``).
+(``sensitivity.py``), and the support selection (``supports.py``).
 
 :func:`close_the_loop` is the one call: fit, rank candidate terms (:func:`physics_terms`, what
 physics usually misses) by the residual the network learned, accept a term only when a
@@ -12,13 +11,18 @@ network-free refit (:class:`ScienceFit`) validates better on held-out samples by
 noise explains (:func:`evidence`), refit and compare. :class:`ResidualDiagnosis` explains a fitted
 model's residual by sparse regression on a :class:`CandidateLibrary` (an exploratory reading);
 :func:`augment_science` adds chosen terms to a science function.
+
+The loop's users also find here, under this one name, the networks it trains (:class:`MLPOn`,
+:class:`ZeroResidual`, from :mod:`sklearn_hybrid.residual`) and the free runs it scores with
+(:func:`free_run`, :func:`fit_initial_state`, from ``sklearn_hybrid/records.py``); they live beside the
+networks and the recipes, so that nothing below the estimator imports the diagnosis.
 """
 
 from .augment import AugmentedScience, augment_science, parameter_name
 from .evidence import Evidence, critical_value, evidence, holm
-from .loop import (Candidates, LoopResult, MLPOn, ZeroResidual, close_the_loop, format_table, plot_unexplained,
-                   prediction_metrics)
-from .records import fit_initial_state, free_run
+from ..records import fit_initial_state, free_run
+from ..residual import MLPOn, ZeroResidual
+from .loop import Candidates, LoopResult, close_the_loop, format_table, plot_unexplained, prediction_metrics
 from .science_fit import ScienceFit
 from .sensitivity import science_sensitivities
 from .sparse import CandidateLibrary, ResidualDiagnosis, SparseTermRegression

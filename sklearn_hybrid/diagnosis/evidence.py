@@ -229,6 +229,11 @@ def evidence(errors_before: np.ndarray, errors_after: np.ndarray, z: float = 3.0
     if not np.all(np.isfinite(after)):
         return {"mse_before": float(before.mean()), "mse_after": float("inf"), "gain": -np.inf,
                 "z": -np.inf, "threshold": threshold, "accepted": False}
+    if np.any(np.isposinf(before)) and not np.any(np.isnan(before)):
+        # the change repairs a sample whose simulation blew up: better however the others scatter (the
+        # spread of ratios with an infinite one is NaN, which numpy warns about; said here, not left to it)
+        return {"mse_before": float("inf"), "mse_after": float(after.mean()), "gain": 1.0, "z": np.inf,
+                "threshold": threshold, "accepted": True}
     tiny = 1e-300
     ratio = np.log(np.maximum(before, tiny)) - np.log(np.maximum(after, tiny))
     se = ratio.std(ddof=1) / math.sqrt(len(ratio)) if len(ratio) > 1 else np.inf

@@ -19,7 +19,7 @@ import torch
 from scipy import sparse
 from scipy.optimize import least_squares
 
-from .._estimator import fitted_data, structure_X
+from .._estimator import fitted_data, ode_structure, structure_X
 from ..science import read_signature
 
 __all__ = ["ScienceFit"]
@@ -69,7 +69,7 @@ class ScienceFit:
         self.latent: list[int] = []
         if fit_initial_states:
             observed = getattr(self.structure, "observed", None)
-            if estimator.structure != "ode" or observed is None or len(self.structure.state_shape) != 1:
+            if ode_structure(estimator) is None or observed is None or len(self.structure.state_shape) != 1:
                 raise ValueError("fit_initial_states needs structure='ode' with a state vector and `observed` "
                                  "naming the measured components: only unobserved initial states are fitted.")
             self.latent = [j for j in range(self.structure.state_shape[0]) if j not in observed]

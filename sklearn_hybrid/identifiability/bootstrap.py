@@ -62,7 +62,7 @@ class ThetaBootstrap:
 
 
 def bootstrap_theta(estimator, X, y, params=None, *, n_resamples=20, level=0.95, max_iter=None,
-                    random_state=0, n_jobs=None, verbose=False) -> ThetaBootstrap:
+                    random_state=0, n_jobs=None, verbose="auto") -> ThetaBootstrap:
     """Refit a hybrid model on resampled samples with new seeds, as one stacked training.
 
     Parameters
@@ -83,8 +83,9 @@ def bootstrap_theta(estimator, X, y, params=None, *, n_resamples=20, level=0.95,
         Seeds the resampling and the members' seeds.
     n_jobs : int, optional
         Train the members in this many worker processes (joblib, Dask-ready).
-    verbose : bool, default=False
-        A progress bar over the members' iterations.
+    verbose : bool or "auto", default="auto"
+        A progress bar over the members' iterations: ``"auto"`` once they
+        have trained 5 seconds, in a terminal or a notebook (as a fit's).
 
     Returns
     -------

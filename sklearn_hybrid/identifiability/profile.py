@@ -80,6 +80,10 @@ class ThetaProfile:
         Values whose member diverged in training: left out of the profile (a
         diverged member says nothing of how well the data fit there), and said
         in the report.
+    fit_token : str or None
+        Which fit of the estimator was profiled: ``fit_report(profile=...)``
+        refuses a profile of another fit, or of this estimator before a refit,
+        whose intervals would not be this fit's.
     """
 
     estimate: dict
@@ -96,6 +100,7 @@ class ThetaProfile:
     verdicts: dict = field(default_factory=dict)
     objective_minimum: dict = field(default_factory=dict)
     dropped: dict = field(default_factory=dict)
+    fit_token: str | None = None
 
     def verdict_text(self, label: str) -> str:
         """What the profile says of one entry, in words, with its interval where identified."""
@@ -123,6 +128,33 @@ class ThetaProfile:
             lines.append(f"    ({ADVICE})")
         return "\n".join(lines)
 
+    def fit_report_lines(self, names) -> tuple[dict, list[str]]:
+        """What ``HybridRegressor.fit_report(profile=...)`` prints of these profiles, said by the profile
+        so that the estimator's report imports nothing of this module.
+
+        Parameters
+        ----------
+        names : sequence of str
+            The fit's parameter names; the entries of a vector parameter (``name[k]``) are joined.
+
+        Returns
+        -------
+        verdicts : dict of str to str
+            Per parameter the verdict text of its profiled entries.
+        after : list of str
+            The lines printed after the report's table.
+        """
+        verdicts = {}
+        for name in names:
+            labels = [label for label in self.verdicts if label == name or label.startswith(name + "[")]
+            if labels:
+                verdicts[name] = "; ".join((f"{label}: " if label != name else "") + self.verdict_text(label)
+                                           for label in labels)
+        after = [f"(profiles: {self.how()})"]
+        if any(v != IDENTIFIED for v in self.verdicts.values()):
+            after.append(f"({ADVICE})")
+        return verdicts, after
+
     def how(self) -> str:
         """How the profiles were made, in one line."""
         dropped = sum(len(v) for v in self.dropped.values())
@@ -146,7 +178,7 @@ def _fmt(value) -> str:
 
 def profile_theta(estimator, X, y, params=None, *, grid=None, span=0.5, n_points=5, level=0.95,
                   max_iter=None, lr=None, refine=True, objective=False, n_jobs=None,
-                  verbose=False) -> ThetaProfile:
+                  verbose="auto") -> ThetaProfile:
     """Profile each parameter of a fitted hybrid model: an interval and a verdict per parameter.
 
     Parameters
@@ -191,8 +223,9 @@ def profile_theta(estimator, X, y, params=None, *, grid=None, span=0.5, n_points
     n_jobs : int, optional
         Train the members in this many worker processes (joblib; under
         ``joblib.parallel_backend("dask")`` on a Dask cluster).
-    verbose : bool, default=False
-        A progress bar over the members' iterations.
+    verbose : bool or "auto", default="auto"
+        A progress bar over the members' iterations: ``"auto"`` once they
+        have trained 5 seconds, in a terminal or a notebook (as a fit's).
 
     Returns
     -------
@@ -244,7 +277,7 @@ def profile_theta(estimator, X, y, params=None, *, grid=None, span=0.5, n_points
     best = float(min(p[1] for rows in found.values() for p in rows))
     out = ThetaProfile(estimate={}, values={}, loss={}, objective={}, threshold=threshold_of(best), best_loss=best,
                        level=level, n_samples=problem.n_samples, n_iter=int(n_iter), method=problem.method.name,
-                       dropped={k: v for k, v in dropped.items() if v})
+                       dropped={k: v for k, v in dropped.items() if v}, fit_token=getattr(estimator, "_fit_token", None))
     for name, k, label in entries:
         values, loss = (np.array(c) for c in zip(*sorted(found[label])))
         out.estimate[label] = float(entry_values(science, name)[k])

@@ -25,10 +25,12 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 from scipy import stats
+from sklearn.utils.validation import check_is_fitted
 
-from .._estimator import fitted_data, fitted_settings
-from .._validation import torch_threads
+from .._estimator import fitted_data, fitted_settings, ode_structure
+from .._validation import check_target_layout, torch_threads
 from .._fit_report import theta_jacobian
+from ..residual import ZeroResidual
 from ._members import check_level
 
 __all__ = ["science_intervals", "ScienceIntervals"]
@@ -101,14 +103,8 @@ def science_intervals(estimator, X, y, level=0.95, incomplete: str | None = None
     -------
     ScienceIntervals
     """
-    from sklearn.utils.validation import check_is_fitted
-
-    from .._validation import check_target_layout
-
     level = check_level(level)
     check_is_fitted(estimator)
-    from ..diagnosis import ZeroResidual
-
     model = estimator.model_
     if not isinstance(fitted_settings(estimator)["residual"], ZeroResidual):
         raise ValueError("science_intervals is for models without a network (close_the_loop's science_only); "
@@ -116,6 +112,9 @@ def science_intervals(estimator, X, y, level=0.95, incomplete: str | None = None
     X, inputs = fitted_data(estimator, X, torch.float64)
     states = _check_fitted_states(fitted_states, estimator)
     y = check_target_layout(y, np.empty((len(X), *estimator.y_shape_))).reshape(len(X), -1)
+    if not np.all(np.isfinite(y)):  # a NaN residual makes every standard error NaN: "not identified", wrongly
+        raise ValueError("y contains NaN or infinite values. Intervals need every output value: drop the samples "
+                         "that hold them (keep = np.isfinite(y).reshape(len(y), -1).all(axis=1); X[keep], y[keep]).")
     model = copy.deepcopy(model).to(torch.float64).eval()
     science = model.science
     with torch_threads(estimator.n_threads), torch.no_grad():
@@ -159,7 +158,7 @@ def _check_fitted_states(fitted_states, estimator) -> list[int]:
     if fitted_states is None:
         return []
     shape = tuple(getattr(estimator.model_.structure, "state_shape", ()))
-    if estimator.structure != "ode" or len(shape) != 1:
+    if ode_structure(estimator) is None or len(shape) != 1:
         raise ValueError("fitted_states names components of an initial state: it needs structure='ode' with a "
                          "state vector.")
     states = [int(j) for j in np.atleast_1d(fitted_states)]

@@ -1,7 +1,9 @@
 """Training methods, by name: ``erm``, ``p-reg``, ``f-reg``, ``sam``, ``asam``, ``fsam``.
 
-Each method is one small object (see :class:`Method`); adding a method means
-adding one class and one registry entry.  The estimators take a name
+Each method is one small object (see :class:`Method`) that owns its choices (its
+hyperparameters, what it perturbs, whether it needs f-reg's map); adding a method
+means adding one class and one registry entry, and nothing else in the package
+names it.  The estimators take a name
 (``method="fsam"``, with ``rho``/``lam``/``eta`` beside it) or the object
 itself (``method=FisherSAM(rho=0.1)``), as scikit-learn takes
 ``kernel="rbf"`` or ``kernel=RBF()``.
@@ -61,14 +63,17 @@ def make_method(name: str | Method, *, rho: float = 0.05, lam: float = 1e-3,
     Returns
     -------
     Method
+        A method given by name gets each of its ``hyperparameters`` from the
+        keyword of the same name (a keyword it has no field for is ignored, like
+        SVC's gamma for a linear kernel); a hyperparameter with no keyword, or
+        ``None``, keeps the method's default.
     """
     if isinstance(name, Method):
-        for field in dataclasses.fields(name):  # a hyperparameter of the object, checked as the names' are
-            value = getattr(name, field.name)
-            if field.name in ("rho", "lam", "eta") and not (
-                    isinstance(value, (int, float)) and not isinstance(value, bool)
+        for field in type(name).hyperparameters:  # a hyperparameter of the object, checked as the names' are
+            value = getattr(name, field)
+            if not (isinstance(value, (int, float)) and not isinstance(value, bool)
                     and math.isfinite(value) and value > 0):
-                raise ValueError(f"{type(name).__name__}.{field.name} must be a positive number, got {value!r}.")
+                raise ValueError(f"{type(name).__name__}.{field} must be a positive number, got {value!r}.")
         return dataclasses.replace(name)
     if not isinstance(name, str):
         raise TypeError(f"method must be a name ({list(METHODS)}) or a Method object such as "
@@ -76,11 +81,6 @@ def make_method(name: str | Method, *, rho: float = 0.05, lam: float = 1e-3,
     if name not in METHODS:
         raise ValueError(f"Unknown method {name!r}; choose one of {list(METHODS)}.")
     cls = METHODS[name]
-    if cls.perturbs:
-        kwargs = {"rho": _positive("rho", rho)}
-        if eta is not None and cls is not SAM:  # like SVC's gamma, ignored where unused
-            kwargs["eta"] = _positive("eta", eta)
-        return cls(**kwargs)
-    if name in ("p-reg", "f-reg"):
-        return cls(lam=_positive("lam", lam))
-    return cls()
+    given = {"rho": rho, "lam": lam, "eta": eta}
+    return cls(**{field: _positive(field, given[field]) for field in cls.hyperparameters
+                  if given.get(field) is not None})

@@ -34,10 +34,22 @@ class Method:
     A subclass that overrides only :meth:`parameter_penalty` and
     :meth:`perturbation` trains in sweeps and profiles as it does alone;
     one whose penalty needs the whole model (f-reg) sets ``stackable = False``.
+
+    A method owns its choices, so that adding one is one class and one line of
+    :data:`~sklearn_hybrid.methods.METHODS`: its ``name``; its
+    ``hyperparameters``, the names of its fields (positive numbers, checked at
+    fit), which a method given by name reads from the estimator's keyword of
+    the same name (``rho``, ``lam``, ``eta``) and which stacked members carry
+    (one value per member where the rule takes one, as ``rho`` and ``lam``);
+    whether it ``perturbs`` and which tensors
+    (:meth:`perturbed`); whether it ``needs_reduction``, the learnable map of
+    f-reg's penalty, which the estimator then builds.
     """
 
     name = "erm"
+    hyperparameters = ()  # a class attribute, not a dataclass field
     perturbs = False
+    needs_reduction = False
     stackable = True  # trains as stacked members (HybridRegressorCV, profiles, bootstrap)
 
     def penalty(self, model, pred: torch.Tensor, extras: dict,
@@ -50,6 +62,28 @@ class Method:
         """Penalty on the network's parameters ``phi`` (none for erm); with ``n_batch_dims=1``
         one value per member."""
         return 0.0
+
+    def perturbed(self, phi: list[torch.Tensor], theta: list[torch.Tensor], phi_is_weight: list[bool],
+                  theta_is_weight: list[bool], scope: str = "residual") -> tuple[list[torch.Tensor], list[bool]]:
+        """The tensors the perturbation moves, and which of them are weights (ASAM scales those).
+
+        Parameters
+        ----------
+        phi, theta : list of Tensor
+            The network's and the science's trained tensors (a single model's or the stacked members').
+        phi_is_weight, theta_is_weight : list of bool
+            Which of them are weight tensors.
+        scope : {"residual", "all"}, default="residual"
+            The estimator's ``perturb``: the network only (the paper's methods), or theta too.
+
+        Returns
+        -------
+        perturbed : list of Tensor
+        is_weight : list of bool
+        """
+        if scope == "all":
+            return phi + theta, phi_is_weight + theta_is_weight
+        return list(phi), list(phi_is_weight)
 
     def perturbation(self, params: list[torch.Tensor], grads: list[torch.Tensor],
                      is_weight: list[bool], n_batch_dims: int = 0) -> list[torch.Tensor]:

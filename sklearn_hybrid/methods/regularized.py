@@ -22,6 +22,7 @@ class ParameterRegularization(Method):
 
     lam: float = 1e-3
     name = "p-reg"
+    hyperparameters = ("lam",)
 
     def parameter_penalty(self, phi, n_batch_dims=0):
         squares = sum(p.pow(2).reshape(*p.shape[:n_batch_dims], -1).sum(-1) for p in phi)
@@ -42,6 +43,8 @@ class FunctionalRegularization(Method):
 
     lam: float = 1e-3
     name = "f-reg"
+    hyperparameters = ("lam",)
+    needs_reduction = True  # the learnable map A of a non-additive structure's penalty
     stackable = False
 
     def penalty(self, model, pred, extras, sample_weight=None):

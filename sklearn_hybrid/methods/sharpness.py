@@ -60,6 +60,7 @@ class SAM(Method):
 
     rho: float = 0.05
     name = "sam"
+    hyperparameters = ("rho",)
     perturbs = True
 
     def perturbation(self, params, grads, is_weight, n_batch_dims=0):
@@ -73,6 +74,7 @@ class ASAM(Method):
     rho: float = 0.05
     eta: float = 0.01
     name = "asam"
+    hyperparameters = ("rho", "eta")
     perturbs = True
 
     def perturbation(self, params, grads, is_weight, n_batch_dims=0):
@@ -86,6 +88,7 @@ class FisherSAM(Method):
     rho: float = 0.05
     eta: float = 1.0
     name = "fsam"
+    hyperparameters = ("rho", "eta")
     perturbs = True
 
     def perturbation(self, params, grads, is_weight, n_batch_dims=0):

@@ -20,7 +20,7 @@ from torch import nn
 from ..integrate import fast
 from .stopping import EarlyStopping, SpikeGuard
 
-__all__ = ["TrainConfig", "train", "run_steps", "STEP", "SKIP", "STOP", "DivergenceError", "data_loss", "make_optimizer", "step_gradients", "progress_bar",
+__all__ = ["TrainConfig", "train", "run_steps", "is_interactive", "STEP", "SKIP", "STOP", "DivergenceError", "data_loss", "make_optimizer", "step_gradients", "progress_bar",
            "gradients_at_perturbed", "MiniBatches",
            "explain_nonfinite", "cosine_lr", "theta_drift"]
 
@@ -436,13 +436,12 @@ def train(model: nn.Module, method, inputs: tuple[torch.Tensor, ...], y: torch.T
     phi = list(model.residual.parameters())
     extra = [] if model.reduction is None else list(model.reduction.parameters())
     params = theta + phi + extra
-    perturbed = phi + theta if config.perturb == "all" else phi
-    n_perturbed = len(perturbed)
-    is_weight = ["weight" in name for name, _ in model.residual.named_parameters()]
-    if config.perturb == "all" and model.encoder is not None:  # ASAM scales the encoder's weights too
+    phi_is_weight = ["weight" in name for name, _ in model.residual.named_parameters()]
+    theta_is_weight = [False] * len(theta)
+    if model.encoder is not None:  # ASAM scales the encoder's weights too (perturbed with perturb="all")
         encoder = list(model.encoder.named_parameters())
-        is_weight += [False] * (len(theta) - len(encoder)) + ["weight" in n for n, _ in encoder]
-    is_weight += [False] * (n_perturbed - len(is_weight))
+        theta_is_weight = [False] * (len(theta) - len(encoder)) + ["weight" in n for n, _ in encoder]
+    perturbed, is_weight = method.perturbed(phi, theta, phi_is_weight, theta_is_weight, config.perturb)
 
     optimizer, scheduler = make_optimizer(theta, phi + extra, config)
     batches = MiniBatches(len(y), config.batch_size, generator)
@@ -487,11 +486,11 @@ def progress_bar(n_iter: int, verbose, desc: str):
 
     stream = sys.stderr or sys.stdout  # both are None under pythonw and some services
     auto = verbose == "auto"
-    return tqdm(range(n_iter), disable=stream is None or not (_interactive(stream) if auto else verbose),
+    return tqdm(range(n_iter), disable=stream is None or not (is_interactive(stream) if auto else verbose),
                 desc=desc, file=stream, delay=AUTO_DELAY if auto else 0.0)
 
 
-def _interactive(stream) -> bool:
+def is_interactive(stream) -> bool:
     """Whether a progress bar on ``stream`` is seen as it runs: a terminal or a notebook, not a log,
     a captured output (pytest, a documentation build) or a missing stream (pythonw)."""
     if stream is None:

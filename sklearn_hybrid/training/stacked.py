@@ -114,13 +114,13 @@ def _check_stackable(method):
             "model); fit the configurations separately.")
 
 
-def _trained_groups(stacked, config, held):
-    """theta and phi tensors of the stacked model, the perturbed ones, and a gradient mask per
-    held theta (a profile holds one parameter at a grid value in every member)."""
+def _trained_groups(stacked, method, config, held):
+    """theta and phi tensors of the stacked model, the ones the method perturbs, and a gradient mask
+    per held theta (a profile holds one parameter at a grid value in every member)."""
     theta, phi = stacked.group("science."), stacked.group("residual.")
-    perturbed = phi + theta if config.perturb == "all" else phi
     residual_names = [n for n in stacked.names if n.startswith("residual.") and stacked.params[n].requires_grad]
-    is_weight = ["weight" in n for n in residual_names] + [False] * (len(perturbed) - len(phi))
+    perturbed, is_weight = method.perturbed(phi, theta, ["weight" in n for n in residual_names],
+                                            [False] * len(theta), config.perturb)
     names = [n for n in stacked.names if n.startswith("science.") and stacked.params[n].requires_grad]
     masks = {}
     for name, mask in (held or {}).items():
@@ -174,7 +174,7 @@ def train_batched(models: list, method, inputs: tuple, y: torch.Tensor, config: 
     _check_stackable(method)
     K = len(models)
     stacked = _StackedModel(models, inputs)
-    theta, phi, perturbed, is_weight, masks = _trained_groups(stacked, config, held)
+    theta, phi, perturbed, is_weight, masks = _trained_groups(stacked, method, config, held)
     params = theta + phi
 
     optimizer, scheduler = make_optimizer(theta, phi, config)
@@ -294,7 +294,7 @@ def evaluate_members(models: list, method, inputs: tuple, y: torch.Tensor, confi
     _check_stackable(method)
     K = len(models)
     stacked = _StackedModel(models, inputs)
-    theta, phi, perturbed, is_weight, _ = _trained_groups(stacked, config, None)
+    theta, phi, perturbed, is_weight, _ = _trained_groups(stacked, method, config, None)
     xb, yb = tuple(t.expand(K, *t.shape) for t in inputs), y.expand(K, *y.shape)
     wb = None if sample_weight is None else torch.as_tensor(sample_weight, dtype=y.dtype, device=y.device)
     data = _member_loss(stacked.predictions(xb), yb, wb)
@@ -346,7 +346,7 @@ def train_members(models: list, method, inputs: tuple, y: torch.Tensor, config: 
         The trained members (copies when they come from a worker process).
     """
     groups = [g for g in np.array_split(np.arange(len(models)), max(1, n_jobs)) if len(g)]
-    fields = [f for f in ("rho", "lam") if hasattr(method, f)]
+    fields = type(method).hyperparameters  # the method's own names, whatever they are
 
     def part(group):
         member_method = method.for_members(**{f: _member_slice(getattr(method, f), group) for f in fields})

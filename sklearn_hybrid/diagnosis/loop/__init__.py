@@ -3,14 +3,14 @@
 ``close.py`` holds :func:`close_the_loop`, the one call; ``stepwise.py`` the forward selection
 (screen, refit, judge, drop, second look); ``candidates.py`` the candidates and their rankings;
 ``joint.py`` the sets of terms that explain the residual only together; ``collapse.py`` the single
-term that replaces stand-ins; ``report.py`` the :class:`LoopResult` that reports and plots itself.
+term that replaces stand-ins; ``arguments.py`` the checks of the loop's arguments, made before anything
+is fitted; ``report.py`` the :class:`LoopResult` that reports and plots itself.
 The judge, the network-free refits and the evidence rule are shared with the exploratory wing and
 live one floor up.
 """
 
 from .candidates import Candidates
-from .close import MLPOn, ZeroResidual, close_the_loop
+from .close import close_the_loop
 from .report import LoopResult, format_table, plot_unexplained, prediction_metrics
 
-__all__ = ["close_the_loop", "Candidates", "MLPOn", "ZeroResidual", "LoopResult", "format_table", "plot_unexplained",
-           "prediction_metrics"]
+__all__ = ["close_the_loop", "Candidates", "LoopResult", "format_table", "plot_unexplained", "prediction_metrics"]

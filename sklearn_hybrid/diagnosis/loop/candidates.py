@@ -63,6 +63,16 @@ class Candidates:
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
                 raise ValueError(f"{name} must be a positive integer, got {value!r}.")
+        if self.terms is not None:  # a name or a plain function would fail deep inside the ranking
+            terms = self.terms
+            how = ("a term by its name: named_terms(state_names)['v_dot'] (sklearn_hybrid.diagnosis.named_terms); "
+                   "your own function of a dict of variables: Candidates(user_terms={'name': f})")
+            if isinstance(terms, (str, Term)) or not isinstance(terms, Sequence):
+                raise TypeError(f"terms must be a list of Term objects, got {type(terms).__name__} {terms!r}; {how}.")
+            for term in terms:
+                if not isinstance(term, Term):
+                    what = "a function" if callable(term) else f"a {type(term).__name__}"
+                    raise TypeError(f"terms holds {term!r} ({what}); it must hold Term objects: {how}.")
 
 
 def term_columns(terms: Sequence[Term], variables: dict[str, torch.Tensor]) -> list[tuple]:

@@ -1,11 +1,13 @@
 """Close the loop: fit a hybrid model, diagnose its residual, add the missing terms, refit, compare.
 
-:func:`close_the_loop` is the one call; :class:`MLPOn` keeps the network out of exact equations.
+:func:`close_the_loop` is the one call; it keeps the network out of exact equations with
+:class:`~sklearn_hybrid.diagnosis.MLPOn`.
 """
 
 from __future__ import annotations
 
 import math
+import sys
 import time
 import warnings
 from collections.abc import Callable, Mapping, Sequence
@@ -13,17 +15,18 @@ from dataclasses import replace
 from typing import Any
 
 import numpy as np
-import torch
 from sklearn.base import clone
 from sklearn.exceptions import NotFittedError
 from sklearn.utils import check_random_state
 from sklearn.utils.validation import check_is_fitted
-from torch import nn
 
-from ...training.engine import DivergenceError
-from ...residual import MLP, MaskedMLP
+from ..._estimator import ode_structure
+from ...identifiability import science_intervals
+from ...training.engine import DivergenceError, is_interactive
+from ...residual import MLPOn, ZeroResidual
 from ...science import read_signature
-from ..arguments import (check_names, check_options, check_param_names, check_refit_params, count_states,
+from ..._validation import check_not_nested
+from .arguments import (check_names, check_options, check_param_names, check_refit_params, count_states,
                          offset_states, uncertain_components)
 from ..evidence import Evidence
 from .candidates import Candidates
@@ -33,70 +36,8 @@ from ..science_fit import ScienceFit
 from .stepwise import forward_selection
 from ..terms import physics_terms
 
-__all__ = ["close_the_loop", "MLPOn", "ZeroResidual"]
-
-
-class MLPOn:
-    """Residual factory: an MLP that acts on some state components only (zero on the others).
-
-    Physics often fixes part of the right-hand side exactly (``d angle/dt = velocity``); letting
-    the network change it would let it re-define the hidden state.
-
-    Parameters
-    ----------
-    components : list of int
-        Components of the (flattened) output the network may change.
-    hidden : tuple of int, default=(64, 64)
-        Hidden layer widths.
-    activation : str, default="tanh"
-        Activation (smooth activations give smooth residuals, easier to explain).
-    zero_init : bool, default=True
-        Start the last layer at zero, so that training starts from the science model alone rather
-        than from a random force the optimiser must first undo.
-    """
-
-    def __init__(self, components: Sequence[int], hidden: Sequence[int] = (64, 64), activation: str = "tanh",
-                 zero_init: bool = True):
-        self.components, self.hidden, self.activation = list(components), tuple(hidden), activation
-        self.zero_init = zero_init
-
-    def __call__(self, in_shapes, out_shape) -> nn.Module:
-        size = math.prod(out_shape)
-        if not self.components or not all(0 <= c < size for c in self.components):
-            raise ValueError(f"MLPOn components {self.components} must index an output of size {size}.")
-        mlp = MLP(in_shapes, (len(self.components),), self.hidden, self.activation)
-        if self.zero_init:
-            with torch.no_grad():
-                mlp.net[-1].weight.zero_()
-                mlp.net[-1].bias.zero_()
-        return MaskedMLP(mlp, self.components, out_shape)
-
-    def __repr__(self) -> str:
-        return (f"MLPOn({self.components}, hidden={self.hidden}, activation={self.activation!r}, "
-                f"zero_init={self.zero_init})")
-
-
-class _Zero(nn.Module):
-    """No network: zeros of the output shape (one unused parameter keeps the optimiser content)."""
-
-    def __init__(self, out_shape):
-        super().__init__()
-        self.out_shape = tuple(out_shape)
-        self.unused = nn.Parameter(torch.zeros(1))
-
-    def forward(self, *inputs):
-        # times the unused parameter: the loss stays differentiable when every theta is fixed
-        return self.unused * torch.zeros(len(inputs[0]), *self.out_shape, dtype=inputs[0].dtype)
-
-
-class ZeroResidual:
-    """Residual factory of a network that contributes nothing: fits the science model alone."""
-
-    def __call__(self, in_shapes, out_shape) -> nn.Module:
-        return _Zero(out_shape)
-
-    def __repr__(self) -> str:
-        return "ZeroResidual()"
+# fixed_science is public: the identification benchmark stops the loop there (--check-selection)
+__all__ = ["close_the_loop", "fixed_science"]
 
 
 def _settings(name: str, value: Any, cls: type, example: str) -> Any:
@@ -107,6 +48,67 @@ def _settings(name: str, value: Any, cls: type, example: str) -> Any:
                         f"{type(value).__name__}.")
     value.check()
     return value
+
+
+#: Keywords of close_the_loop that moved into its settings objects: name -> (class, its field).
+MOVED = {**{name: ("Evidence", name) for name in ("validation_fraction", "cv", "second_look", "groups", "z",
+                                                  "min_gain")},
+         **{name: ("Candidates", name) for name in ("terms", "kinds", "user_terms", "positive", "max_terms",
+                                                     "n_candidates")},
+         "term_kinds": ("Candidates", "kinds")}
+
+
+def _refuse_moved(moved: Mapping[str, Any]) -> None:
+    """Say where each keyword that moved into ``Evidence`` / ``Candidates`` went (Python's own
+    TypeError for any other unknown keyword)."""
+    import inspect
+    from difflib import get_close_matches
+
+    unknown = [name for name in moved if name not in MOVED]
+    if unknown:
+        known = [name for name in inspect.signature(close_the_loop).parameters if name != "moved"]
+        close = get_close_matches(unknown[0], known, n=1)
+        raise TypeError(f"close_the_loop() got an unexpected keyword argument {unknown[0]!r}"
+                        + (f"; did you mean {close[0]!r}?" if close else ""))
+    lines = []
+    for cls in ("Evidence", "Candidates"):
+        names = [name for name in moved if MOVED[name][0] == cls]
+        if names:
+            shown = ", ".join(f"{MOVED[name][1]}={_short(moved[name])}" for name in names)
+            lines.append(f"{' and '.join(names)} moved into {cls}: close_the_loop(..., {cls.lower()}={cls}({shown}))")
+    raise TypeError("; ".join(lines) + " (from sklearn_hybrid.diagnosis).")
+
+
+def _short(value: Any) -> str:
+    text = repr(value)
+    return text if len(text) <= 30 and "\n" not in text else "..."
+
+
+def _check_targets(X: Any, y: Any, X_test: Any, y_test: Any, test_scorer: Callable | None) -> None:
+    """Refuse what would fail deep inside a refit or the scoring: y or y_test not finite, y_test of
+    other states or steps (without a ``test_scorer``, y_test is scored against the predictions).
+
+    The arguments are read, never changed: what the estimator is given stays the caller's.
+    """
+    y = np.atleast_1d(np.asarray(check_not_nested(y), dtype=float))
+    tested = [("y", X, y)]
+    scored = y_test is not None and test_scorer is None
+    if scored:
+        tested.append(("y_test", X_test, np.atleast_1d(np.asarray(check_not_nested(y_test, "y_test"), dtype=float))))
+    for name, X_, values in tested:
+        bad = ~np.isfinite(values.reshape(len(values), -1)).all(axis=1)
+        if np.any(bad):
+            raise ValueError(f"{name} is not finite: sample(s) {np.flatnonzero(bad)[:5].tolist()} hold NaN or "
+                             "infinite values, which no least-squares refit can match. Drop them: keep = "
+                             f"np.isfinite({name}).reshape(len({name}), -1).all(axis=1).")
+        if len(values) != len(X_):
+            raise ValueError(f"{name} has {len(values)} samples and {name.replace('y', 'X')} {len(X_)}.")
+    if scored:
+        shape, test_shape = y.shape[1:], tested[1][2].shape[1:]
+        if test_shape != shape and test_shape != (math.prod(shape),):
+            raise ValueError(f"y_test has per-sample shape {test_shape}; y has {shape}: the test data must hold the "
+                             "same observed components over the same steps as y (for a longer horizon, "
+                             "give test_scorer, a function of the fitted estimator that runs est.simulate).")
 
 
 def _check_fitted_horizon(estimator: Any, y: Any) -> None:
@@ -131,7 +133,7 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
                    param_names: Mapping[str, str] | None = None,
                    refit_params: Mapping[str, Any] | None = None, theta_true: Mapping[str, Any] | None = None,
                    test_scorer: Callable | None = None, refit_hybrid: bool = False, n_jobs: int | None = None,
-                   random_state: Any = 0, verbose: bool = False) -> LoopResult:
+                   random_state: Any = 0, verbose: bool | str = "auto", **moved: Any) -> LoopResult:
     """Fit, find the residual, add the missing terms that held-out data support, refit, compare.
 
     1. The hybrid model is fitted (unless it already is). With exact components (below) and the
@@ -223,8 +225,15 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         (Silverbox), that is most of the scoring time.
     random_state : int, default=0
         Seeds the subsampling of visited states.
-    verbose : bool, default=False
-        Print progress.
+    verbose : bool or "auto", default="auto"
+        Print progress: True every stage and candidate, and the report; ``"auto"`` the stages with
+        their elapsed time, in a terminal or a notebook (not in logs or captured output); False
+        nothing.
+    **moved
+        Nothing is accepted here: a keyword that moved into ``Evidence`` (``z``, ``cv``,
+        ``validation_fraction``, ``min_gain``, ``groups``, ``second_look``) or ``Candidates``
+        (``terms``, ``kinds``, ``user_terms``, ``positive``, ``max_terms``, ``n_candidates``) raises a
+        ``TypeError`` that says where it went, any other Python's own.
 
     Returns
     -------
@@ -243,6 +252,8 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         hybrid fit, when the loop made it, the selection, the final network-free refit with its
         intervals, the hybrid refit and the scoring).
     """
+    if moved:
+        _refuse_moved(moved)
     start = time.perf_counter()
     timings, clock = {}, [time.process_time()]
 
@@ -251,20 +262,25 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         timings[stage] = timings.get(stage, 0.0) + now - clock[0]
         clock[0] = now
 
+    auto = isinstance(verbose, str) and verbose == "auto"
+    show = is_interactive(sys.stdout) if auto else bool(verbose)
+
     def log(message: str) -> None:  # stage lines carry the elapsed time: the long stages say how long
-        if verbose:
-            print(message if message.startswith(("  ", "|")) or "\n" in message
-                  else f"[{time.perf_counter() - start:4.0f} s] {message}", flush=True)
+        detail = message.startswith(("  ", "|")) or "\n" in message
+        if show and not (auto and detail):  # "auto": the stages only
+            print(message if detail else f"[{time.perf_counter() - start:4.0f} s] {message}", flush=True)
     evidence = _settings("evidence", evidence, Evidence, "Evidence(z=..., cv=...)")
     candidates = _settings("candidates", candidates, Candidates, "Candidates(kinds=..., max_terms=...)")
     terms, term_kinds, user_terms = candidates.terms, candidates.kinds, candidates.user_terms
     positive, max_terms, n_candidates = candidates.positive, candidates.max_terms, candidates.n_candidates
     check_options(n_jobs, X_test, y_test)
+    _check_targets(X, y, X_test, y_test, test_scorer)
     z, min_gain, cv, second_look = evidence.z, evidence.min_gain, evidence.cv, evidence.second_look
     # the held-out split checks the groups and its own limits before anything is fitted
     splits, codes = evidence.splits(len(y))
     _check_fitted_horizon(estimator, y)
-    if fit_initial_states and (estimator.structure != "ode" or estimator.observed is None):
+    ode = ode_structure(estimator)
+    if fit_initial_states and (ode is None or ode.observed is None):
         raise ValueError("fit_initial_states=True needs an estimator with structure='ode' and observed=[...] "
                          "leaving some states unmeasured: only their initial values are fitted.")
     if getattr(estimator, "theta_encoder", None) is not None:
@@ -274,7 +290,7 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
     offsets = offset_states(estimator, X, y, offsets, state_names)
     variables, first_values = check_names(estimator, X, y, state_names, input_names, units, user_terms, positive)
     # the user's terms are tried on the data's first states before anything is fitted
-    n_states = count_states(estimator, X, y) if estimator.structure == "ode" else None
+    n_states = count_states(estimator, X, y) if ode is not None else None
     # an ODE's uncertain equations may have a parameter that varies with the state or an input: f_j(x) * x_k
     scaled = (None if n_states is None else
               {j: variables[j] for j in (range(n_states) if uncertain is None else uncertain)})
@@ -293,7 +309,7 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         before = estimator
     except NotFittedError:
         before = clone(estimator)
-        if before.structure == "ode" and _is_default_network(before.residual):
+        if ode is not None and _is_default_network(before.residual):
             # The default network is started at zero, so training starts from the science model: a random
             # start can push a state out of the science function's domain (an infected share below zero
             # makes S I grow without bound) and must first be undone. It acts on the uncertain components
@@ -317,7 +333,7 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
     n_states = points[0].size
     states = state_labels(state_names, n_states, "x", "state_names")
     variables = states + ([] if inputs is None else state_labels(input_names, inputs.shape[1], "u", "input_names"))
-    outputs = [f"g[{s}]" for s in states] if before.structure == "ode" else [f"g[{j}]" for j in range(base.shape[1])]
+    outputs = [f"g[{s}]" for s in states] if ode is not None else [f"g[{j}]" for j in range(base.shape[1])]
     components = list(range(base.shape[1])) if uncertain is None else uncertain
     values = np.hstack([a.reshape(len(a), -1) for a in args])
     if terms is None:
@@ -370,9 +386,7 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         if fit_initial_states:  # the hybrid refit starts every sample from the states fitted with the final model
             X = np.array(X, dtype=float)
             X[:, :fit.initial_states.shape[1]] = fit.initial_states
-        alone = _fixed_science(before, final, science_theta, X, y)
-        from ...identifiability import science_intervals  # the identifiability package reads this one's results
-
+        alone = fixed_science(before, final, science_theta, X, y)
         intervals = science_intervals(alone, X, y, incomplete=_open_question(sel["steps"], min_gain),
                                        fitted_states=fit.latent or None)
         lap("network-free refit and intervals")
@@ -407,7 +421,7 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         warnings.warn(f"theta_true names {unscored}, parameters of neither the science model nor the terms added: "
                       "their error is not reported.", UserWarning, stacklevel=2)
     report = format_table(rows, added, sel["steps"], unexplained, n_val, z=z, min_gain=min_gain, cv=cv,
-                          unit=unit)
+                          unit=unit, tested=X_test is not None or test_scorer is not None)
     log(report)
     return LoopResult(before=before, after=after, science=augmented, science_theta=science_theta, science_only=alone,
                  intervals=intervals, initial_states=fit.initial_states.copy() if fit_initial_states else None,
@@ -423,9 +437,8 @@ _MAX_POINTS = 5000  # visited states used to rank candidates: plenty for a handf
 def _windowable(estimator: Any) -> bool:
     """Whether a long record of ``estimator``'s data can be cut into windows started from measured states:
     an unforced ODE that observes every state component."""
-    structure = estimator.model_.structure
-    return (estimator.structure == "ode" and getattr(structure, "observed", 0) is None
-            and not getattr(structure, "n_inputs", 0))
+    structure = ode_structure(estimator)
+    return structure is not None and structure.observed is None and not structure.n_inputs
 
 
 def cut_windows(X: Any, y: Any, window: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -494,7 +507,7 @@ def _inside(theta: dict, bounds: Mapping | None) -> dict:
     return out
 
 
-def _fixed_science(before, science, theta, X, y):
+def fixed_science(before, science, theta, X, y):
     """An estimator holding ``science`` at ``theta``, no network: the model an engineer keeps."""
     names = list(read_signature(science)[1])
     est = clone(before).set_params(science=science, residual=ZeroResidual(), method="erm", max_iter=1,

@@ -217,12 +217,14 @@ def _joint_words(steps: Sequence[dict]) -> str:
 
 def format_table(rows: list[dict], added: Sequence[dict] = (), steps: Sequence[dict] = (),
                  unexplained: dict | None = None, n_validation: int | None = None, z: float = 3.0,
-                 min_gain: float = 0.05, cv: int | None = None, unit: str = "samples") -> str:
+                 min_gain: float = 0.05, cv: int | None = None, unit: str = "samples", tested: bool = True) -> str:
     """Markdown report: the before/after table, the selection log, the terms added, what is left.
 
     ``z`` and ``min_gain`` are the evidence thresholds the selection used (stated in the report);
     ``cv`` the number of contiguous blocks when every sample judged by a refit without its block;
-    ``unit``: what ``n_validation`` counts ("groups" when samples were judged by groups).
+    ``unit``: what ``n_validation`` counts ("groups" when samples were judged by groups);
+    ``tested``: whether test data (or a test scorer) gave the error columns; without, the report
+    says why the table has none.
     """
     skip = ("stage", "science", "added", "theta", "theta_error", "failed")
     metrics = list(dict.fromkeys(k for r in rows for k in r if k not in skip))
@@ -239,6 +241,9 @@ def format_table(rows: list[dict], added: Sequence[dict] = (), steps: Sequence[d
         lines.append("| " + " | ".join(cells) + " |")
         if "failed" in r:
             lines.append(f"\nThe {r['stage']} fit failed: {r['failed']}\n")
+    if not tested:  # a table without errors reads as if the errors were lost
+        lines += ["", "No test data given: the table has no error columns. Pass X_test, y_test (or test_scorer) "
+                      "to compare the models' errors before and after."]
     if steps:
         judged = (f"{n_validation} validation {unit}" if cv is None else
                   f"all {n_validation} {unit} in {cv} contiguous blocks, each predicted by a refit on the others")

@@ -41,7 +41,9 @@ from ..sensitivity import parameter_jacobian, science_output
 from ..science_fit import ScienceFit
 from ..terms import SCIENCE_OUTPUT, Term
 
-__all__ = ["forward_selection"]
+# look_again, worth_a_second_look and SECOND_LOOK_Z are public: the identification benchmark
+# watches the second look through them (--second-look-null)
+__all__ = ["forward_selection", "look_again", "worth_a_second_look", "SECOND_LOOK_Z"]
 
 
 def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceFit,
@@ -87,7 +89,7 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
     second_look : int, optional
         With one split: when no candidate passes but some lowered the validation error by
         ``min_gain`` with z above 2, those are judged again by ``second_look`` contiguous folds of
-        the *training* samples (see :func:`_second_look`). None: no second look.
+        the *training* samples (see :func:`look_again`). None: no second look.
 
     Returns
     -------
@@ -152,7 +154,7 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
         _correct_joint(tried, steps, len(joint), z, min_gain, log)
         best = _simplest_of_the_best(tried, min_gain)
         if best is None and recheck is not None:
-            best = _second_look(recheck, tried, current, theta_now, added, steps, z, min_gain, log, len(joint))
+            best = look_again(recheck, tried, current, theta_now, added, steps, z, min_gain, log, len(joint))
         if best is None:
             break
         cand, theta_now, _, errors, current, index = best
@@ -184,18 +186,18 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
 
 
 # A candidate gets a second look when the first split's z is above this (and its gain is enough).
-_SECOND_LOOK_Z = 2.0
+SECOND_LOOK_Z = 2.0
 
 
-def _promising(verdict: dict, min_gain: float) -> bool:
+def worth_a_second_look(verdict: dict, min_gain: float) -> bool:
     """Worth a second look: the gain is enough and z above 2. With 12 validation samples a useless
     term gets there about once in 28 candidates (Student's t, 11 degrees of freedom): often enough to
     be worth the folds' refits, far too often to be a term."""
-    return verdict["gain"] >= min_gain and verdict["z"] > _SECOND_LOOK_Z
+    return verdict["gain"] >= min_gain and verdict["z"] > SECOND_LOOK_Z
 
 
-def _second_look(recheck: Judge, tried: list, current, theta: dict, added: list, steps: list,
-                 z: float, min_gain: float, log, n_joint: int = 0) -> tuple | None:
+def look_again(recheck: Judge, tried: list, current, theta: dict, added: list, steps: list,
+               z: float, min_gain: float, log, n_joint: int = 0) -> tuple | None:
     """Judge again, on the training samples, the candidates one split found promising but not proven.
 
     Twelve validation trajectories tell a real term from chance only when its gain is large next to
@@ -210,7 +212,7 @@ def _second_look(recheck: Judge, tried: list, current, theta: dict, added: list,
     judged (:func:`_correct_joint`). Returns the simplest of the best that pass (as
     :func:`_simplest_of_the_best`), its tuple marked ``"second_look"``, or None.
     """
-    promising = [t for t in tried if _promising(t[2], min_gain)]
+    promising = [t for t in tried if worth_a_second_look(t[2], min_gain)]
     if not promising:
         return None
     recheck.settle(current, theta)

@@ -32,6 +32,7 @@ from sklearn.base import BaseEstimator, clone
 from sklearn.utils import check_random_state
 from sklearn.utils.validation import check_is_fitted
 
+from ..._estimator import ode_structure
 from ..._validation import check_positive
 
 from ..judge import judge_terms
@@ -176,7 +177,7 @@ class ResidualDiagnosis(BaseEstimator):
         if len(set(names)) != len(names):
             raise ValueError(f"State and input names must be unique, got {names}.")
         self.variable_names_, self.points_, self.residual_ = names, Z, residual
-        ode = estimator.structure == "ode"
+        ode = ode_structure(estimator) is not None
         self.output_names_ = [f"g[{s}]" for s in states] if ode and residual.shape[1] == len(states) else \
             [f"g[{j}]" for j in range(residual.shape[1])]
 

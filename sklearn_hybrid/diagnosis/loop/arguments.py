@@ -9,8 +9,9 @@ from difflib import get_close_matches
 
 import numpy as np
 
-from ..science import read_signature
-from .sensitivity import exact_components, state_labels, parameter_jacobian
+from ..._estimator import ode_structure
+from ...science import read_signature
+from ..sensitivity import exact_components, state_labels, parameter_jacobian
 
 
 def check_options(n_jobs, X_test, y_test) -> None:
@@ -48,10 +49,11 @@ def check_param_names(param_names, term_names) -> None:
 
 def uncertain_components(estimator, X, y, exact, state_names) -> list[int] | None:
     """Output components that may receive terms (None: all of them)."""
-    if exact is None or estimator.structure != "ode":
+    ode = ode_structure(estimator)
+    if exact is None or ode is None:
         return None
     X, y = np.asarray(X, dtype=float), np.asarray(y)
-    n_inputs = estimator.n_inputs or 0
+    n_inputs = ode.n_inputs
     d = count_states(estimator, X, y)
     if isinstance(exact, str):
         if exact != "auto":
@@ -76,10 +78,11 @@ def offset_states(estimator, X, y, offsets, state_names) -> list[int]:
     """Indices of the states named in ``offsets``; in an ODE only measured states can have a sensor offset."""
     names = state_labels(state_names, _n_variables(estimator, X, y), "x", "state_names")
     out = _state_indices([offsets] if isinstance(offsets, (str, int)) else offsets, names, "offsets")
-    unmeasured = [names[j] for j in out if estimator.structure == "ode" and estimator.observed is not None
-                  and j not in estimator.observed]
+    ode = ode_structure(estimator)
+    observed = None if ode is None else ode.observed
+    unmeasured = [names[j] for j in out if observed is not None and j not in observed]
     if unmeasured:
-        raise ValueError(f"offsets names {unmeasured}, not measured (observed={estimator.observed}): an offset "
+        raise ValueError(f"offsets names {unmeasured}, not measured (observed={observed}): an offset "
                          "on an unmeasured state only relabels its initial value.")
     if len(set(out)) < len(out):
         raise ValueError(f"offsets lists a state twice: {list(offsets)}.")
@@ -93,7 +96,8 @@ def check_names(estimator, X, y, state_names, input_names, units, user_terms,
     wrong variable. Returns the variable names (states, then inputs) and their values in ``X``
     (the initial states and first inputs), for checking the candidate terms before any fit."""
     X = np.asarray(X, dtype=float)
-    n_inputs = (estimator.n_inputs or 0) if estimator.structure == "ode" else 0
+    ode = ode_structure(estimator)
+    n_inputs = 0 if ode is None else ode.n_inputs
     n = _n_variables(estimator, X, y)
     if input_names is not None and not n_inputs:
         raise ValueError(f"input_names {list(input_names)} given, but the estimator has no inputs "
@@ -130,10 +134,11 @@ def _state_indices(items, names: list[str], option: str) -> list[int]:
 def count_states(estimator, X, y) -> int:
     """States of an ODE estimator's ``X``: its columns less the packed inputs (one per output time and 0)."""
     X, y = np.asarray(X), np.asarray(y)
-    n_inputs = estimator.n_inputs or 0
+    ode = ode_structure(estimator)
+    n_inputs = 0 if ode is None else ode.n_inputs
     return X.shape[1] - (y.shape[1] + 1) * n_inputs if n_inputs else int(np.prod(X.shape[1:]))
 
 
 def _n_variables(estimator, X, y) -> int:
     """The states of an ODE estimator, the features of any other."""
-    return count_states(estimator, X, y) if estimator.structure == "ode" else int(np.prod(np.shape(X)[1:]))
+    return count_states(estimator, X, y) if ode_structure(estimator) is not None else int(np.prod(np.shape(X)[1:]))

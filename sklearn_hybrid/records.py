@@ -12,6 +12,8 @@ import numpy as np
 from scipy.optimize import least_squares
 from sklearn.utils.validation import check_is_fitted
 
+from ._estimator import ode_structure
+
 __all__ = ["free_run", "fit_initial_state"]
 
 
@@ -82,7 +84,9 @@ def fit_initial_state(estimator: Any, y_head: np.ndarray, x0_guess: np.ndarray, 
     """
     guess = np.asarray(x0_guess, float).ravel()
     n_states = len(guess)
-    observed = _indices("observed", observed if observed is not None else estimator.observed, n_states)
+    ode = ode_structure(estimator)
+    declared = estimator.observed if ode is None else ode.observed
+    observed = _indices("observed", observed if observed is not None else declared, n_states)
     free = _indices("free", free, n_states)
     if not np.all(np.isfinite(guess)):
         raise ValueError(f"x0_guess holds NaN or infinite values: {guess}.")
