@@ -263,7 +263,7 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
     network_share_ : float or None
         The network's share of the prediction on the training samples,
         ``RMS(hybrid - science alone) / RMS(hybrid)`` (see
-        :func:`~sklearn_hybrid.metrics.network_share`): how much of the fit the
+        :func:`~sklearn_hybrid.network_share`): how much of the fit the
         science model leaves to the network.  :meth:`fit_report` reads it as a
         first screen.  None where the science alone predicts no ``y`` (a
         composition of your own).
