@@ -21,6 +21,7 @@ from sklearn.utils import check_random_state
 from sklearn.utils.validation import check_is_fitted
 
 from ..._estimator import ode_structure
+from ...datasets import make_windows
 from ...identifiability import science_intervals
 from ...training.engine import DivergenceError, is_interactive
 from ...residual import MLPOn, ZeroResidual
@@ -442,7 +443,8 @@ def _windowable(estimator: Any) -> bool:
 
 
 def cut_windows(X: Any, y: Any, window: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Non-overlapping windows of ``window`` steps cut from fully observed ODE records.
+    """Non-overlapping windows of ``window`` steps cut from fully observed ODE records
+    (:func:`~sklearn_hybrid.datasets.make_windows` on each record, its initial state first).
 
     Parameters
     ----------
@@ -463,11 +465,13 @@ def cut_windows(X: Any, y: Any, window: int) -> tuple[np.ndarray, np.ndarray, np
         The record each window was cut from (records in order, each record's windows in time order).
     """
     X = np.asarray(X, dtype=float)
-    states = np.concatenate([X[:, None], np.asarray(y, dtype=float).reshape(len(X), -1, *X.shape[1:])], axis=1)
-    starts = np.arange(0, states.shape[1] - window, window)
-    X_w = states[:, starts].reshape(-1, *X.shape[1:])
-    y_w = np.stack([states[:, s + 1:s + window + 1] for s in starts], axis=1).reshape(-1, window, *X.shape[1:])
-    return X_w, y_w, np.repeat(np.arange(len(X)), len(starts))
+    shape, size = X.shape[1:], math.prod(X.shape[1:])
+    records = np.concatenate([X.reshape(len(X), 1, size), np.asarray(y, dtype=float).reshape(len(X), -1, size)], axis=1)
+    cut = [make_windows(record, length=window, stride=window) for record in records]
+    return (np.concatenate([c.X for c in cut]).reshape(-1, *shape),
+            np.concatenate([c.y for c in cut]).reshape(-1, window, *shape),
+            np.repeat(np.arange(len(X)), [len(c.X) for c in cut]))
+
 
 #: A candidate left at the last step that lowered the held-out error by ``min_gain`` at this z (one
 #: standard error) is evidence, short of the threshold, that the final model misses something.
