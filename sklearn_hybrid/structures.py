@@ -619,7 +619,7 @@ def ode_options(structure: OdeStructure, **keywords) -> dict:
 
 def make_structure(spec, **options):
     """A fresh structure from its name (with the estimator's ``options``), from a structure object (a copy,
-    which a fit sets up; an OdeStructure's options merged with ``options`` by :func:`ode_options`), or from
+    which a fit sets up; an OdeStructure's options merged with ``options`` by ``ode_options``), or from
     a callable ``structure(x, f, g) -> y``."""
     if isinstance(spec, OdeStructure):
         return OdeStructure(**ode_options(spec, **options))
