@@ -1166,3 +1166,35 @@ def test_a_long_record_is_selected_on_windows_and_refitted_whole():
     assert whole.added == [] and "windows of" not in whole.report and "on 2 validation samples" in whole.report
     with pytest.raises(ValueError, match="window must be"):
         close_the_loop(est, X, y, evidence=Evidence(window=1))
+
+
+def _slow_oscillator_f(v, k=0.5):
+    return torch.stack([v[:, 1], -k * v[:, 0]], -1)
+
+
+def _with_dry_friction(v, k=0.5, mu=0.3):
+    return torch.stack([v[:, 1], -k * v[:, 0] - mu * torch.tanh(v[:, 1] / 0.01)], -1)
+
+
+def test_a_stiffer_chosen_model_is_refitted_with_the_steps_it_needs():
+    """n_substeps='auto' chose the RK4 steps for the science model; a term the loop adds can be far stiffer
+    (dry friction's tanh(v/w) with a small w), so the final refit integrates it with the steps it needs."""
+    from sklearn_hybrid.diagnosis.loop.close import accurate_substeps
+
+    rng = np.random.default_rng(0)
+    X = rng.uniform(-1, 1, (8, 2))
+    t = 0.2 * np.arange(1, 6)
+    w = np.sqrt(0.5)
+    y = np.stack([X[:, :1] * np.cos(w * t) + X[:, 1:] * np.sin(w * t) / w,
+                  -w * X[:, :1] * np.sin(w * t) + X[:, 1:] * np.cos(w * t)], axis=-1)
+    est = HybridRegressor(science=_slow_oscillator_f, dt=0.2, method="erm", max_iter=2, residual={"hidden": (8,)},
+                          random_state=0).fit(X, y)
+    fit = ScienceFit(est, X, y)
+    assert est.n_substeps_ == fit.structure.n_substeps
+    assert accurate_substeps(fit, _slow_oscillator_f, {"k": 0.5}) is None  # the science's steps suffice
+    finer = accurate_substeps(fit, _with_dry_friction, {"k": 0.5, "mu": 0.3})
+    assert finer is not None and finer > est.n_substeps_
+    # a fixed n_substeps is the user's choice: kept
+    fixed = HybridRegressor(science=_slow_oscillator_f, dt=0.2, n_substeps=1, method="erm", max_iter=2,
+                            residual={"hidden": (8,)}, random_state=0).fit(X, y)
+    assert accurate_substeps(ScienceFit(fixed, X, y), _with_dry_friction, {"k": 0.5, "mu": 0.3}) is None

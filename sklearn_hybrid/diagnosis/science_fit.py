@@ -45,6 +45,9 @@ class ScienceFit:
     n_steps : int, optional
         An ODE's horizon, when ``y`` holds windows shorter than the estimator's fit (default: the
         fit's).
+    n_substeps : int, optional
+        An ODE's RK4 steps per output interval (default: the fit's), for a model that needs more
+        than the science the estimator was fitted with.
 
     Attributes
     ----------
@@ -55,12 +58,13 @@ class ScienceFit:
     """
 
     def __init__(self, estimator: Any, X: Any, y: Any, fit_initial_states: bool = False,
-                 n_steps: int | None = None) -> None:
+                 n_steps: int | None = None, n_substeps: int | None = None) -> None:
         X, _ = fitted_data(estimator, X)
         self.structure = estimator.model_.structure
-        if n_steps is not None:  # windows shorter than the fit's horizon (a long record's selection)
+        if n_steps is not None or n_substeps is not None:  # windows of a long record; a stiffer model
             self.structure = copy.copy(self.structure)
-            self.structure.n_steps = int(n_steps)
+            self.structure.n_steps = self.structure.n_steps if n_steps is None else int(n_steps)
+            self.structure.n_substeps = self.structure.n_substeps if n_substeps is None else int(n_substeps)
         self.bounds = dict(estimator.theta_bounds or {})
         self.fixed = set(estimator.theta_fixed or ())  # held at the value a fit starts from
         with torch.no_grad():

@@ -6,6 +6,7 @@
 
 from __future__ import annotations
 
+import copy
 import math
 import sys
 import time
@@ -15,6 +16,7 @@ from dataclasses import replace
 from typing import Any
 
 import numpy as np
+import torch
 from sklearn.base import clone
 from sklearn.exceptions import NotFittedError
 from sklearn.utils import check_random_state
@@ -370,6 +372,9 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         final = sel["science"]
         lap("selection")
         bounds = {g: t["bounds"][loc][1] for t in sel["added"] for loc, g in t["shape_params"].items()}
+        substeps = accurate_substeps(fit, final, sel["theta"])
+        if substeps is not None:  # the model chosen needs a finer integration than the science did
+            fit = ScienceFit(before, X, y, fit_initial_states, n_substeps=substeps)
         science_theta = fit.fit(final, sel["theta"], bounds)  # every sample, now that the terms are chosen
 
         def outputs_of(t):  # a sensor offset stands on a measured state, not on an equation
@@ -440,6 +445,19 @@ def _windowable(estimator: Any) -> bool:
     an unforced ODE that observes every state component."""
     structure = ode_structure(estimator)
     return structure is not None and structure.observed is None and not structure.n_inputs
+
+
+def accurate_substeps(fit: ScienceFit, science: Callable, theta: Mapping[str, Any]) -> int | None:
+    """With ``n_substeps="auto"``: the RK4 steps per interval that ``science`` at ``theta`` needs, where
+    more than the fit's (an added term can be stiffer than the science the steps were chosen for: dry
+    friction's ``tanh(v/w)`` with a small ``w``); None where the fit's suffice."""
+    structure = fit.structure
+    if not getattr(structure, "auto_substeps", False):
+        return None
+    probe = copy.copy(structure)
+    values = {k: torch.as_tensor(np.asarray(v, dtype=float)) for k, v in theta.items()}
+    probe.choose_substeps(lambda *args: science(*args, **values), fit.inputs[0], torch.as_tensor(fit.y))
+    return probe.n_substeps if probe.n_substeps > structure.n_substeps else None
 
 
 def cut_windows(X: Any, y: Any, window: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
