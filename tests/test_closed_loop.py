@@ -948,6 +948,8 @@ def _decay_f(v, k=0.6):
     return -k * v ** 1.5  # NaN below zero: the domain ends there
 
 
+# the loop's zero-started fit of a decay near zero may spike and be rolled back (it says so): expected here
+@pytest.mark.filterwarnings("ignore:The training loss spiked")
 def test_the_loop_starts_the_default_network_at_zero_where_a_random_start_breaks_the_science():
     """States near zero, where the default network's random start pushes some below it: a plain fit's
     first integration is NaN. The loop's first fit starts the network at zero (from the science model)."""
