@@ -26,7 +26,7 @@ from .training.memory import check_fit_memory, explained_memory_errors
 from .training.verdict import explain_start, judge_training
 from ._validation import (check_dtype_range, check_not_nested, check_positive, check_target_layout, set_feature_info,
                           torch_threads, validate_into_copy)
-from ._fit_report import theta_uncertainty
+from ._fit_report import flat_predictions, theta_uncertainty
 from .metrics import network_share
 from .methods import make_method
 from .residual import build_residual
@@ -55,20 +55,11 @@ def _standard_error_rows(model, n: int, n_iter: int, batch_size, seed: int):
     return torch.as_tensor(np.sort(np.random.default_rng(seed).choice(n, m, replace=False)))
 
 
-def _predict(model, inputs, chunk, use_residual=True) -> np.ndarray:
-    """Predictions of ``model`` on ``inputs`` without gradients, ``chunk`` samples per pass."""
-    n = len(inputs[0])
-    with torch.no_grad():
-        parts = [model(*(t[i:i + chunk] for t in inputs), use_residual=use_residual)[0]
-                 for i in range(0, n, chunk or max(n, 1))]
-    return torch.cat(parts).reshape(n, -1).cpu().numpy().astype(np.float64)
-
-
 def _network_share(model, inputs, chunk) -> float | None:
     """The network's share of the prediction on ``inputs`` (None where the science alone predicts no ``y``:
     a user's composition, or a science output of another shape)."""
     try:
-        hybrid, science = (_predict(model, inputs, chunk, use_residual=flag) for flag in (True, False))
+        hybrid, science = (flat_predictions(model, inputs, chunk, use_residual=flag) for flag in (True, False))
     except ValueError:  # a user-supplied composition has no science-only prediction
         return None
     return network_share(hybrid, science) if hybrid.shape == science.shape else None

@@ -26,15 +26,17 @@ import numpy as np
 import torch
 
 
-__all__ = ["theta_uncertainty", "theta_jacobian", "format_report"]
+__all__ = ["theta_uncertainty", "theta_jacobian", "format_report", "flat_predictions"]
 
 
-def _predict(model, inputs, chunk=None):
-    """Flattened predictions, ``chunk`` samples per forward pass (all at once if None)."""
+def flat_predictions(model, inputs, chunk=None, use_residual=True) -> np.ndarray:
+    """Predictions flattened per sample, without gradients, ``chunk`` samples per forward pass (all at
+    once if None); ``use_residual=False``: the science part alone."""
     n = len(inputs[0])
-    chunk = chunk or n
+    chunk = chunk or max(n, 1)
     with torch.no_grad():
-        parts = [model(*(t[start:start + chunk] for t in inputs))[0] for start in range(0, n, chunk)]
+        parts = [model(*(t[start:start + chunk] for t in inputs), use_residual=use_residual)[0]
+                 for start in range(0, n, chunk)]
     return torch.cat(parts).reshape(n, -1).cpu().numpy()
 
 
@@ -117,7 +119,7 @@ def theta_uncertainty(model, inputs, y, sample_weight=None, chunk=None) -> tuple
     counted = w > 0  # a zero weight removes a sample, in the fit and here
     n_values = int(counted.sum()) * y.shape[1]
     w = np.repeat(w / w[counted].mean(), y.shape[1])  # one weight per output value, mean 1 where counted
-    base = _predict(model, inputs, chunk).ravel()
+    base = flat_predictions(model, inputs, chunk).ravel()
     where = [(name, k) for name in science.names if science.raw[name].requires_grad
              for k in range(science.raw[name].numel())]
     labels = [name if science.shapes[name] == () else f"{name}[{k}]" for name, k in where]
@@ -126,7 +128,7 @@ def theta_uncertainty(model, inputs, y, sample_weight=None, chunk=None) -> tuple
            for name in science.names}
     if p == 0:
         return std, np.zeros((0, 0)), labels
-    J = theta_jacobian(science, lambda: _predict(model, inputs, chunk).ravel(), where)
+    J = theta_jacobian(science, lambda: flat_predictions(model, inputs, chunk).ravel(), where)
     resid = y.ravel() - base
     dof = max(n_values - p, 1)
     s2 = float(np.sum(w * resid**2) / dof)

@@ -18,7 +18,7 @@ import torch
 from torch import nn
 
 from ..integrate import fast
-from .stopping import EarlyStopping, SpikeGuard
+from .stopping import EarlyStopping, SpikeGuard, target_variance
 
 __all__ = ["TrainConfig", "train", "run_steps", "is_interactive", "STEP", "SKIP", "STOP", "DivergenceError", "data_loss", "make_optimizer", "step_gradients", "progress_bar",
            "gradients_at_perturbed", "MiniBatches",
@@ -505,7 +505,7 @@ def _make_stopper(model, config, y, validation):
     """The early-stopping rule of ``config`` (None when ``tol`` is None)."""
     if config.tol is None:
         return None
-    scale = float(y.reshape(len(y), -1).var(0, unbiased=False).mean()) if len(y) > 1 else 1.0
+    scale = target_variance(y)
     if validation is None:
         return EarlyStopping(config.tol, config.n_iter_no_change, scale)
     inputs, y, weight = validation

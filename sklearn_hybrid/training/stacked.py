@@ -30,7 +30,7 @@ from ..integrate import fast
 from ..integrate.kernels import reusing_buffers
 from .._validation import torch_threads
 from .engine import STEP, STOP, TrainConfig, MiniBatches, gradients_at_perturbed, make_optimizer, run_steps
-from .stopping import EarlyStopping
+from .stopping import EarlyStopping, target_variance
 from .verdict import DIVERGED_FACTOR
 
 __all__ = ["train_batched", "train_members", "evaluate_members"]
@@ -229,9 +229,9 @@ class _MembersWatch:
         self.losses = np.empty((config.max_iter, K))
         self.thetas = {n: np.empty((config.max_iter, K, *science.shapes[n])) for n in science.names}
         self.diverged = np.full(K, -1)
-        scale = self.scale = float(y.reshape(len(y), -1).var(0, unbiased=False).mean()) if len(y) > 1 else 1.0
+        self.scale = target_variance(y)
         self.stoppers = None if config.tol is None else [
-            EarlyStopping(config.tol, config.n_iter_no_change, scale) for _ in range(K)]
+            EarlyStopping(config.tol, config.n_iter_no_change, self.scale) for _ in range(K)]
         self.bar = None
 
     def check(self, it, loss, batch):

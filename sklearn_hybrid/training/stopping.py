@@ -11,7 +11,15 @@ from collections import deque
 
 import numpy as np
 
-__all__ = ["EarlyStopping", "SpikeGuard"]
+__all__ = ["EarlyStopping", "SpikeGuard", "target_variance"]
+
+
+def target_variance(y) -> float:
+    """The loss of predicting the mean target: the variance of ``y``'s outputs, averaged (1 for one sample).
+
+    The scale of the stopping tests and of the divergence tests of every training.
+    """
+    return float(y.reshape(len(y), -1).var(0, unbiased=False).mean()) if len(y) > 1 else 1.0
 
 
 class EarlyStopping:
