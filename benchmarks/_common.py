@@ -89,6 +89,26 @@ def machine_description() -> dict:
             "date": datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")}
 
 
+def rk4_trajectories(rhs: Callable, X, dt: float, n_steps: int, substeps: int = 64):
+    """States of ``dv/dt = rhs(v)`` (numpy, batch first) at ``dt, ..., n_steps * dt`` from ``X``, by a fine
+    classic RK4 (``substeps`` steps per output interval): the data generator of the benchmarks' own systems.
+
+    Returns an ndarray of shape ``(n, n_steps, *X.shape[1:])``.
+    """
+    import numpy as np
+
+    v, h, out = np.array(X, dtype=float), dt / substeps, []
+    for _ in range(n_steps):
+        for _ in range(substeps):
+            k1 = rhs(v)
+            k2 = rhs(v + h / 2 * k1)
+            k3 = rhs(v + h / 2 * k2)
+            k4 = rhs(v + h * k3)
+            v = v + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+        out.append(v)
+    return np.stack(out, axis=1)
+
+
 def selection_summary(out, fields: tuple = ("output", "term", "gain", "z")) -> dict:
     """What a ``close_the_loop`` result's selection did: the threshold z had to exceed, the three
     best first-step candidates by gain (``fields`` of each) and the terms added."""

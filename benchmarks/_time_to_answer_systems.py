@@ -17,6 +17,8 @@ from typing import Callable
 import numpy as np
 import torch
 
+from _common import rk4_trajectories
+
 
 # ------------------------------------------------------------------------------------------------ chemistry, 1 state
 def decay_f(v, k1=0.3):
@@ -153,16 +155,7 @@ def simulate(system: System, seed: int, noise: float = 0.01, n_samples: int | No
     rng = np.random.default_rng(seed)
     n = system.n_samples if n_samples is None else n_samples
     X = rng.uniform(system.low, system.high, size=(n, len(system.low)))
-    v, h, out = X.copy(), system.dt / 64, []
-    for _ in range(system.n_steps):
-        for _ in range(64):
-            k1 = system.true_rhs(v)
-            k2 = system.true_rhs(v + h / 2 * k1)
-            k3 = system.true_rhs(v + h / 2 * k2)
-            k4 = system.true_rhs(v + h * k3)
-            v = v + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-        out.append(v)
-    y = np.stack(out, axis=1)
+    y = rk4_trajectories(system.true_rhs, X, system.dt, system.n_steps)
     spread = y.reshape(-1, y.shape[-1]).std(0)
     y = y + noise * spread * rng.standard_normal(y.shape)
     return X.astype(np.float32), y.astype(np.float32)

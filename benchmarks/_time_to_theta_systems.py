@@ -14,6 +14,8 @@ from typing import Callable
 import numpy as np
 import torch
 
+from _common import rk4_trajectories
+
 
 def prey_predator_f(v, a=0.8, b=0.3):
     """Lotka-Volterra without the prey's crowding: prey x grows at a, is eaten at b x y."""
@@ -77,15 +79,6 @@ def simulate(system: System, seed: int, noise: float = 0.01):
     """Initial states ``X`` (n, 2) and noisy trajectories ``y`` (n, n_steps, 2)."""
     rng = np.random.default_rng(seed)
     X = rng.uniform(system.low, system.high, size=(system.n_samples, 2))
-    v, h, out = X.copy(), system.dt / 64, []
-    for _ in range(system.n_steps):
-        for _ in range(64):
-            k1 = system.true_rhs(v)
-            k2 = system.true_rhs(v + h / 2 * k1)
-            k3 = system.true_rhs(v + h / 2 * k2)
-            k4 = system.true_rhs(v + h * k3)
-            v = v + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-        out.append(v)
-    y = np.stack(out, axis=1)
+    y = rk4_trajectories(system.true_rhs, X, system.dt, system.n_steps)
     y = y + noise * y.reshape(-1, 2).std(0) * rng.standard_normal(y.shape)
     return X.astype(np.float32), y.astype(np.float32)

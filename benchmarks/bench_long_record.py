@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from _common import machine_description, runs_folder, write_results
+from _common import machine_description, rk4_trajectories, runs_folder, write_results
 
 FOLDER = runs_folder("long_record")
 N_RECORDS, N_STEPS, DT, NOISE = 6, 1500, 0.1, 0.01
@@ -35,14 +35,8 @@ TRUTH = {"k": 1.5, "c_x_dot": -0.1}
 def simulate(seed: int = 0):
     rng = np.random.default_rng(seed)
     X = rng.uniform(-1, 1, (N_RECORDS, 2))
-    v, out, h = X.copy(), [], DT / 16
-    f = lambda s: np.stack([s[:, 1], -1.5 * s[:, 0] - 0.1 * s[:, 1]], -1)  # noqa: E731
-    for _ in range(N_STEPS):
-        for _ in range(16):
-            k1 = f(v); k2 = f(v + h / 2 * k1); k3 = f(v + h / 2 * k2); k4 = f(v + h * k3)  # noqa: E702
-            v = v + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-        out.append(v)
-    y = np.stack(out, 1)
+    y = rk4_trajectories(lambda s: np.stack([s[:, 1], -1.5 * s[:, 0] - 0.1 * s[:, 1]], -1), X, DT, N_STEPS,
+                         substeps=16)
     return X, y + NOISE * rng.standard_normal(y.shape)
 
 
