@@ -145,6 +145,10 @@ def test_close_the_loop_refuses_misspelt_options_before_fitting(damped):
         close_the_loop(est, damped.X, damped.y, state_names=["v", "v_dot"], param_names={"vdot": "c_damping"})
     with pytest.raises(ValueError, match="valid Python identifiers"):
         close_the_loop(est, damped.X, damped.y, state_names=["v", "v_dot"], param_names={"v_dot": "c damping"})
+    with pytest.raises(ValueError, match="refit_params set the hybrid refit, which runs only with refit_hybrid=True"):
+        close_the_loop(est, damped.X, damped.y, refit_params={"max_iter": 5})  # would be silently unused
+    with pytest.raises(TypeError, match="refit_hybrid must be True or False, got 'yes'"):
+        close_the_loop(est, damped.X, damped.y, refit_hybrid="yes")
     assert not hasattr(est, "model_")  # nothing was fitted
 
 
@@ -156,5 +160,9 @@ def test_close_the_loop_names_the_damping_and_warns_of_an_unscored_theta_true(da
                              theta_true={"omgea": 1.0, "c_damping": -0.5}, param_names={"v_dot": "c_damping"})
     assert [t["param"] for t in out.added] == ["c_damping"]
     assert out.science_theta["c_damping"] == pytest.approx(-0.5, rel=0.05)
+    # no second training unasked; the CPU seconds of the stages it ran
+    assert out.after is None and [r["stage"] for r in out.table] == ["before", "science only"]
+    assert {"hybrid fit", "selection", "network-free refit and intervals"} <= set(out.timings)
+    assert all(seconds >= 0 for seconds in out.timings.values())
     messages = [str(w.message) for w in caught if "theta_true" in str(w.message)]
     assert len(messages) == 1 and "['omgea']" in messages[0]  # c_damping is the added term's: scored

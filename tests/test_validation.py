@@ -379,3 +379,15 @@ def test_sweep_counts_the_memory_of_every_stacked_member(data, monkeypatch):
     estimator.fit(*data)  # a single fit on all six samples fits
     with pytest.raises(MemoryError, match="4 models trained together"):
         HybridRegressorCV(estimator, seeds=[0, 1, 2, 3], validation_fraction=0.5).fit(*data)
+
+
+def test_network_share_of_a_hybrid_prediction():
+    from sklearn_hybrid import network_share
+
+    science = np.array([[1.0, 2.0], [3.0, 4.0]])
+    assert network_share(science, science) == 0.0
+    hybrid = science + 0.5
+    expected = np.sqrt(np.mean(0.5 ** 2) / np.mean(hybrid ** 2))
+    assert network_share(hybrid, science) == pytest.approx(expected)
+    with pytest.raises(ValueError, match=r"y_hybrid has shape \(2, 2\) and y_science \(4,\)"):
+        network_share(hybrid, science.ravel())
