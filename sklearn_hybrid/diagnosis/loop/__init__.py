@@ -4,7 +4,9 @@
 (screen, refit, judge, drop, second look); ``candidates.py`` the candidates and their rankings;
 ``joint.py`` the sets of terms that explain the residual only together; ``collapse.py`` the single
 term that replaces stand-ins; ``arguments.py`` the checks of the loop's arguments, made before anything
-is fitted; ``report.py`` the :class:`LoopResult` that reports and plots itself.
+is fitted; ``report.py`` the :class:`LoopResult` that reports and plots itself; ``watch.py`` the seam through
+which a study of the loop itself (the identification benchmark's checks) sees the selected model and stresses
+the second look, without replacing any of these functions.
 The judge, the network-free refits and the evidence rule are shared with the exploratory wing and
 live one floor up.
 """

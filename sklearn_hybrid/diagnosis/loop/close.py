@@ -38,9 +38,9 @@ from ..sensitivity import state_labels, science_output
 from ..science_fit import ScienceFit
 from .stepwise import forward_selection
 from ..terms import physics_terms
+from .watch import current_watch
 
-# fixed_science is public: the identification benchmark stops the loop there (--check-selection)
-__all__ = ["close_the_loop", "fixed_science"]
+__all__ = ["close_the_loop"]
 
 
 def _settings(name: str, value: Any, cls: type, example: str) -> Any:
@@ -392,6 +392,7 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         if fit_initial_states:  # the hybrid refit starts every sample from the states fitted with the final model
             X = np.array(X, dtype=float)
             X[:, :fit.initial_states.shape[1]] = fit.initial_states
+        current_watch().selected(final, science_theta, sel["steps"])  # a study may stop here (watch.py)
         alone = fixed_science(before, final, science_theta, X, y)
         intervals = science_intervals(alone, X, y, incomplete=_open_question(sel["steps"], min_gain),
                                        fitted_states=fit.latent or None)

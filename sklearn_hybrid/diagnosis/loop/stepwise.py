@@ -40,9 +40,10 @@ from .report import format_gain
 from ..sensitivity import parameter_jacobian, science_output
 from ..science_fit import ScienceFit
 from ..terms import SCIENCE_OUTPUT, Term
+from .watch import current_watch
 
-# look_again, worth_a_second_look and SECOND_LOOK_Z are public: the identification benchmark
-# watches the second look through them (--second-look-null)
+# worth_a_second_look and SECOND_LOOK_Z are public: the identification benchmark finds with them, in its
+# stored records, the candidates a second look would see (--inconclusive)
 __all__ = ["forward_selection", "look_again", "worth_a_second_look", "SECOND_LOOK_Z"]
 
 
@@ -212,7 +213,8 @@ def look_again(recheck: Judge, tried: list, current, theta: dict, added: list, s
     judged (:func:`_correct_joint`). Returns the simplest of the best that pass (as
     :func:`_simplest_of_the_best`), its tuple marked ``"second_look"``, or None.
     """
-    promising = [t for t in tried if worth_a_second_look(t[2], min_gain)]
+    promising = [t for t in tried if worth_a_second_look(t[2], min_gain)
+                 or not current_watch().second_look_gate]  # a study may look at all again (watch.py)
     if not promising:
         return None
     recheck.settle(current, theta)
