@@ -1,17 +1,29 @@
-"""Shared helpers of the benchmark scripts: machine description and result files."""
+"""Shared helpers of the benchmark scripts: machine description, result files, run records, data of the studies'
+own systems.
+
+Every script of ``benchmarks/<question>/`` runs by its path (``python benchmarks/speed/bench_speed.py``) and
+first puts ``benchmarks/`` on ``sys.path``; every import between benchmark files is then made from there: this
+module as ``helpers``, a study's own modules as ``identification.systems``, ``uncertainty.protocol``, ... No
+driver imports another driver. Results stay in ``benchmarks/results/`` (:data:`RESULTS`), whatever folder the
+script that writes them lives in.
+"""
 
 from __future__ import annotations
 
 import json
 import os
 import platform
+import re
 import subprocess
 import sys
 from datetime import datetime, timezone
 from pathlib import Path
 from typing import Callable
 
-RESULTS = Path(__file__).resolve().parent / "results"
+#: The repository, and the benchmarks' own folder in it.
+ROOT = Path(__file__).resolve().parents[1]
+BENCHMARKS = ROOT / "benchmarks"
+RESULTS = BENCHMARKS / "results"
 #: Every study's run records, one folder per study (``runs/<study>/``); the summary pages stay in ``RESULTS``,
 #: where the documentation build reads them.
 RUNS = RESULTS / "runs"
@@ -20,11 +32,10 @@ RUNS = RESULTS / "runs"
 def _read_package_commit() -> str:
     """The last commit that changed the package (not the benchmarks' own result commits), with
     ``+uncommitted`` when the package differs from it."""
-    root = Path(__file__).resolve().parents[1]  # a relative path would be read from benchmarks/
     try:
-        def git(*args):
-            return subprocess.run(["git", *args, "--", str(root / "sklearn_hybrid")], capture_output=True,
-                                  text=True, cwd=root).stdout.strip()
+        def git(*args):  # an absolute path: a relative one would be read from the script's folder
+            return subprocess.run(["git", *args, "--", str(ROOT / "sklearn_hybrid")], capture_output=True,
+                                  text=True, cwd=ROOT).stdout.strip()
         commit = git("log", "-1", "--format=%h") or "unknown"
         return commit + ("+uncommitted" if git("status", "--porcelain") else "")
     except OSError:
@@ -124,13 +135,30 @@ def runs_folder(study: str) -> Path:
     return RUNS / study
 
 
+def script_path(path: str | Path) -> str:
+    """A script's path from the repository root, as the pages quote it (``benchmarks/speed/bench_speed.py``)."""
+    path = Path(path).resolve()
+    return path.relative_to(ROOT).as_posix() if path.is_relative_to(ROOT) else path.as_posix()
+
+
+def as_run_today(command: str) -> str:
+    """``command`` with each ``benchmarks/<script>.py`` of the one flat folder the benchmarks had until issue 50
+    replaced by that script's path now: the records keep the command they ran, the pages quote one that runs."""
+    def moved(match: re.Match) -> str:
+        found = sorted(BENCHMARKS.glob(f"*/{match.group(1)}"))
+        return script_path(found[0]) if len(found) == 1 else match.group(0)
+
+    return re.sub(r"benchmarks/(\w+\.py)", moved, command)
+
+
 def write_results(name: str, payload: dict, markdown: str) -> Path:
     """Write ``results/<name>.json`` and ``results/<name>.md`` (with the machine description)."""
     RESULTS.mkdir(exist_ok=True)
     machine = machine_description()
     (RESULTS / f"{name}.json").write_text(json.dumps({"machine": machine, "package_commit": PACKAGE_COMMIT,
                                                       **payload}, indent=2))
-    command = "python " + " ".join(["benchmarks/" + Path(sys.argv[0]).name, *sys.argv[1:]])
+    script = getattr(sys.modules["__main__"], "__file__", sys.argv[0])  # absolute, whatever the cwd is by now
+    command = "python " + " ".join([script_path(script), *sys.argv[1:]])
     lines = [markdown.rstrip(), "", "Machine: " + ", ".join(f"{k} {v}" for k, v in machine.items()),
              "", f"Command: `{command}`; package commit {PACKAGE_COMMIT}."]
     path = RESULTS / f"{name}.md"

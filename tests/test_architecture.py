@@ -25,8 +25,14 @@ def _package_modules() -> dict[str, Path]:
 
 
 def _benchmark_modules() -> dict[str, Path]:
-    """The benchmarks run as scripts from their folder, so they import each other by bare name."""
-    return {path.stem: path for path in BENCHMARKS.glob("*.py")}
+    """The benchmarks' files by the names they import each other by: their path from ``benchmarks/`` (which
+    every script puts on ``sys.path``), as ``helpers`` or ``identification.systems``."""
+    modules = {}
+    for path in BENCHMARKS.rglob("*.py"):
+        parts = path.relative_to(BENCHMARKS).with_suffix("").parts
+        if "results" not in parts:
+            modules[".".join(parts[:-1] if parts[-1] == "__init__" else parts)] = path
+    return modules
 
 
 def _imports(path: Path, here: str, is_package: bool):

@@ -8,7 +8,7 @@ shows or leaves open is saved to ``results/gallery/<example>_<k>.png``.  ``resul
 and ``gallery.md`` say for each example when, on which machine, at which package commit and in how
 many seconds its figures were made; running a few examples updates their entries only.
 
-Usage: python benchmarks/gallery_figures.py [duffing reaction_diffusion ...]  (default: all of them)
+Usage: python benchmarks/gallery/gallery_figures.py [duffing reaction_diffusion ...]  (default: all of them)
 """
 
 from __future__ import annotations
@@ -17,6 +17,7 @@ import argparse
 import json
 import os
 import runpy
+import sys
 import time
 from pathlib import Path
 
@@ -26,9 +27,10 @@ matplotlib.use("Agg")
 
 import matplotlib.pyplot as plt  # noqa: E402
 
-from _common import PACKAGE_COMMIT, RESULTS, machine_description, write_results  # noqa: E402
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the helpers, the studies' modules
+from helpers import PACKAGE_COMMIT, RESULTS, machine_description, write_results  # noqa: E402
 
-EXAMPLES_DIR = Path(__file__).resolve().parents[1] / "examples"
+EXAMPLES_DIR = Path(__file__).resolve().parents[2] / "examples"
 #: The examples the documentation build does not run (doc/conf.py's RUN_IN_DOCS holds those it runs);
 #: the name is the one their page's snippet reads (doc/_results.py).
 EXAMPLES = {"duffing": "duffing/plot_duffing.py",
@@ -88,7 +90,7 @@ def main():
         rows += [f"| {e['example']} | {', '.join(e['figures'])} | {e['seconds']} | {e['date']} | {e['cpu']} | "
                  f"{e['reference_s']} | {e['package_commit']} |" for e in entries.values()]
         markdown = "\n".join(["# Figures of the gallery examples the documentation build does not run", "",
-                              "Each example run at full size by `benchmarks/gallery_figures.py`; its figures are "
+                              "Each example run at full size by `benchmarks/gallery/gallery_figures.py`; its figures are "
                               "in `results/gallery/` and on its gallery page.", "", *rows])
         write_results("gallery", {"examples": entries}, markdown)  # after each example: a long run keeps its part
 

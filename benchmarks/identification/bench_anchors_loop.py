@@ -19,9 +19,9 @@ SBR (pysindy's sparse Bayesian regression) needs jax and numpyro: it is run in p
 imported, and the page says where it could not.  Systems with declared sensor offsets (batch 8) are left out: the
 anchors have no offsets.  Each case is cached in ``results/runs/anchors/<case>.json``.
 
-    python benchmarks/bench_anchors_loop.py --cases van_der_pol_like --noise 0.01
-    python benchmarks/bench_anchors_loop.py --batches 15          # every case of batch 15 with a loop record
-    python benchmarks/bench_anchors_loop.py --render
+    python benchmarks/identification/bench_anchors_loop.py --cases van_der_pol_like --noise 0.01
+    python benchmarks/identification/bench_anchors_loop.py --batches 15          # every case of batch 15 with a loop record
+    python benchmarks/identification/bench_anchors_loop.py --render
 """
 
 from __future__ import annotations
@@ -36,11 +36,11 @@ from pathlib import Path
 import numpy as np
 import torch
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import PACKAGE_COMMIT, runs_folder, write_results  # noqa: E402
-from _identification_systems import SYSTEMS, simulate  # noqa: E402
-from bench_identification import PROTOCOL, cache_dir, case_name, make_data, score  # noqa: E402
-from bench_sparse_regression import GRID, cv_choice  # noqa: E402
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the helpers, the studies' modules
+from helpers import PACKAGE_COMMIT, runs_folder, write_results  # noqa: E402
+from identification.protocol import PROTOCOL, cache_dir, case_name, make_data, score  # noqa: E402
+from identification.sparse_grid import GRID, cv_choice  # noqa: E402
+from identification.systems import SYSTEMS, simulate  # noqa: E402
 
 from sklearn_hybrid.science import read_signature  # noqa: E402
 
@@ -286,7 +286,7 @@ def render():
     effects = [r for r in recs if not SYSTEMS[r["system"]].is_control]
     controls = [r for r in recs if SYSTEMS[r["system"]].is_control]
     lines = ["# The closed loop beside the UDE recipe with pysindy and pysindy alone", "",
-             "`benchmarks/bench_anchors_loop.py` (its docstring gives the recipes). Scores as the identification "
+             "`benchmarks/identification/bench_anchors_loop.py` (its docstring gives the recipes). Scores as the identification "
              "benchmark's: `rel_err = |F - T| / |m|` on noise-free test states, identified when <= 0.10; controls: "
              "terms added and `|F - T| / |T|`. Theta error: mean relative error of the science's parameters (SINDy "
              "on the data has no theta). Seconds: the loop's whole run (its first hybrid fit included); for the "

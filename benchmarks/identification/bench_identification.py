@@ -1,6 +1,6 @@
 """Identification benchmark: does the closed loop name the missing physics, and add nothing where nothing lacks?
 
-Each case is one system of ``_identification_systems.py`` (written for this benchmark and kept out of the tests)
+Each case is one system of ``identification/systems.py`` (written for this benchmark and kept out of the tests)
 at one noise level and seed, run as a new user would run it: ``close_the_loop(HybridRegressor(science=f, dt=dt,
 method="erm", n_inputs=0 or 1, theta_init=guesses, random_state=seed), X, y, state_names=..., input_names=...,
 units=...)``, where the guesses are the system's ``theta_guess`` (or None: the science function's defaults).
@@ -21,19 +21,19 @@ them, outside git, and reused, so that a change of the selection is measured wit
 ``--fast`` (8 training trajectories, 40 iterations) only checks the plumbing, caches to
 ``runs/identification/fast/`` and is never rendered into the results.
 
-    python benchmarks/bench_identification.py                       # every case not cached yet, then the table
-    python benchmarks/bench_identification.py --cases budworm --noise 0.05 --seeds 0 1
-    python benchmarks/bench_identification.py --batch 15                # one batch's cases, both noise levels
-    python benchmarks/bench_identification.py --render              # rebuild identification.md/.json from the cache
+    python benchmarks/identification/bench_identification.py                       # every case not cached yet, then the table
+    python benchmarks/identification/bench_identification.py --cases budworm --noise 0.05 --seeds 0 1
+    python benchmarks/identification/bench_identification.py --batch 15                # one batch's cases, both noise levels
+    python benchmarks/identification/bench_identification.py --render              # rebuild identification.md/.json from the cache
 
-Its checks and side studies are options, each with its own run records and page (``_identification_checks.py``
+Its checks and side studies are options, each with its own run records and page (``identification/checks.py``
 says what each does):
 
-    python benchmarks/bench_identification.py --check-selection --cases NAME --noise LEVEL [--into FOLDER]
-    python benchmarks/bench_identification.py --second-look-null [--cases NAME --noise LEVEL]
-    python benchmarks/bench_identification.py --inconclusive        # results/inconclusive_candidates.md
-    python benchmarks/bench_identification.py --more-validation --cases NAME --noise LEVEL   # --list: its cases
-    python benchmarks/bench_identification.py --check-selection --render   # or another option: its page only
+    python benchmarks/identification/bench_identification.py --check-selection --cases NAME --noise LEVEL [--into FOLDER]
+    python benchmarks/identification/bench_identification.py --second-look-null [--cases NAME --noise LEVEL]
+    python benchmarks/identification/bench_identification.py --inconclusive        # results/inconclusive_candidates.md
+    python benchmarks/identification/bench_identification.py --more-validation --cases NAME --noise LEVEL   # --list: its cases
+    python benchmarks/identification/bench_identification.py --check-selection --render   # or another option: its page only
 """
 
 from __future__ import annotations
@@ -46,143 +46,77 @@ import subprocess
 import sys
 import time
 import traceback
-import zlib
 from pathlib import Path
 
 import numpy as np
 import torch
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import PACKAGE_COMMIT, RESULTS, machine_description, runs_folder  # noqa: E402
-from _identification_batches import BATCHES  # noqa: E402
-from _identification_systems import SYSTEMS, System, call_science, simulate  # noqa: E402
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the helpers, the studies' modules
+from helpers import PACKAGE_COMMIT, RESULTS, as_run_today, machine_description  # noqa: E402
+from identification.batches import BATCHES  # noqa: E402
+from identification.protocol import (FAST, NOISE_LEVELS, PROTOCOL, cache_dir, case_name, load,  # noqa: E402
+                                     loop_arguments, make_data, score)
+from identification.systems import SYSTEMS, System  # noqa: E402
 
-from sklearn_hybrid import HybridRegressor, pack_inputs  # noqa: E402
+from sklearn_hybrid import HybridRegressor  # noqa: E402
 from sklearn_hybrid.diagnosis import close_the_loop  # noqa: E402
 from sklearn_hybrid.diagnosis.terms import angle_factor  # noqa: E402
 
 ROOT = RESULTS.parents[1]  # the repository
 
-NOISE_LEVELS = (0.01, 0.05)
-PROTOCOL = {"n_train": 50, "n_test": 20, "estimator": "HybridRegressor(science=f, dt=dt, method='erm', "
-            "n_inputs=0 or 1, theta_init=the system's guesses or None, random_state=seed), every other setting "
-            "at its default",
-            "noise": "Gaussian, level x the standard deviation of each state over the noise-free training states, "
-                     "added to the initial states (X) and to y; inputs are exact",
-            "test_states": "every output of the noise-free test trajectories (initial states included)",
-            "threshold": 0.10}
-FAST = {"n_train": 8, "n_test": 4, "max_iter": 40}
 # Run order (the tables follow SYSTEMS): domains and controls interleaved, so that a partial run is a cross-section.
 RUN_ORDER = ["drag_oscillator", "control_rlc", "budworm", "enzyme_reactor", "saturating_heater", "diode_clamped_rc",
              "competition", "control_sir", "hardening_oscillator", "draining_tank", "consecutive_reactions",
              "flow_cooled_tank", "coulomb_oscillator", "control_two_compartment", "end_stop_oscillator",
              "harvested_predator_prey", "radiating_body",
-             # batch 2 (fresh systems, see _identification_systems.FRESH)
+             # batch 2 (fresh systems, see systems.FRESH)
              "brusselator", "control_van_der_pol", "saturating_actuator", "natural_convection", "allee",
              "reversible_reaction", "asymmetric_damping", "allee_slow",
-             # batch 3 (_identification_systems.FRESH_3)
+             # batch 3 (systems.FRESH_3)
              "saturating_incidence", "control_damped_pendulum", "large_swing", "quadratic_resistor",
              "exothermic_body", "gompertz_growth",
-             # batch 4 (_identification_systems.FRESH_4)
+             # batch 4 (systems.FRESH_4)
              "holling_predation", "control_lotka_volterra", "harvested_logistic", "leaky_capacitor",
              "hill_autoactivation", "control_expression", "hanging_spring", "fed_autocatalysis",
-             # batch 5 (_identification_systems.FRESH_5)
+             # batch 5 (systems.FRESH_5)
              "waning_immunity", "control_sirs", "enzymatic_conversion", "conducting_bodies", "control_reaction_chain",
              "porous_tank",
-             # batch 6 (_identification_systems.FRESH_6)
+             # batch 6 (systems.FRESH_6)
              "coupled_pendula", "control_joule_heating", "joule_heating", "dosed_tumour", "control_coupled_pendula",
              "magnet_pull",
-             # batch 7 (_identification_systems.FRESH_7)
+             # batch 7 (systems.FRESH_7)
              "saturable_elimination", "control_pk", "self_shading", "valve_overflow", "control_cascade_tanks",
              "cubic_damper",
-             # batch 8 (_identification_systems.FRESH_8: declared sensor offsets)
+             # batch 8 (systems.FRESH_8: declared sensor offsets)
              "encoder_offset", "control_declared_probe", "probe_offset", "declared_gauge_outlet", "upper_gauge_offset",
              "control_declared_gauges", "thermometer_offset", "declared_encoder_drag",
-             # batch 9 (_identification_systems.FRESH_9)
+             # batch 9 (systems.FRESH_9)
              "saturating_coil", "control_chemostat", "boiling_loss", "prey_refuge", "backlash_spring",
              "control_fitzhugh_nagumo", "drug_inhibition", "product_inhibition",
-             # batch 10 (_identification_systems.FRESH_10)
+             # batch 10 (systems.FRESH_10)
              "diode_leak", "control_selkov", "light_limited_algae", "repressed_expression", "substrate_inhibition",
              "control_heat_exchanger", "wind_drag", "conductive_loss",
-             # batch 11 (_identification_systems.FRESH_11)
+             # batch 11 (systems.FRESH_11)
              "displacement_damping", "control_forced_duffing", "varistor_leak", "predator_interference",
              "arrhenius_decay", "control_mm_chain", "flocculation", "nernst_cell",
-             # batch 12 (_identification_systems.FRESH_12)
+             # batch 12 (systems.FRESH_12)
              "torsion_pendulum", "control_forced_pendulum", "crowded_predators", "eddy_brake", "seasonal_growth",
              "control_seasonal_growth", "dead_zone_spring", "weir_tank", "tanh_leak",
-             # batch 13 (_identification_systems.FRESH_13)
+             # batch 13 (systems.FRESH_13)
              "parametric_spring", "control_parametric_spring", "quota_harvest", "treated_infection",
              "resistive_heater", "control_treated_infection", "dimerising_feed", "tissue_stiffening", "cogging_rotor",
-             # batch 14 (_identification_systems.FRESH_14)
+             # batch 14 (systems.FRESH_14)
              "detent_rotor", "control_detent_rotor", "pendulum_air_drag", "paired_consumption", "saturating_pump",
              "control_vaccinated_sir", "vaccination", "tension_only_elastic",
-             # batch 15 (_identification_systems.FRESH_15: several terms together, sharp non-smooth effects)
+             # batch 15 (systems.FRESH_15: several terms together, sharp non-smooth effects)
              "rayleigh_reed", "control_rayleigh_reed", "triode_oscillator", "autocatalytic_switch", "dry_stage",
              "control_buckled_beam", "buckled_beam", "excitable_membrane", "relay_servo", "control_relay_servo",
              "pump_head_curve", "open_epidemic", "control_open_epidemic", "headwind_cart", "dry_and_drag",
              "clipping_amplifier"]
 
 
-def cache_dir(fast: bool) -> Path:
-    """Folder of the cached cases (a separate one for the ``--fast`` smoke protocol)."""
-    return runs_folder("identification/fast" if fast else "identification")
-
-
-def _norm(a: np.ndarray) -> float:
-    """sqrt(mean over states of the sum over components of a^2)."""
-    return float(np.sqrt(np.mean(np.sum(np.asarray(a) ** 2, axis=1))))
-
-
 def _floats(theta: dict) -> dict:
     return {k: np.asarray(v, dtype=float).tolist() for k, v in theta.items()}
-
-
-def make_data(system: System, noise: float, seed: int, fast: bool = False) -> dict:
-    """Training data (``X``, ``y`` as the estimator takes them) and the noise-free test states and inputs."""
-    n_train, n_test = (FAST if fast else PROTOCOL)["n_train"], (FAST if fast else PROTOCOL)["n_test"]
-    x, u = simulate(system, n_train, seed, stream=0)
-    x_test, u_test = simulate(system, n_test, seed, stream=1)
-    d = x.shape[-1]
-    sigma = noise * x.reshape(-1, d).std(axis=0)
-    eps = np.random.default_rng([zlib.crc32(system.name.encode()), seed, 2]).standard_normal(x.shape)
-    noisy = x + eps * sigma + system.offset_vector(d)  # what the sensors read
-    X = pack_inputs(noisy[:, 0], u) if system.forced else noisy[:, 0]
-    return {"X": X, "y": noisy[:, 1:], "sigma": sigma,
-            "x_test": x_test.reshape(-1, d), "u_test": None if u_test is None else u_test.reshape(-1, 1)}
-
-
-def score(system: System, science, theta: dict, before_theta: dict, x: np.ndarray, u: np.ndarray | None) -> dict:
-    """Function-space scores of the final science model ``science(theta)`` on the test states ``x`` (inputs ``u``).
-
-    Where a sensor reads its state plus an offset, every model is evaluated at the readings ``z = x + offset``
-    (the states the fitted models simulate); the truth there is the true right-hand side at ``x``, and the
-    missing effect is what the science model at the true parameters lacks at ``z``.
-    """
-    z = x + system.offset_vector(x.shape[1])  # z is x itself where every sensor reads true
-    F = call_science(system, science, z, u, theta)
-    T = system.truth(x, u)
-    B = call_science(system, system.science, z, u, before_theta)
-    if system.is_control:
-        return {"control_err": _norm(F - T) / _norm(T), "before_control_err": _norm(B - T) / _norm(T)}
-    m = (T - call_science(system, system.science, z, u, system.theta_true) if system.sensor_offset
-         else system.missing(x, u))
-    scale = _norm(m)
-    zero = np.zeros(F.shape[1], dtype=bool)
-    zero[system.zero_components] = True
-    return {"rel_err": _norm(F - T) / scale, "before_err": _norm(B - T) / scale,
-            "leak": _norm((F - T)[:, zero]) / scale if zero.any() else None}
-
-
-def case_name(system: str, noise: float, seed: int) -> str:
-    """The stem of a case's cached record (``.json``) and stored first fit (``fits/*.pkl``)."""
-    return f"{system}_noise{noise:g}_seed{seed}"
-
-
-def loop_arguments(system: System) -> dict:
-    """close_the_loop's keyword arguments for ``system`` (names, units, declared offsets)."""
-    return {"state_names": system.state_names, "input_names": ["u"] if system.forced else None,
-            "units": {k: v for k, v in system.units.items() if k != "u" or system.forced},
-            "offsets": system.declared_offsets}
 
 
 def run_case(system: System, noise: float, seed: int, fast: bool, command: str) -> dict:
@@ -392,7 +326,7 @@ def _periodic_section(records: list[dict]) -> list[str]:
 # Where the options' results are: each has its own page, made from its own run records.
 CHECKS_SECTION = [
     "", "## Checks and side studies", "",
-    "Options of `bench_identification.py` (`_identification_checks.py`), each with its run records in "
+    "Options of `bench_identification.py` (`identification/checks.py`), each with its run records in "
     "`results/runs/identification/<folder>/` and its own page:", "",
     "- `--check-selection --cases NAME --noise LEVEL`: does a change of the package change a record's selection? "
     "The case closed from its stored first fit up to the selected model, against its record "
@@ -488,6 +422,7 @@ def _rerun_section(pairs: list[tuple[dict, dict]], n_earlier: int) -> list[str]:
 def _command_lines(commands: list[str]) -> list[str]:
     """One line per command; the runs of one case and one noise level each share one line with a count."""
     one_case = re.compile(r"^(.* --cases) \S+ (--noise) \S+$")
+    commands = [as_run_today(c) for c in commands]  # a record keeps the path its script had when it ran
     single = [c for c in commands if one_case.match(c)]
     lines = [f"- command: `{c}`" for c in sorted(set(commands) - set(single))]
     if single:
@@ -504,8 +439,9 @@ def render(records: list[dict]) -> str:
     batches = {b: [r for r in records if SYSTEMS[r["system"]].batch == b] for b in BATCHES}
     n_systems = {b: sum(s.batch == b for s in SYSTEMS.values()) for b in BATCHES}
     md = ["# Identification benchmark: the closed loop on effects nobody tuned it to", "",
-          "`benchmarks/bench_identification.py`. Each case: one system of `_identification_systems.py`, one noise "
-          "level, one seed; data from scipy's `solve_ivp` of the true system (50 training trajectories, 20 "
+          "`benchmarks/identification/bench_identification.py`. Each case: one system of "
+          "`identification/systems.py`, one noise level, one seed; data from scipy's `solve_ivp` of the true "
+          "system (50 training trajectories, 20 "
           "noise-free test trajectories); `close_the_loop(HybridRegressor(science=f, dt=dt, method='erm', "
           "n_inputs=..., theta_init=..., random_state=seed), X, y, state_names=..., input_names=..., units=...)` "
           "(`theta_init`: the system's guesses where one science function serves several systems). Noise: "
@@ -577,7 +513,7 @@ def render(records: list[dict]) -> str:
         commits.setdefault(r.get("package_commit") or "not recorded", []).append(f"{r['system']} {r['noise']:g}")
     md += [f"- package commit {c}: {len(v)} cases" for c, v in sorted(commits.items())]
     md += _command_lines([r.get("command", "?") for r in records])
-    md.append("- render: `python benchmarks/bench_identification.py --render`")
+    md.append("- render: `python benchmarks/identification/bench_identification.py --render`")
     md += ["", "Since a705449 a term's evidence is judged against Student's t for the number of validation "
            "samples (3.85 standard errors with the 12 of these cases) instead of a plain 3. The cases run "
            "before were re-run where that could change the outcome: every case that added two or more terms "
@@ -664,7 +600,7 @@ def _package_changes_note(records: list[dict]) -> str:
             f"hybrid fit crashed). The {len(rerun)} records whose fits had raised were run again end to end at "
             "d850188: the same terms and parameter values, the same rel_err. The records of systems without inputs "
             f"were checked from their stored first fits up to the selected model's network-free fit "
-            "(`python benchmarks/bench_identification.py --check-selection --cases NAME --noise LEVEL`, "
+            "(`python benchmarks/identification/bench_identification.py --check-selection --cases NAME --noise LEVEL`, "
             f"`results/selection_checks.md`): {sum(c['same'] for c in first)} of {len(first)} select the same terms "
             "with the same parameter values (1e-7 relative); those of batch 12 were made at d7e787f. "
             f"Since {INPUT_SCALED_SINCE} a scaled term may also be an equation's science output times an input "
@@ -678,11 +614,6 @@ def _package_changes_note(records: list[dict]) -> str:
                       f"{SECOND_LOOK_SINCE} with the second look: it can change only the records its section "
                       f"lists, run again with it. Batch {SECOND_LOOK_BATCH} and later were run with all of these "
                       "changes."))
-
-
-def load(fast: bool) -> list[dict]:
-    """Every cached case of the main (or the fast) protocol."""
-    return [json.loads(p.read_text()) for p in sorted(cache_dir(fast).glob("*.json"))]
 
 
 def write(records: list[dict]) -> None:
@@ -727,7 +658,7 @@ def main(argv=None) -> None:
                         help="list the cached cases whose record differs from git revision REV's, and stop")
     parser.add_argument("--rerun", action="store_true",
                         help="run the cases again though cached (each record is replaced once its new run ends)")
-    option = parser.add_mutually_exclusive_group()  # the checks and side studies (_identification_checks.py)
+    option = parser.add_mutually_exclusive_group()  # the checks and side studies (identification/checks.py)
     option.add_argument("--check-selection", action="store_true",
                         help="close the given cases from their stored first fits up to the selected model and "
                              "compare with their records (with --render: selection_checks.md)")
@@ -746,9 +677,9 @@ def main(argv=None) -> None:
                         help="with --more-validation: print its cases, one 'NAME LEVEL' a line")
     args = parser.parse_args(argv)
     if args.check_selection or args.second_look_null or args.inconclusive or args.more_validation:
-        import _identification_checks  # imports this module: not needed by the benchmark itself
+        from identification import checks  # its options only: not needed by the benchmark itself
 
-        _identification_checks.main(args)
+        checks.main(args)
         return
     if args.cases is None:
         args.cases = list(SYSTEMS)
@@ -760,7 +691,8 @@ def main(argv=None) -> None:
         print((RESULTS / "identification.md").read_text())
         return
     torch.set_num_threads(1)
-    command = "python benchmarks/bench_identification.py " + " ".join(sys.argv[1:] if argv is None else argv)
+    command = "python benchmarks/identification/bench_identification.py " + " ".join(
+        sys.argv[1:] if argv is None else argv)
     folder = cache_dir(args.fast)
     folder.mkdir(parents=True, exist_ok=True)
     if args.batch:

@@ -26,7 +26,7 @@ Methods
 Metrics per problem: exact support recovery, false terms (selected, not true), missed terms,
 coefficient relative error ||b_hat - b|| / ||b||, and seconds (tuning included).
 
-Usage: python benchmarks/bench_sparse_regression.py [--problems 20] [--n-samples 500]
+Usage: python benchmarks/identification/bench_sparse_regression.py [--problems 20] [--n-samples 500]
 """
 
 from __future__ import annotations
@@ -36,12 +36,14 @@ import csv
 import sys
 import time
 import warnings
+from pathlib import Path
 
 import numpy as np
-from sklearn.model_selection import KFold
 
-from _common import RESULTS, RUNS, write_results
-from sklearn_hybrid.diagnosis import CandidateLibrary, SparseTermRegression
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the helpers, the studies' modules
+from helpers import RESULTS, RUNS, write_results  # noqa: E402
+from identification.sparse_grid import GRID, cv_choice  # noqa: E402
+from sklearn_hybrid.diagnosis import CandidateLibrary, SparseTermRegression  # noqa: E402
 
 try:
     import pysindy
@@ -50,7 +52,6 @@ except ImportError:  # optional: pip install pysindy (or the [sindy] extra)
 
 NOISE_LEVELS = (0.05, 0.2, 0.5)
 FAMILIES = ("independent", "collinear")
-GRID = np.logspace(-3, 0, 16)  # thresholds relative to RMS(r), on unit-RMS columns
 
 
 def make_problem(family: str, noise: float, n: int, rng: np.random.Generator) -> dict:
@@ -71,20 +72,6 @@ def make_problem(family: str, noise: float, n: int, rng: np.random.Generator) ->
     r = signal + noise * np.sqrt(np.mean(signal**2)) * rng.standard_normal(n)
     return {"Theta": Theta, "scale": scale, "r": r, "beta": beta_scaled / scale,
             "names": list(library.get_feature_names_out())}
-
-
-def cv_choice(make, Xs: np.ndarray, r: np.ndarray, values: np.ndarray, one_se: bool) -> float:
-    """Grid value by 5-fold CV error (shuffled folds: the rows are independent draws)."""
-    errors = np.zeros((len(values), 5))
-    for f, (train, test) in enumerate(KFold(5, shuffle=True, random_state=0).split(Xs)):
-        for i, v in enumerate(values):
-            coef = make(v).fit(Xs[train], r[train]).coef_.ravel()
-            errors[i, f] = np.mean((r[test] - Xs[test] @ coef) ** 2)
-    mean, se = errors.mean(axis=1), errors.std(axis=1, ddof=1) / np.sqrt(5)
-    best = int(np.argmin(mean))
-    if not one_se:
-        return values[best]
-    return values[max(i for i in range(len(values)) if mean[i] <= mean[best] + se[best])]  # largest = sparsest
 
 
 def _stlsq(threshold: float):
@@ -170,7 +157,7 @@ def main() -> None:
                                 "missed_terms": float(np.mean([r["missed_terms"] for r in sel])),
                                 "coef_rel_error_median": float(np.median([r["coef_rel_error"] for r in sel])),
                                 "seconds_mean": float(np.mean([r["seconds"] for r in sel]))})
-    command = f"python benchmarks/bench_sparse_regression.py --problems {args.problems} --n-samples {args.n_samples}"
+    command = f"python benchmarks/identification/bench_sparse_regression.py --problems {args.problems} --n-samples {args.n_samples}"
     md = ["# Sparse residual regression: SparseTermRegression vs pysindy", "",
           f"Command: `{command}` ({time.perf_counter() - start_all:.0f} s; pysindy "
           f"{getattr(pysindy, '__version__', 'not installed')}). {args.problems} random problems per row, "

@@ -7,22 +7,25 @@ trajectories of 10 steps, noise 0.05) for a few seeds and reads the residual twi
 (``exact=None``, no ``y``: no held-out judge) and as now (``fit(est, X, y)``: exact equations left
 alone, every new term held to ``close_the_loop``'s test).  One torch thread.
 
-Usage: python benchmarks/check_residual_diagnosis_complete.py [--seeds 0 1]
+Usage: python benchmarks/identification/check_residual_diagnosis_complete.py [--seeds 0 1]
 """
 
 from __future__ import annotations
 
 import argparse
+import sys
 import time
 import warnings
+from pathlib import Path
 
 import torch
 
-from _common import write_results
-from sklearn_hybrid import HybridRegressor
-from sklearn_hybrid.datasets import make_pendulum
-from sklearn_hybrid.diagnosis import ResidualDiagnosis
-from sklearn_hybrid.models import pendulum_f
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the helpers, the studies' modules
+from helpers import write_results  # noqa: E402
+from sklearn_hybrid import HybridRegressor  # noqa: E402
+from sklearn_hybrid.datasets import make_pendulum  # noqa: E402
+from sklearn_hybrid.diagnosis import ResidualDiagnosis  # noqa: E402
+from sklearn_hybrid.models import pendulum_f  # noqa: E402
 
 
 def main() -> None:
@@ -50,7 +53,7 @@ def main() -> None:
         print(rows[-1], flush=True)
     lines = "\n".join(f"| {r['seed']} | {r['omega']:.4f} | {len(r['unjudged'])}: {', '.join(r['unjudged'])} | "
                       f"{', '.join(r['judged']) or 'none'} | {', '.join(r['kept']) or 'none'} |" for r in rows)
-    md = f"""# ResidualDiagnosis on a complete science model (benchmarks/check_residual_diagnosis_complete.py)
+    md = f"""# ResidualDiagnosis on a complete science model (benchmarks/identification/check_residual_diagnosis_complete.py)
 
 Undamped pendulum (`make_pendulum(n_train=100, gamma=0, noise=0.05)`), its complete science model
 `pendulum_f`, the default hybrid (`dt=0.2`). Before: `ResidualDiagnosis(exact=None).fit(est, X)`,

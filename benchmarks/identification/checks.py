@@ -26,12 +26,11 @@ run records in a folder beside the benchmark's and writes its own page in ``resu
     ``close_the_loop(cv=4)`` on the inconclusive records and on every control (:data:`MORE_VALIDATION`).
 
 Each case runs in one process, one torch thread, and is cached as ``<system>_noise<level>.json`` the moment it
-ends (:func:`_common.run_each_case`).
+ends (:func:`helpers.run_each_case`).
 """
 
 from __future__ import annotations
 
-import importlib
 import json
 import pickle
 import re
@@ -40,24 +39,21 @@ from typing import Callable
 
 import numpy as np
 
-import bench_identification as bench
-from _common import PACKAGE_COMMIT, RESULTS, machine_description, run_each_case
-from _identification_systems import SYSTEMS
+from helpers import PACKAGE_COMMIT, RESULTS, machine_description, run_each_case
+from identification import protocol
+from identification.systems import SYSTEMS
 
-from sklearn_hybrid.diagnosis import Evidence
-from sklearn_hybrid.diagnosis.loop import stepwise
+from sklearn_hybrid.diagnosis import Evidence, close_the_loop
 from sklearn_hybrid.diagnosis.loop.stepwise import SECOND_LOOK_Z as MIN_Z
 from sklearn_hybrid.diagnosis.loop.stepwise import worth_a_second_look
+from sklearn_hybrid.diagnosis.loop.watch import LoopWatch, watching
 
-CHECKS = bench.cache_dir(False) / "selection_checks"
-NULL_RUNS = bench.cache_dir(False) / "second_look_null"
-MORE_VALIDATION_RUNS = bench.cache_dir(False) / "more_validation"
+CHECKS = protocol.cache_dir(False) / "selection_checks"
+NULL_RUNS = protocol.cache_dir(False) / "second_look_null"
+MORE_VALIDATION_RUNS = protocol.cache_dir(False) / "more_validation"
 CONTROLS = [name for name, system in SYSTEMS.items() if system.is_control]
 MIN_GAIN = 0.05  # close_the_loop's min_gain, as the benchmark runs it
 CV = 4
-# close_the_loop's module: the loop is stopped by replacing the function that starts its first hybrid fit
-# after the selection, which receives the selected model and its network-free fit.
-LOOP = importlib.import_module("sklearn_hybrid.diagnosis.loop.close")
 
 #: What ``--second-look-null`` does (the first paragraph of its page).
 SECOND_LOOK_NULL = (
@@ -86,29 +82,34 @@ MORE_VALIDATION = (
 # --- the selection, stopped before its hybrid fits (--check-selection, and the two studies built on it) ---
 
 class _Selected(Exception):
-    def __init__(self, science, theta):
+    """Raised by the loop's watch once the selection is made: the loop stops there (see :func:`selection`)."""
+
+    def __init__(self, science, theta, steps):
         super().__init__("selection done")
-        self.science, self.theta = science, theta
+        self.science, self.theta, self.steps = science, theta, steps
 
 
-def _stop(before, science, theta, X, y):
-    raise _Selected(science, theta)
+def _stop(science, theta, steps):
+    raise _Selected(science, theta, steps)
 
 
-def selection(name: str, noise: float, data: dict | None = None, **options) -> tuple[Callable, dict]:
-    """The science model (with ``.terms``) and network-free parameter values the loop selects today, from the
-    case's stored first fit; ``data``: the case's ``bench.make_data`` if the caller has it already; ``options``
-    go to close_the_loop beside the protocol's own arguments."""
+def selection(name: str, noise: float, data: dict | None = None, second_look_gate: bool = True,
+              **options) -> tuple[Callable, dict, list]:
+    """The science model (with ``.terms``), network-free parameter values and steps the loop selects today, from
+    the case's stored first fit, stopped before the network-free estimator, its intervals and the hybrid refit
+    (the loop's public watch, ``sklearn_hybrid.diagnosis.loop.watch``); ``data``: the case's
+    ``protocol.make_data`` if the caller has it already; ``second_look_gate=False``: every candidate of a step
+    where none passes gets the second look; ``options`` go to close_the_loop beside the protocol's own
+    arguments."""
     system = SYSTEMS[name]
-    data = bench.make_data(system, noise, 0, False) if data is None else data
-    est = pickle.loads((bench.cache_dir(False) / "fits" / f"{bench.case_name(name, noise, 0)}.pkl").read_bytes())
-    original, LOOP.fixed_science = LOOP.fixed_science, _stop
+    data = protocol.make_data(system, noise, 0, False) if data is None else data
+    fits = protocol.cache_dir(False) / "fits"
+    est = pickle.loads((fits / f"{protocol.case_name(name, noise, 0)}.pkl").read_bytes())
     try:
-        bench.close_the_loop(est, data["X"], data["y"], **bench.loop_arguments(system), **options)
+        with watching(LoopWatch(on_selection=_stop, second_look_gate=second_look_gate)):
+            close_the_loop(est, data["X"], data["y"], **protocol.loop_arguments(system), **options)
     except _Selected as done:
-        return done.science, {k: np.asarray(v, float).tolist() for k, v in done.theta.items()}
-    finally:
-        LOOP.fixed_science = original
+        return done.science, {k: np.asarray(v, float).tolist() for k, v in done.theta.items()}, done.steps
     raise RuntimeError("the loop ended without reaching its network-free fit")
 
 
@@ -119,7 +120,7 @@ def term_names(science: Callable) -> list[str]:
 
 def stored_record(name: str, noise: float) -> dict:
     """The case's record of ``bench_identification.py`` (seed 0), as committed."""
-    return json.loads((bench.cache_dir(False) / f"{bench.case_name(name, noise, 0)}.json").read_text())
+    return json.loads((protocol.cache_dir(False) / f"{protocol.case_name(name, noise, 0)}.json").read_text())
 
 
 def record_terms(record: dict) -> list[str]:
@@ -131,7 +132,7 @@ def check_selection(name: str, noise: float) -> dict:
     """The case's selection today against its stored record: the same terms, every value within 1e-7."""
     record = stored_record(name, noise)
     start = time.perf_counter()
-    science, theta = selection(name, noise)
+    science, theta, _ = selection(name, noise)
     terms = term_names(science)
     stored_terms = record_terms(record)
     stored = record["science_theta"]
@@ -160,7 +161,7 @@ def render_selection_checks() -> None:
                      f"{r['record_commit']} | {r['package_commit']} | {r['seconds']:.0f} |")
     machines = sorted({json.dumps(r["machine"].get("cpu")) for r in rows})
     lines += ["", f"Machine: {', '.join(machines)}.", "",
-              "Command, once per case: `python benchmarks/bench_identification.py --check-selection --cases NAME "
+              "Command, once per case: `python benchmarks/identification/bench_identification.py --check-selection --cases NAME "
               "--noise LEVEL`; then `--check-selection --render`."]
     (RESULTS / "selection_checks.md").write_text("\n".join(lines) + "\n")
 
@@ -168,27 +169,23 @@ def render_selection_checks() -> None:
 # --- the second look without its gate (--second-look-null) ---
 
 def second_look_null(name: str, noise: float) -> dict:
-    """The control's selection with every candidate of 5 % gain looked at again; its second-look rows."""
-    looked: list[dict] = []
-    original_look, original_gate = stepwise.look_again, stepwise.worth_a_second_look
-
-    def recording(recheck, tried, current, theta, added, steps, *args):
-        n = len(steps)
-        best = original_look(recheck, tried, current, theta, added, steps, *args)
-        looked.extend({k: steps[i][k] for k in ("step", "component", "term", "gain", "z", "threshold")}
-                      | {"kept": best is not None and best[5] == i} for i in range(n, len(steps)))
-        return best
-
-    stepwise.look_again, stepwise.worth_a_second_look = recording, lambda verdict, min_gain: True
+    """The control's selection with every candidate looked at again, whatever its gain and z; its second-look
+    rows (``kept``: the one a step accepted)."""
     start = time.perf_counter()
-    try:
-        science, _ = selection(name, noise)
-    finally:
-        stepwise.look_again, stepwise.worth_a_second_look = original_look, original_gate
+    science, _, steps = selection(name, noise, second_look_gate=False)
+    looked = [{k: s[k] for k in ("step", "component", "term", "gain", "z", "threshold")} | {"kept": s["accepted"]}
+              for s in steps if _is_second_look(s)]
     passed = [r for r in looked if r["z"] > r["threshold"] and r["gain"] >= 0.05]
     return {"system": name, "noise": noise, "looked": looked, "n_looked": len(looked), "n_passed": len(passed),
             "added": term_names(science), "seconds": time.perf_counter() - start, "package_commit": PACKAGE_COMMIT,
             "machine": machine_description()}
+
+
+def _is_second_look(step: dict) -> bool:
+    """A step's row is a second look at a candidate (``"<n>, second look"``; a drop judged on the second look's
+    folds reads ``"drop, second look"``)."""
+    label = step["step"]
+    return isinstance(label, str) and label.endswith(", second look") and label.split(",")[0].isdigit()
 
 
 def render_second_look_null() -> str:
@@ -212,7 +209,7 @@ def render_second_look_null() -> str:
     machines = sorted({f"{r['machine']['cpu']}, {r['machine']['cores']} cores" for r in records})
     commits = sorted({r["package_commit"] for r in records})
     md += ["", f"Machine: {'; '.join(machines)}. Package commit {', '.join(commits)}. Command: "
-           "`python benchmarks/bench_identification.py --second-look-null --cases NAME --noise LEVEL`, then "
+           "`python benchmarks/identification/bench_identification.py --second-look-null --cases NAME --noise LEVEL`, then "
            "`--second-look-null --render`."]
     return "\n".join(md) + "\n"
 
@@ -245,7 +242,7 @@ def inconclusive(record: dict) -> list[tuple[str, float, float]]:
 
 def write_inconclusive() -> None:
     """``results/inconclusive_candidates.md`` from the stored records as they stand now."""
-    records = bench.load(fast=False)
+    records = protocol.load(fast=False)
     hits = [(r, inconclusive(r)) for r in records]
     hits = [(r, c) for r, c in hits if c]
     failed = [r for r, _ in hits if r.get("identified") is False]
@@ -262,7 +259,7 @@ def write_inconclusive() -> None:
         score = r.get("rel_err") if r.get("rel_err") is not None else r.get("control_err")
         md.append(f"| {r['system']} | {r['noise']:g} | {score:.3f} | {r.get('identified', 'control')} | "
                   + "; ".join(f"{t.replace('|', chr(92) + '|')} ({g:.0%}, {z:.1f})" for t, g, z in cands) + " |")
-    md += ["", "Command: `python benchmarks/bench_identification.py --inconclusive` (reads the stored records only)."]
+    md += ["", "Command: `python benchmarks/identification/bench_identification.py --inconclusive` (reads the stored records only)."]
     (RESULTS / "inconclusive_candidates.md").write_text("\n".join(md) + "\n")
     print(f"{len(hits)} of {len(records)} records; {len(failed)} failures")
 
@@ -271,7 +268,7 @@ def write_inconclusive() -> None:
 
 def more_validation_cases() -> list[tuple[str, float]]:
     """The inconclusive records' failures, then the controls, then the inconclusive records that were identified."""
-    records = bench.load(fast=False)
+    records = protocol.load(fast=False)
     open_ = [r for r in records if inconclusive(r)]
     failed = [r for r in open_ if r.get("identified") is False]
     controls = [r for r in records if SYSTEMS[r["system"]].is_control]
@@ -283,10 +280,10 @@ def more_validation(name: str, noise: float) -> dict:
     """The case's selection with ``cv=CV``, scored as the benchmark scores it."""
     system = SYSTEMS[name]
     record = stored_record(name, noise)
-    data = bench.make_data(system, noise, 0, False)
+    data = protocol.make_data(system, noise, 0, False)
     start = time.perf_counter()
-    science, theta = selection(name, noise, data, evidence=Evidence(cv=CV))
-    scores = bench.score(system, science, theta, record["before_theta"], data["x_test"], data["u_test"])
+    science, theta, _ = selection(name, noise, data, evidence=Evidence(cv=CV))
+    scores = protocol.score(system, science, theta, record["before_theta"], data["x_test"], data["u_test"])
     return {"system": name, "noise": noise, "cv": CV, "terms": term_names(science),
             "record_terms": record_terms(record), **scores,
             "record_score": record.get("rel_err", record.get("control_err")), "record_identified":
@@ -299,7 +296,7 @@ def render_more_validation() -> None:
     rows = [json.loads(p.read_text()) for p in sorted(MORE_VALIDATION_RUNS.glob("*.json"))]
     effects = [r for r in rows if not SYSTEMS[r["system"]].is_control]
     controls = [r for r in rows if SYSTEMS[r["system"]].is_control]
-    named = sum(r["rel_err"] <= bench.PROTOCOL["threshold"] for r in effects)
+    named = sum(r["rel_err"] <= protocol.PROTOCOL["threshold"] for r in effects)
     before = sum(bool(r["record_identified"]) for r in effects)
     lines = ["# More validation samples: close_the_loop(cv=4) on the inconclusive records and the controls", "",
              MORE_VALIDATION, "",
@@ -326,7 +323,7 @@ def render_more_validation() -> None:
     lines += ["", f"Scores as in `identification.md` (rel_err for an effect, |F - T|/|T| for a control). Machine: "
               f"{', '.join(machines)}; package commit {', '.join(commits)}.", "",
               "Command, once per case (`--more-validation --list` prints them): `python benchmarks/"
-              "bench_identification.py --more-validation --cases NAME --noise LEVEL`; then `--more-validation "
+              "identification/bench_identification.py --more-validation --cases NAME --noise LEVEL`; then `--more-validation "
               "--render`."]
     (RESULTS / "more_validation.md").write_text("\n".join(lines) + "\n")
 

@@ -7,19 +7,22 @@ pendulum (damping undeclared) and Duffing (cubic term undeclared) tasks. Measure
 scored by free runs of their test records; the grey-box baselines of ``bench_greybox.py``
 (results/greybox.json, run it first) are quoted beside them.
 
-Usage: python benchmarks/bench_closed_loop.py [--cases silverbox tanks ...] [--method erm] [--fast] [--n-jobs 2]
+Usage: python benchmarks/measured/bench_closed_loop.py [--cases silverbox tanks ...] [--method erm] [--fast] [--n-jobs 2]
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import sys
 import time
+from pathlib import Path
 
 import torch
 
-from _common import RESULTS, write_results
-from sklearn_hybrid.recipes import CASES, run_case
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the helpers, the studies' modules
+from helpers import RESULTS, write_results  # noqa: E402
+from sklearn_hybrid.recipes import CASES, run_case  # noqa: E402
 
 
 def _baselines() -> dict:
@@ -49,7 +52,7 @@ def _markdown(results: dict, baselines: dict, method: str, n_jobs: int) -> str:
           "`network_share_rhs` = max over components of RMS(g) / RMS(f + g) on the training states. "
           f"Timings are wall-clock with n_jobs={n_jobs} (with 2, a second process scores the models on the "
           "test records while the first selects terms and refits); command: "
-          f"`python benchmarks/bench_closed_loop.py --n-jobs {n_jobs}`.", ""]
+          f"`python benchmarks/measured/bench_closed_loop.py --n-jobs {n_jobs}`.", ""]
     for name, r in results.items():
         md += [f"## {name}", "", r["description"], "", r["report"], "",
                f"Fit + diagnosis + refit + evaluation: {r['seconds']:.0f} s.", ""]

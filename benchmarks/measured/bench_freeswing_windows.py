@@ -11,18 +11,21 @@ in; every overlapping window is fitted, each group's mean error counts once). Ea
 step's best candidates with their gain and z, the threshold z had to exceed, the terms added and the
 free-run test RMSE.
 
-Usage: python benchmarks/bench_freeswing_windows.py [--settings 50/5 50/5/5 50/25/5 50/50/2 50/5/2g]
+Usage: python benchmarks/measured/bench_freeswing_windows.py [--settings 50/5 50/5/5 50/25/5 50/50/2 50/5/2g]
 (data: $SKLEARN_HYBRID_DATA or --data-home)
 """
 
 from __future__ import annotations
 
 import argparse
+import sys
+from pathlib import Path
 
 import torch
 
-from _common import PACKAGE_COMMIT, selection_summary, write_results
-from sklearn_hybrid.recipes import run_case
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the helpers, the studies' modules
+from helpers import PACKAGE_COMMIT, selection_summary, write_results  # noqa: E402
+from sklearn_hybrid.recipes import run_case  # noqa: E402
 
 
 def _run(window: int, stride: int, cv: int | None, grouped: bool, data_home) -> dict:

@@ -22,22 +22,25 @@ What an engineer would do without a neural network, reproduced here rather than 
   (RMSE in thousands of pelts over both species).
 
 The simulators are compiled with numba (full-length simulations of 65,000 samples, hundreds of
-times). Usage: python benchmarks/bench_greybox.py
+times). Usage: python benchmarks/measured/bench_greybox.py
 """
 
 from __future__ import annotations
 
+import sys
 import time
+from pathlib import Path
 
 import numba
 import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.optimize import least_squares
 
-from _common import write_results
-from sklearn_hybrid.datasets import (estimate_derivative, fetch_cascaded_tanks, fetch_hare_lynx, fetch_silverbox,
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the helpers, the studies' modules
+from helpers import write_results  # noqa: E402
+from sklearn_hybrid.datasets import (estimate_derivative, fetch_cascaded_tanks, fetch_hare_lynx, fetch_silverbox,  # noqa: E402
                                     load_pendulum_freeswing)
-from sklearn_hybrid.integrate import upsample_inputs
+from sklearn_hybrid.integrate import upsample_inputs  # noqa: E402
 
 
 # ------------------------------------------------------------------------------ Silverbox

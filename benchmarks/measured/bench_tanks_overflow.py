@@ -15,22 +15,25 @@ from the other end, with the overflow law written by hand (an oracle the loop do
    with the upper tank's level at each window start from the lower tank's balance (the recipe) or
    fitted per window (``fit_initial_states``).
 
-Usage: python benchmarks/bench_tanks_overflow.py  (data: $SKLEARN_HYBRID_DATA or --data-home)
+Usage: python benchmarks/measured/bench_tanks_overflow.py  (data: $SKLEARN_HYBRID_DATA or --data-home)
 """
 
 from __future__ import annotations
 
 import argparse
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
 import torch
 from sklearn.base import clone
 
-from _common import write_results
-from sklearn_hybrid.diagnosis.evidence import evidence, held_out_splits
-from sklearn_hybrid.diagnosis.science_fit import ScienceFit
-from sklearn_hybrid.recipes import tanks_case, tanks_f
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the helpers, the studies' modules
+from helpers import write_results  # noqa: E402
+from sklearn_hybrid.diagnosis.evidence import evidence, held_out_splits  # noqa: E402
+from sklearn_hybrid.diagnosis.science_fit import ScienceFit  # noqa: E402
+from sklearn_hybrid.recipes import tanks_case, tanks_f  # noqa: E402
 
 TOP = 10.0  # V: both tanks overflow at the top of the gauge's range (the record's maximum)
 

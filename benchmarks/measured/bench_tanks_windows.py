@@ -9,7 +9,7 @@ the validation record (before / after / science only). A second table gives, for
 how many judged windows hold a visible overflow (the lower tank at its cap) and the largest z a
 term acting only there could reach.
 
-Usage: python benchmarks/bench_tanks_windows.py [--settings 64/32 128/16 256/16 64/64/4 128/32/4]
+Usage: python benchmarks/measured/bench_tanks_windows.py [--settings 64/32 128/16 256/16 64/64/4 128/32/4]
 (data: $SKLEARN_HYBRID_DATA or --data-home)
 """
 
@@ -20,14 +20,16 @@ import json
 import math
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 import torch
 
-from _common import PACKAGE_COMMIT, RESULTS, selection_summary, write_results
-from sklearn_hybrid.datasets import fetch_cascaded_tanks, make_windows
-from sklearn_hybrid.diagnosis.evidence import critical_value
-from sklearn_hybrid.recipes import run_case
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the helpers, the studies' modules
+from helpers import PACKAGE_COMMIT, RESULTS, as_run_today, selection_summary, write_results  # noqa: E402
+from sklearn_hybrid.datasets import fetch_cascaded_tanks, make_windows  # noqa: E402
+from sklearn_hybrid.diagnosis.evidence import critical_value  # noqa: E402
+from sklearn_hybrid.recipes import run_case  # noqa: E402
 
 CAP = 9.9  # the lower tank's level sits at the top of its range (10 V) while it overflows
 
@@ -43,15 +45,15 @@ def _run(window: int, stride: int, cv: int | None, fitted_states: bool, data_hom
                              if s.get("kind") == "offset" and "gain" in s],
             "validation_rmse": {k: r.get("validation_rmse") for k, r in rows.items()},
             "seconds": out.seconds, "package_commit": PACKAGE_COMMIT,
-            "command": "python " + " ".join(["benchmarks/bench_tanks_windows.py", *sys.argv[1:]]),
+            "command": "python " + " ".join(["benchmarks/measured/bench_tanks_windows.py", *sys.argv[1:]]),
             "date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())}
 
 
 # Runs stored before their records held the command and the date
-_EARLIER = {"3b80ab2": ("`python benchmarks/bench_tanks_windows.py`", "2026-11-24 20:37 UTC"),
-            "5cf8863": ("`python benchmarks/bench_tanks_windows.py --settings 64/32/f 128/16/f`",
+_EARLIER = {"3b80ab2": ("`python benchmarks/measured/bench_tanks_windows.py`", "2026-11-24 20:37 UTC"),
+            "5cf8863": ("`python benchmarks/measured/bench_tanks_windows.py --settings 64/32/f 128/16/f`",
                         "2026-11-24 22:57 UTC, two other jobs on the 2 cores"),
-            "eb9feea": ("`python benchmarks/bench_tanks_windows.py --settings 128/16/f 128/32/f 128/64/f`",
+            "eb9feea": ("`python benchmarks/measured/bench_tanks_windows.py --settings 128/16/f 128/32/f 128/64/f`",
                         "2026-11-24 23:41 UTC, two other jobs on the 2 cores")}
 
 
@@ -60,13 +62,14 @@ def _commands(runs: list[dict]) -> str:
     seen = {}
     for r in runs:
         c = r["package_commit"]
-        seen.setdefault(c, (f"`{r['command']}`", r["date"]) if "command" in r else _EARLIER.get(c, ("?", "?")))
+        seen.setdefault(c, (f"`{as_run_today(r['command'])}`", r["date"]) if "command" in r  # the path it runs at now
+                        else _EARLIER.get(c, ("?", "?")))
     return "Rows by package commit: " + "; ".join(f"{c}: {cmd} ({date})" for c, (cmd, date) in seen.items()) + "."
 
 
 def _markdown(runs: list[dict]) -> str:
     md = ["# Cascaded tanks: the closed loop's evidence against the window length and the kind of held-out judgement", "",
-          "`python benchmarks/bench_tanks_windows.py` (one process, one torch thread; another benchmark shared "
+          "`python benchmarks/measured/bench_tanks_windows.py` (one process, one torch thread; another benchmark shared "
           "the machine's second core). Each row: `run_case('tanks', cv=..., grouped=False, window=..., "
           "stride=...)`; the last quarter "
           "of the windows judge each term (*last quarter*), or, with K blocks, every window, predicted by a "

@@ -5,21 +5,24 @@ trajectories, MLP 2-128-128-2, rk4 with 4 sub-steps per 0.2 output interval,
 Adam lr 1e-3 cosine-annealed, omega initialised at 0.5.  Several seeds per
 configuration; fits run in parallel processes, one torch thread each.
 
-Usage: python benchmarks/bench_pendulum_theta.py [--iters 3000] [--seeds 3] [--jobs 2]
+Usage: python benchmarks/paper/bench_pendulum_theta.py [--iters 3000] [--seeds 3] [--jobs 2]
 """
 
 from __future__ import annotations
 
 import argparse
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
 from joblib import Parallel, delayed
 
-from _common import write_results
-from sklearn_hybrid import HybridRegressor, theta_error
-from sklearn_hybrid.datasets import make_pendulum
-from sklearn_hybrid.models import pendulum_f
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the helpers, the studies' modules
+from helpers import write_results  # noqa: E402
+from sklearn_hybrid import HybridRegressor, theta_error  # noqa: E402
+from sklearn_hybrid.datasets import make_pendulum  # noqa: E402
+from sklearn_hybrid.models import pendulum_f  # noqa: E402
 
 CONFIGS = [("erm", {}), ("sam", {"rho": 0.05}), ("sam", {"rho": 0.2}),
            ("fsam", {"rho": 0.05, "eta": 1.0})]
@@ -46,7 +49,7 @@ def main():
     jobs = [(m, p, s) for m, p in CONFIGS for s in range(args.seeds)]
     rows = Parallel(n_jobs=args.jobs)(delayed(run)(m, p, s, args.iters) for m, p, s in jobs)
     lines = [f"# Pendulum task: theta error ({args.iters} iterations, {args.seeds} seeds)", "",
-             f"Command: `python benchmarks/bench_pendulum_theta.py --iters {args.iters} "
+             f"Command: `python benchmarks/paper/bench_pendulum_theta.py --iters {args.iters} "
              f"--seeds {args.seeds} --jobs {args.jobs}`", "",
              "| method | rho | |omega - 2/3| mean | sd | test y RMSE | s/fit |",
              "|---|---|---|---|---|---|"]

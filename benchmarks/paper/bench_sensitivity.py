@@ -3,12 +3,14 @@
 Trains on the 25 training trajectories for every value and seed and reports
 theta error and test y error (mean over seeds), with erm as the reference.
 
-Usage: python benchmarks/bench_sensitivity.py [--iters 1500] [--seeds 2] [--jobs 2]
+Usage: python benchmarks/paper/bench_sensitivity.py [--iters 1500] [--seeds 2] [--jobs 2]
 """
 
 from __future__ import annotations
 
 import argparse
+import sys
+from pathlib import Path
 
 import matplotlib
 
@@ -16,11 +18,12 @@ matplotlib.use("Agg")
 
 import matplotlib.pyplot as plt
 
-from _common import RESULTS, write_results
-from sklearn_hybrid import HybridRegressor
-from sklearn_hybrid.datasets import make_pendulum
-from sklearn_hybrid.model_selection import plot_sensitivity, sensitivity_curve
-from sklearn_hybrid.models import pendulum_f
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the helpers, the studies' modules
+from helpers import RESULTS, write_results  # noqa: E402
+from sklearn_hybrid import HybridRegressor  # noqa: E402
+from sklearn_hybrid.datasets import make_pendulum  # noqa: E402
+from sklearn_hybrid.model_selection import plot_sensitivity, sensitivity_curve  # noqa: E402
+from sklearn_hybrid.models import pendulum_f  # noqa: E402
 
 
 def main():
@@ -43,7 +46,7 @@ def main():
                                        seeds=seeds, n_jobs=args.jobs)
                for name, (est, p, values) in sweeps.items()}
     lines = ["# Pendulum task: sensitivity to lambda (f-reg) and rho (fsam)", "",
-             f"Command: `python benchmarks/bench_sensitivity.py --iters {args.iters} "
+             f"Command: `python benchmarks/paper/bench_sensitivity.py --iters {args.iters} "
              f"--seeds {args.seeds} --jobs {args.jobs}` (lr 3e-3, 2 RK4 sub-steps per output)", "",
              "| method | parameter | value | theta error (mean) | test y RMSE (mean) |",
              "|---|---|---|---|---|"]

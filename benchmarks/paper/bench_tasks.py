@@ -23,84 +23,24 @@ light tunnel       6000/1000/2500, 100 px, 20k    1263/210/527, 32 px, 600 it, U
 The wind and light tunnel use the measured Causal Chamber data when they are in
 the data home and the SIMULATED stand-ins otherwise (the table says which).
 
-Usage: python benchmarks/bench_tasks.py [--tasks pendulum duffing ...] [--jobs 2] [--max-iter N]
+Usage: python benchmarks/paper/bench_tasks.py [--tasks pendulum duffing ...] [--jobs 2] [--max-iter N]
 """
 
 from __future__ import annotations
 
 import argparse
+import sys
 import time
-from functools import partial
+from pathlib import Path
 
 import numpy as np
 import torch
 from joblib import Parallel, delayed
 
-from _common import write_results
-from sklearn_hybrid import HybridRegressor, theta_error
-from sklearn_hybrid import datasets as ds
-from sklearn_hybrid import models
-
-
-def _pendulum():
-    d = ds.make_pendulum(25, 25, 25, random_state=0)
-    kw = dict(science=models.pendulum_f, dt=d.dt, n_substeps=2, lr=3e-3, max_iter=2000)
-    return d.X_train, d.y_train, d.X_test, d.y_test, d.theta_true, kw, "synthetic"
-
-
-def _duffing():
-    d = ds.make_duffing(100, 100, 100, random_state=0)
-    kw = dict(science=models.duffing_f, dt=d.dt, n_substeps=1, lr=3e-3, max_iter=1500)
-    return d.X_train, d.y_train, d.X_test, d.y_test, d.theta_true, kw, "synthetic"
-
-
-def _reaction_diffusion():
-    d = ds.make_reaction_diffusion(10, 10, 10, random_state=0)
-    kw = dict(science=models.diffusion_f, residual="cnn", dt=d.dt, n_substeps=1, lr=1e-3,
-              max_iter=300)
-    return d.X_train, d.y_train, d.X_test, d.y_test, d.theta_true, kw, "synthetic"
-
-
-def _pendulum_images():
-    d = ds.make_pendulum_images(200, 50, 50, image_size=32, random_state=0)
-    net = partial(models.PendulumImagesNet, n_input_frames=10, image_size=32, latent_dim=4,
-                  encoder_channels=(16, 32, 32), encoder_hidden=128, fc_hidden=(256, 256),
-                  conv_channels=(16, 8))
-    kw = dict(science=models.pendulum_f, structure=models.PendulumImagesStructure(dt=d.dt),
-              residual=net, lr=1e-3, batch_size=50, max_iter=250)
-    return d.X_train, d.y_train, d.X_test, d.y_test, d.theta_true, kw, "synthetic"
-
-
-def _wind_tunnel():
-    try:
-        d, source = ds.fetch_wind_tunnel(download_if_missing=False), "MEASURED"
-    except (FileNotFoundError, OSError):
-        d, source = ds.make_wind_tunnel_simulated(random_state=0), "SIMULATED stand-in"
-    y = d.y - d.pressure_ambient
-    tr, te = d.splits["train"], d.splits["test"]
-    kw = dict(science=models.wind_tunnel_f, structure="compose", residual=models.wind_tunnel_net,
-              theta_bounds={"r": (0.0, 1.0)}, lr=1e-3, max_iter=2000)
-    return d.X[tr], y[tr], d.X[te], y[te], d.theta_reference, kw, source
-
-
-def _light_tunnel():
-    size = 32
-    try:
-        d, source = ds.fetch_light_tunnel(download_if_missing=False, n_samples=2000), "MEASURED"
-        pooled = torch.nn.functional.adaptive_avg_pool2d(torch.as_tensor(d.images), size).numpy()
-        d.images_train, d.images_test = pooled[d.splits["train"]], pooled[d.splits["test"]]
-    except (FileNotFoundError, OSError, ValueError):
-        d = ds.make_light_tunnel_simulated(n_samples=2000, image_size=size, random_state=0)
-        source = "SIMULATED stand-in"
-    kw = dict(science=models.make_light_tunnel_f(size), structure="compose",
-              residual=partial(models.light_tunnel_unet, channels=(8, 16, 32)), lr=1e-3,
-              batch_size=50, max_iter=600)
-    return d.X_train, d.images_train, d.X_test, d.images_test, d.theta_reference, kw, source
-
-
-TASKS = {"pendulum": _pendulum, "duffing": _duffing, "reaction_diffusion": _reaction_diffusion,
-         "pendulum_images": _pendulum_images, "wind_tunnel": _wind_tunnel,
-         "light_tunnel": _light_tunnel}
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the helpers, the studies' modules
+from helpers import write_results  # noqa: E402
+from paper.tasks import CPU_TASKS as TASKS  # noqa: E402
+from sklearn_hybrid import HybridRegressor, theta_error  # noqa: E402
 
 
 def _errors(path: dict, reference: dict, metric: str) -> np.ndarray:
@@ -134,7 +74,7 @@ def run(task: str, method: str, max_iter: int | None = None) -> dict:
 
 def _markdown(rows: list[dict], wall: float) -> str:
     lines = ["# The paper's tasks at CPU size: erm vs fsam", "",
-             "`python benchmarks/bench_tasks.py` (sizes vs the paper in its docstring). One seed.",
+             "`python benchmarks/paper/bench_tasks.py` (sizes vs the paper in its docstring). One seed.",
              "theta error: RMSE to the true / reference theta (light tunnel: cosine similarity, "
              "higher is better); *best* = best value along training (the paper's oracle "
              "selection); y error: test RMSE.",

@@ -21,22 +21,25 @@ otherwise) and is cached as one JSON file in ``results/runs/theta_convergence/``
 
 Usage::
 
-    python benchmarks/bench_theta_convergence.py            # runs what is not cached, renders
-    python benchmarks/bench_theta_convergence.py --render   # only renders
+    python benchmarks/paper/bench_theta_convergence.py            # runs what is not cached, renders
+    python benchmarks/paper/bench_theta_convergence.py --render   # only renders
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
 import torch
 
-from _common import runs_folder, write_results
-import table1
-from sklearn_hybrid import HybridRegressor, models
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the helpers, the studies' modules
+from helpers import runs_folder, write_results  # noqa: E402
+from paper.tasks import TASKS, wind_tunnel_spec  # noqa: E402
+from sklearn_hybrid import HybridRegressor, models  # noqa: E402
 
 CACHE = runs_folder("theta_convergence")
 BASE = dict(lr=1e-3, max_iter=1500, seed=0)
@@ -86,7 +89,7 @@ def _drift_lr(r, lr_t):
 
 def data_probe() -> dict:
     """Closed-form science-only least squares of r on the training split."""
-    d = table1.wind_tunnel_spec("cpu").data
+    d = wind_tunnel_spec("cpu").data
     b = models.wind_tunnel_f(torch.tensor(d.X_train), r=0.0).numpy()
     y, hatch = d.y_train, d.X_train[..., 2]
     out = {}
@@ -109,8 +112,8 @@ def budget_probe() -> list[dict]:
     from sklearn_hybrid.science import read_signature
 
     rows = []
-    for task in table1.TASKS:
-        kw, reference = table1.TASKS[task]("cpu").kw, table1.TASKS[task]("smoke").theta
+    for task in TASKS:
+        kw, reference = TASKS[task]("cpu").kw, TASKS[task]("smoke").theta
         _, start = read_signature(kw["science"])
         bounds = kw.get("theta_bounds") or {}
         distance = 0.0
@@ -133,7 +136,7 @@ def run_probe(name: str) -> dict:
         return json.loads(path.read_text())
     torch.set_num_threads(1)
     cfg = {**BASE, **PROBES[name]}
-    spec = table1.wind_tunnel_spec("cpu")
+    spec = wind_tunnel_spec("cpu")
     d = spec.data
     kw = dict(spec.kw, lr=cfg["lr"], max_iter=cfg["max_iter"], random_state=cfg["seed"],
               method=cfg["method"], tol=None)
@@ -166,7 +169,7 @@ def run_probe(name: str) -> dict:
 
 def render(data: dict, runs: list[dict], budgets: list[dict] | None = None) -> str:
     lines = ["# Theta convergence on the wind-tunnel task (issue 10, item 1)", "",
-             "`python benchmarks/bench_theta_convergence.py` (hypotheses in its docstring). "
+             "`python benchmarks/paper/bench_theta_convergence.py` (hypotheses in its docstring). "
              "Wind-tunnel task of `table1.py`, cpu budget, SIMULATED stand-in, lr 1e-3, "
              "1,500 iterations, seed 0, r starts at 0.5, cosine schedule to 1e-6.", "",
              "## Data: what the stand-in says about r (closed-form science-only least squares)",

@@ -10,9 +10,9 @@ beyond a shared 2-core CPU, so this runs a declared reduced protocol (``PROTOCOL
 results file and its header).  Every finished run is cached as JSON under ``results/runs/varying_theta/`` and
 skipped when the script is run again, so an interrupted benchmark resumes.
 
-    python benchmarks/bench_varying_theta.py                 # everything not cached yet, then the results
-    python benchmarks/bench_varying_theta.py --markdown-only # rebuild results from the cached runs
-    SKLEARN_HYBRID_FAST=1 python benchmarks/bench_varying_theta.py  # 20 iterations, nothing cached
+    python benchmarks/paper/bench_varying_theta.py                 # everything not cached yet, then the results
+    python benchmarks/paper/bench_varying_theta.py --markdown-only # rebuild results from the cached runs
+    SKLEARN_HYBRID_FAST=1 python benchmarks/paper/bench_varying_theta.py  # 20 iterations, nothing cached
 """
 
 from __future__ import annotations
@@ -27,8 +27,8 @@ from pathlib import Path
 import numpy as np
 import torch
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import RESULTS, runs_folder, write_results  # noqa: E402
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the helpers, the studies' modules
+from helpers import RESULTS, runs_folder, write_results  # noqa: E402
 
 from sklearn_hybrid import HybridRegressor  # noqa: E402
 from sklearn_hybrid import datasets as ds  # noqa: E402
@@ -201,7 +201,7 @@ def _markdown(rows: list[dict], pending: list[tuple]) -> str:
     lines += ["`perturb=\"residual\"` (the default, the paper's method) perturbs the residual network only; "
               "`perturb=\"all\"` also perturbs the theta encoder.", "",
               "Scatter of inferred against true theta (seed 0): `varying_theta.png`.", "",
-              "Command: `python benchmarks/bench_varying_theta.py` (runs cached in `results/runs/varying_theta/`; "
+              "Command: `python benchmarks/paper/bench_varying_theta.py` (runs cached in `results/runs/varying_theta/`; "
               "`--markdown-only` rebuilds this file from them)."]
     return "\n".join(lines)
 

@@ -40,31 +40,30 @@ Causal Chamber files are absent). Light tunnel: theta_error_* is 1 - cosine simi
 
 Usage::
 
-    python benchmarks/table1.py --budget cpu --tasks pendulum duffing --seeds 0 1 2 --jobs 2
-    python benchmarks/table1.py --render          # table1.json / table1.md from the cache
-    python benchmarks/table1.py --timing          # s/iteration at paper size, projected hours
+    python benchmarks/paper/table1.py --budget cpu --tasks pendulum duffing --seeds 0 1 2 --jobs 2
+    python benchmarks/paper/table1.py --render          # table1.json / table1.md from the cache
+    python benchmarks/paper/table1.py --timing          # s/iteration at paper size, projected hours
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import sys
 import tempfile
 import time
-from functools import partial
 from pathlib import Path
 
 import numpy as np
 import torch
 from joblib import Parallel, delayed
-from sklearn.utils import Bunch
 
-from _common import RESULTS, machine_description, runs_folder
-from sklearn_hybrid import HybridRegressor
-from sklearn_hybrid import datasets as ds
-from sklearn_hybrid import models
-from sklearn_hybrid.diagnosis import ZeroResidual
-from sklearn_hybrid.training.engine import DivergenceError, train
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the helpers, the studies' modules
+from helpers import RESULTS, machine_description, runs_folder  # noqa: E402
+from paper.tasks import TASKS  # noqa: E402
+from sklearn_hybrid import HybridRegressor  # noqa: E402
+from sklearn_hybrid.diagnosis import ZeroResidual  # noqa: E402
+from sklearn_hybrid.training.engine import DivergenceError, train  # noqa: E402
 
 CACHE = runs_folder("table1")
 SMOKE_CACHE = Path(tempfile.gettempdir()) / "sklearn_hybrid_table1_smoke"  # never committed
@@ -155,101 +154,6 @@ PAPER = {
     "light_tunnel": {"erm": 0.76, "p-reg": 0.87, "f-reg": 0.96, "sam": 0.98, "asam": 0.98,
                      "fsam": 0.98, "fsam-all": 0.97},
 }
-
-
-# --- tasks: data, science model, network and optimisation per protocol -----------------------
-
-def _size(budget, paper, cpu, smoke):
-    return {"paper": paper, "cpu": cpu, "smoke": smoke}[budget]
-
-
-def _pendulum(budget):
-    n = _size(budget, 25, 25, 8)
-    d = ds.make_pendulum(n, n, n, random_state=0)
-    kw = dict(science=models.pendulum_f, dt=d.dt, n_substeps=2,
-              lr=_size(budget, 1e-4, 3e-3, 3e-3), max_iter=_size(budget, 20000, 2000, 30))
-    return Bunch(data=d, kw=kw, theta=d.theta_true, source="synthetic")
-
-
-def _duffing(budget):
-    n = _size(budget, 100, 100, 10)
-    d = ds.make_duffing(n, n, n, random_state=0)
-    kw = dict(science=models.duffing_f, dt=d.dt, n_substeps=1,
-              lr=_size(budget, 1e-4, 3e-3, 3e-3), max_iter=_size(budget, 20000, 1500, 30))
-    return Bunch(data=d, kw=kw, theta=d.theta_true, source="synthetic")
-
-
-def _reaction_diffusion(budget):
-    n = _size(budget, 100, 10, 3)
-    d = ds.make_reaction_diffusion(n, n, n, grid_size=_size(budget, 32, 32, 8), random_state=0)
-    kw = dict(science=models.diffusion_f, residual="cnn", dt=d.dt, n_substeps=1,
-              lr=_size(budget, 1e-4, 1e-3, 1e-3), max_iter=_size(budget, 20000, 300, 30))
-    return Bunch(data=d, kw=kw, theta=d.theta_true, source="synthetic")
-
-
-def _pendulum_images(budget):
-    size = _size(budget, 48, 32, 16)
-    n = _size(budget, 200, 200, 8)
-    d = ds.make_pendulum_images(n, n if budget == "paper" else 50, n if budget == "paper" else 50,
-                                image_size=size, random_state=0)
-    small = dict(latent_dim=4, encoder_channels=(16, 32, 32), encoder_hidden=128,
-                 fc_hidden=(256, 256), conv_channels=(16, 8))
-    net = partial(models.PendulumImagesNet, n_input_frames=10, image_size=size,
-                  **({} if budget == "paper" else small))
-    kw = dict(science=models.pendulum_f, structure=models.PendulumImagesStructure(dt=d.dt),
-              residual=net, lr=1e-3, batch_size=50, max_iter=_size(budget, 20000, 250, 10))
-    if budget == "cpu":  # with lr 1e-3, omega could move 1e-3 * 250 / 2 = 0.125 at most, less than
-        kw["lr_theta"] = 1e-2  # 0.5 -> 2/3; the README's rule: lr_theta * max_iter / 2 >= theta's range (~1)
-    return Bunch(data=d, kw=kw, theta=d.theta_true, source="synthetic")
-
-
-def wind_tunnel_spec(budget):
-    try:
-        raw, source = ds.fetch_wind_tunnel(download_if_missing=False), "MEASURED"
-    except (FileNotFoundError, OSError):
-        raw, source = ds.make_wind_tunnel_simulated(random_state=0), "SIMULATED stand-in"
-    gauge = raw.y - raw.pressure_ambient  # pressure above ambient, as the model predicts it
-    d = Bunch(**{f"{a}_{s}": (raw.X if a == "X" else gauge)[raw.splits[s]]
-                 for a in ("X", "y") for s in ("train", "val", "test")})
-    if budget == "smoke":
-        d = Bunch(**{k: v[:20] for k, v in d.items()})
-    kw = dict(science=models.wind_tunnel_f, structure="compose", residual=models.wind_tunnel_net,
-              theta_bounds={"r": (0.0, 1.0)}, lr=_size(budget, 3e-4, 1e-3, 1e-3),
-              max_iter=_size(budget, 20000, 2000, 30))
-    if budget == "cpu":  # keep the paper's budget for theta: lr_theta * max_iter = 3e-4 * 20,000
-        kw["lr_theta"] = 3e-3  # = 3e-4 * 20,000 / 2,000 (lr alone reaches r <= 0.73 from 0.5)
-    # the stand-in is generated with r = 0.75 (hatch closed; the publisher's value), not the
-    # paper's 0.7 for the measured chamber: its error is measured against what made the data
-    theta = raw.theta_reference_code if raw.simulated else raw.theta_reference
-    return Bunch(data=d, kw=kw, theta=theta, source=source)
-
-
-def _light_tunnel(budget, n_samples=None):
-    size = _size(budget, 100, 32, 16)
-    n = n_samples or _size(budget, 10000, 2000, 60)
-    try:
-        raw, source = ds.fetch_light_tunnel(download_if_missing=False, n_samples=n), "MEASURED"
-        pooled = torch.nn.functional.adaptive_avg_pool2d(torch.as_tensor(raw.images), size).numpy()
-        d = Bunch(X_train=raw.X_train, X_val=raw.X_val, X_test=raw.X_test,
-                  **{f"y_{s}": pooled[raw.splits[s]] for s in ("train", "val", "test")})
-        reference = raw.theta_reference
-    except (FileNotFoundError, OSError, ValueError):
-        raw = ds.make_light_tunnel_simulated(n_samples=n, image_size=size, random_state=0)
-        d = Bunch(X_train=raw.X_train, X_val=raw.X_val, X_test=raw.X_test,
-                  y_train=raw.images_train, y_val=raw.images_val, y_test=raw.images_test)
-        reference, source = raw.theta_reference, "SIMULATED stand-in"
-    kw = dict(science=models.make_light_tunnel_f(size), structure="compose",
-              residual=partial(models.light_tunnel_unet,
-                               channels=(16, 32, 64) if budget == "paper" else (8, 16, 32)),
-              lr=1e-3, batch_size=50, max_iter=_size(budget, 20000, 600, 10))
-    if budget == "cpu":  # the same rule: lr 1e-3 lets theta move 0.3 in 600 iterations; the
-        kw["lr_theta"] = 1e-2  # light's parameters range over ~1-3 (lr_theta * max_iter / 2 = 3)
-    return Bunch(data=d, kw=kw, theta=reference, source=source)
-
-
-TASKS = {"pendulum": _pendulum, "reaction_diffusion": _reaction_diffusion, "duffing": _duffing,
-         "pendulum_images": _pendulum_images, "wind_tunnel": wind_tunnel_spec,
-         "light_tunnel": _light_tunnel}
 
 
 # --- one run, cached --------------------------------------------------------------------------
@@ -426,7 +330,7 @@ def render(rows: list[dict]) -> str:
     partial = [r for r in rows if "partial" in r]
     rows = [r for r in rows if "partial" not in r]
     lines = ["# Table 1 (and Table 2's ordinary fsam) reproduced", "",
-             "`python benchmarks/table1.py` (protocols and selections in its docstring). "
+             "`python benchmarks/paper/table1.py` (protocols and selections in its docstring). "
              "theta error: RMSE to the true theta (light tunnel: cosine similarity, higher is "
              "better, as in the paper). **oracle**: the grid value with the best mean theta "
              "error along training (the paper's selection; needs the true theta). **no oracle**: "
@@ -507,7 +411,7 @@ def timing(tasks, device="cpu") -> str:
     torch.set_num_threads(1)
     n_configs = sum(len(g) for m, g in GRIDS.items() if m != "science-only")
     lines = ["# Per-iteration time at the paper's size, and the hours the full table needs", "",
-             f"`python benchmarks/table1.py --timing --tasks {' '.join(tasks)}`: one torch thread, "
+             f"`python benchmarks/paper/table1.py --timing --tasks {' '.join(tasks)}`: one torch thread, "
              "the training loop alone (`engine.train`: set-up and the end-of-fit standard errors "
              "not timed), the difference of a 3 + k and a 3-iteration run over k, k = 10, or "
              "100 or 1,000 where 10 took under 2 s. Projected hours: "
@@ -550,7 +454,7 @@ def main() -> None:
     parser.add_argument("--timing", action="store_true", help="s/iteration at paper size")
     args = parser.parse_args()
     if args.timing:
-        from _common import write_results
+        from helpers import write_results
 
         text = timing(args.tasks, args.device)
         print(text)

@@ -7,17 +7,21 @@ The science model is diffusion only, ``v_t = b lap(v)``; the data add the reacti
 to the network, and a CNN, which can represent a five-point Laplacian exactly, can take part of
 b's own term. This script measures, on the cpu protocol's training data (``table1.py``), the
 projection of each missing reaction term on the Laplacian of its field and their correlation, at
-every time step of the windows. Usage: python benchmarks/why_reaction_diffusion.py
+every time step of the windows. Usage: python benchmarks/paper/why_reaction_diffusion.py
 """
 
 from __future__ import annotations
 
+import sys
+from pathlib import Path
+
 import numpy as np
 import torch
 
-from _common import write_results
-from sklearn_hybrid import datasets as ds
-from sklearn_hybrid.models import laplacian
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the helpers, the studies' modules
+from helpers import write_results  # noqa: E402
+from sklearn_hybrid import datasets as ds  # noqa: E402
+from sklearn_hybrid.models import laplacian  # noqa: E402
 
 K = 5e-3  # the generator's constant reaction term
 

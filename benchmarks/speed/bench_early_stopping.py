@@ -7,7 +7,7 @@ Both with the default method (fsam, rho 0.05) on ``make_pendulum(random_state=se
 thread, fits run one after the other (the wall-clock times are those of a shared 2-core machine:
 the load average is recorded).
 
-Usage: python benchmarks/bench_early_stopping.py [--seeds 3] [--settings default]
+Usage: python benchmarks/speed/bench_early_stopping.py [--seeds 3] [--settings default]
 (``--settings`` reruns only those settings and keeps the other rows from the last results file.)
 """
 
@@ -16,14 +16,17 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
 
-from _common import RESULTS, write_results
-from sklearn_hybrid import HybridRegressor, theta_error
-from sklearn_hybrid.datasets import make_pendulum
-from sklearn_hybrid.models import pendulum_f
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the helpers, the studies' modules
+from helpers import RESULTS, write_results  # noqa: E402
+from sklearn_hybrid import HybridRegressor, theta_error  # noqa: E402
+from sklearn_hybrid.datasets import make_pendulum  # noqa: E402
+from sklearn_hybrid.models import pendulum_f  # noqa: E402
 
 SETTINGS = {"before": {"lr": 1e-3, "max_iter": 2000, "tol": None}, "default": {}}
 
@@ -55,7 +58,7 @@ def main():
         kept = [dict(r, kept=True) for r in previous if r["setting"] not in args.settings]
     rows = kept + [run(name, seed) for seed in range(args.seeds) for name in args.settings]
     lines = [f"# Pendulum default fit: early stopping vs 2,000 iterations ({args.seeds} seeds)", "",
-             f"Command: `python benchmarks/bench_early_stopping.py --seeds {args.seeds}"
+             f"Command: `python benchmarks/speed/bench_early_stopping.py --seeds {args.seeds}"
              + ("" if not kept else f" --settings {' '.join(args.settings)}") + "`"
              + ("" if not kept else " (rows marked * kept from the previous run)"), "",
              "before: lr 1e-3, 2,000 iterations (the defaults until issue 12); default: lr 1e-2, "

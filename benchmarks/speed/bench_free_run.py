@@ -11,23 +11,26 @@ fitted for a few iterations on random data (the speed does not depend on the wei
 Timing: process CPU time, one torch thread, contenders interleaved over rounds; median and best
 round, and the median of the per-round ratios.
 
-Usage: python benchmarks/bench_free_run.py [--rounds 5] [--steps 5000]
+Usage: python benchmarks/speed/bench_free_run.py [--rounds 5] [--steps 5000]
 Writes results/free_run.md and results/free_run.json.
 """
 
 from __future__ import annotations
 
 import argparse
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
 import torch
 
-from _common import write_results
-from sklearn_hybrid import HybridRegressor
-from sklearn_hybrid.diagnosis import MLPOn, free_run
-from sklearn_hybrid.integrate import fast
-from sklearn_hybrid.recipes import silverbox_f
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the helpers, the studies' modules
+from helpers import write_results  # noqa: E402
+from sklearn_hybrid import HybridRegressor  # noqa: E402
+from sklearn_hybrid.diagnosis import MLPOn, free_run  # noqa: E402
+from sklearn_hybrid.integrate import fast  # noqa: E402
+from sklearn_hybrid.recipes import silverbox_f  # noqa: E402
 
 
 def _model() -> HybridRegressor:
@@ -67,9 +70,9 @@ def main() -> None:
                                                                                    float(ratios.max())]})
         print(rows[-1], flush=True)
     md = ["# Free-run simulation: microseconds per RK4 step (one record, batch 1)", "",
-          f"`python benchmarks/bench_free_run.py --rounds {args.rounds} --steps {args.steps}`: process CPU time, "
-          "one torch thread, contenders interleaved; *modules* = the path before `_fast.frozen_rhs` "
-          "(`_fast.disabled()`), *frozen* = theta read once and the MLP as bare products.", "",
+          f"`python benchmarks/speed/bench_free_run.py --rounds {args.rounds} --steps {args.steps}`: process CPU time, "
+          "one torch thread, contenders interleaved; *modules* = the path before `fast.frozen_rhs` "
+          "(`fast.disabled()`), *frozen* = theta read once and the MLP as bare products.", "",
           "| model | modules (median / best) | frozen (median / best) | speed-up (median, range) |",
           "|---|---|---|---|"]
     md += [f"| {r['model']} | {r['modules_us_median']:.0f} / {r['modules_us_best']:.0f} | "

@@ -9,7 +9,7 @@ part is timed by wrapping the function ``fit`` calls (``perf_counter`` and ``pro
 so the package runs unchanged.  Target of issue 40: the standard errors cost at most 10 % of the
 training.
 
-One torch thread.  Usage: python benchmarks/bench_large_fit.py [--n 5000] [--steps 200]
+One torch thread.  Usage: python benchmarks/speed/bench_large_fit.py [--n 5000] [--steps 200]
 [--iters 5] [--batch 64]
 """
 
@@ -17,16 +17,19 @@ from __future__ import annotations
 
 import argparse
 import os
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
 import torch
 
-from _common import write_results
-import sklearn_hybrid._estimator as estimator_module
-from sklearn_hybrid import HybridRegressor
-from sklearn_hybrid.datasets import make_pendulum
-from sklearn_hybrid.demo import pendulum_f
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the helpers, the studies' modules
+from helpers import write_results  # noqa: E402
+import sklearn_hybrid._estimator as estimator_module  # noqa: E402
+from sklearn_hybrid import HybridRegressor  # noqa: E402
+from sklearn_hybrid.datasets import make_pendulum  # noqa: E402
+from sklearn_hybrid.demo import pendulum_f  # noqa: E402
 
 #: The functions ``HybridRegressor.fit`` calls, by the part of the fit each one is.
 PARTS = {"train": "training", "theta_uncertainty": "standard errors", "judge_training": "verdict",
@@ -92,7 +95,7 @@ def main() -> None:
     rows = "\n".join(f"| {name} | {v['wall_s']:.2f} | {v['cpu_s']:.2f} | {v['cpu_s'] / training:.1%} |"
                      for name, v in parts.items())
     subset = est._standard_error_samples
-    md = f"""# A large mini-batch fit (benchmarks/bench_large_fit.py)
+    md = f"""# A large mini-batch fit (benchmarks/speed/bench_large_fit.py)
 
 {args.n:,} pendulum trajectories of {args.steps} steps (`make_pendulum`, dt 0.2), the Quick start's science
 and default network and method, `max_iter={args.iters}`, `batch_size={args.batch}`, one torch thread.

@@ -8,9 +8,9 @@ noise 0.01; the hybrid is fitted once per process with a small budget (erm, a 32
 acceleration, 30 iterations, 4 RK4 steps per interval: the same fit in both codes), then
 ``close_the_loop(est, X, y)`` is timed (``time.process_time``).  Each code runs in its own process:
 
-    python benchmarks/bench_long_record.py                       # the package of this checkout
-    python benchmarks/bench_long_record.py --package ../old      # a checkout of the old code
-    python benchmarks/bench_long_record.py --render
+    python benchmarks/speed/bench_long_record.py                       # the package of this checkout
+    python benchmarks/speed/bench_long_record.py --package ../old      # a checkout of the old code
+    python benchmarks/speed/bench_long_record.py --render
 """
 
 from __future__ import annotations
@@ -25,7 +25,8 @@ from pathlib import Path
 
 import numpy as np
 
-from _common import machine_description, rk4_trajectories, runs_folder, write_results
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the helpers, the studies' modules
+from helpers import machine_description, rk4_trajectories, runs_folder, write_results  # noqa: E402
 
 FOLDER = runs_folder("long_record")
 N_RECORDS, N_STEPS, DT, NOISE = 6, 1500, 0.1, 0.01

@@ -10,26 +10,29 @@ substeps, a forced system, and an adaptive solver.
 To compare with an earlier package version::
 
     git archive <commit> sklearn_hybrid | tar -x -C /tmp/old
-    PYTHONPATH=/tmp/old python benchmarks/bench_memory_check.py --name memory_check_before \
+    PYTHONPATH=/tmp/old python benchmarks/speed/bench_memory_check.py --name memory_check_before \
         --package "<commit>, exported to /tmp/old"
 
 (the package commit the results name is the working tree's; ``--package`` says which ran).
 
-Usage: python benchmarks/bench_memory_check.py [--name memory_check] [--package TEXT]
+Usage: python benchmarks/speed/bench_memory_check.py [--name memory_check] [--package TEXT]
 """
 
 from __future__ import annotations
 
 import argparse
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
 import torch
 
-from _common import write_results
-import sklearn_hybrid._estimator as estimator_module
-from sklearn_hybrid import HybridRegressor, pack_inputs
-from sklearn_hybrid.models import pendulum_f
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the helpers, the studies' modules
+from helpers import write_results  # noqa: E402
+import sklearn_hybrid._estimator as estimator_module  # noqa: E402
+from sklearn_hybrid import HybridRegressor, pack_inputs  # noqa: E402
+from sklearn_hybrid.models import pendulum_f  # noqa: E402
 
 #: name, trajectories, steps per trajectory, estimator settings ("forced": a forced system)
 SETTINGS = [
@@ -84,7 +87,7 @@ def main() -> None:
               f"ratio {rows[-1]['ratio']:.3f}", flush=True)
     table = "\n".join(f"| {r['setting']} | {1000 * r['check_s']:.1f} | {r['iteration_s']:.2f} | {r['ratio']:.3f} |"
                       for r in rows)
-    md = f"""# The memory check against one training iteration (benchmarks/bench_memory_check.py)
+    md = f"""# The memory check against one training iteration (benchmarks/speed/bench_memory_check.py)
 
 CPU seconds of `check_fit_memory` and of one training iteration (`max_iter=1`, the first
 iteration), pendulum science, default network started at zero, one torch thread.

@@ -7,17 +7,20 @@ clock), with torch at the package's default thread count; then the README's seco
 the fit's omega (optional on the path, timed beside it).  Each repeat is a fresh process state but the
 same data and seeds, so the spread is the machine's.
 
-    python benchmarks/bench_quickstart.py [--repeats 2]
+    python benchmarks/speed/bench_quickstart.py [--repeats 2]
 """
 
 from __future__ import annotations
 
 import argparse
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
 
-from _common import write_results
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the helpers, the studies' modules
+from helpers import write_results  # noqa: E402
 
 
 def one_run():

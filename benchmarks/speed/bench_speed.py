@@ -26,7 +26,7 @@ round* (with their range), which holds when the machine's speed drifts.
 A fit's per-iteration time is the difference between fits of two lengths,
 so set-up cost cancels.
 
-Usage: python benchmarks/bench_speed.py [--rounds 5]  (about 8 minutes)
+Usage: python benchmarks/speed/bench_speed.py [--rounds 5]  (about 8 minutes)
 Writes results/speed.md and results/speed.json.
 """
 
@@ -34,7 +34,9 @@ from __future__ import annotations
 
 import argparse
 import os
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
 import torch
@@ -42,10 +44,11 @@ import torchdiffeq
 from sklearn.model_selection import GridSearchCV
 from torch import nn
 
-from _common import write_results
-from sklearn_hybrid import HybridRegressor, HybridRegressorCV, make_theta_scorer
-from sklearn_hybrid import datasets as ds
-from sklearn_hybrid import models
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the helpers, the studies' modules
+from helpers import write_results  # noqa: E402
+from sklearn_hybrid import HybridRegressor, HybridRegressorCV, make_theta_scorer  # noqa: E402
+from sklearn_hybrid import datasets as ds  # noqa: E402
+from sklearn_hybrid import models  # noqa: E402
 
 RHOS, SEEDS = [0.01, 0.02, 0.05, 0.1, 0.2], [0, 1, 2, 3, 4]
 PROTOCOL_ITERS, MEMBERS = 20_000, 25
@@ -416,7 +419,7 @@ def targets(r) -> list:
 
 
 def markdown(r) -> str:
-    lines = ["# Training speed (benchmarks/bench_speed.py)", "",
+    lines = ["# Training speed (benchmarks/speed/bench_speed.py)", "",
              f"Matrix-multiply peak (2048^2 float32): {r['peak_gflops']['1']:.0f} GFLOP/s on 1 "
              f"thread, {r['peak_gflops']['2']:.0f} on 2 (float64: {r['peak_gflops']['1 float64']:.0f} "
              f"on 1). Load average before/after: {r['load'][0]:.2f} / {r['load'][1]:.2f}. "
@@ -502,7 +505,7 @@ def _rewrite_markdown():
     """Regenerate results/speed.md from results/speed.json (after editing the table layout)."""
     import json
 
-    from _common import RESULTS
+    from helpers import RESULTS
 
     r = json.loads((RESULTS / "speed.json").read_text())
     r["projection"] = projection(r)

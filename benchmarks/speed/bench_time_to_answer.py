@@ -1,6 +1,6 @@
 """Time to the answer: the path from data to a trustworthy theta, end to end, with its CPU seconds.
 
-Issue "The right answer in a minute".  On seven small systems of ``_time_to_answer_systems.py``
+Issue "The right answer in a minute".  On seven small systems of ``speed/time_to_answer_systems.py``
 (written for this benchmark, kept out of the tests), a new user's path is run step by step in a fresh
 process, each step's CPU seconds measured (``time.process_time`` of the process plus its worker
 processes), and the answer scored:
@@ -21,9 +21,9 @@ relative to the right-hand side itself); the loop's intervals (``science_interva
 called identified or not, and whether they hold the truth; and every verdict on the way that is
 confidently wrong: a parameter called identified whose interval misses the truth (profile or loop).
 
-    python benchmarks/bench_time_to_answer.py [--systems ...] [--seeds 0] [--paths recommended]
-    python benchmarks/bench_time_to_answer.py --paths today --package ../old     # the old code
-    python benchmarks/bench_time_to_answer.py --render
+    python benchmarks/speed/bench_time_to_answer.py [--systems ...] [--seeds 0] [--paths recommended]
+    python benchmarks/speed/bench_time_to_answer.py --paths today --package ../old     # the old code
+    python benchmarks/speed/bench_time_to_answer.py --render
 
 Each (path, system, seed) runs in its own process and is cached under
 ``results/runs/time_to_answer/<path>/`` as soon as it ends (``--rerun`` runs it again).
@@ -41,7 +41,8 @@ from pathlib import Path
 
 import numpy as np
 
-from _common import PACKAGE_COMMIT, machine_description, runs_folder, write_results
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the helpers, the studies' modules
+from helpers import PACKAGE_COMMIT, machine_description, runs_folder, write_results  # noqa: E402
 
 FOLDER = runs_folder("time_to_answer")
 PATHS = ("recommended", "today")
@@ -107,7 +108,7 @@ def run_one(path: str, name: str, seed: int) -> dict:
     """One path on one system and seed, in this process; returns the record."""
     import torch
 
-    from _time_to_answer_systems import SYSTEMS, simulate
+    from speed.time_to_answer_systems import SYSTEMS, simulate
 
     torch.set_num_threads(1)
     system = SYSTEMS[name]
@@ -142,7 +143,7 @@ def _path(path, system, X, y, seed, clock, record) -> dict:
     from sklearn_hybrid.diagnosis import close_the_loop
     from sklearn_hybrid.identifiability import profile_theta
 
-    from _time_to_answer_systems import call_science, test_states
+    from speed.time_to_answer_systems import call_science, test_states
 
     name = system.name
     est = HybridRegressor(science=system.science, dt=system.dt, random_state=seed, verbose=False).fit(X, y)
@@ -317,7 +318,7 @@ def main(argv=None):
     if args.render:
         render()
         return
-    from _time_to_answer_systems import SYSTEMS
+    from speed.time_to_answer_systems import SYSTEMS
 
     run_all(args.paths, args.systems or list(SYSTEMS), args.seeds, args.package, args.rerun)
     render()

@@ -1,7 +1,7 @@
 """Time to theta: CPU seconds and theta error of a default fit on three small systems.
 
 A new user writes ``HybridRegressor(science=f, dt=dt).fit(X, y)`` and waits.  This measures, on
-three systems of two states written for this benchmark (``_time_to_theta_systems.py``: population
+three systems of two states written for this benchmark (``speed/time_to_theta_systems.py``: population
 dynamics, an electric circuit, a chemical reactor; 30-50 trajectories of 15-20 steps), the CPU
 seconds of that fit (``time.process_time``, one torch thread) and its theta error (RMS relative
 error against the true theta), with today's defaults and with candidate defaults.  Target of
@@ -10,7 +10,7 @@ issue 41: at most 60 s of CPU per fit, theta no worse than today's defaults.
 Each fit's result is cached in ``results/runs/time_to_theta/`` as soon as it ends, so a run that is
 stopped resumes where it was.
 
-Usage: python benchmarks/bench_time_to_theta.py [--seeds 2] [--settings default proposed substeps2]
+Usage: python benchmarks/speed/bench_time_to_theta.py [--seeds 2] [--settings default proposed substeps2]
 """
 
 from __future__ import annotations
@@ -19,14 +19,17 @@ import argparse
 import inspect
 import json
 import os
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
 import torch
 
-from _common import PACKAGE_COMMIT, runs_folder, write_results
-from _time_to_theta_systems import SYSTEMS, simulate
-from sklearn_hybrid import HybridRegressor
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the helpers, the studies' modules
+from helpers import PACKAGE_COMMIT, runs_folder, write_results  # noqa: E402
+from speed.time_to_theta_systems import SYSTEMS, simulate  # noqa: E402
+from sklearn_hybrid import HybridRegressor  # noqa: E402
 
 #: ``verbose=False`` everywhere: the progress bar is not what is timed (and costs nothing measurable).
 SETTINGS = {

@@ -17,7 +17,7 @@ from typing import Callable
 import numpy as np
 import torch
 
-from _common import rk4_trajectories
+from helpers import rk4_trajectories
 
 
 # ------------------------------------------------------------------------------------------------ chemistry, 1 state

@@ -14,7 +14,7 @@ from typing import Callable
 import numpy as np
 import torch
 
-from _common import rk4_trajectories
+from helpers import rk4_trajectories
 
 
 def prey_predator_f(v, a=0.8, b=0.3):

@@ -10,7 +10,7 @@ and fits (erm, lr 1e-2, early stopping, at most 400 iterations) in three cases:
 - "missing damping": the paper's task (gamma = 0.5); the network must absorb the damping, and the
   estimate is biased by what it takes from the physics, which a noise-only standard error cannot see.
 
-Usage: python benchmarks/bench_coverage.py [--repeats 20] [--cases "science alone" ...]
+Usage: python benchmarks/uncertainty/bench_coverage.py [--repeats 20] [--cases "science alone" ...]
 (with ``--cases``, the rows of the other cases are kept from the committed results/coverage.json)
 """
 
@@ -18,15 +18,18 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
 
-from _common import RESULTS, write_results
-from sklearn_hybrid import HybridRegressor
-from sklearn_hybrid.datasets import make_pendulum
-from sklearn_hybrid.diagnosis import ZeroResidual
-from sklearn_hybrid.models import pendulum_f
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the helpers, the studies' modules
+from helpers import RESULTS, write_results  # noqa: E402
+from sklearn_hybrid import HybridRegressor  # noqa: E402
+from sklearn_hybrid.datasets import make_pendulum  # noqa: E402
+from sklearn_hybrid.diagnosis import ZeroResidual  # noqa: E402
+from sklearn_hybrid.models import pendulum_f  # noqa: E402
 
 CASES = {"science alone": 0.0, "complete science": 0.0, "missing damping": 0.5}
 
@@ -57,7 +60,7 @@ def main():
                 if r["case"] not in args.cases]
     rows = kept + rows
     lines = [f"# Coverage of the 95 % interval of a single fit ({args.repeats} repeats per case)", "",
-             f"Command: `python benchmarks/bench_coverage.py --repeats {args.repeats}` ({seconds:.0f} s"
+             f"Command: `python benchmarks/uncertainty/bench_coverage.py --repeats {args.repeats}` ({seconds:.0f} s"
              + (f" for {', '.join(args.cases)}; the other cases' rows are kept from the previous run)"
                 if kept else ")"), "",
              "Interval: omega +/- 1.96 theta_std_ (Gauss-Newton standard error, network held fixed). "

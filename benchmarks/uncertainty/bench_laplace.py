@@ -1,7 +1,7 @@
 """Laplace intervals of theta (network integrated out) beside the profiles: coverage over repeated data sets.
 
 Item 3 of issue "Is theta identified?": measure the Laplace approximation
-over theta and the network jointly (``_laplace.py``) beside the profile and
+over theta and the network jointly (``uncertainty/laplace_intervals.py``) beside the profile and
 the bootstrap of ``bench_uncertainty.py``, and keep it only if it earns its
 place.  The same systems, repeats, data, settings and seeds as
 ``bench_uncertainty.py``: every hybrid fit here is that benchmark's fit again
@@ -17,13 +17,13 @@ Quick start fits; fsam only, no profile to compare with), on four of the
 systems, cached in ``results/runs/laplace/default/``: does the Laplace step
 hold with a network of about 17,000 weights instead of 1,200?  (The first 10
 repeats of the small network were made with a dense version of the same
-algebra, the rest with the eigendecomposition of ``_laplace.py``, which holds
+algebra, the rest with the eigendecomposition of ``uncertainty/laplace_intervals.py``, which holds
 no matrix of the network's size; the two agree to the digits printed where
 compared.)
 
-    python benchmarks/bench_laplace.py              # all systems, 20 repeats
-    python benchmarks/bench_laplace.py --network default --repeats 10
-    python benchmarks/bench_laplace.py --render
+    python benchmarks/uncertainty/bench_laplace.py              # all systems, 20 repeats
+    python benchmarks/uncertainty/bench_laplace.py --network default --repeats 10
+    python benchmarks/uncertainty/bench_laplace.py --render
 """
 
 from __future__ import annotations
@@ -36,10 +36,10 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import PACKAGE_COMMIT, runs_folder, write_results  # noqa: E402
-from _uncertainty_systems import SYSTEMS  # noqa: E402
-from bench_uncertainty import RUNS, SETTINGS, member_row  # noqa: E402
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the helpers, the studies' modules
+from helpers import PACKAGE_COMMIT, runs_folder, write_results  # noqa: E402
+from uncertainty.protocol import RUNS, SETTINGS, member_row  # noqa: E402
+from uncertainty.systems import SYSTEMS  # noqa: E402
 
 METHODS = ("erm", "fsam")
 LAPLACE_RUNS = runs_folder("laplace/small")
@@ -51,7 +51,7 @@ def run_default(repeats):
     """fsam at the package's defaults (one thread), Laplace after it."""
     import torch
 
-    from _laplace import laplace_theta
+    from uncertainty.laplace_intervals import laplace_theta
     from sklearn_hybrid import HybridRegressor
 
     torch.set_num_threads(1)
@@ -81,7 +81,7 @@ def run_default(repeats):
 def run_repeat(system, repeat):
     import torch
 
-    from _laplace import laplace_theta
+    from uncertainty.laplace_intervals import laplace_theta
     from sklearn_hybrid import HybridRegressor
 
     torch.set_num_threads(1)
@@ -163,7 +163,7 @@ def render():
                         "absorbable_not": sum(r["verdict_not"] for r in absorb),
                         "absorbable_n": sum(r["n"] for r in absorb)}
     lines = ["# Laplace intervals of theta beside the profiles", "",
-             "Command: `python benchmarks/bench_laplace.py` then `--render`. The fits are "
+             "Command: `python benchmarks/uncertainty/bench_laplace.py` then `--render`. The fits are "
              "`bench_uncertainty.py`'s, run again (same data, settings and seeds; `same fit` counts the repeats "
              "whose theta equals the cached record's). Machine: this project's 2-core CPU, shared.", "",
              f"Repeats per system: {counts}.", "",

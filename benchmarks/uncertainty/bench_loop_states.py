@@ -6,7 +6,7 @@ fits every sample's unmeasured initial states with the parameters, and
 repeated data sets (new initial states and noise), does the interval hold the
 truth, and would it without counting the states (``naive``)?
 
-Two systems written for this benchmark and kept out of the tests:
+Two systems written for this benchmark and kept out of the tests (``systems.py``, ``LOOP_STATES``):
 
 - ``sir_hidden_susceptible`` (epidemiology): S and I, only I measured, every
   outbreak's starting S unknown (X holds the guess 0.9); the science is complete.
@@ -17,8 +17,8 @@ Two systems written for this benchmark and kept out of the tests:
 Each repeat is cached in ``results/runs/loop_states/<system>/<repeat>.json``;
 ``--render`` writes ``results/loop_states.md`` and ``.json``.
 
-    python benchmarks/bench_loop_states.py            # 20 repeats of each
-    python benchmarks/bench_loop_states.py --render
+    python benchmarks/uncertainty/bench_loop_states.py            # 20 repeats of each
+    python benchmarks/uncertainty/bench_loop_states.py --render
 """
 
 from __future__ import annotations
@@ -31,52 +31,16 @@ from pathlib import Path
 
 import numpy as np
 import torch
-from scipy.integrate import solve_ivp
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import PACKAGE_COMMIT, runs_folder, write_results  # noqa: E402
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the helpers, the studies' modules
+from helpers import PACKAGE_COMMIT, runs_folder, write_results  # noqa: E402
+from uncertainty.systems import LOOP_STATES as SYSTEMS  # noqa: E402
+from uncertainty.systems import make_loop_states as make  # noqa: E402
 
 RUNS = runs_folder("loop_states")
-N, STEPS = 30, 25
 # The default network, which close_the_loop starts at zero (a random start drove the SIR model out of its domain
 # in a first run with a 32x32 network: its 4 records were discarded); fewer iterations than the default.
 HYBRID = {"max_iter": 300, "n_threads": 1}
-
-
-def sir_f(v, beta=0.5, gamma=0.15):
-    S, I = v[:, 0], v[:, 1]
-    return torch.stack([-beta * S * I, beta * S * I - gamma * I], dim=-1)
-
-
-def tanks_f(v, k1=0.3, k2=0.3):
-    h1, h2 = torch.clamp(v[:, 0], min=0), torch.clamp(v[:, 1], min=0)
-    return torch.stack([-k1 * torch.sqrt(h1), k1 * torch.sqrt(h1) - k2 * torch.sqrt(h2)], dim=-1)
-
-
-SYSTEMS = {
-    "sir_hidden_susceptible": dict(
-        science=sir_f, truth={"beta": 0.8, "gamma": 0.25}, init={"beta": 0.5, "gamma": 0.15}, dt=1.0,
-        names=["S", "I"], noise=0.003, guess=0.9,
-        rhs=lambda v: [-0.8 * v[0] * v[1], 0.8 * v[0] * v[1] - 0.25 * v[1]],
-        start=lambda rng: np.column_stack([rng.uniform(0.6, 0.99, N), rng.uniform(0.01, 0.08, N)])),
-    "tanks_hidden_upper": dict(
-        science=tanks_f, truth={"k1": 0.5, "k2": 0.4}, init={"k1": 0.35, "k2": 0.3}, dt=0.5,
-        names=["h1", "h2"], noise=0.01, guess=1.0,
-        rhs=lambda v: [-0.5 * np.sqrt(max(v[0], 0)), 0.5 * np.sqrt(max(v[0], 0)) - 0.4 * np.sqrt(max(v[1], 0))
-                       - 0.05 * v[1]],
-        start=lambda rng: np.column_stack([rng.uniform(0.5, 2.0, N), rng.uniform(0.1, 1.0, N)])),
-}
-
-
-def make(system, repeat):
-    rng = np.random.default_rng(5000 + repeat)
-    x0 = system["start"](rng)
-    t = system["dt"] * np.arange(1, STEPS + 1)
-    states = np.stack([solve_ivp(lambda _, v: system["rhs"](v), (0, t[-1]), s, t_eval=t, rtol=1e-10,
-                                 atol=1e-12).y.T for s in x0])
-    y = states[..., 1:] + system["noise"] * rng.standard_normal((N, STEPS, 1))
-    X = np.column_stack([np.full(N, system["guess"]), x0[:, 1] + system["noise"] * rng.standard_normal(N)])
-    return X, y
 
 
 def run_repeat(name, repeat):
@@ -156,7 +120,7 @@ def render():
     lines = ["# Closed loop's intervals with fitted unmeasured initial states", "",
              "`close_the_loop(..., fit_initial_states=True)`; intervals `counted` count the fitted states as "
              "parameters (`science_intervals(fitted_states=...)`, what the loop reports), `naive` treat them as "
-             "known. Systems of `bench_loop_states.py`, kept out of the tests.", "",
+             "known. Systems of `uncertainty/systems.py` (`LOOP_STATES`), kept out of the tests.", "",
              "| system | param | intervals | n | loop rel. error | hybrid rel. error | identified "
              "| held where identified | misses called identified | width / RMS error |",
              "|---|---|---|---|---|---|---|---|---|---|"]

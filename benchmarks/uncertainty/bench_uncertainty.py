@@ -1,6 +1,6 @@
 """Is theta identified, and do the intervals hold the truth?  Coverage over repeated data sets.
 
-For every system of ``_uncertainty_systems.py`` and every repeat (new initial
+For every system of ``uncertainty/systems.py`` and every repeat (new initial
 states and noise): hybrid fits with erm, fsam and p-reg, each profiled
 (``profile_theta``: verdict and interval), fsam also bootstrapped
 (``bootstrap_theta``), and the closed loop's network-free refit
@@ -29,15 +29,12 @@ import sys
 import time
 from pathlib import Path
 
-import numpy as np
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the helpers, the studies' modules
+from helpers import PACKAGE_COMMIT, write_results  # noqa: E402
+from uncertainty.protocol import RUNS, SETTINGS, member_row  # noqa: E402
+from uncertainty.systems import SYSTEMS  # noqa: E402
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import PACKAGE_COMMIT, runs_folder, write_results  # noqa: E402
-from _uncertainty_systems import SYSTEMS  # noqa: E402
-
-RUNS = runs_folder("uncertainty")
 HYBRID_METHODS = ("erm", "fsam", "p-reg")
-SETTINGS = {"residual": {"hidden": (32, 32)}, "max_iter": 300, "n_threads": 1}
 PROFILE = {"n_points": 5, "span": 0.5}
 N_RESAMPLES = 8
 LOOP_FIT = {"max_iter": 300, "n_threads": 1}
@@ -138,15 +135,6 @@ def run(systems, repeats):
                   + f"; loop {result['methods']['loop']['theta']}", flush=True)
 
 
-def _interval_of(record, method, label):
-    if method == "loop":
-        return record["intervals"][label], record["verdicts"][label] == "identified", record["theta"][label]
-    if method == "fsam bootstrap":
-        return record["bootstrap"][label]["interval"], None, record["theta"][label]
-    prof = record["profile"][label]
-    return prof["interval"], prof["verdict"] == "identified", record["theta"][label]
-
-
 def summarise(records, system):
     rows = []
     for method in (*HYBRID_METHODS, "fsam bootstrap", "loop"):
@@ -157,31 +145,6 @@ def summarise(records, system):
         for label, true in system.theta_true.items():
             rows.append(member_row(system, method, label, true, got))
     return rows
-
-
-def member_row(system, method, label, true, got):
-    intervals, identified, estimates = zip(*(_interval_of(r, method, label) for r in got))
-    low, high = np.array([i[0] for i in intervals]), np.array([i[1] for i in intervals])
-    est = np.array(estimates)
-    covered = (low <= true) & (true <= high)
-    rms = float(np.sqrt(np.mean((est - true) ** 2)))
-    seconds = [r.get("fit_s", 0) + r.get("profile_s", 0) + (r.get("bootstrap_s", 0) if method == "fsam bootstrap"
-                                                               else 0) for r in got]
-    row = {"system": system.name, "method": method, "param": label, "true": true, "n": len(got),
-           "mean_rel_error": float(np.mean(np.abs(est - true)) / abs(true)), "rms_error": rms,
-           "seconds": float(np.mean(seconds)), "coverage_all": float(covered.mean())}
-    if identified[0] is None:  # the bootstrap gives an interval, no verdict
-        finite = np.isfinite(high - low)
-        row.update(verdict_identified=None, coverage_identified=None, miss_identified=None,
-                   width_over_rms=float(np.mean((high - low)[finite]) / rms) if finite.any() and rms > 0 else None)
-        return row
-    ident = np.array(identified)
-    row.update(verdict_identified=int(ident.sum()), verdict_not=int((~ident).sum()),
-               coverage_identified=float(covered[ident].mean()) if ident.any() else None,
-               miss_identified=float((ident & ~covered).mean()),
-               width_over_rms=float(np.mean((high - low)[ident]) / rms) if ident.any() and rms > 0 else None,
-               expected_not_identified=label in system.not_identifiable and method != "loop")
-    return row
 
 
 def _fmt(v, pct=False):
@@ -207,7 +170,7 @@ def render():
              "the fit; 5 points, +/- 50 %, refined near each crossing, as many iterations as the fit took); fsam also with `bootstrap_theta` (8 members); the "
              "closed loop (`close_the_loop`, its first hybrid at most 300 iterations) and `science_intervals` of "
              "its network-free refit. "
-             "Systems: `benchmarks/_uncertainty_systems.py` (kept out of the tests).", "",
+             "Systems: `benchmarks/uncertainty/systems.py` (kept out of the tests).", "",
              "Repeats run: " + ", ".join(f"{k} {v}" for k, v in counts.items())
              + f" (records made at package commit {', '.join(sorted(commits))}; seconds are wall-clock on a "
              "machine shared with other work)", "", head,

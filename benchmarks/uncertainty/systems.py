@@ -7,6 +7,9 @@ parameter the network can absorb exactly (a constant heat input, which the
 network's output bias reproduces), one a complete science model.  Every
 repeat draws new initial states and noise; noise is added to X (the measured
 initial states) and to y, as in the paper's generators.
+
+:data:`LOOP_STATES` are the two systems of ``bench_loop_states.py`` (a closed loop that fits the starts of
+the states it does not measure), with their data, :func:`make_loop_states`.
 """
 
 from __future__ import annotations
@@ -130,3 +133,46 @@ SYSTEMS = {s.name: s for s in [
     System("damped_spring", "mechanics", "nothing (complete science)", spring_f, {"k": 2.0, "c": 0.3},
            {"k": 1.5, "c": 0.2}, _damped_spring, ["x", "x_dot"], {"x": "m", "x_dot": "m/s"}, complete=True),
 ]}
+
+
+# --- bench_loop_states.py: one state measured, the other's start fitted by the closed loop ---------------
+
+LOOP_N, LOOP_STEPS = 30, 25  # trajectories and steps of a repeat
+
+
+def sir_f(v, beta=0.5, gamma=0.15):
+    S, I = v[:, 0], v[:, 1]
+    return torch.stack([-beta * S * I, beta * S * I - gamma * I], dim=-1)
+
+
+def tanks_f(v, k1=0.3, k2=0.3):
+    h1, h2 = torch.clamp(v[:, 0], min=0), torch.clamp(v[:, 1], min=0)
+    return torch.stack([-k1 * torch.sqrt(h1), k1 * torch.sqrt(h1) - k2 * torch.sqrt(h2)], dim=-1)
+
+
+LOOP_STATES = {
+    "sir_hidden_susceptible": dict(
+        science=sir_f, truth={"beta": 0.8, "gamma": 0.25}, init={"beta": 0.5, "gamma": 0.15}, dt=1.0,
+        names=["S", "I"], noise=0.003, guess=0.9,
+        rhs=lambda v: [-0.8 * v[0] * v[1], 0.8 * v[0] * v[1] - 0.25 * v[1]],
+        start=lambda rng: np.column_stack([rng.uniform(0.6, 0.99, LOOP_N), rng.uniform(0.01, 0.08, LOOP_N)])),
+    "tanks_hidden_upper": dict(
+        science=tanks_f, truth={"k1": 0.5, "k2": 0.4}, init={"k1": 0.35, "k2": 0.3}, dt=0.5,
+        names=["h1", "h2"], noise=0.01, guess=1.0,
+        rhs=lambda v: [-0.5 * np.sqrt(max(v[0], 0)), 0.5 * np.sqrt(max(v[0], 0)) - 0.4 * np.sqrt(max(v[1], 0))
+                       - 0.05 * v[1]],
+        start=lambda rng: np.column_stack([rng.uniform(0.5, 2.0, LOOP_N), rng.uniform(0.1, 1.0, LOOP_N)])),
+}
+
+
+def make_loop_states(system, repeat):
+    """``(X, y)`` of one repeat: X holds the guessed start of the unmeasured state and the measured one's."""
+    rng = np.random.default_rng(5000 + repeat)
+    x0 = system["start"](rng)
+    t = system["dt"] * np.arange(1, LOOP_STEPS + 1)
+    states = np.stack([solve_ivp(lambda _, v: system["rhs"](v), (0, t[-1]), s, t_eval=t, rtol=1e-10,
+                                 atol=1e-12).y.T for s in x0])
+    y = states[..., 1:] + system["noise"] * rng.standard_normal((LOOP_N, LOOP_STEPS, 1))
+    X = np.column_stack([np.full(LOOP_N, system["guess"]),
+                         x0[:, 1] + system["noise"] * rng.standard_normal(LOOP_N)])
+    return X, y

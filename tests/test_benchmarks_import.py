@@ -1,0 +1,96 @@
+"""Every file of ``benchmarks/`` imports, as a script run by its path would import it, without running anything.
+
+The benchmarks take minutes to hours and stay outside the test suite; this catches what the moves of a refactor
+break in them (a gone module, a renamed helper, a path): each file is imported under its own name with
+``benchmarks/`` on ``sys.path``, as its scripts put it there, and must not start work at import (a script's work
+waits behind ``if __name__ == "__main__"``).
+"""
+
+import ast
+import importlib.util
+import sys
+from pathlib import Path
+
+import pytest
+
+BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
+FILES = sorted(p for p in BENCHMARKS.rglob("*.py") if "results" not in p.relative_to(BENCHMARKS).parts)
+# optional dependencies of single benchmarks (the [bench] and [sindy] extras), not of the test environment
+OPTIONAL = {"numba", "pysindy"}
+
+
+def _name(path: Path) -> str:
+    """The module name the benchmarks import a file by (``identification.systems``; a script's own name)."""
+    parts = path.relative_to(BENCHMARKS).with_suffix("").parts
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+# the top-level names the benchmarks import each other by, once benchmarks/ is on sys.path
+OWN = {"helpers", "speed", "paper", "identification", "uncertainty", "measured", "gallery"}
+
+
+@pytest.fixture
+def benchmarks_path(monkeypatch):
+    """``benchmarks/`` first on ``sys.path`` and the benchmarks' modules imported afresh, both undone after."""
+    monkeypatch.syspath_prepend(str(BENCHMARKS))
+    before = set(sys.modules)
+    yield
+    for name in set(sys.modules) - before:  # the benchmarks' own modules, not left for other tests
+        if name.split(".")[0] in OWN or name.startswith("benchmark_"):
+            del sys.modules[name]
+
+
+def test_every_benchmark_file_is_found():
+    names = {_name(p) for p in FILES}
+    assert {"helpers", "identification.bench_identification", "identification.checks", "paper.table1",
+            "uncertainty.bench_uncertainty", "speed.bench_speed", "measured.bench_closed_loop"} <= names
+    assert len(FILES) > 40
+
+
+@pytest.mark.parametrize("path", FILES, ids=lambda p: p.relative_to(BENCHMARKS).as_posix())
+def test_a_benchmark_file_imports_without_running(path, benchmarks_path):
+    name = _name(path)
+    if "bench_" in path.name or path.name in {"table1.py", "gallery_figures.py", "why_reaction_diffusion.py"}:
+        name = "benchmark_" + path.stem  # a script runs as __main__, never imported by another file
+    spec = importlib.util.spec_from_file_location(name, path)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module
+    try:
+        spec.loader.exec_module(module)
+    except ModuleNotFoundError as error:
+        if error.name not in OPTIONAL:
+            raise
+        _check_own_imports(path)  # what it takes from the other benchmark files is there, at least
+        pytest.skip(f"{path.name} needs {error.name} (an optional extra)")
+    if name.startswith("benchmark_"):  # its work behind the guard
+        assert 'if __name__ == "__main__":' in path.read_text(), f"{path.name} runs nothing when run"
+
+
+def _check_own_imports(path: Path) -> None:
+    """Every name a file imports from ``helpers`` or a study's module exists there."""
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.ImportFrom) and node.module and node.module.split(".")[0] in OWN:
+            module = importlib.import_module(node.module)
+            assert all(hasattr(module, alias.name) for alias in node.names), ast.unparse(node)
+
+
+def _imports(path: Path) -> set[str]:
+    """The modules a file imports at any depth (function bodies included)."""
+    found = set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.Import):
+            found |= {alias.name for alias in node.names}
+        elif isinstance(node, ast.ImportFrom) and node.module and not node.level:
+            found.add(node.module)
+            found |= {f"{node.module}.{alias.name}" for alias in node.names}
+    return found
+
+
+def test_no_benchmark_script_imports_another_script():
+    """What two scripts share lives in ``helpers.py`` or in their study's modules, never in one of them."""
+    scripts = {_name(p) for p in FILES if p.name.startswith(("bench_", "check_"))
+               or p.name in {"table1.py", "gallery_figures.py", "why_reaction_diffusion.py"}}
+    stems = {name.rsplit(".", 1)[-1] for name in scripts}
+    found = [(p.relative_to(BENCHMARKS).as_posix(), module) for p in FILES for module in _imports(p)
+             if module in scripts or module in stems]
+    assert found == []
