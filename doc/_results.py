@@ -165,7 +165,7 @@ def render_snippets() -> list[str]:
     SNIPPETS.mkdir(parents=True, exist_ok=True)
     written = []
     tasks = json.loads((RESULTS / "tasks.json").read_text())
-    note = (f"*Committed full run* of ``benchmarks/bench_tasks.py`` ({_escape(_machine(tasks))}; "
+    note = (f"*Committed full run* of ``benchmarks/paper/bench_tasks.py`` ({_escape(_machine(tasks))}; "
             "``benchmarks/results/tasks.md``), not run during this documentation build.  theta error: RMSE to "
             "the true theta (light tunnel: cosine similarity, higher is better); best: the best value along "
             "training; y error: test RMSE.")
@@ -183,14 +183,14 @@ def render_snippets() -> list[str]:
     if (RESULTS / "varying_theta.png").is_file():
         shutil.copy(RESULTS / "varying_theta.png", SNIPPETS / "varying_theta.png")
     (SNIPPETS / "varying_theta.rst").write_text(
-        "*Committed full run* of ``benchmarks/bench_varying_theta.py`` (``benchmarks/results/varying_theta.md``), "
+        "*Committed full run* of ``benchmarks/paper/bench_varying_theta.py`` (``benchmarks/results/varying_theta.md``), "
         "not run during this documentation build:\n\n" + convert("\n".join(table))
         + "\n.. image:: /_generated/snippets/varying_theta.png\n   :width: 100%\n")
     written.append("varying_theta")
     loop = (RESULTS / "closed_loop.md").read_text()
     payload = json.loads((RESULTS / "closed_loop.json").read_text())
     (SNIPPETS / "loop_silverbox.rst").write_text(
-        f"*Committed full run* of ``benchmarks/bench_closed_loop.py`` ({_escape(_machine(payload))}; "
+        f"*Committed full run* of ``benchmarks/measured/bench_closed_loop.py`` ({_escape(_machine(payload))}; "
         "``benchmarks/results/closed_loop.md``), not run during this documentation build:\n\n"
         + convert(_section(loop, "silverbox")) + _gallery_figures("silverbox_loop"))
     written.append("loop_silverbox")
@@ -198,7 +198,7 @@ def render_snippets() -> list[str]:
 
 
 def _gallery_figures(example: str) -> str:
-    """The figures of a committed full run of a gallery example (``benchmarks/gallery_figures.py``), as rst.
+    """The figures of a committed full run of a gallery example (``benchmarks/gallery/gallery_figures.py``), as rst.
 
     Empty where none was committed; otherwise the images (copied beside the snippets) under a line
     that says where and when they were made, as the numbers above them do.
@@ -210,7 +210,7 @@ def _gallery_figures(example: str) -> str:
     if not entry or not entry["figures"]:
         return ""
     out = ["", f"*Figures of a committed full run* of ``{entry['example']}`` ({_escape(entry['cpu'])}, "
-               f"{entry['date']}, {entry['seconds']} s; ``benchmarks/gallery_figures.py``), not run during this "
+               f"{entry['date']}, {entry['seconds']} s; ``benchmarks/gallery/gallery_figures.py``), not run during this "
                "documentation build:", ""]
     for name in entry["figures"]:
         shutil.copy(RESULTS / "gallery" / name, SNIPPETS / name)

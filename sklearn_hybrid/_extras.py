@@ -243,7 +243,7 @@ class EstimatorExtras:
         identify it is a separate question, answered by a profile
         (:func:`~sklearn_hybrid.identifiability.profile_theta`): pass it as
         ``profile`` and the report gives per parameter the verdict and, where
-        identified, the interval whose coverage ``benchmarks/bench_uncertainty.py``
+        identified, the interval whose coverage ``benchmarks/uncertainty/bench_uncertainty.py``
         measures.  The standard error shown beside theta (``theta_std_``) is
         the Gauss-Newton one of lmfit and ``curve_fit`` with the network held
         fixed: the part of the uncertainty that noise in ``y`` alone makes.

@@ -205,7 +205,7 @@ def pendulum_freeswing_case(fast: bool = False, method: str = "erm", max_iter: i
     """Real pendulum free swing: frictionless science model, friction undeclared.
 
     The 3 s of training hold five 50-sample windows side by side; the recipe's stride of 5 makes 50
-    overlapping ones, whose held-out errors are correlated (see ``benchmarks/bench_freeswing_windows.py``).
+    overlapping ones, whose held-out errors are correlated (see ``benchmarks/measured/bench_freeswing_windows.py``).
     """
     full = load_pendulum_freeswing(data_home)
     # Velocity from a local cubic fit at full rate (1e-4 s) before decimating to 0.01 s.
@@ -248,7 +248,7 @@ def hare_lynx_case(fast: bool = False, method: str = "erm", max_iter: int | None
     sample of its own (consecutive steps share a count, not a trajectory), judged in 7 blocks.
     From the 1914 counts the models run free to 1920. The one-year steps give the evidence 14
     samples, but every step starts from a noisy count; the Lotka-Volterra model fitted to one free
-    run over the 15 years (``benchmarks/bench_greybox.py``) leaves no samples to judge a term by.
+    run over the 15 years (``benchmarks/measured/bench_greybox.py``) leaves no samples to judge a term by.
     """
     data = fetch_hare_lynx(data_home)
     counts = np.column_stack([data.hare, data.lynx]) / 10.0  # 10^4 pelts: order one

@@ -44,7 +44,7 @@ print(data.DESCR)
 # ---------------------
 # The Quick start's settings: the defaults (at most 2,000 iterations, stopped
 # once loss and theta settle), only the method differs.  The fsam fit is the
-# Quick start's fit, with the same omega.  (``benchmarks/bench_tasks.py`` runs
+# Quick start's fit, with the same omega.  (``benchmarks/paper/bench_tasks.py`` runs
 # the paper's protocol instead: 2,000 iterations at lr 3e-3, no early stop.)
 estimators = {}
 for method in ["erm", "fsam"]:

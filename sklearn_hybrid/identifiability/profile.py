@@ -197,7 +197,7 @@ def profile_theta(estimator, X, y, params=None, *, grid=None, span=0.5, n_points
         (at most to 99 % of the way to a bound).
     n_points : int, default=5
         Points of the default grid (with ``refine``, up to six more near the
-        crossings: the setting whose coverage ``benchmarks/bench_uncertainty.py``
+        crossings: the setting whose coverage ``benchmarks/uncertainty/bench_uncertainty.py``
         measures).
     level : float, default=0.95
         Confidence level of the intervals.

@@ -84,7 +84,7 @@ class SpikeGuard:
     Adam with a learning rate too large for the problem (a long rollout, a
     steep corner of the state space) can throw a fit out of a good basin in a
     few steps: the loss jumps by orders of magnitude and may become NaN (the
-    first fit of the draining tank in ``benchmarks/bench_identification.py``
+    first fit of the draining tank in ``benchmarks/identification/bench_identification.py``
     diverged so at the default ``lr=1e-2`` before this guard).  Every ``every``
     healthy iterations the guard keeps a copy of the model and the optimiser.
     A loss that is not finite, or above ``factor`` times the median of the last
