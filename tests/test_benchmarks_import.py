@@ -15,6 +15,12 @@ import pytest
 
 BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
 FILES = sorted(p for p in BENCHMARKS.rglob("*.py") if "results" not in p.relative_to(BENCHMARKS).parts)
+GUARD = 'if __name__ == "__main__":'
+# the scripts: what runs by its path; every other file is a module the scripts import
+SCRIPTS = {p for p in FILES
+           if p.name.startswith(("bench_", "check_", "why_")) or p.stem in {"table1", "gallery_figures"}}
+# the top-level names the benchmarks import each other by, once benchmarks/ is on sys.path
+OWN = {"helpers"} | {p.name for p in BENCHMARKS.iterdir() if (p / "__init__.py").exists()}
 # optional dependencies of single benchmarks (the [bench] and [sindy] extras), not of the test environment
 OPTIONAL = {"numba", "pysindy"}
 
@@ -25,33 +31,33 @@ def _name(path: Path) -> str:
     return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
 
 
-# the top-level names the benchmarks import each other by, once benchmarks/ is on sys.path
-OWN = {"helpers", "speed", "paper", "identification", "uncertainty", "measured", "gallery"}
-
-
 @pytest.fixture
 def benchmarks_path(monkeypatch):
     """``benchmarks/`` first on ``sys.path`` and the benchmarks' modules imported afresh, both undone after."""
+    def ours(name):
+        return name.split(".")[0] in OWN or name.startswith("benchmark_")
+
+    # a module elsewhere that bears one of these names is set aside meanwhile
+    others = {name: sys.modules.pop(name) for name in list(sys.modules) if ours(name)}
     monkeypatch.syspath_prepend(str(BENCHMARKS))
-    before = set(sys.modules)
     yield
-    for name in set(sys.modules) - before:  # the benchmarks' own modules, not left for other tests
-        if name.split(".")[0] in OWN or name.startswith("benchmark_"):
-            del sys.modules[name]
+    for name in [name for name in sys.modules if ours(name)]:  # not left for other tests
+        del sys.modules[name]
+    sys.modules.update(others)
 
 
 def test_every_benchmark_file_is_found():
     names = {_name(p) for p in FILES}
     assert {"helpers", "identification.bench_identification", "identification.checks", "paper.table1",
             "uncertainty.bench_uncertainty", "speed.bench_speed", "measured.bench_closed_loop"} <= names
-    assert len(FILES) > 40
+    assert len(FILES) > 40 and {"speed", "paper", "identification", "uncertainty", "measured"} <= OWN
+    assert {p for p in FILES if GUARD in p.read_text()} == SCRIPTS  # the scripts, and only they, run as scripts
 
 
 @pytest.mark.parametrize("path", FILES, ids=lambda p: p.relative_to(BENCHMARKS).as_posix())
 def test_a_benchmark_file_imports_without_running(path, benchmarks_path):
-    name = _name(path)
-    if "bench_" in path.name or path.name in {"table1.py", "gallery_figures.py", "why_reaction_diffusion.py"}:
-        name = "benchmark_" + path.stem  # a script runs as __main__, never imported by another file
+    # a script runs as __main__, never imported by another file: a name of its own
+    name = "benchmark_" + path.stem if path in SCRIPTS else _name(path)
     spec = importlib.util.spec_from_file_location(name, path)
     module = importlib.util.module_from_spec(spec)
     sys.modules[name] = module
@@ -62,8 +68,6 @@ def test_a_benchmark_file_imports_without_running(path, benchmarks_path):
             raise
         _check_own_imports(path)  # what it takes from the other benchmark files is there, at least
         pytest.skip(f"{path.name} needs {error.name} (an optional extra)")
-    if name.startswith("benchmark_"):  # its work behind the guard
-        assert 'if __name__ == "__main__":' in path.read_text(), f"{path.name} runs nothing when run"
 
 
 def _check_own_imports(path: Path) -> None:
@@ -88,8 +92,7 @@ def _imports(path: Path) -> set[str]:
 
 def test_no_benchmark_script_imports_another_script():
     """What two scripts share lives in ``helpers.py`` or in their study's modules, never in one of them."""
-    scripts = {_name(p) for p in FILES if p.name.startswith(("bench_", "check_"))
-               or p.name in {"table1.py", "gallery_figures.py", "why_reaction_diffusion.py"}}
+    scripts = {_name(p) for p in SCRIPTS}
     stems = {name.rsplit(".", 1)[-1] for name in scripts}
     found = [(p.relative_to(BENCHMARKS).as_posix(), module) for p in FILES for module in _imports(p)
              if module in scripts or module in stems]
