@@ -39,8 +39,10 @@ def benchmarks_path(monkeypatch):
 
     # a module elsewhere that bears one of these names is set aside meanwhile
     others = {name: sys.modules.pop(name) for name in list(sys.modules) if ours(name)}
+    path = list(sys.path)
     monkeypatch.syspath_prepend(str(BENCHMARKS))
     yield
+    sys.path[:] = path  # the scripts put benchmarks/ there too
     for name in [name for name in sys.modules if ours(name)]:  # not left for other tests
         del sys.modules[name]
     sys.modules.update(others)
