@@ -161,8 +161,8 @@ def render_selection_checks() -> None:
                      f"{r['record_commit']} | {r['package_commit']} | {r['seconds']:.0f} |")
     machines = sorted({json.dumps(r["machine"].get("cpu")) for r in rows})
     lines += ["", f"Machine: {', '.join(machines)}.", "",
-              "Command, once per case: `python benchmarks/identification/bench_identification.py --check-selection --cases NAME "
-              "--noise LEVEL`; then `--check-selection --render`."]
+              "Command, once per case: `python benchmarks/identification/bench_identification.py --check-selection "
+              "--cases NAME --noise LEVEL`; then `--check-selection --render`."]
     (RESULTS / "selection_checks.md").write_text("\n".join(lines) + "\n")
 
 
@@ -209,8 +209,8 @@ def render_second_look_null() -> str:
     machines = sorted({f"{r['machine']['cpu']}, {r['machine']['cores']} cores" for r in records})
     commits = sorted({r["package_commit"] for r in records})
     md += ["", f"Machine: {'; '.join(machines)}. Package commit {', '.join(commits)}. Command: "
-           "`python benchmarks/identification/bench_identification.py --second-look-null --cases NAME --noise LEVEL`, then "
-           "`--second-look-null --render`."]
+           "`python benchmarks/identification/bench_identification.py --second-look-null --cases NAME --noise "
+           "LEVEL`, then `--second-look-null --render`."]
     return "\n".join(md) + "\n"
 
 
@@ -259,7 +259,8 @@ def write_inconclusive() -> None:
         score = r.get("rel_err") if r.get("rel_err") is not None else r.get("control_err")
         md.append(f"| {r['system']} | {r['noise']:g} | {score:.3f} | {r.get('identified', 'control')} | "
                   + "; ".join(f"{t.replace('|', chr(92) + '|')} ({g:.0%}, {z:.1f})" for t, g, z in cands) + " |")
-    md += ["", "Command: `python benchmarks/identification/bench_identification.py --inconclusive` (reads the stored records only)."]
+    md += ["", "Command: `python benchmarks/identification/bench_identification.py --inconclusive` (reads the stored "
+           "records only)."]
     (RESULTS / "inconclusive_candidates.md").write_text("\n".join(md) + "\n")
     print(f"{len(hits)} of {len(records)} records; {len(failed)} failures")
 
@@ -323,8 +324,8 @@ def render_more_validation() -> None:
     lines += ["", f"Scores as in `identification.md` (rel_err for an effect, |F - T|/|T| for a control). Machine: "
               f"{', '.join(machines)}; package commit {', '.join(commits)}.", "",
               "Command, once per case (`--more-validation --list` prints them): `python benchmarks/"
-              "identification/bench_identification.py --more-validation --cases NAME --noise LEVEL`; then `--more-validation "
-              "--render`."]
+              "identification/bench_identification.py --more-validation --cases NAME --noise LEVEL`; then "
+              "`--more-validation --render`."]
     (RESULTS / "more_validation.md").write_text("\n".join(lines) + "\n")
 
 
