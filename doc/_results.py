@@ -183,7 +183,8 @@ def render_snippets() -> list[str]:
     if (RESULTS / "varying_theta.png").is_file():
         shutil.copy(RESULTS / "varying_theta.png", SNIPPETS / "varying_theta.png")
     (SNIPPETS / "varying_theta.rst").write_text(
-        "*Committed full run* of ``benchmarks/paper/bench_varying_theta.py`` (``benchmarks/results/varying_theta.md``), "
+        "*Committed full run* of ``benchmarks/paper/bench_varying_theta.py`` "
+        "(``benchmarks/results/varying_theta.md``), "
         "not run during this documentation build:\n\n" + convert("\n".join(table))
         + "\n.. image:: /_generated/snippets/varying_theta.png\n   :width: 100%\n")
     written.append("varying_theta")
@@ -210,7 +211,8 @@ def _gallery_figures(example: str) -> str:
     if not entry or not entry["figures"]:
         return ""
     out = ["", f"*Figures of a committed full run* of ``{entry['example']}`` ({_escape(entry['cpu'])}, "
-               f"{entry['date']}, {entry['seconds']} s; ``benchmarks/gallery/gallery_figures.py``), not run during this "
+               f"{entry['date']}, {entry['seconds']} s; ``benchmarks/gallery/gallery_figures.py``), not run during "
+               "this "
                "documentation build:", ""]
     for name in entry["figures"]:
         shutil.copy(RESULTS / "gallery" / name, SNIPPETS / name)

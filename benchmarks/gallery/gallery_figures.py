@@ -90,7 +90,8 @@ def main():
         rows += [f"| {e['example']} | {', '.join(e['figures'])} | {e['seconds']} | {e['date']} | {e['cpu']} | "
                  f"{e['reference_s']} | {e['package_commit']} |" for e in entries.values()]
         markdown = "\n".join(["# Figures of the gallery examples the documentation build does not run", "",
-                              "Each example run at full size by `benchmarks/gallery/gallery_figures.py`; its figures are "
+                              "Each example run at full size by `benchmarks/gallery/gallery_figures.py`; its "
+                              "figures are "
                               "in `results/gallery/` and on its gallery page.", "", *rows])
         write_results("gallery", {"examples": entries}, markdown)  # after each example: a long run keeps its part
 

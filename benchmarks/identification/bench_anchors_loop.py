@@ -20,7 +20,7 @@ imported, and the page says where it could not.  Systems with declared sensor of
 anchors have no offsets.  Each case is cached in ``results/runs/anchors/<case>.json``.
 
     python benchmarks/identification/bench_anchors_loop.py --cases van_der_pol_like --noise 0.01
-    python benchmarks/identification/bench_anchors_loop.py --batches 15          # every case of batch 15 with a loop record
+    python benchmarks/identification/bench_anchors_loop.py --batches 15  # every case of batch 15 with a loop record
     python benchmarks/identification/bench_anchors_loop.py --render
 """
 
@@ -286,7 +286,8 @@ def render():
     effects = [r for r in recs if not SYSTEMS[r["system"]].is_control]
     controls = [r for r in recs if SYSTEMS[r["system"]].is_control]
     lines = ["# The closed loop beside the UDE recipe with pysindy and pysindy alone", "",
-             "`benchmarks/identification/bench_anchors_loop.py` (its docstring gives the recipes). Scores as the identification "
+             "`benchmarks/identification/bench_anchors_loop.py` (its docstring gives the recipes). Scores as the "
+             "identification "
              "benchmark's: `rel_err = |F - T| / |m|` on noise-free test states, identified when <= 0.10; controls: "
              "terms added and `|F - T| / |T|`. Theta error: mean relative error of the science's parameters (SINDy "
              "on the data has no theta). Seconds: the loop's whole run (its first hybrid fit included); for the "

@@ -21,19 +21,21 @@ them, outside git, and reused, so that a change of the selection is measured wit
 ``--fast`` (8 training trajectories, 40 iterations) only checks the plumbing, caches to
 ``runs/identification/fast/`` and is never rendered into the results.
 
-    python benchmarks/identification/bench_identification.py                       # every case not cached yet, then the table
+    python benchmarks/identification/bench_identification.py  # every case not cached yet, then the table
     python benchmarks/identification/bench_identification.py --cases budworm --noise 0.05 --seeds 0 1
-    python benchmarks/identification/bench_identification.py --batch 15                # one batch's cases, both noise levels
-    python benchmarks/identification/bench_identification.py --render              # rebuild identification.md/.json from the cache
+    python benchmarks/identification/bench_identification.py --batch 15  # one batch's cases, both noise levels
+    python benchmarks/identification/bench_identification.py --render  # rebuild identification.md/.json from the cache
 
 Its checks and side studies are options, each with its own run records and page (``identification/checks.py``
 says what each does):
 
-    python benchmarks/identification/bench_identification.py --check-selection --cases NAME --noise LEVEL [--into FOLDER]
+    python benchmarks/identification/bench_identification.py --check-selection --cases NAME --noise LEVEL
+        [--into FOLDER]
     python benchmarks/identification/bench_identification.py --second-look-null [--cases NAME --noise LEVEL]
-    python benchmarks/identification/bench_identification.py --inconclusive        # results/inconclusive_candidates.md
-    python benchmarks/identification/bench_identification.py --more-validation --cases NAME --noise LEVEL   # --list: its cases
-    python benchmarks/identification/bench_identification.py --check-selection --render   # or another option: its page only
+    python benchmarks/identification/bench_identification.py --inconclusive  # results/inconclusive_candidates.md
+    python benchmarks/identification/bench_identification.py --more-validation --cases NAME --noise LEVEL
+        # --list: its cases
+    python benchmarks/identification/bench_identification.py --check-selection --render  # or another option's page
 """
 
 from __future__ import annotations

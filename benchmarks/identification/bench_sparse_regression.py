@@ -157,7 +157,8 @@ def main() -> None:
                                 "missed_terms": float(np.mean([r["missed_terms"] for r in sel])),
                                 "coef_rel_error_median": float(np.median([r["coef_rel_error"] for r in sel])),
                                 "seconds_mean": float(np.mean([r["seconds"] for r in sel]))})
-    command = f"python benchmarks/identification/bench_sparse_regression.py --problems {args.problems} --n-samples {args.n_samples}"
+    command = (f"python benchmarks/identification/bench_sparse_regression.py --problems {args.problems} "
+               f"--n-samples {args.n_samples}")
     md = ["# Sparse residual regression: SparseTermRegression vs pysindy", "",
           f"Command: `{command}` ({time.perf_counter() - start_all:.0f} s; pysindy "
           f"{getattr(pysindy, '__version__', 'not installed')}). {args.problems} random problems per row, "

@@ -7,7 +7,8 @@ pendulum (damping undeclared) and Duffing (cubic term undeclared) tasks. Measure
 scored by free runs of their test records; the grey-box baselines of ``bench_greybox.py``
 (results/greybox.json, run it first) are quoted beside them.
 
-Usage: python benchmarks/measured/bench_closed_loop.py [--cases silverbox tanks ...] [--method erm] [--fast] [--n-jobs 2]
+Usage: python benchmarks/measured/bench_closed_loop.py [--cases silverbox tanks ...] [--method erm] [--fast]
+[--n-jobs 2]
 """
 
 from __future__ import annotations

@@ -69,7 +69,8 @@ def _commands(runs: list[dict]) -> str:
 
 def _markdown(runs: list[dict]) -> str:
     md = ["# Cascaded tanks: the closed loop's evidence against the window length and the kind of held-out judgement", "",
-          "`python benchmarks/measured/bench_tanks_windows.py` (one process, one torch thread; another benchmark shared "
+          "`python benchmarks/measured/bench_tanks_windows.py` (one process, one torch thread; another benchmark "
+          "shared "
           "the machine's second core). Each row: `run_case('tanks', cv=..., grouped=False, window=..., "
           "stride=...)`; the last quarter "
           "of the windows judge each term (*last quarter*), or, with K blocks, every window, predicted by a "

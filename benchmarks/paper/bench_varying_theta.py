@@ -201,7 +201,8 @@ def _markdown(rows: list[dict], pending: list[tuple]) -> str:
     lines += ["`perturb=\"residual\"` (the default, the paper's method) perturbs the residual network only; "
               "`perturb=\"all\"` also perturbs the theta encoder.", "",
               "Scatter of inferred against true theta (seed 0): `varying_theta.png`.", "",
-              "Command: `python benchmarks/paper/bench_varying_theta.py` (runs cached in `results/runs/varying_theta/`; "
+              "Command: `python benchmarks/paper/bench_varying_theta.py` (runs cached in "
+              "`results/runs/varying_theta/`; "
               "`--markdown-only` rebuilds this file from them)."]
     return "\n".join(lines)
 
