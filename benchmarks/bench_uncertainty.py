@@ -98,20 +98,23 @@ def run_loop(system, X, y, dt, repeat):
             "added": [f"{t['term']} [{t['output']}]" for t in loop.added],
             "intervals": {k: list(ci.intervals[k]) for k in system.theta_true},
             "verdicts": {k: ci.verdicts[k] for k in system.theta_true}, "incomplete": ci.incomplete,
+            "conditional": {k: ci.conditional[k] for k in system.theta_true if k in ci.conditional},
+            "rivals": loop.rivals,
             "std": {k: ci.std[k] for k in system.theta_true}, "fit_s": time.perf_counter() - start,
             "package_commit": PACKAGE_COMMIT}
 
 
 def refresh_loops(systems):
-    """Run the closed loop again where a record predates the open-question gate of its intervals
-    (its hybrid fits stand: their code did not change)."""
+    """Run the closed loop again where a record predates its intervals' latest caveats (the choice of
+    term: ``conditional`` verdicts, rival forms, the share left unexplained); the hybrid fits stand:
+    their code did not change. Each record is rewritten as soon as its loop ends: a rerun resumes."""
     import torch
 
     torch.set_num_threads(1)
     for name in systems:
         for path in sorted((RUNS / name).glob("*.json")):
             record = json.loads(path.read_text())
-            if "incomplete" in record["methods"]["loop"]:
+            if "conditional" in record["methods"]["loop"]:
                 continue
             X, y, dt = SYSTEMS[name].make(record["repeat"])
             record["methods"]["loop"] = run_loop(SYSTEMS[name], X, y, dt, record["repeat"])
@@ -139,7 +142,7 @@ def run(systems, repeats):
 
 
 def _interval_of(record, method, label):
-    if method == "loop":
+    if method == "loop":  # "conditional" (on a chosen term's form) is not called identified
         return record["intervals"][label], record["verdicts"][label] == "identified", record["theta"][label]
     if method == "fsam bootstrap":
         return record["bootstrap"][label]["interval"], None, record["theta"][label]
@@ -176,6 +179,10 @@ def member_row(system, method, label, true, got):
                    width_over_rms=float(np.mean((high - low)[finite]) / rms) if finite.any() and rms > 0 else None)
         return row
     ident = np.array(identified)
+    if method == "loop":  # identified only given the form of a chosen term: its interval spans the rival forms
+        conditional = np.array([r["verdicts"][label] == "conditional" for r in got])
+        row.update(verdict_conditional=int(conditional.sum()),
+                   coverage_conditional=float(covered[conditional].mean()) if conditional.any() else None)
     row.update(verdict_identified=int(ident.sum()), verdict_not=int((~ident).sum()),
                coverage_identified=float(covered[ident].mean()) if ident.any() else None,
                miss_identified=float((ident & ~covered).mean()),
@@ -219,6 +226,14 @@ def render():
                      f"{_fmt(r['coverage_identified'], True)} | {_fmt(r['miss_identified'], True)} | "
                      f"{_fmt(r['coverage_all'], True)} | {_fmt(r['width_over_rms'])} | "
                      f"{_fmt(r['mean_rel_error'])} | {r['seconds']:.0f} |")
+    conditional = [r for r in rows if r.get("verdict_conditional")]
+    if conditional:
+        n_cond = sum(r["verdict_conditional"] for r in conditional)
+        held = sum(r["coverage_conditional"] * r["verdict_conditional"] for r in conditional)
+        lines += ["", f"The closed loop called {n_cond} parameters conditional on the form of a chosen term "
+                      f"(counted above under 'not'); their intervals over the rival forms held the truth in {held:.0f} "
+                      "of them: " + ", ".join(f"{r['system']}/{r['param']} {r['verdict_conditional']}"
+                                              for r in conditional) + "."]
     lines += ["", _targets(rows)]
     write_results("uncertainty", {"rows": rows, "repeats": counts}, "\n".join(lines))
 
@@ -260,7 +275,8 @@ if __name__ == "__main__":
     parser.add_argument("--repeats", type=int, default=20)
     parser.add_argument("--render", action="store_true", help="only write the results page")
     parser.add_argument("--refresh-loops", action="store_true",
-                        help="first run the closed loop again in records that predate its intervals' gate")
+                        help="first run the closed loop again in records that predate its intervals' caveats "
+                             "(the choice of term)")
     args = parser.parse_args()
     if args.refresh_loops:
         refresh_loops(args.systems)
