@@ -19,6 +19,8 @@ def test_norm_terms_pair_states_of_one_unit_only():
     assert names == {"|(x, y)|", "|(x, y)|*x", "|(x, y)|*y", "|(vx, vy)|", "|(vx, vy)|*vx", "|(vx, vy)|*vy"}
     assert not physics_terms(["x", "v"], values[:, :2], kinds=["norm"], units={"x": "m", "v": "m/s"})
     assert not physics_terms(["a", "b"], values[:, :2], kinds=["norm"])  # unknown units: no norm
+    # concentrations share a unit, but their norm is no physical quantity
+    assert not physics_terms(["A", "B"], values[:, :2], kinds=["norm"], units={"A": "mol/l", "B": "mol/l"})
     drag = next(t for t in physics_terms(["vx", "vy"], values[:, :2], kinds=["norm"],
                                          units={"vx": "m/s", "vy": "m/s"}) if t.name == "|(vx, vy)|*vx")
     d = {"vx": torch.tensor([3.0]), "vy": torch.tensor([4.0])}

@@ -368,14 +368,19 @@ def _polynomials(variables: Sequence[str], units: Mapping[str, str]) -> list[Ter
     return terms
 
 
+#: Units of a length or a speed (m, mm, cm/s, km/h, ...): the components of a position or a velocity.
+_SPATIAL_UNIT = re.compile(r"^(k|c|m|u|µ|n)?m(/((m|u|µ)?s|h|min))?$")
+
+
 def _norms(states: Sequence[str], units: Mapping[str, str]) -> list[Term]:
-    """For every pair of states in one (given) unit, such as two velocity components or two coordinates:
-    their norm ``|(a, b)|`` and the norm times each, ``|(a, b)|*a``: drag along the speed, a force that
-    grows with the distance. A norm of quantities in other units, or of unknown units, means nothing."""
+    """For every pair of states in one unit of length or speed (two coordinates, two velocity
+    components): their norm ``|(a, b)|`` and the norm times each, ``|(a, b)|*a``: drag along the
+    speed, a force that grows with the distance. The norm of two concentrations, populations or
+    angles, or of states of unknown units, is no physical quantity, and no such term is offered."""
     out = []
     for a, b in combinations(states, 2):
         unit = units.get(a, "")
-        if not unit or units.get(b, "") != unit:
+        if not _SPATIAL_UNIT.match(unit) or units.get(b, "") != unit:
             continue
         label = f"|({a}, {b})|"
         out.append(Term(label, partial(norm_term, over=(a, b)), "norm", unit=unit))
