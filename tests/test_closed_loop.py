@@ -1109,7 +1109,7 @@ def test_a_drop_refits_the_reduced_model_from_its_fit_on_the_path_too(pendulum):
 def test_intervals_not_backed_while_a_candidate_is_left_open():
     """A term that gains at the last step without passing the evidence leaves the model possibly
     incomplete: its network-free intervals are not printed as identified."""
-    from sklearn_hybrid.diagnosis.loop.close import _open_question
+    from sklearn_hybrid.diagnosis.loop.caveats import open_question as _open_question
 
     steps = [{"step": 1, "term": "v_dot", "gain": 0.9, "z": 12.0, "accepted": True},
              {"step": 2, "term": "v^3", "gain": 0.01, "z": 2.5, "accepted": False}]

@@ -177,4 +177,19 @@ BATCHES = {
          "session at 99fd3cd, whose selection includes that pairing (each record names its commit). `headwind_cart` "
          "0.01 first crashed in its first hybrid fit: the fast RK4 path failed on a science function that reads "
          "only the input (`pushed_cart_f`); after the fix (4587301) it was run again at that commit's selection."),
+    16: ("## Batch 16: more states, norms of several states, functions outside the term list, confounders",
+         "Written on 2026-11-28 for issue 48 (the closed loop's answer, honest where it is a stand-in) at package "
+         "commit 6a852e8 and committed before any of it ran: air drag along the speed of a gyrating charged "
+         "particle (-c |v| v on both velocities), quadratic drag along the speed of a projectile whose Stokes drag "
+         "is declared (four states; the linear drag k partly takes the effect), a reaction chain whose first step "
+         "its product inhibits (three states; S P / (K + P) is in no term list, and k1 partly takes it), an "
+         "optical trap's pull x exp(-x^2) (in no term list; the spring's k takes its linear part), waning "
+         "immunity in a three-state SIR (R back to S, on two balances), a spring that stiffens with the distance "
+         "(-c r (x, y), four states), and two controls from models new here (two coupled damped oscillators, the "
+         "inhibited chain itself). None is a system of the tests; no trajectory was simulated before the commit. "
+         "Scored on function space and on theta: a parameter is answered honestly when it is within 10 % of the "
+         "truth or its verdict is not a plain 'identified'. Each case runs once and is shown whatever it gives. "
+         "Note: the first run began about eleven minutes before this commit, by mistake (`--list` without "
+         "`--more-validation` ran the whole benchmark; it now refuses): eleven cases ran at 6a852e8 with these "
+         "definitions exactly as committed, their records unread at the commit and kept as the first run."),
 }

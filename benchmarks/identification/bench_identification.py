@@ -114,7 +114,11 @@ RUN_ORDER = ["drag_oscillator", "control_rlc", "budworm", "enzyme_reactor", "sat
              "rayleigh_reed", "control_rayleigh_reed", "triode_oscillator", "autocatalytic_switch", "dry_stage",
              "control_buckled_beam", "buckled_beam", "excitable_membrane", "relay_servo", "control_relay_servo",
              "pump_head_curve", "open_epidemic", "control_open_epidemic", "headwind_cart", "dry_and_drag",
-             "clipping_amplifier"]
+             "clipping_amplifier",
+             # batch 16 (_identification_systems.FRESH_16: more states, norms of several states, functions outside
+             # the term list, effects that partly confound a science parameter)
+             "magnetised_drag", "control_coupled_pair", "quadratic_projectile", "product_inhibited_chain",
+             "control_inhibited_chain", "optical_trap", "waning_sir", "stiffening_orbit"]
 
 
 def _floats(theta: dict) -> dict:
@@ -678,6 +682,8 @@ def main(argv=None) -> None:
     parser.add_argument("--list", action="store_true",
                         help="with --more-validation: print its cases, one 'NAME LEVEL' a line")
     args = parser.parse_args(argv)
+    if args.list and not args.more_validation:  # alone it would fall through to running every case
+        parser.error("--list lists the cases of --more-validation: pass both")
     if args.check_selection or args.second_look_null or args.inconclusive or args.more_validation:
         from identification import checks  # its options only: not needed by the benchmark itself
 

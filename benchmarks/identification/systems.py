@@ -56,7 +56,7 @@ class System:
     batch : int
         1: the systems the benchmark was built with; 2 and 3: systems written on 2026-11-25, after the
         selection's code was last changed, and added unchanged whatever they gave (``FRESH``, ``FRESH_3``);
-        4 to 15: written in later sessions (``FRESH_4`` to ``FRESH_15``), likewise.
+        4 to 16: written in later sessions (``FRESH_4`` to ``FRESH_16``), likewise.
     sign_of : int or None
         For an effect that jumps with the sign of one state (dry friction): that state's index.  Trajectories
         are then integrated piecewise between its zero crossings (no chattering of the step size), and a
@@ -1326,8 +1326,125 @@ FRESH_15 = [
 ]
 
 
+
+# --------------------------------------------------------------------------------------------------------- batch 16
+# Written for issue 48 ("the closed loop's answer, honest where it is a stand-in"): more states, effects on the norm of
+# several states, functions outside the term list, effects that partly confound a science parameter, controls.
+def gyrating_f(v, w=1.5):
+    """A charged particle's velocity in a magnetic field (cyclotron frequency w), no resistance."""
+    return torch.stack([w * v[:, 1], -w * v[:, 0]], dim=-1)
+
+
+def stokes_projectile_f(v, g=0.8, k=0.3):
+    """A projectile (x, z, vx, vz) under gravity g with linear (Stokes) drag k."""
+    return torch.stack([v[:, 2], v[:, 3], -k * v[:, 2], -g - k * v[:, 3]], dim=-1)
+
+
+def enzyme_chain_f(v, k1=0.5, k2=0.4):
+    """S -> I -> P, first order in each step."""
+    S, I = v[:, 0], v[:, 1]
+    return torch.stack([-k1 * S, k1 * S - k2 * I, k2 * I], dim=-1)
+
+
+def trapped_bead_f(v, k=1.0, c=0.1):
+    """A bead on a linear spring k with viscous damping c."""
+    return torch.stack([v[:, 1], -k * v[:, 0] - c * v[:, 1]], dim=-1)
+
+
+def sir3_f(v, beta=2.0, gamma=0.5):
+    """SIR with the recovered compartment as a state, immunity for life."""
+    S, I = v[:, 0], v[:, 1]
+    return torch.stack([-beta * S * I, beta * S * I - gamma * I, gamma * I], dim=-1)
+
+
+def isotropic_spring_f(v, k=1.0):
+    """A mass (x, y, vx, vy) on an isotropic linear spring to the origin."""
+    return torch.stack([v[:, 2], v[:, 3], -k * v[:, 0], -k * v[:, 1]], dim=-1)
+
+
+def coupled_pair_f(v, k=1.0, kc=0.3, c=0.1):
+    """Control: two damped masses on springs k, coupled by a spring kc."""
+    x1, v1, x2, v2 = v[:, 0], v[:, 1], v[:, 2], v[:, 3]
+    return torch.stack([v1, -k * x1 - kc * (x1 - x2) - c * v1, v2, -k * x2 - kc * (x2 - x1) - c * v2], dim=-1)
+
+
+def inhibited_chain_f(v, k1=0.5, k2=0.4, Ki=0.8):
+    """Control: S -> I -> P with the first step inhibited by its product P."""
+    S, I, P = v[:, 0], v[:, 1], v[:, 2]
+    rate = k1 * S / (1 + P / Ki)
+    return torch.stack([-rate, rate - k2 * I, k2 * I], dim=-1)
+
+
+def _speed_drag(c: float, first: int, d: int) -> Callable:
+    """-c |v| v on the two velocity components ``first``, ``first + 1`` of a ``d``-state system."""
+    def missing(x, u):
+        vel = x[:, first:first + 2]
+        out = np.zeros((len(x), d))
+        out[:, first:first + 2] = -c * np.linalg.norm(vel, axis=1, keepdims=True) * vel
+        return out
+    return missing
+
+
+def _radial_stiffening(x, u):
+    """-0.5 r (x, y) on the accelerations, r the distance from the origin."""
+    out = np.zeros((len(x), 4))
+    out[:, 2:] = -0.5 * np.linalg.norm(x[:, :2], axis=1, keepdims=True) * x[:, :2]
+    return out
+
+
+def _product_inhibition(x, u):
+    """The first step runs at 0.8 S / (1 + P / 0.5) instead of 0.8 S: the difference on S and I."""
+    slowed = 0.8 * x[:, 0] * x[:, 2] / (0.5 + x[:, 2])
+    return np.stack([slowed, -slowed, np.zeros(len(x))], axis=1)
+
+
+def _waning(x, u):
+    """Immunity wanes at 0.3 R: back from R to S."""
+    return np.stack([0.3 * x[:, 2], np.zeros(len(x)), -0.3 * x[:, 2]], axis=1)
+
+
+FRESH_16 = [
+    System("magnetised_drag", "electromagnetic", "norm of two states (speed)",
+           "air drag along the speed of a gyrating particle: -0.4 |v| (vx, vy)",
+           gyrating_f, {"w": 2.0}, _speed_drag(0.4, 0, 2),
+           ["vx", "vy"], {"vx": "m/s", "vy": "m/s"}, 0.1, 40, (-2.0, -2.0), (2.0, 2.0), batch=16),
+    System("quadratic_projectile", "mechanical", "norm of two states (speed), partly confounds k",
+           "quadratic drag along the speed of a projectile with Stokes drag declared: -0.3 |v| (vx, vz)",
+           stokes_projectile_f, {"g": 1.0, "k": 0.2}, _speed_drag(0.3, 2, 4),
+           ["x", "z", "vx", "vz"], {"x": "m", "z": "m", "vx": "m/s", "vz": "m/s"}, 0.1, 30,
+           (-1.0, 0.0, 0.5, 0.0), (1.0, 1.0, 2.0, 2.0), zero_components=[0, 1], batch=16),
+    System("product_inhibited_chain", "chemical", "outside the term list (S P / (K + P)), partly confounds k1",
+           "the first step inhibited by its product: 0.8 S / (1 + P/0.5) instead of 0.8 S",
+           enzyme_chain_f, {"k1": 0.8, "k2": 0.3}, _product_inhibition,
+           ["S", "I", "P"], {"S": "mol/l", "I": "mol/l", "P": "mol/l"}, 0.3, 30,
+           (0.5, 0.0, 0.0), (2.0, 0.5, 1.5), zero_components=[2], batch=16),
+    System("optical_trap", "mechanical", "outside the term list (x exp(-x^2)), partly confounds k",
+           "an optical tweezer's pull to the centre: -0.8 x exp(-x^2)",
+           trapped_bead_f, {"k": 1.5, "c": 0.2}, lambda x, u: _on(1, 2, -0.8 * x[:, 0] * np.exp(-x[:, 0] ** 2)),
+           ["x", "v"], {"x": "um", "v": "um/ms"}, 0.1, 40, (-2.5, -1.0), (2.5, 1.0), zero_components=[0],
+           batch=16),
+    System("waning_sir", "population", "linear, on two balances of a three-state model",
+           "immunity wanes: +0.3 R on S, -0.3 R on R",
+           sir3_f, {"beta": 2.5, "gamma": 0.6}, _waning,
+           ["S", "I", "R"], {"S": "1", "I": "1", "R": "1"}, 0.25, 30, (0.4, 0.02, 0.0), (0.9, 0.3, 0.3),
+           zero_components=[1], batch=16),
+    System("stiffening_orbit", "mechanical", "norm of two states (distance), partly confounds k",
+           "a spring that stiffens with the distance: -0.5 r (x, y)",
+           isotropic_spring_f, {"k": 1.2}, _radial_stiffening,
+           ["x", "y", "vx", "vy"], {"x": "m", "y": "m", "vx": "m/s", "vy": "m/s"}, 0.1, 40,
+           (-1.5, -1.5, -1.0, -1.0), (1.5, 1.5, 1.0, 1.0), zero_components=[0, 1], batch=16),
+    System("control_coupled_pair", "mechanical", "control", "nothing (two coupled damped oscillators)",
+           coupled_pair_f, {"k": 1.6, "kc": 0.5, "c": 0.15}, None,
+           ["x1", "v1", "x2", "v2"], {"x1": "m", "v1": "m/s", "x2": "m", "v2": "m/s"}, 0.1, 40,
+           (-1.0, -1.0, -1.0, -1.0), (1.0, 1.0, 1.0, 1.0), batch=16),
+    System("control_inhibited_chain", "chemical", "control", "nothing (the chain with its product inhibition declared)",
+           inhibited_chain_f, {"k1": 0.8, "k2": 0.3, "Ki": 0.5}, None,
+           ["S", "I", "P"], {"S": "mol/l", "I": "mol/l", "P": "mol/l"}, 0.3, 30,
+           (0.5, 0.0, 0.0), (2.0, 0.5, 1.5), batch=16),
+]
+
 SYSTEMS = {s.name: s for s in SYSTEMS + FRESH + FRESH_3 + FRESH_4 + FRESH_5 + FRESH_6 + FRESH_7 + FRESH_8 + FRESH_9
-           + FRESH_10 + FRESH_11 + FRESH_12 + FRESH_13 + FRESH_14 + FRESH_15}
+           + FRESH_10 + FRESH_11 + FRESH_12 + FRESH_13 + FRESH_14 + FRESH_15 + FRESH_16}
 
 
 # ----------------------------------------------------------------------------------------------------- simulation

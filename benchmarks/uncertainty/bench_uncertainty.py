@@ -95,20 +95,23 @@ def run_loop(system, X, y, dt, repeat):
             "added": [f"{t['term']} [{t['output']}]" for t in loop.added],
             "intervals": {k: list(ci.intervals[k]) for k in system.theta_true},
             "verdicts": {k: ci.verdicts[k] for k in system.theta_true}, "incomplete": ci.incomplete,
+            "conditional": {k: ci.conditional[k] for k in system.theta_true if k in ci.conditional},
+            "rivals": loop.rivals,
             "std": {k: ci.std[k] for k in system.theta_true}, "fit_s": time.perf_counter() - start,
             "package_commit": PACKAGE_COMMIT}
 
 
 def refresh_loops(systems):
-    """Run the closed loop again where a record predates the open-question gate of its intervals
-    (its hybrid fits stand: their code did not change)."""
+    """Run the closed loop again where a record predates its intervals' latest caveats (the choice of
+    term: ``conditional`` verdicts, rival forms, the share left unexplained); the hybrid fits stand:
+    their code did not change. Each record is rewritten as soon as its loop ends: a rerun resumes."""
     import torch
 
     torch.set_num_threads(1)
     for name in systems:
         for path in sorted((RUNS / name).glob("*.json")):
             record = json.loads(path.read_text())
-            if "incomplete" in record["methods"]["loop"]:
+            if "conditional" in record["methods"]["loop"]:
                 continue
             X, y, dt = SYSTEMS[name].make(record["repeat"])
             record["methods"]["loop"] = run_loop(SYSTEMS[name], X, y, dt, record["repeat"])
@@ -182,6 +185,14 @@ def render():
                      f"{_fmt(r['coverage_identified'], True)} | {_fmt(r['miss_identified'], True)} | "
                      f"{_fmt(r['coverage_all'], True)} | {_fmt(r['width_over_rms'])} | "
                      f"{_fmt(r['mean_rel_error'])} | {r['seconds']:.0f} |")
+    conditional = [r for r in rows if r.get("verdict_conditional")]
+    if conditional:
+        n_cond = sum(r["verdict_conditional"] for r in conditional)
+        held = sum(r["coverage_conditional"] * r["verdict_conditional"] for r in conditional)
+        lines += ["", f"The closed loop called {n_cond} parameters conditional on the form of a chosen term "
+                      f"(counted above under 'not'); their intervals over the rival forms held the truth in {held:.0f} "
+                      "of them: " + ", ".join(f"{r['system']}/{r['param']} {r['verdict_conditional']}"
+                                              for r in conditional) + "."]
     lines += ["", _targets(rows)]
     write_results("uncertainty", {"rows": rows, "repeats": counts}, "\n".join(lines))
 
@@ -223,7 +234,8 @@ if __name__ == "__main__":
     parser.add_argument("--repeats", type=int, default=20)
     parser.add_argument("--render", action="store_true", help="only write the results page")
     parser.add_argument("--refresh-loops", action="store_true",
-                        help="first run the closed loop again in records that predate its intervals' gate")
+                        help="first run the closed loop again in records that predate its intervals' caveats "
+                             "(the choice of term)")
     args = parser.parse_args()
     if args.refresh_loops:
         refresh_loops(args.systems)

@@ -16,7 +16,7 @@ SETTINGS = {"residual": {"hidden": (32, 32)}, "max_iter": 300, "n_threads": 1}
 
 
 def _interval_of(record, method, label):
-    if method == "loop":
+    if method == "loop":  # "conditional" (on a chosen term's form) is not called identified
         return record["intervals"][label], record["verdicts"][label] == "identified", record["theta"][label]
     if method == "fsam bootstrap":
         return record["bootstrap"][label]["interval"], None, record["theta"][label]
@@ -62,6 +62,10 @@ def member_row(system, method, label, true, got):
                    width_over_rms=float(np.mean((high - low)[finite]) / rms) if finite.any() and rms > 0 else None)
         return row
     ident = np.array(identified)
+    if method == "loop":  # identified only given the form of a chosen term: its interval spans the rival forms
+        conditional = np.array([r["verdicts"][label] == "conditional" for r in got])
+        row.update(verdict_conditional=int(conditional.sum()),
+                   coverage_conditional=float(covered[conditional].mean()) if conditional.any() else None)
     row.update(verdict_identified=int(ident.sum()), verdict_not=int((~ident).sum()),
                coverage_identified=float(covered[ident].mean()) if ident.any() else None,
                miss_identified=float((ident & ~covered).mean()),

@@ -37,7 +37,7 @@ __all__ = ["Term", "physics_terms", "named_terms", "constant_term", "monomial_te
            "trigonometric_terms", "sqrt_term", "TERM_KINDS", "SCIENCE_OUTPUT", "power_unit", "product_unit"]
 
 TERM_KINDS = ("polynomial", "drag", "dry_friction", "hinge", "sqrt", "power", "exponential", "saturation", "periodic",
-              "scaled", "user")
+              "norm", "scaled", "user")
 # Key of the science model's output, shape (batch, n_outputs), among a term's variables: not an
 # identifier, so no state or input can be named so.
 SCIENCE_OUTPUT = "<science output>"
@@ -172,6 +172,12 @@ def _exponential(d, x, k):
 
 def _saturation(d, x, K):
     return d[x] / (K + d[x].abs())
+
+
+def norm_term(d, over, factor=None):
+    """The Euclidean norm of the variables ``over`` (a speed, a distance), times ``d[factor]`` if given."""
+    norm = torch.sqrt(sum(d[x] ** 2 for x in over))
+    return norm if factor is None else norm * d[factor]
 
 
 def _harmonic(d, x, frequency, phase):
@@ -318,6 +324,8 @@ def physics_terms(variables: Sequence[str], values: np.ndarray, units: Mapping[s
         terms += _polynomials(variables, units)
     if "scaled" in kinds:
         terms += _scaled_terms(scaled, variables[:n_states], variables[n_states:])
+    if "norm" in kinds:
+        terms += _norms(variables[:n_states], units)
     for i, x in enumerate(variables):
         col, u = values[:, i], units.get(x, "")
         scale = float(np.sqrt(np.mean(col**2))) or 1.0
@@ -358,6 +366,27 @@ def _polynomials(variables: Sequence[str], units: Mapping[str, str]) -> list[Ter
     terms += [monomial_term([(x, px), (z, pz)], units)
               for x, z in combinations(variables, 2) for px, pz in ((1, 1), (2, 1), (1, 2))]
     return terms
+
+
+#: Units of a length or a speed (m, mm, cm/s, km/h, ...): the components of a position or a velocity.
+_SPATIAL_UNIT = re.compile(r"^(k|c|m|u|µ|n)?m(/((m|u|µ)?s|h|min))?$")
+
+
+def _norms(states: Sequence[str], units: Mapping[str, str]) -> list[Term]:
+    """For every pair of states in one unit of length or speed (two coordinates, two velocity
+    components): their norm ``|(a, b)|`` and the norm times each, ``|(a, b)|*a``: drag along the
+    speed, a force that grows with the distance. The norm of two concentrations, populations or
+    angles, or of states of unknown units, is no physical quantity, and no such term is offered."""
+    out = []
+    for a, b in combinations(states, 2):
+        unit = units.get(a, "")
+        if not _SPATIAL_UNIT.match(unit) or units.get(b, "") != unit:
+            continue
+        label = f"|({a}, {b})|"
+        out.append(Term(label, partial(norm_term, over=(a, b)), "norm", unit=unit))
+        out += [Term(f"{label}*{x}", partial(norm_term, over=(a, b), factor=x), "norm", unit=power_unit(unit, 2))
+                for x in (a, b)]
+    return out
 
 
 def _scaled_terms(scaled: Mapping[int, str], states: Sequence[str], inputs: Sequence[str]) -> list[Term]:

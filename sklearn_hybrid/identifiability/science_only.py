@@ -20,7 +20,8 @@ output value independent and is too narrow here.
 from __future__ import annotations
 
 import copy
-from dataclasses import dataclass
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
 
 import numpy as np
 import torch
@@ -36,12 +37,22 @@ from ._members import check_level
 __all__ = ["science_intervals", "ScienceIntervals"]
 
 
+#: A science parameter whose sensitivity column an added term's columns explain to this uncentred R^2
+#: (a variance inflation factor of 10, the usual line for collinearity) is told from the term only
+#: through the term's assumed form.
+CONFOUNDED_R2 = 0.9
+
+
 @dataclass
 class ScienceIntervals:
     """Estimates, cluster-robust standard errors, intervals and verdicts of a network-free model.
 
     A parameter whose direction the data do not inform (``A`` singular there,
     or a standard error beyond its estimate's magnitude) is ``"not identified"``.
+    One that is identified only given the form of a term the closed loop chose
+    (it trades with the term's part in its own direction, or a term of another
+    form that fits as well moves it) is ``"conditional"``: ``conditional`` says
+    why, and its interval covers the values under those other forms too.
     """
 
     estimate: dict
@@ -51,6 +62,23 @@ class ScienceIntervals:
     level: float
     n_samples: int
     incomplete: str | None = None
+    conditional: dict = field(default_factory=dict)
+
+    def widen(self, label: str, values: Sequence[float]) -> None:
+        """Widen ``label``'s interval to hold ``values``: its estimates under other forms of a chosen
+        term that fit as well (the uncertainty of the choice)."""
+        if self.verdicts.get(label) in ("identified", "conditional"):
+            low, high = self.intervals[label]
+            self.intervals[label] = (min([low, *values]), max([high, *values]))
+
+    def make_conditional(self, label: str, why: str, values: Sequence[float] = ()) -> None:
+        """Call ``label`` identified only given the chosen term's form, for the reason ``why``; its
+        interval is widened to hold ``values`` (its estimates under other forms that fit as well)."""
+        if self.verdicts.get(label) not in ("identified", "conditional"):
+            return
+        self.widen(label, values)
+        self.verdicts[label] = "conditional"
+        self.conditional[label] = "; ".join(filter(None, [self.conditional.get(label), why]))
 
     def report(self) -> str:
         lines = [f"[[Parameters of the network-free model]]  ({100 * self.level:.0f} % intervals, cluster-robust "
@@ -60,13 +88,24 @@ class ScienceIntervals:
             if verdict == "identified":
                 lines.append(f"    {label}: {self.estimate[label]:.6g} +/- {self.std[label]:.3g}, "
                              f"{100 * self.level:.0f} % interval [{low:.6g}, {high:.6g}]")
+            elif verdict == "conditional":
+                lines.append(f"    {label}: {self.estimate[label]:.6g}  CONDITIONAL on the form of the term added "
+                             f"({self.conditional[label]}); [{low:.6g}, {high:.6g}] over the forms the data cannot "
+                             "tell apart")
             elif self.incomplete:
                 lines.append(f"    {label}: {self.estimate[label]:.6g}  NOT IDENTIFIED: the model may be incomplete")
             else:
                 lines.append(f"    {label}: {self.estimate[label]:.6g}  NOT IDENTIFIED by these data")
         if self.incomplete:
             lines.append(f"    ({self.incomplete}; its intervals would assume a complete model)")
-        elif any(v == "identified" for v in self.verdicts.values()):
+        elif any(v == "conditional" for v in self.verdicts.values()):
+            lines.append("    (a conditional parameter is known only as well as the form of the term it depends on: "
+                         "one that 'trades with' a term is told from it only through that form (R^2: how much of "
+                         "its sensitivity the term's explains); 'with ... added' or 'instead of' name forms the "
+                         "held-out data could not tell from the choice, and the parameter's value under them. Give "
+                         "the form your physics knows as a user term and close the loop again, or measure where "
+                         "the forms differ)")
+        if not self.incomplete and any(v == "identified" for v in self.verdicts.values()):
             lines.append("    (intervals of this model: they hold the truth only if it is complete; an effect it "
                          "misses that its parameters can partly absorb leaves no trace in these data)")
         return "\n".join(lines)
@@ -76,7 +115,7 @@ class ScienceIntervals:
 
 
 def science_intervals(estimator, X, y, level=0.95, incomplete: str | None = None,
-                      fitted_states=None) -> ScienceIntervals:
+                      fitted_states=None, terms: Mapping[str, Sequence[str]] | None = None) -> ScienceIntervals:
     """Intervals of the parameters of a fitted model without a network.
 
     Parameters
@@ -151,6 +190,30 @@ def science_intervals(estimator, X, y, level=0.95, incomplete: str | None = None
         out.estimate[label], out.std[label] = value, std
         out.intervals[label] = (value - t * std, value + t * std) if identified else (-np.inf, np.inf)
         out.verdicts[label] = "identified" if identified else "not identified"
+    for label, why in _confounded(A, [lab for _, _, lab in labels], [name for name, _, _ in labels], terms).items():
+        out.make_conditional(label, why)
+    return out
+
+
+def _confounded(A: np.ndarray, labels: list[str], names: list[str],
+                terms: Mapping[str, Sequence[str]] | None) -> dict[str, str]:
+    """The parameters (outside ``terms``) whose sensitivity column a term's parameters explain to
+    ``CONFOUNDED_R2`` or more, from the information matrix ``A`` (sums of products of the columns),
+    with the reason in words."""
+    out: dict[str, str] = {}
+    owned = {name for params in (terms or {}).values() for name in params}
+    for term, params in (terms or {}).items():
+        cols = [i for i, name in enumerate(names) if name in params]
+        if not cols:
+            continue
+        A_tt = A[np.ix_(cols, cols)]
+        for i, (label, name) in enumerate(zip(labels, names)):
+            if name in owned or A[i, i] <= 0:
+                continue
+            a = A[i, cols]
+            r2 = float(a @ np.linalg.lstsq(A_tt, a, rcond=None)[0] / A[i, i])
+            if r2 >= CONFOUNDED_R2:
+                out[label] = f"trades with {term}, R^2 {r2:.2f}"
     return out
 
 

@@ -33,6 +33,7 @@ from .arguments import (check_names, check_options, check_param_names, check_ref
                          offset_states, uncertain_components)
 from ..evidence import Evidence
 from .candidates import Candidates
+from .caveats import left_unexplained, open_question, weigh_rivals
 from .report import LoopResult, Scoring, format_table, residual_profile
 from ..sensitivity import state_labels, science_output
 from ..science_fit import ScienceFit
@@ -248,7 +249,9 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         verdicts, :func:`~sklearn_hybrid.identifiability.science_intervals`), ``initial_states`` (with
         ``fit_initial_states``: every sample's initial state, unobserved components fitted with the final
         model; else None), ``added`` (the accepted terms),
-        ``steps`` (every candidate tried, with its validation error and verdict), ``exact``
+        ``steps`` (every candidate tried, with its validation error and verdict), ``rivals`` (forms the
+        held-out data could not tell from the chosen terms that moved a science parameter, refitted:
+        their ``model``, ``theta`` and the parameters they ``moved``), ``exact``
         (the exact components), ``unexplained`` (what the final science model still misses:
         ``share`` per output and binned ``profiles``; see :func:`plot_unexplained`), ``table``,
         ``report`` (markdown), ``seconds`` and ``timings`` (CPU seconds of this process by stage: the
@@ -388,14 +391,22 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
             s["output"] = ", ".join(outputs_of({**s, "component": j}) for j in np.atleast_1d(s["component"]))
         remaining = learned - science_output(final, science_theta, args)
         unexplained = residual_profile(remaining, learned, values, variables, outputs, components)
+        incomplete = (open_question(sel["steps"], min_gain)
+                      or left_unexplained(unexplained, residual, learned, outputs))
 
         if fit_initial_states:  # the hybrid refit starts every sample from the states fitted with the final model
             X = np.array(X, dtype=float)
             X[:, :fit.initial_states.shape[1]] = fit.initial_states
         current_watch().selected(final, science_theta, sel["steps"])  # a study may stop here (watch.py)
         alone = fixed_science(before, final, science_theta, X, y)
-        intervals = science_intervals(alone, X, y, incomplete=_open_question(sel["steps"], min_gain),
-                                       fitted_states=fit.latent or None)
+        # a chosen term's form is a choice: a science parameter that trades with it, or that a rival form
+        # moves, is identified only given that form (caveats.py)
+        chosen = {f"{t['term']} on {t['output']}": [t["param"], *t["shape_params"].values()]
+                  for t in added if t["kind"] != "offset"}
+        intervals = science_intervals(alone, X, y, incomplete=incomplete, fitted_states=fit.latent or None,
+                                       terms=chosen)
+        rivals = weigh_rivals(intervals, sel["rivals"], science, added, science_theta, fit, variables, n_states,
+                              param_names, log)
         lap("network-free refit and intervals")
         log("scoring the network-free model ..." if scoring.executor is None else
             "scoring the network-free model in a worker process ...")
@@ -432,7 +443,7 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
     log(report)
     return LoopResult(before=before, after=after, science=augmented, science_theta=science_theta, science_only=alone,
                  intervals=intervals, initial_states=fit.initial_states.copy() if fit_initial_states else None,
-                 added=added, steps=sel["steps"], exact=[] if uncertain is None else
+                 added=added, steps=sel["steps"], rivals=rivals, exact=[] if uncertain is None else
                  [j for j in range(base.shape[1]) if j not in uncertain],
                  unexplained=unexplained, table=rows, report=report, seconds=time.perf_counter() - start,
                  timings=timings)
@@ -490,27 +501,6 @@ def cut_windows(X: Any, y: Any, window: int) -> tuple[np.ndarray, np.ndarray, np
     return (np.concatenate([c.X for c in cut]).reshape(-1, *shape),
             np.concatenate([c.y for c in cut]).reshape(-1, window, *shape),
             np.repeat(np.arange(len(X)), [len(c.X) for c in cut]))
-
-
-#: A candidate left at the last step that lowered the held-out error by ``min_gain`` at this z (one
-#: standard error) is evidence, short of the threshold, that the final model misses something.
-_OPEN_Z = 1.0
-
-
-def _open_question(steps: list[dict], min_gain: float) -> str | None:
-    """Why the final science model may be incomplete (a candidate of the last step, or of its second
-    look, that gained ``min_gain`` at z >= 1 without passing), or None."""
-    numbered = [s["step"] for s in steps if isinstance(s["step"], int)]
-    if not numbered:
-        return None
-    last = max(numbered)
-    open_ = [s for s in steps if s["step"] in (last, f"{last}, second look") and not s["accepted"]
-             and s.get("gain", -np.inf) >= min_gain and s.get("z", -np.inf) >= _OPEN_Z]
-    if not open_:
-        return None
-    best = max(open_, key=lambda s: s["gain"])
-    return (f"the selection ended with a candidate, {best['term']}, that lowered the held-out error by "
-            f"{best['gain']:.0%} at z {best['z']:.1f}, short of the evidence")
 
 
 def _is_default_network(residual) -> bool:

@@ -23,7 +23,7 @@ KIND_WORDS = {"polynomial": "polynomial", "drag": "drag (v|v|, |v|)", "dry_frict
               "hinge": "hinge / stop / overflow", "sqrt": "square root (Torricelli)",
               "power": "power law, fitted exponent",
               "exponential": "exponential", "saturation": "saturation (Michaelis-Menten)",
-              "periodic": "periodic in an angle (a harmonic)",
+              "periodic": "periodic in an angle (a harmonic)", "norm": "norm of several states (a speed, a distance)",
               "scaled": "its equation times a state or input (a parameter that varies with it)", "user": "user term",
               "offset": "sensor offset", "joint": "terms that enter together"}
 

@@ -97,8 +97,10 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
     dict
         ``science`` (augmented function, or the original), ``theta`` (fitted on the training
         samples), ``added`` (accepted term dicts), ``steps`` (every candidate tried, with its
-        validation error and verdict), ``base_errors`` / ``errors`` (validation errors per sample
-        before any term and at the end) and ``seconds``.
+        validation error and verdict), ``rivals`` (candidates the held-out data could not tell from
+        the choice: ``role`` ``"instead"`` of the accepted terms ``of`` or ``"add"``-ed to the final
+        model, with ``cand``, its screening fit ``theta`` and validation ``mse``), ``base_errors`` /
+        ``errors`` (validation errors per sample before any term and at the end) and ``seconds``.
     """
     start_time = time.perf_counter()
     tensors = {name: torch.as_tensor(np.asarray(col, dtype=float))
@@ -119,6 +121,9 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
     visited: set[frozenset] = {frozenset()}
     known: dict[tuple, dict] = {}  # each model the path settled on (its terms in order) and its fit
     steps: list[dict] = []
+    # candidates the held-out data could not tell from the choice: instead of an accepted term (within
+    # min_gain of its error) or, at the last step, added to the final model (lowering its error a little)
+    rivals: list[dict] = []
     step = 0
     while len(added) < max_terms:
         step += 1
@@ -157,7 +162,13 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
         if best is None and recheck is not None:
             best = look_again(recheck, tried, current, theta_now, added, steps, z, min_gain, log, len(joint))
         if best is None:
+            rivals += [{"role": "add", "cand": t[0], "theta": t[1], "mse": t[2]["mse_after"]} for t in tried
+                       if t[2]["gain"] > 0 and np.isfinite(t[2]["mse_after"])]
             break
+        best_mse = best[2]["mse_after"]
+        rivals += [{"role": "instead", "of": _key(term_entries(best[0])), "cand": t[0], "theta": t[1],
+                    "mse": t[2]["mse_after"]} for t in tried
+                   if t[0] is not best[0] and t[2]["mse_after"] <= (1 + min_gain) * best_mse]
         cand, theta_now, _, errors, current, index = best
         # the screen may have stopped early: converge, so that the next step's gains are the terms'
         bounds = shape_bounds(current, [*added, *term_entries(cand)])
@@ -182,7 +193,7 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
     current, added, theta_now, errors = replace_stand_ins(
         science, current, added, theta_now, errors, judge, columns, learned, args, variables, n_states, param_names,
         min_gain, steps, log, n_candidates, fit.fixed)
-    return {"science": current, "theta": theta_now, "added": added, "steps": steps,
+    return {"science": current, "theta": theta_now, "added": added, "steps": steps, "rivals": rivals,
             "base_errors": base_errors, "errors": errors, "seconds": time.perf_counter() - start_time}
 
 

@@ -1,0 +1,162 @@
+"""What the closed loop's intervals are conditional on: a model that may be incomplete, and a term's form.
+
+The network-free model's intervals (:func:`~sklearn_hybrid.identifiability.science_intervals`) hold
+the truth only if that model is the truth. Three things the selection itself knows can break that,
+and each is said in the result instead of an interval that would read as certain:
+
+- :func:`open_question`: the last step ended with a candidate that lowered the held-out error by
+  ``min_gain``, short of the evidence;
+- :func:`left_unexplained`: the final model leaves a clear share of what the hybrid learned on an
+  equation (and the remainder varies with a variable the report names);
+- :func:`weigh_rivals`: a term the held-out data could not tell from the chosen one (another form
+  instead of it, or one more term) moves a science parameter outside its interval; the parameter
+  is identified only given the chosen form, and its interval is widened to the rival values.
+
+A science parameter that trades with part of an added term in its own direction is found by
+``science_intervals`` itself (its ``terms`` argument), from the sensitivities.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from ...science import read_signature
+from ..judge import FIT_FAILURES
+from ..science_fit import ScienceFit
+from .candidates import augment_with, shape_bounds, term_entries
+
+__all__ = ["open_question", "left_unexplained", "weigh_rivals", "OPEN_Z", "UNEXPLAINED_SHARE", "MAX_RIVALS"]
+
+#: A candidate left at the last step that lowered the held-out error by ``min_gain`` at this z (one
+#: standard error) is evidence, short of the threshold, that the final model misses something.
+OPEN_Z = 1.0
+#: What the final model leaves of what the hybrid learned on an equation, to call it incomplete: this
+#: share of the learned right-hand side, and this share of what the network carried there.
+UNEXPLAINED_SHARE = (0.1, 0.3)
+#: Rival forms refitted on every sample (the most competitive first) to see how far they move theta.
+MAX_RIVALS = 3
+
+
+def open_question(steps: list[dict], min_gain: float) -> str | None:
+    """Why the final science model may be incomplete (a candidate of the last step, or of its second
+    look, that gained ``min_gain`` at z >= ``OPEN_Z`` without passing), or None."""
+    numbered = [s["step"] for s in steps if isinstance(s["step"], int)]
+    if not numbered:
+        return None
+    last = max(numbered)
+    open_ = [s for s in steps if s["step"] in (last, f"{last}, second look") and not s["accepted"]
+             and s.get("gain", -np.inf) >= min_gain and s.get("z", -np.inf) >= OPEN_Z]
+    if not open_:
+        return None
+    best = max(open_, key=lambda s: s["gain"])
+    return (f"the selection ended with a candidate, {best['term']}, that lowered the held-out error by "
+            f"{best['gain']:.0%} at z {best['z']:.1f}, short of the evidence")
+
+
+def left_unexplained(unexplained: Mapping[str, Any], network: np.ndarray, learned: np.ndarray,
+                     outputs: Sequence[str]) -> str | None:
+    """Why the final model is incomplete, if it leaves a clear share of what the hybrid learned.
+
+    Parameters
+    ----------
+    unexplained : dict
+        :func:`~sklearn_hybrid.diagnosis.loop.report.residual_profile` of the final model: ``share``
+        per output (RMS of the remainder over RMS of the learned right-hand side) and ``profiles``
+        (the remainder's bin means against each variable).
+    network, learned : ndarray of shape (n_points, n_outputs)
+        The network's part of the hybrid at the visited states, and science plus network there.
+    outputs : list of str
+        The outputs' names, in the columns' order.
+
+    Returns
+    -------
+    str or None
+        The equation, its shares, and the variable the remainder varies most with; None where every
+        explained equation is left with less than ``UNEXPLAINED_SHARE``.
+    """
+    total = np.sqrt(np.mean(np.asarray(learned, dtype=float) ** 2, axis=0))
+    carried = np.sqrt(np.mean(np.asarray(network, dtype=float) ** 2, axis=0)) / np.where(total > 0, total, np.nan)
+    worst = None
+    for j, name in enumerate(outputs):
+        share = unexplained["share"].get(name)
+        if name not in unexplained["components"] or share is None or not np.isfinite(share):
+            continue
+        if share >= UNEXPLAINED_SHARE[0] and share >= UNEXPLAINED_SHARE[1] * carried[j]:
+            if worst is None or share > worst[1]:
+                worst = (name, share, carried[j])
+    if worst is None:
+        return None
+    name, share, carried_j = worst
+    spread = {var: float(np.ptp(mean)) for (out, var), (_, mean) in unexplained["profiles"].items()
+              if out == name and len(mean)}
+    along = f", varying most with {max(spread, key=spread.get)}" if spread else ""
+    return (f"the final model leaves {share:.0%} of what the hybrid learned on {name} unexplained ({share / carried_j:.0%} "
+            f"of what its network carried){along}: an effect no added term captures (result.plot() shows the "
+            "remainder against every variable)")
+
+
+def weigh_rivals(intervals: Any, rivals: Sequence[dict], science: Callable, added: list[dict],
+                 theta: Mapping[str, Any], fit: ScienceFit, variables: Sequence[str], n_states: int,
+                 param_names: Mapping[str, str] | None, log: Callable[[str], None] = lambda s: None) -> list[dict]:
+    """Refit the rival forms that move a science parameter, and call it conditional on the chosen form.
+
+    A rival (see :func:`~sklearn_hybrid.diagnosis.loop.stepwise.forward_selection`) whose screening
+    fit puts one of the original science parameters outside its interval is refitted on every sample
+    (at most ``MAX_RIVALS``, the lowest held-out error first). Where the refit confirms it, the
+    interval (in ``intervals``, changed in place) is widened to hold the rival's value, and where the
+    rival moves it by more than the interval's width, the parameter becomes ``"conditional"``: the
+    data leave it to the term's form.
+
+    Returns
+    -------
+    list of dict
+        Per rival refitted: ``model`` (its terms in words), ``theta`` (the science parameters'
+        values) and ``moved`` (the labels it moved outside their intervals).
+    """
+    names = [k for k in read_signature(science)[1] if np.ndim(theta.get(k, 0.0)) == 0]
+    labels = [k for k in names if intervals.verdicts.get(k) in ("identified", "conditional")]
+    if not labels:
+        return []
+    final = {(t["component"], t["term"]) for t in added}
+    width = {k: intervals.intervals[k][1] - intervals.intervals[k][0] for k in labels}
+
+    def outside(values):
+        return [k for k in labels if k in values and np.isfinite(values[k])
+                and not intervals.intervals[k][0] <= float(values[k]) <= intervals.intervals[k][1]]
+
+    out = []
+    for rival in sorted(rivals, key=lambda r: r["mse"]):
+        if len(out) == MAX_RIVALS:
+            break
+        entries = term_entries(rival["cand"])
+        replaced = set(rival.get("of", ()))
+        if not replaced <= final or any((e["component"], e["term"]) in final - replaced for e in entries):
+            continue  # the final model no longer holds what it replaced, or holds it already
+        if not outside(rival["theta"]):
+            continue
+        placed = [t for t in added if (t["component"], t["term"]) not in replaced] + list(entries)
+        model = augment_with(science, placed, variables, n_states, param_names)
+        start = dict(read_signature(model)[1])
+        start.update({k: v for k, v in theta.items() if k in start})
+        start.update({k: v for k, v in rival["theta"].items() if k in start and k not in theta})
+        try:
+            fitted = fit.fit(model, start, shape_bounds(model, placed))
+        except FIT_FAILURES:
+            continue
+        what = " + ".join(e["term"] for e in entries)
+        words = (f"with {what} instead of {' + '.join(term for _, term in sorted(replaced))}" if replaced
+                 else f"with {what} added")
+        moved = outside(fitted)
+        for k in moved:
+            value = float(fitted[k])
+            # a rival that moves it by more than the interval's width decides it; a smaller move widens it
+            if abs(value - intervals.estimate[k]) > width[k]:
+                intervals.make_conditional(k, f"{words}: {value:.4g}", [value])
+            else:
+                intervals.widen(k, [value])
+        log(f"  rival {words}: " + ", ".join(f"{k} = {float(fitted[k]):.4g}" for k in names if k in fitted))
+        out.append({"model": words, "theta": {k: float(fitted[k]) for k in names if k in fitted}, "moved": moved})
+    return out
