@@ -47,7 +47,7 @@ def _escape(text: str) -> str:
 
 def _table(rows: list[list[str]]) -> list[str]:
     width = max(len(r) for r in rows)
-    out = [".. list-table::", "   :header-rows: 1", ""]
+    out = [".. list-table::", "   :header-rows: 1", "   :class: results-table", ""]  # scrolls when wide (wrap.css)
     for row in rows:
         row = row + [""] * (width - len(row))
         out.append("   * - " + (inline(row[0]) or "\\ "))

@@ -85,6 +85,9 @@ sphinx_gallery_conf = {
     "download_all_examples": False,
     "remove_config_comments": True,
     "write_computation_times": False,  # keep generated files out of doc/
+    # each figure also at twice the pixels (<name>_2_00x.png): sharp at the page's width, where the
+    # guide pages show the Quick start's figures larger than their 100 dpi
+    "image_srcset": ["2x"],
     # no cross-links to other projects' online docs: the build must work offline
     "reference_url": {"sklearn_hybrid": None},
 }

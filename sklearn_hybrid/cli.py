@@ -62,7 +62,9 @@ def _parser() -> argparse.ArgumentParser:
                            "while the first selects terms and refits (1: one process)")
     loop.add_argument("--quiet", action="store_true", help="print the table only (no progress bars)")
     loop.add_argument("--data-home", default=None,
-                      help="folder of the measured data (default: $SKLEARN_HYBRID_DATA, else ~/sklearn_hybrid_data)")
+                      help="folder of the measured data (default: $SKLEARN_HYBRID_DATA, else ../shared/data beside "
+                           "a source checkout when it exists, as for the tests and the docs, else "
+                           "~/sklearn_hybrid_data)")
     sub.add_parser("demo", help="run sklearn_hybrid.demo (the README's Quick start: the pendulum fit and its verdict)")
     return parser
 

@@ -42,6 +42,27 @@ def test_missing_data_says_where_to_put_it_and_get_it(tmp_path, capsys, monkeypa
         cli.main(["--traceback", "loop", "silverbox", "--fast", "--data-home", str(tmp_path)])
 
 
+def test_default_data_home_is_the_checkout_s_shared_data(tmp_path, capsys, monkeypatch):
+    """Run from a source checkout without --data-home or SKLEARN_HYBRID_DATA, the CLI looks where the tests
+    and the docs build find the measured files, ../shared/data beside the repository (it looked in
+    ~/sklearn_hybrid_data), and its missing-file error names that folder."""
+    import sklearn_hybrid.datasets._base as base
+
+    monkeypatch.delenv("SKLEARN_HYBRID_DATA", raising=False)
+    monkeypatch.setenv("HOME", str(tmp_path / "home"))
+    (tmp_path / "repo").mkdir()
+    (tmp_path / "repo" / "pyproject.toml").write_text("")
+    shared = tmp_path / "shared" / "data"
+    shared.mkdir(parents=True)
+    monkeypatch.setattr(base, "__file__", str(tmp_path / "repo" / "sklearn_hybrid" / "datasets" / "_base.py"))
+    monkeypatch.setattr(base, "_answering", lambda urls: set())  # offline, at once
+    assert cli.main(["loop", "silverbox", "--fast"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert f"(data home: {shared.resolve()};" in err[0]
+    assert f"  {shared / 'silverbox' / 'SNLS80mV.csv'}" in err and "Put the file at" in err
+    assert any(line.startswith("  https://") for line in err) and not (tmp_path / "home").exists()
+
+
 def test_a_bad_argument_is_one_line_on_stderr(capsys, monkeypatch):
     import sklearn_hybrid.recipes as recipes
 

@@ -85,6 +85,28 @@ def test_residual_diagnosis_adds_nothing_to_complete_science():
     assert "g[v]: " in diag.summary() and "exact, left alone" in diag.summary()
 
 
+def _damping_f(v, omega=0.5, gamma=0.0):
+    dv_dt = -(2 * torch.pi * omega) ** 2 * torch.sin(v[:, 0]) - gamma * v[:, 1]
+    return torch.stack([v[:, 1], dv_dt], dim=-1)
+
+
+@pytest.mark.parametrize("fixed", [["gamma"], {"gamma": 0.0}])
+def test_residual_diagnosis_names_what_a_fixed_parameter_would_express(fixed):
+    """A science model with a damping held at zero (theta_fixed) on damped data: the damping is a term to
+    name, as close_the_loop names it, not a correction of the fixed gamma (it was read as 'gamma +0.47'
+    and no term was added, since v_dot lay in the span of gamma's sensitivity)."""
+    data = make_pendulum(30, 5, 5, dt=0.1, n_steps=10, random_state=0)
+    est = HybridRegressor(science=_damping_f, method="erm", dt=0.1, n_substeps=1, lr=1e-2, max_iter=200,
+                          residual=MLPOn([1], hidden=(32, 32), zero_init=True), theta_fixed=fixed,
+                          random_state=0).fit(data.X_train, data.y_train)
+    diag = ResidualDiagnosis(state_names=NAMES, random_state=0).fit(est, data.X_train, data.y_train)
+    assert "gamma" not in diag.theta_shift_ and "df/dgamma" not in diag.summary()
+    terms = _new_terms(diag)
+    assert list(terms) == [("g[v_dot]", "v_dot")]
+    assert terms[("g[v_dot]", "v_dot")]["coef"] == pytest.approx(-0.5, rel=0.15)
+    assert est.theta_["gamma"] == 0.0
+
+
 def test_close_the_loop_pendulum(pendulum):
     data, est = pendulum
     out = close_the_loop(est, data.X_train, data.y_train, data.X_test, data.y_test, state_names=NAMES,

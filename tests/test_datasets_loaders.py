@@ -44,14 +44,42 @@ def _leftovers(folder):
 # _base: data home, checked fetch, zip extraction
 
 
+def _fake_checkout(tmp_path, monkeypatch, shared=True):
+    """The package as if it ran from the source checkout ``tmp_path/repo``, with ``tmp_path/shared/data``."""
+    import sklearn_hybrid.datasets._base as base
+
+    (tmp_path / "repo").mkdir()
+    (tmp_path / "repo" / "pyproject.toml").write_text("")
+    if shared:
+        (tmp_path / "shared" / "data").mkdir(parents=True)
+    monkeypatch.setattr(base, "__file__", str(tmp_path / "repo" / "sklearn_hybrid" / "datasets" / "_base.py"))
+    return tmp_path / "shared" / "data"
+
+
 def test_get_data_home_precedence(tmp_path, monkeypatch):
     monkeypatch.setenv("SKLEARN_HYBRID_DATA", str(tmp_path / "env"))
     assert get_data_home(tmp_path / "arg") == tmp_path / "arg"
     assert get_data_home() == tmp_path / "env"
     monkeypatch.delenv("SKLEARN_HYBRID_DATA")
     monkeypatch.setenv("HOME", str(tmp_path))
+    shared = _fake_checkout(tmp_path, monkeypatch)  # a source checkout with ../shared/data: that folder
+    assert get_data_home() == shared
+    shared.rmdir()  # without it (or installed, no pyproject.toml beside the package): the home folder
     assert get_data_home() == tmp_path / "sklearn_hybrid_data"
     assert not (tmp_path / "sklearn_hybrid_data").exists()  # not created as a side effect
+
+
+def test_default_data_home_is_the_one_the_tests_and_docs_use():
+    """The package's default in this checkout is the folder tests/conftest.py and doc/conf.py point at."""
+    import sklearn_hybrid
+    import sklearn_hybrid.datasets._base as base
+
+    repo = Path(__file__).resolve().parents[1]
+    shared = repo.parent / "shared" / "data"
+    if not shared.is_dir() or Path(sklearn_hybrid.__file__).resolve().parents[1].parent != repo.parent:
+        pytest.skip("no ../shared/data beside this checkout")
+    assert base._checkout_data() == shared
+    assert 'HERE.parent.parent / "shared" / "data"' in (repo / "doc" / "conf.py").read_text()
 
 
 @pytest.fixture

@@ -77,12 +77,25 @@ class RemoteFile:
             raise ValueError(f"filename must be relative to the data home, got {self.filename!r}.")
 
 
+def _checkout_data() -> Path | None:
+    """``shared/data`` beside the source checkout the package runs from, where that folder exists.
+
+    The project's machines keep the measured files there, outside the repository; the tests and the
+    documentation build look there too. None for an installed package (no ``pyproject.toml`` beside it).
+    """
+    root = Path(__file__).resolve().parents[2]  # <root>/sklearn_hybrid/datasets/_base.py
+    shared = root.parent / "shared" / "data"
+    return shared if (root / "pyproject.toml").is_file() and shared.is_dir() else None
+
+
 def get_data_home(data_home: str | os.PathLike | None = None) -> Path:
     """Return the folder where the datasets are looked for and downloaded to.
 
     The folder is, in this order: the ``data_home`` argument, the environment variable
-    ``SKLEARN_HYBRID_DATA``, or ``~/sklearn_hybrid_data``. ``~`` is expanded. The folder is not
-    created here; it is created only when a file has to be downloaded into it.
+    ``SKLEARN_HYBRID_DATA``, ``../shared/data`` beside the repository when the package runs from a
+    source checkout and that folder exists (where the tests and the documentation build find the
+    measured files), or ``~/sklearn_hybrid_data``. ``~`` is expanded. The folder is not created
+    here; it is created only when a file has to be downloaded into it.
 
     Parameters
     ----------
@@ -97,7 +110,7 @@ def get_data_home(data_home: str | os.PathLike | None = None) -> Path:
     source = "data_home"
     if data_home is None:
         source = DATA_HOME_ENV if os.environ.get(DATA_HOME_ENV) else "the default data home"
-        data_home = os.environ.get(DATA_HOME_ENV) or Path("~") / "sklearn_hybrid_data"
+        data_home = os.environ.get(DATA_HOME_ENV) or _checkout_data() or Path("~") / "sklearn_hybrid_data"
     path = Path(data_home).expanduser()
     if path.exists() and not path.is_dir():
         raise NotADirectoryError(

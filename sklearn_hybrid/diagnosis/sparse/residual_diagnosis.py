@@ -7,8 +7,9 @@ explains every residual component with a :class:`~sklearn_hybrid.diagnosis.Spars
 
 The network often also compensates a bias of the science parameters (e.g. a slightly wrong
 frequency). Such a correction is, to first order, ``sum_k (df/dtheta_k) dtheta_k``; so the
-sensitivities of the science output to each parameter join the candidates as terms named
-``df/d<name>``, and library terms the science function already contains (within its parameters'
+sensitivities of the science output to each free parameter join the candidates as terms named
+``df/d<name>`` (not those of ``theta_fixed``: a fixed parameter cannot absorb a shift, so what it would
+express, such as a damping held at zero, is a term to name), and library terms the science function already contains (within its parameters'
 span) are left out. A selected ``df/d<name>`` term says "shift theta by its coefficient", not
 "add a term".
 
@@ -77,7 +78,8 @@ class ResidualDiagnosis(BaseEstimator):
         With ``y`` given to :meth:`fit`: the share of the samples (the last ones) that judge each
         new term, and the evidence it needs (see :func:`~sklearn_hybrid.diagnosis.evidence`).
     science_terms : bool, default=True
-        Add the science output's parameter sensitivities ``df/d<name>`` as candidates (see module).
+        Add the science output's sensitivities ``df/d<name>`` to the free parameters (not those of the
+        estimator's ``theta_fixed``) as candidates (see module).
     max_points : int, default=20000
         Subsample the visited points to at most this many (seeded by ``random_state``).
     random_state : int, RandomState or None, default=None
@@ -207,10 +209,14 @@ class ResidualDiagnosis(BaseEstimator):
         lib_names, lib_units = list(library.term_names_), library.term_units_
         self.library_ = library
         template = self.regression if self.regression is not None else SparseTermRegression(n_bootstrap=50)
+        fixed = set(estimator.theta_fixed or ())
         self.regressions_, self.terms_, self._columns = {}, [], {}
         for j in chosen:
             S = jac[:, j, :] if (self.science_terms and same_shape) else np.zeros((len(Z), 0))
-            live = [k for k in range(S.shape[1]) if np.max(np.abs(S[:, k])) > 1e-12 * max(1.0, np.max(np.abs(f)))]
+            # a parameter held fixed (theta_fixed) cannot absorb a shift: its sensitivity is no candidate, else
+            # an effect it would express (a damping fixed at zero) is read as its correction and never named
+            live = [k for k in range(S.shape[1]) if pnames[k].split("[")[0] not in fixed
+                    and np.max(np.abs(S[:, k])) > 1e-12 * max(1.0, np.max(np.abs(f)))]
             S, snames = S[:, live], [f"{_SENS}{pnames[k]}" for k in live]
             keep = [i for i in range(Theta.shape[1]) if not self._contained(Theta[:, i], S)]
             seed = rng.randint(np.iinfo(np.int32).max)
