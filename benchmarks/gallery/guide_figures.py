@@ -7,12 +7,14 @@ network-free model with the named term.  Saved to ``results/guide/closed_loop.pn
 and ``guide.json`` say when, on which machine, at which package commit and in how many CPU seconds.
 About 35 CPU seconds (the Quick start's fit and loop).
 
-Usage: python benchmarks/guide_figures.py
+Usage: python benchmarks/gallery/guide_figures.py
 """
 
 from __future__ import annotations
 
+import sys
 import time
+from pathlib import Path
 
 import matplotlib
 
@@ -22,7 +24,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import torch  # noqa: E402
 
-from _common import PACKAGE_COMMIT, RESULTS, write_results  # noqa: E402
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the helpers
+from helpers import PACKAGE_COMMIT, RESULTS, write_results  # noqa: E402
 
 FIGURES = RESULTS / "guide"
 
