@@ -203,8 +203,26 @@ def _interval_lines(records: list[dict]) -> list[str]:
         return []
     ident = [(true, v["interval"]) for true, v in rows if v["verdict"] == "identified"]
     held = sum(low <= true <= high for true, (low, high) in ident)
-    return [f"  - the loop's intervals: {len(ident)} of {len(rows)} parameters called identified, {held} of them "
-            "holding the truth"]
+    lines = [f"  - the loop's intervals: {len(ident)} of {len(rows)} parameters called identified, {held} of them "
+             "holding the truth"]
+    conditional = [(true, v["interval"]) for true, v in rows if v["verdict"] == "conditional"]
+    if conditional:  # verdicts since the choice of term's caveats (issue 48)
+        spanned = sum(low <= true <= high for true, (low, high) in conditional)
+        lines.append(f"  - {len(conditional)} called conditional on a chosen term's form, their intervals over the "
+                     f"rival forms holding the truth in {spanned}")
+    # an honest answer: within 10 % of the truth, or a verdict that does not claim it is (issue 48's target)
+    wrong = [f"{r['system']} {r['noise']:g} {k} ({_rel(r, k):.0%} off)" for r in records
+             for k, v in r.get("intervals", {}).items()
+             if np.ndim(r["theta_true"][k]) == 0 and v["verdict"] == "identified" and _rel(r, k) > 0.1]
+    lines.append(f"  - parameters called identified while more than 10 % off the truth: {len(wrong)}"
+                 + (f" ({'; '.join(wrong)})" if wrong else ""))
+    return lines
+
+
+def _rel(record: dict, name: str) -> float:
+    """Relative error of one science parameter after the loop."""
+    true = record["theta_true"][name]
+    return abs(record["science_theta"][name] - true) / max(abs(true), 1e-12)
 
 
 def _theta_cells(record: dict) -> str:
