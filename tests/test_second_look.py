@@ -47,6 +47,9 @@ def test_a_term_three_validation_samples_cannot_prove_is_accepted_on_the_trainin
     sel = _select(0.5, 3, 4)
     assert [(t.component, t.name, t.second_look) for t in sel["added"]] == [(0, "A^2", True)]
     assert sel["added"][0].coef == pytest.approx(-0.5, rel=0.05)
+    # the term chosen is no rival of itself (as a copy of the candidate tried, it was one before it was typed)
+    instead = [r["cand"].name for r in sel["rivals"] if r["role"] == "instead"]
+    assert instead and "A^2" not in instead
     assert sel["theta"]["k"] == pytest.approx(0.6, rel=0.05)
     looked = [s for s in sel["steps"] if s["step"] == "1, second look"]
     assert [s["term"] for s in looked if s["accepted"]] == ["A^2"]  # the one kept, though others passed too

@@ -188,12 +188,9 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
                        if t.verdict["gain"] > 0 and np.isfinite(t.verdict["mse_after"])]
             break
         best_mse = best.verdict["mse_after"]
-        # (a candidate chosen on a second look was a copy of the one tried, so it stood here as a rival of
-        # itself too: kept so while the candidates became typed)
         rivals += [{"role": "instead", "of": _key(best.cand.entries()), "cand": t.cand, "theta": t.theta,
                     "mse": t.verdict["mse_after"]} for t in tried
-                   if (t.cand is not best.cand or best.second_look)
-                   and t.verdict["mse_after"] <= (1 + evidence.min_gain) * best_mse]
+                   if t.cand is not best.cand and t.verdict["mse_after"] <= (1 + evidence.min_gain) * best_mse]
         cand, theta_now, _, errors, current, index, second_look = best
         # the screen may have stopped early: converge, so that the next step's gains are the terms'
         bounds = shape_bounds(current, [*added, *cand.entries()])
