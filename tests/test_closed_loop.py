@@ -528,11 +528,12 @@ def test_selection_judges_each_candidate_on_its_own_evidence():
     pendulum's |theta_dot| at z 4.8 was dropped behind a hinge at z 2.9), and among those that
     passed and are within min_gain of the best, the simplest wins."""
     from sklearn_hybrid.diagnosis.loop.candidates import interleave
-    from sklearn_hybrid.diagnosis.loop.stepwise import _simplest_of_the_best
+    from sklearn_hybrid.diagnosis.loop.placed import PlacedTerm
+    from sklearn_hybrid.diagnosis.loop.stepwise import Screened, _simplest_of_the_best
 
     def tried(term, kind, shape, mse, accepted):
-        return ({"term": term, "kind": kind, "shape": shape}, {}, {"mse_after": mse, "accepted": accepted},
-                None, None, 0)
+        return Screened(PlacedTerm(Term(term, None, kind), 1, shape), {}, {"mse_after": mse, "accepted": accepted},
+                        None, None, 0)
 
     hinge = tried("max(0, x - knot)", "hinge", {"knot": 0.1}, 2.2, False)
     drag = tried("|x|", "drag", {}, 3.5, True)
@@ -541,8 +542,9 @@ def test_selection_judges_each_candidate_on_its_own_evidence():
     cubic = tried("x^3", "polynomial", {}, 1.03, True)
     smooth = tried("tanh(x/w)", "dry_friction", {"w": 1.0}, 1.0, True)
     assert _simplest_of_the_best([smooth, cubic, drag], 0.05) is cubic
-    ranked = [{"component": 1, "gain": g} for g in (0.9, 0.8, 0.7)] + [{"component": 0, "gain": 0.1}]
-    assert [c["component"] for c in interleave(ranked, 3)] == [1, 0, 1]
+    x = Term("x", None, "polynomial")
+    ranked = [PlacedTerm(x, 1, gain=g) for g in (0.9, 0.8, 0.7)] + [PlacedTerm(x, 0, gain=0.1)]
+    assert [c.component for c in interleave(ranked, 3)] == [1, 0, 1]
 
 
 def test_report_states_the_thresholds_used():
@@ -585,10 +587,12 @@ def test_candidates_are_also_ranked_without_the_network(pendulum):
     learned[:, 1] += 0.3 * states[:, 0] ** 3
     n = len(fit.y)
     sel = forward_selection(pendulum_f, {"omega": 0.6}, fit, [(np.arange(n - 12), np.arange(n - 12, n))],
-                            physics_terms(NAMES, states), NAMES, 2, [states], learned, [1], max_terms=1)
+                            NAMES, 2, [states], learned, [1],
+                            candidates=Candidates(terms=physics_terms(NAMES, states), max_terms=1),
+                            evidence=Evidence(second_look=None))
     tried = {(s["ranked_by"], s["term"]) for s in sel["steps"]}
     assert ("residual", "v^3") in tried and ("fit", "v_dot") in tried
-    assert [t["term"] for t in sel["added"]] == ["v_dot"]
+    assert [t.name for t in sel["added"]] == ["v_dot"]
     assert sel["theta"]["c_v_dot"] == pytest.approx(-0.5, rel=0.1)
 
 
@@ -614,11 +618,13 @@ def test_screening_refits_use_evenly_spaced_training_samples_and_the_kept_term_a
     learned = science_output(pendulum_f, {"omega": 2 / 3}, [states])
     learned[:, 1] -= 0.5 * states[:, 1]
     sel = stepwise.forward_selection(pendulum_f, {"omega": 0.6}, fit, [(np.arange(n - 12), np.arange(n - 12, n))],
-                                     physics_terms(NAMES, states), NAMES, 2, [states], learned, [1], max_terms=1)
+                                     NAMES, 2, [states], learned, [1],
+                                     candidates=Candidates(terms=physics_terms(NAMES, states), max_terms=1),
+                                     evidence=Evidence(second_look=None))
     screens = [size for size, nfev in sizes if nfev == judge.SCREENING_NFEV]
     assert screens and set(screens) == {10}
     assert (n - 12, 100) in sizes  # the science alone and the kept term: every training sample
-    assert [t["term"] for t in sel["added"]] == ["v_dot"]
+    assert [t.name for t in sel["added"]] == ["v_dot"]
     assert sel["theta"]["c_v_dot"] == pytest.approx(-0.5, rel=0.1)
     assert judge.evenly_spaced(np.arange(5, 105), 10)[[0, -1]].tolist() == [5, 104]
 
@@ -635,21 +641,23 @@ def test_a_term_the_converged_test_drops_at_once_is_not_proposed_again(pendulum,
     calls = []
 
     def drop_the_newest(science, current, added, theta, errors, *args):
-        calls.append(added[-1]["term"])
+        calls.append(added[-1].name)
         if len(calls) > 10:
             raise AssertionError(f"the selection keeps proposing the same terms: {calls}")
-        if added[-1]["term"] != "v_dot":  # the disagreeing test, for every term but the damping
+        if added[-1].name != "v_dot":  # the disagreeing test, for every term but the damping
             return current, added, theta, errors
         rest = added[:-1]
         reduced = candidates.augment_with(science, rest, NAMES, 2, None)
-        return reduced, rest, {k: v for k, v in theta.items() if k != added[-1]["param"]}, errors
+        return reduced, rest, {k: v for k, v in theta.items() if k != added[-1].param}, errors
 
     monkeypatch.setattr(stepwise, "_drop_dispensable", drop_the_newest)
     states = data.X_train
     learned = science_output(pendulum_f, {"omega": 2 / 3}, [states])
     learned[:, 1] -= 0.5 * states[:, 1]
     sel = stepwise.forward_selection(pendulum_f, {"omega": 0.6}, fit, [(np.arange(n - 12), np.arange(n - 12, n))],
-                                     physics_terms(NAMES, states), NAMES, 2, [states], learned, [1], max_terms=2)
+                                     NAMES, 2, [states], learned, [1],
+                                     candidates=Candidates(terms=physics_terms(NAMES, states), max_terms=2),
+                                     evidence=Evidence(second_look=None))
     assert calls[0] == "v_dot" and calls.count("v_dot") == 1  # accepted, dropped, never proposed again
     assert all(s["term"] != "v_dot" for s in sel["steps"][[s["term"] for s in sel["steps"]].index("v_dot") + 1:])
 
@@ -665,32 +673,28 @@ def _held_out_judge(pendulum):
 
 
 def _on_v_dot(pendulum, names, coef=0.0):
-    """Candidate entries of the pendulum's library terms ``names`` on dv/dt, in that order."""
+    """The pendulum's library terms ``names`` placed on dv/dt, in that order."""
+    from sklearn_hybrid.diagnosis.loop.placed import PlacedTerm
+
     terms = {t.name: t for t in physics_terms(NAMES, pendulum[0].X_train)}
-    return [{"component": 1, "term": name, "kind": terms[name].kind, "unit": terms[name].unit,
-             "function": terms[name].func, "shape": {}, "bounds": terms[name].shape, "coef": coef, "gain": 0.0}
-            for name in names]
+    return [PlacedTerm(terms[name], 1, {}, coef, 0.0) for name in names]
 
 
 def test_a_term_made_dispensable_by_a_later_one_is_dropped(pendulum):
     """Drag v_dot|v_dot| stands in for linear damping until v_dot itself is in; then it goes."""
-    from sklearn_hybrid.diagnosis.loop.candidates import augment_with, with_fitted
+    from sklearn_hybrid.diagnosis.loop.candidates import augment_with
     from sklearn_hybrid.diagnosis.loop.stepwise import _drop_dispensable
 
     judge = _held_out_judge(pendulum)
-    terms = physics_terms(NAMES, pendulum[0].X_train)
-    placed = [{"component": 1, "term": t.name, "kind": t.kind, "unit": t.unit, "function": t.func, "shape": {},
-               "bounds": t.shape, "coef": 0.0, "gain": 0.0} for t in terms if t.name in ("v_dot|v_dot|", "v_dot")]
-    assert [p["term"] for p in placed] == ["v_dot", "v_dot|v_dot|"]
-    placed = placed[::-1]  # the stand-in first
+    placed = _on_v_dot(pendulum, ["v_dot|v_dot|", "v_dot"])  # the stand-in first
     full = augment_with(pendulum_f, placed, NAMES, 2, None)
     theta = judge.fit(full, {"omega": 0.6})
-    added = [with_fitted(p, full, theta, k) for k, p in enumerate(placed)]
+    added = [p.with_fitted(full, theta, k) for k, p in enumerate(placed)]
     steps = []
     current, kept, theta, errors = _drop_dispensable(pendulum_f, full, added, theta, judge.errors(full, theta),
-                                                     judge, NAMES, 2, None, 3.0, 0.05, steps, lambda s: None)
-    assert [t["term"] for t in kept] == ["v_dot"] and [s["term"] for s in steps] == ["v_dot|v_dot|"]
-    assert steps[0]["dropped"] and theta[kept[0]["param"]] == pytest.approx(-0.5, rel=0.1)
+                                                     judge, NAMES, 2, None, Evidence(), steps, lambda s: None)
+    assert [t.name for t in kept] == ["v_dot"] and [s["term"] for s in steps] == ["v_dot|v_dot|"]
+    assert steps[0]["dropped"] and theta[kept[0].param] == pytest.approx(-0.5, rel=0.1)
     assert set(theta) == set(inspect.signature(current).parameters) - {"v"}
 
 
@@ -922,8 +926,9 @@ def select_on_simulated_data(science, theta, truth, x0, dt, n_steps, noise, rng,
     learned = np.stack([truth(0, s) for s in states])
     n = len(y)
     splits = [(np.arange(n - 12), np.arange(n - 12, n))]
-    return stepwise.forward_selection(science, theta, ScienceFit(est, x0, y), splits, library(names, states), names,
-                                      len(names), [states], learned, list(range(len(names))))
+    return stepwise.forward_selection(science, theta, ScienceFit(est, x0, y), splits, names, len(names), [states],
+                                      learned, list(range(len(names))),
+                                      candidates=Candidates(terms=library(names, states)), evidence=Evidence(second_look=None))
 
 
 def test_a_flux_between_two_components_is_added_to_both_at_once():
@@ -943,7 +948,7 @@ def test_a_flux_between_two_components_is_added_to_both_at_once():
     assert groups and all(isinstance(s["component"], list) and len(s["component"]) > 1 for s in groups)
     accepted = [s for s in sel["steps"] if s["accepted"]]
     assert accepted[0]["ranked_by"] == "group" and accepted[0]["term"] == "A^2"
-    coefs = {(t["component"], t["term"]): t["coef"] for t in sel["added"]}
+    coefs = {t.key: t.coef for t in sel["added"]}
     assert coefs == {(0, "A^2"): pytest.approx(-1.0, rel=0.05), (1, "A^2"): pytest.approx(0.5, rel=0.05)}
     assert sel["theta"]["k1"] == pytest.approx(0.3, rel=0.05) and sel["theta"]["k2"] == pytest.approx(0.9, rel=0.05)
     assert [s["step"] for s in sel["steps"]][-1] == 2  # steps count selection rounds, not terms
@@ -951,19 +956,21 @@ def test_a_flux_between_two_components_is_added_to_both_at_once():
 
 def test_a_group_is_preferred_only_when_clearly_better_than_its_single_terms():
     from sklearn_hybrid.diagnosis.loop.candidates import candidate_groups
-    from sklearn_hybrid.diagnosis.loop.stepwise import _simplest_of_the_best
+    from sklearn_hybrid.diagnosis.loop.placed import PlacedTerm
+    from sklearn_hybrid.diagnosis.loop.stepwise import Screened, _simplest_of_the_best
 
-    single = {"component": 1, "term": "A*B", "kind": "polynomial", "shape": {}, "gain": 0.5, "coef": 1.0}
-    other = {**single, "component": 0, "coef": -1.0}
-    hinge = {**single, "term": "max(0, B - knot)", "kind": "hinge", "shape": {"knot": 0.3}}
+    single = PlacedTerm(Term("A*B", None, "polynomial"), 1, {}, 1.0, 0.5)
+    other = PlacedTerm(single.term, 0, {}, -1.0, 0.5)
+    hinge = PlacedTerm(Term("max(0, B - knot)", None, "hinge"), 1, {"knot": 0.3}, 1.0, 0.5)
     group, = candidate_groups([single, hinge, other])
-    assert group["component"] == [1, 0] and group["group"] == [single, other]
+    assert group.component == [1, 0] and group.members == (single, other)
+    assert group.n_parameters() == 2 and group.row()["ranked_by"] == "group"
 
     def tried(cand, mse):
-        return (cand, {}, {"accepted": True, "mse_after": mse}, None, None, 0)
+        return Screened(cand, {}, {"accepted": True, "mse_after": mse}, None, None, 0)
 
-    assert _simplest_of_the_best([tried(single, 1.0), tried(group, 0.97)], 0.05)[0] is single
-    assert _simplest_of_the_best([tried(single, 1.0), tried(group, 0.5)], 0.05)[0] is group
+    assert _simplest_of_the_best([tried(single, 1.0), tried(group, 0.97)], 0.05).cand is single
+    assert _simplest_of_the_best([tried(single, 1.0), tried(group, 0.5)], 0.05).cand is group
 
 
 def _decay_f(v, k=0.6):
@@ -1104,7 +1111,7 @@ def test_a_drop_refits_the_reduced_model_from_its_fit_on_the_path_too(pendulum):
     values, which without the dropped term made the simulation overflow; least squares stalled there, the
     drop test (is the term significantly better?) let the term go on the scattered errors, and the loop
     crashed later on a diverging model. The reduced model's fit on the path is now a second start."""
-    from sklearn_hybrid.diagnosis.loop.candidates import augment_with, with_fitted
+    from sklearn_hybrid.diagnosis.loop.candidates import augment_with
     from sklearn_hybrid.diagnosis.loop.stepwise import _drop_dispensable, _key, _refit_from_best
 
     judge = _held_out_judge(pendulum)
@@ -1119,12 +1126,12 @@ def test_a_drop_refits_the_reduced_model_from_its_fit_on_the_path_too(pendulum):
     full = augment_with(pendulum_f, placed, NAMES, 2, None)
     good_full = judge.fit(full, {"omega": 0.6})
     lost_full = {**good_full, full.terms[0][2]: 1e4}  # values from which the model without drag is lost
-    added = [with_fitted(p, full, lost_full, k) for k, p in enumerate(placed)]
+    added = [p.with_fitted(full, lost_full, k) for k, p in enumerate(placed)]
     known = {_key(added[:1]): judge.fit(damped, good_start)}
     current, kept, theta, _ = _drop_dispensable(pendulum_f, full, added, lost_full, judge.errors(full, good_full),
-                                                judge, NAMES, 2, None, 3.0, 0.05, [], lambda s: None, known)
-    assert [t["term"] for t in kept] == ["v_dot"]
-    assert theta[kept[0]["param"]] == pytest.approx(-0.5, rel=0.1)
+                                                judge, NAMES, 2, None, Evidence(), [], lambda s: None, known)
+    assert [t.name for t in kept] == ["v_dot"]
+    assert theta[kept[0].param] == pytest.approx(-0.5, rel=0.1)
     assert judge.training_error(current, theta) < 1e-2
 
 

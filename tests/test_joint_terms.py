@@ -8,11 +8,12 @@ from scipy.integrate import solve_ivp
 from scipy.stats import norm
 
 from sklearn_hybrid import HybridRegressor
-from sklearn_hybrid.diagnosis import ScienceFit, physics_terms
+from sklearn_hybrid.diagnosis import Candidates, Evidence, ScienceFit, Term, physics_terms
 from sklearn_hybrid.diagnosis.loop import stepwise
 from sklearn_hybrid.diagnosis.loop.candidates import term_columns
 from sklearn_hybrid.diagnosis.evidence import critical_value, evidence, holm
 from sklearn_hybrid.diagnosis.loop.joint import joint_candidates
+from sklearn_hybrid.diagnosis.loop.placed import PlacedGroup, PlacedTerm
 from sklearn_hybrid.diagnosis.loop.report import format_table
 
 NAMES = ["x", "v"]
@@ -34,7 +35,7 @@ def _trajectories(rhs, x0, dt, n_steps, noise, rng):
     return x, x[:, 1:] + noise * rng.standard_normal(x[:, 1:].shape)
 
 
-def _select(science, theta, rhs, x0, dt, n_steps, n_validation, extra=None, seed=0, **kwargs) -> dict:
+def _select(science, theta, rhs, x0, dt, n_steps, n_validation, extra=None, seed=0, second_look=None) -> dict:
     """forward_selection on trajectories of ``rhs`` from ``x0`` (noise 0.01), the last ``n_validation`` judging;
     what the hybrid learned is the truth (plus ``extra``, a spurious part, at the visited states)."""
     rng = np.random.default_rng(seed)
@@ -46,8 +47,9 @@ def _select(science, theta, rhs, x0, dt, n_steps, n_validation, extra=None, seed
         learned = learned + extra(states)
     n = len(x0)
     splits = [(np.arange(n - n_validation), np.arange(n - n_validation, n))]
-    return stepwise.forward_selection(science, theta, ScienceFit(est, x0, y), splits, physics_terms(NAMES, states),
-                                      NAMES, 2, [states], learned, [1], **kwargs)
+    return stepwise.forward_selection(science, theta, ScienceFit(est, x0, y), splits, NAMES, 2, [states], learned,
+                                      [1], candidates=Candidates(terms=physics_terms(NAMES, states)),
+                                      evidence=Evidence(second_look=second_look))
 
 
 def limit_cycle(mu, omega=1.3):
@@ -108,29 +110,29 @@ def test_joint_candidates_propose_the_pair_that_only_together_explains_a_limit_c
     columns = term_columns(physics_terms(NAMES, states), {k: torch.as_tensor(states[:, i]) for k, i in
                                                           (("x", 0), ("v", 1))})
     cands = joint_candidates(columns, remaining, jac, [1], set())
-    assert cands[0]["term"] in ("v + x^2*v", "x^2*v + v") and cands[0]["kind"] == "joint"
-    assert cands[0]["gain"] > 0.99
-    coefs = {e["term"]: e["coef"] for e in cands[0]["group"]}
+    assert cands[0].name in ("v + x^2*v", "x^2*v + v") and cands[0].kind == "joint"
+    assert cands[0].gain > 0.99 and cands[0].component == 1 and cands[0].n_parameters() == 2
+    coefs = {e.name: e.coef for e in cands[0].entries()}
     assert coefs["v"] == pytest.approx(0.5, rel=1e-3) and coefs["x^2*v"] == pytest.approx(-0.5, rel=1e-3)
     # a term already in the model is not proposed again
     assert not [c for c in joint_candidates(columns, remaining, jac, [1], {(1, "v")})
-                if "v" in c["term"].split(" + ")]
+                if "v" in c.name.split(" + ")]
     # a residual one term explains is left to the single terms: no set with it is worth its refit
     remaining[:, 1] = -0.4 * states[:, 1] ** 3
-    assert not [c for c in joint_candidates(columns, remaining, jac, [1], set()) if "v^3" in c["term"]]
+    assert not [c for c in joint_candidates(columns, remaining, jac, [1], set()) if "v^3" in c.name]
 
 
 def test_a_limit_cycle_is_named_as_the_pair_that_only_together_passes():
     sel = _select(oscillator_f, {"omega": 1.0}, limit_cycle(0.5), _cycle_starts(30), 0.2, 30, 8)
-    assert sorted(t["term"] for t in sel["added"]) == ["v", "x^2*v"]
-    coef = {t["term"]: t["coef"] for t in sel["added"]}
+    assert sorted(t.name for t in sel["added"]) == ["v", "x^2*v"]
+    coef = {t.name: t.coef for t in sel["added"]}
     assert coef["v"] == pytest.approx(0.5, rel=0.05) and coef["x^2*v"] == pytest.approx(-0.5, rel=0.05)
     assert sel["theta"]["omega"] == pytest.approx(1.3, rel=0.02)
     first = [s for s in sel["steps"] if s["step"] == 1]
     assert not [s for s in first if s["kind"] != "joint" and s["accepted"]]  # no single term passed
     pair = [s for s in first if s["accepted"]]
     assert len(pair) == 1 and pair[0]["kind"] == "joint" and pair[0]["threshold"] > critical_value(3.0, 8)
-    report = format_table([], [{**t, "output": "g[v]"} for t in sel["added"]],
+    report = format_table([], [{**t.record(), "output": "g[v]"} for t in sel["added"]],
                           [{**s, "output": "g[v]"} for s in sel["steps"]], None, 8)
     assert "| joint |" in report and "Holm's rule" in report
 
@@ -153,19 +155,16 @@ def test_joint_candidates_add_nothing_to_a_control():
 
 def test_of_the_best_a_single_term_of_another_kind_beats_two_stand_ins():
     """Two stand-ins that explain an effect only together lose to one term that does as well."""
-    def tried(term, kind, entries, mse):
-        cand = {"term": term, "kind": kind, "shape": {}}
-        if entries:
-            cand["group"] = [{"term": t, "kind": k, "shape": s} for t, k, s in entries]
-        return cand, {}, {"accepted": True, "mse_after": mse}, None, None, 0
+    def tried(cand, mse):
+        return stepwise.Screened(cand, {}, {"accepted": True, "mse_after": mse}, None, None, 0)
 
-    pair = tried("sqrt|T| + exp(k*T)", "joint", [("sqrt|T|", "sqrt", {}), ("exp(k*T)", "exponential", {"k": 1.0})],
-                 1.00)
-    power = tried("|T|^p", "power", None, 1.03)
-    power[0]["shape"] = {"p": 1.0}
-    assert stepwise._simplest_of_the_best([pair, power], 0.05)[0]["term"] == "|T|^p"
+    pair = PlacedGroup((PlacedTerm(Term("sqrt|T|", None, "sqrt"), 0), PlacedTerm(Term("exp(k*T)", None, "exponential"),
+                                                                                  0, {"k": 1.0})), joint=True)
+    power = PlacedTerm(Term("|T|^p", None, "power"), 0, {"p": 1.0})
+    assert pair.name == "sqrt|T| + exp(k*T)" and pair.n_parameters() == 3 and power.n_parameters() == 2
+    assert stepwise._simplest_of_the_best([tried(pair, 1.00), tried(power, 1.03)], 0.05).cand is power
     # a pair clearly better than every single stays
-    assert stepwise._simplest_of_the_best([pair, tried("|T|^p", "power", None, 1.5)], 0.05)[0]["kind"] == "joint"
+    assert stepwise._simplest_of_the_best([tried(pair, 1.00), tried(power, 1.5)], 0.05).cand is pair
 
 
 # ------------------------------------------------------------------------------------------- sign and power laws
@@ -193,8 +192,8 @@ def _damped(extra):
 def test_coulomb_friction_is_named_as_sign_within_ten_percent():
     rhs, x0 = _damped(lambda v: -0.3 * np.sign(v))
     sel = _select(spring_f, {"k": 1.0, "c": 0.1}, rhs, x0, 0.1, 30, 8)
-    assert [t["kind"] for t in sel["added"]] == ["dry_friction"]
-    term = sel["added"][0]
+    assert [t.kind for t in sel["added"]] == ["dry_friction"]
+    term = sel["added"][0].record()
     v = np.linspace(-3, 3, 601)
     found = term["coef"] * (np.sign(v) if term["term"] == "sign(v)" else np.tanh(v / term["shape"]["w"]))
     # in function space, the friction force with the linear damping refitted beside it
@@ -206,8 +205,8 @@ def test_coulomb_friction_is_named_as_sign_within_ten_percent():
 def test_a_power_law_is_named_with_its_exponent():
     rhs, x0 = _damped(lambda v: -0.6 * v * np.abs(v) ** 0.5)
     sel = _select(spring_f, {"k": 1.0, "c": 0.1}, rhs, x0, 0.1, 30, 8)
-    assert [t["term"] for t in sel["added"]] == ["v|v|^(p-1)"]
-    term = sel["added"][0]
+    assert [t.name for t in sel["added"]] == ["v|v|^(p-1)"]
+    term = sel["added"][0].record()
     assert term["shape"]["p"] == pytest.approx(1.5, abs=0.1)
     v = np.linspace(-3, 3, 601)
     truth = -0.6 * v * np.abs(v) ** 0.5 - 0.2 * v

@@ -35,8 +35,9 @@ def _select(c: float) -> dict:
     est, x0, y, states, learned = _decay(c)
     splits = [(np.arange(37), np.arange(37, 40))]
     terms = [t for t in physics_terms(["A"], states) if t.kind == "polynomial"]
-    return stepwise.forward_selection(decay_f, {"k": 0.5}, ScienceFit(est, x0, y), splits, terms, ["A"], 1,
-                                      [states], learned, [0], second_look=4)
+    return stepwise.forward_selection(decay_f, {"k": 0.5}, ScienceFit(est, x0, y), splits, ["A"], 1,
+                                      [states], learned, [0], candidates=Candidates(terms=terms),
+                                      evidence=Evidence(second_look=4))
 
 
 def _second_looks(steps: list) -> list:

@@ -6,7 +6,7 @@ import torch
 from scipy.integrate import solve_ivp
 
 from sklearn_hybrid import HybridRegressor
-from sklearn_hybrid.diagnosis import ScienceFit, physics_terms
+from sklearn_hybrid.diagnosis import Candidates, Evidence, ScienceFit, physics_terms
 from sklearn_hybrid.diagnosis.loop import stepwise
 from sklearn_hybrid.diagnosis.terms import angle_factor
 
@@ -62,14 +62,15 @@ def _select(cogging: float, seed: int = 0) -> dict:
     states = x.reshape(-1, 2)
     learned = np.stack([truth(0, s) for s in states])
     splits = [(np.arange(n - 10), np.arange(n - 10, n))]
-    return stepwise.forward_selection(spin_down_f, {"c": 0.25}, ScienceFit(est, x0, y), splits,
-                                      physics_terms(NAMES, states, UNITS), NAMES, 2, [states], learned, [1])
+    return stepwise.forward_selection(spin_down_f, {"c": 0.25}, ScienceFit(est, x0, y), splits, NAMES, 2, [states],
+                                      learned, [1], candidates=Candidates(terms=physics_terms(NAMES, states, UNITS)),
+                                      evidence=Evidence(second_look=None))
 
 
 def test_a_cogging_torque_is_named_as_its_harmonic():
     sel = _select(0.2)
-    assert [t["term"] for t in sel["added"]] == ["sin(3*theta + phase)"]
-    term = sel["added"][0]
+    assert [t.name for t in sel["added"]] == ["sin(3*theta + phase)"]
+    term = sel["added"][0].record()
     angles = np.linspace(-np.pi, np.pi, 101)
     # matched in function space: coef sin(3 a + phase) against -0.2 sin(3 a), whatever sign the phase took
     added = term["coef"] * np.sin(3 * angles + term["shape"]["phase"])

@@ -73,8 +73,8 @@ def test_the_selection_finds_a_rate_that_grows_with_the_state():
     x0 = rng.uniform([0.0, 0.2], [1.5, 2.0], size=(40, 2))
     sel = select_on_simulated_data(relaxation_f, {"k": 0.5, "d": 0.4}, truth, x0, dt, n_steps, 0.005, rng, NAMES,
                                    lambda names, states: physics_terms(names, states, scaled={0: "A", 1: "B"}))
-    assert [(t["component"], t["term"], t["kind"]) for t in sel["added"]] == [(0, "f[A]*A", "scaled")]
-    assert sel["added"][0]["coef"] == pytest.approx(0.7, rel=0.05)
+    assert [(t.component, t.name, t.kind) for t in sel["added"]] == [(0, "f[A]*A", "scaled")]
+    assert sel["added"][0].coef == pytest.approx(0.7, rel=0.05)
     assert sel["theta"]["k"] == pytest.approx(0.5, rel=0.05) and sel["theta"]["d"] == pytest.approx(0.4, rel=0.02)
     # each scaled candidate was only ever placed on its own component
     assert all(s["component"] == 0 for s in sel["steps"] if s["term"].startswith("f[A]"))
@@ -89,7 +89,7 @@ def fed_decay_f(v, u, k=0.5):
 def test_the_selection_finds_a_rate_that_follows_the_input():
     """dA/dt = (u - k A)(1 + 0.8 u): polynomial terms would need u^2 and A*u, one scaled term is exact."""
     from sklearn_hybrid import HybridRegressor, pack_inputs
-    from sklearn_hybrid.diagnosis import ScienceFit
+    from sklearn_hybrid.diagnosis import Candidates, Evidence, ScienceFit
     from sklearn_hybrid.diagnosis.loop import stepwise
 
     rng = np.random.default_rng(3)
@@ -106,8 +106,9 @@ def test_the_selection_finds_a_rate_that_follows_the_input():
     learned = (flat_u - 0.6 * states) * (1 + 0.8 * flat_u)
     library = physics_terms(["A", "u"], np.hstack([states, flat_u]), scaled={0: "A"}, n_states=1)
     splits = [(np.arange(n - 12), np.arange(n - 12, n))]
-    sel = stepwise.forward_selection(fed_decay_f, {"k": 0.5}, ScienceFit(est, X, y), splits, library, ["A", "u"], 1,
-                                     [states, flat_u], learned, [0])
-    assert [(t["component"], t["term"]) for t in sel["added"]] == [(0, "f[A]*u")]
-    assert sel["added"][0]["coef"] == pytest.approx(0.8, rel=0.05)
+    sel = stepwise.forward_selection(fed_decay_f, {"k": 0.5}, ScienceFit(est, X, y), splits, ["A", "u"], 1,
+                                     [states, flat_u], learned, [0], candidates=Candidates(terms=library),
+                                     evidence=Evidence(second_look=None))
+    assert [t.key for t in sel["added"]] == [(0, "f[A]*u")]
+    assert sel["added"][0].coef == pytest.approx(0.8, rel=0.05)
     assert sel["theta"]["k"] == pytest.approx(0.6, rel=0.05)

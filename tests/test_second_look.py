@@ -6,7 +6,7 @@ import pytest
 from test_closed_loop import pendulum  # noqa: F401 (a fixture)
 
 from sklearn_hybrid import HybridRegressor
-from sklearn_hybrid.diagnosis import Evidence, ScienceFit, physics_terms
+from sklearn_hybrid.diagnosis import Candidates, Evidence, ScienceFit, physics_terms
 from sklearn_hybrid.diagnosis.judge import training_folds
 from sklearn_hybrid.diagnosis.loop import stepwise
 from sklearn_hybrid.diagnosis.evidence import critical_value
@@ -33,9 +33,9 @@ def _select(c: float, n_validation: int, second_look: int | None, seed: int = 0)
     states = x.reshape(-1, 1)
     learned = -k * states - c * states**2
     splits = [(np.arange(n - n_validation), np.arange(n - n_validation, n))]
-    return stepwise.forward_selection(decay_f, {"k": 0.5}, ScienceFit(est, x0, y), splits,
-                                      physics_terms(["A"], states), ["A"], 1, [states], learned, [0],
-                                      second_look=second_look)
+    return stepwise.forward_selection(decay_f, {"k": 0.5}, ScienceFit(est, x0, y), splits, ["A"], 1, [states],
+                                      learned, [0], candidates=Candidates(terms=physics_terms(["A"], states)),
+                                      evidence=Evidence(second_look=second_look))
 
 
 def test_a_term_three_validation_samples_cannot_prove_is_accepted_on_the_training_folds():
@@ -45,8 +45,11 @@ def test_a_term_three_validation_samples_cannot_prove_is_accepted_on_the_trainin
     assert first["gain"] > 0.5 and 2 < first["z"] < first["threshold"]  # promising, not proven
 
     sel = _select(0.5, 3, 4)
-    assert [(t["component"], t["term"], t["second_look"]) for t in sel["added"]] == [(0, "A^2", True)]
-    assert sel["added"][0]["coef"] == pytest.approx(-0.5, rel=0.05)
+    assert [(t.component, t.name, t.second_look) for t in sel["added"]] == [(0, "A^2", True)]
+    assert sel["added"][0].coef == pytest.approx(-0.5, rel=0.05)
+    # the term chosen is no rival of itself (as a copy of the candidate tried, it was one before it was typed)
+    instead = [r["cand"].name for r in sel["rivals"] if r["role"] == "instead"]
+    assert instead and "A^2" not in instead
     assert sel["theta"]["k"] == pytest.approx(0.6, rel=0.05)
     looked = [s for s in sel["steps"] if s["step"] == "1, second look"]
     assert [s["term"] for s in looked if s["accepted"]] == ["A^2"]  # the one kept, though others passed too
@@ -55,7 +58,7 @@ def test_a_term_three_validation_samples_cannot_prove_is_accepted_on_the_trainin
     assert looked[0]["threshold"] == pytest.approx(critical_value(3.0, 37))
     # the first look's own row still says it did not pass
     assert not [s for s in sel["steps"] if s["step"] == 1 and s["term"] == "A^2"][0]["accepted"]
-    report = format_table([], [{**t, "output": "g[A]"} for t in sel["added"]],
+    report = format_table([], [{**t.record(), "output": "g[A]"} for t in sel["added"]],
                           [{**s, "output": "g[A]"} for s in sel["steps"]], None, 3)
     assert "| 1, second look | g[A] | A^2 |" in report and "second look (rows 'second look')" in report
     assert "accepted on a second look" in report
@@ -87,25 +90,24 @@ def test_a_bad_number_of_second_look_folds_is_named(folds):
 def test_a_term_accepted_on_a_second_look_is_dropped_by_the_same_judge(pendulum):  # noqa: F811 (the fixture)
     """Drag v_dot|v_dot| stands in for linear damping until v_dot is in; accepted on a second look, its drop
     is judged on the training folds, and its row says so."""
-    from test_closed_loop import NAMES, _held_out_judge, pendulum_f
+    from dataclasses import replace
 
-    from sklearn_hybrid.diagnosis.loop.candidates import augment_with, with_fitted
+    from test_closed_loop import NAMES, _held_out_judge, _on_v_dot, pendulum_f
+
+    from sklearn_hybrid.diagnosis.loop.candidates import augment_with
 
     judge = _held_out_judge(pendulum)
     fit = ScienceFit(pendulum[1], pendulum[0].X_train, pendulum[0].y_train)
     n = len(fit.y)
     recheck = training_folds(fit, [(np.arange(n - 12), np.arange(n - 12, n))], None, 4)
-    terms = {t.name: t for t in physics_terms(NAMES, pendulum[0].X_train)}
-    placed = [{"component": 1, "term": name, "kind": terms[name].kind, "unit": terms[name].unit,
-               "function": terms[name].func, "shape": {}, "bounds": terms[name].shape, "coef": 0.0, "gain": 0.0}
-              for name in ("v_dot|v_dot|", "v_dot")]
+    placed = _on_v_dot(pendulum, ["v_dot|v_dot|", "v_dot"])
     full = augment_with(pendulum_f, placed, NAMES, 2, None)
     theta = judge.fit(full, {"omega": 0.6})
-    added = [{**with_fitted(p, full, theta, k), "second_look": k == 0} for k, p in enumerate(placed)]
+    added = [replace(p.with_fitted(full, theta, k), second_look=k == 0) for k, p in enumerate(placed)]
     steps = []
     _, kept, _, errors = stepwise._drop_dispensable(pendulum_f, full, added, theta, judge.errors(full, theta), judge,
-                                                    NAMES, 2, None, 3.0, 0.05, steps, lambda s: None, None, recheck)
-    assert [t["term"] for t in kept] == ["v_dot"]
+                                                    NAMES, 2, None, Evidence(), steps, lambda s: None, None, recheck)
+    assert [t.name for t in kept] == ["v_dot"]
     assert [(s["step"], s["term"]) for s in steps] == [("drop, second look", "v_dot|v_dot|")]
     assert steps[0]["threshold"] == pytest.approx(critical_value(3.0, n - 12))  # the folds' samples, not the 12
     assert len(errors) == 12  # the model kept is judged on the validation samples again

@@ -6,10 +6,11 @@ import torch
 from scipy.integrate import solve_ivp
 
 from sklearn_hybrid import HybridRegressor, pack_inputs
-from sklearn_hybrid.diagnosis import ScienceFit, physics_terms
+from sklearn_hybrid.diagnosis import Evidence, ScienceFit, physics_terms
 from sklearn_hybrid.diagnosis.judge import Judge
-from sklearn_hybrid.diagnosis.loop.candidates import augment_with, shape_bounds, term_columns, with_fitted
+from sklearn_hybrid.diagnosis.loop.candidates import augment_with, shape_bounds, term_columns
 from sklearn_hybrid.diagnosis.loop.collapse import replace_stand_ins
+from sklearn_hybrid.diagnosis.loop.placed import PlacedTerm
 
 NAMES = ["T", "u"]
 
@@ -43,15 +44,13 @@ def radiating():
 
 
 def _fitted(judge, terms, names_shapes, start):
-    placed = [{"component": 0, "term": name, "kind": terms[name].kind, "unit": "", "function": terms[name].func,
-               "shape": shape, "bounds": terms[name].shape, "coef": coef, "gain": 0.0}
-              for name, shape, coef in names_shapes]
+    placed = [PlacedTerm(terms[name], 0, shape, coef, 0.0) for name, shape, coef in names_shapes]
     model = augment_with(heated_f, placed, NAMES, 1, None)
     bounds = shape_bounds(model, placed)
-    theta = judge.fit(model, {**start, **{model.terms[k][2]: p["coef"] for k, p in enumerate(placed)},
-                              **{g: placed[k]["shape"][loc] for k in range(len(placed))
+    theta = judge.fit(model, {**start, **{model.terms[k][2]: p.coef for k, p in enumerate(placed)},
+                              **{g: placed[k].shape[loc] for k in range(len(placed))
                                  for loc, g in model.shape_names[k].items()}}, bounds)
-    added = [{**with_fitted(p, model, theta, k), "second_look": False} for k, p in enumerate(placed)]
+    added = [p.with_fitted(model, theta, k) for k, p in enumerate(placed)]
     return model, added, theta, judge.errors(model, theta, bounds)
 
 
@@ -63,15 +62,15 @@ def _replace(radiating, names_shapes):
                                                   "u": torch.as_tensor(inputs[:, 0])})
     steps = []
     out = replace_stand_ins(heated_f, model, added, theta, errors, judge, columns, learned, [states, inputs], NAMES,
-                            1, None, 0.05, steps, lambda s: None)
+                            1, None, steps, lambda s: None, evidence=Evidence())
     return theta, out, steps
 
 
 def test_a_square_root_and_an_exponential_give_way_to_the_power_law(radiating):
     before, (_, added, theta, _), steps = _replace(radiating, [("sqrt|T|", {}, -0.1), ("exp(k*T)", {"k": 1.0}, -0.05)])
     assert abs(before["h"] - 0.3) > 0.05  # the stand-ins moved the science's own parameter
-    assert [t["term"] for t in added] == ["|T|^p"]
-    assert added[0]["shape"]["p"] == pytest.approx(2.7, abs=0.1) and added[0]["coef"] == pytest.approx(-0.12, rel=0.1)
+    assert [t.name for t in added] == ["|T|^p"]
+    assert added[0].shape["p"] == pytest.approx(2.7, abs=0.1) and added[0].coef == pytest.approx(-0.12, rel=0.1)
     assert theta["h"] == pytest.approx(0.3, abs=0.02)  # and the replacement puts it back
     assert [s["term"] for s in steps if s["step"] == "replace" and s["accepted"]] == ["|T|^p"]
     assert all(s["kind"] not in ("sqrt", "exponential") for s in steps)  # a term of another kind
@@ -80,4 +79,4 @@ def test_a_square_root_and_an_exponential_give_way_to_the_power_law(radiating):
 def test_a_polynomial_pair_is_left_as_it_is(radiating):
     """T^2 + T^3 is a Taylor reading, not two stand-ins: nothing is tried."""
     _, (_, added, _, _), steps = _replace(radiating, [("T^2", {}, -0.05), ("T^3", {}, -0.05)])
-    assert [t["term"] for t in added] == ["T^2", "T^3"] and steps == []
+    assert [t.name for t in added] == ["T^2", "T^3"] and steps == []

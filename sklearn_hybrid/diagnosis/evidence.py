@@ -107,6 +107,10 @@ class Evidence:
         """The (training rows, validation rows) pairs and the group codes (``held_out_splits``)."""
         return held_out_splits(n, self.validation_fraction, self.cv, self.groups)
 
+    def verdict(self, errors_before: np.ndarray, errors_after: np.ndarray) -> dict[str, float | bool]:
+        """:func:`evidence` of these held-out errors, asked with this ``z`` and ``min_gain``."""
+        return evidence(errors_before, errors_after, z=self.z, min_gain=self.min_gain)
+
 
 def critical_value(z: float, n: int) -> float:
     """What the mean log-ratio of ``n`` paired samples must exceed, in standard errors, for ``z``.

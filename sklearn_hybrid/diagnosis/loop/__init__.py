@@ -1,7 +1,8 @@
 """The closed loop: find what the science misses, add it where held-out data support it, refit.
 
 ``close.py`` holds :func:`close_the_loop`, the one call; ``stepwise.py`` the forward selection
-(screen, refit, judge, drop, second look); ``candidates.py`` the candidates and their rankings;
+(screen, refit, judge, drop, second look); ``placed.py`` what a candidate is (a term placed on a
+component, or several judged as one); ``candidates.py`` the candidates and their rankings;
 ``joint.py`` the sets of terms that explain the residual only together; ``collapse.py`` the single
 term that replaces stand-ins; ``arguments.py`` the checks of the loop's arguments, made before anything
 is fitted; ``report.py`` the :class:`LoopResult` that reports and plots itself; ``watch.py`` the seam through

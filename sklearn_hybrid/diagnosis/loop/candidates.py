@@ -2,18 +2,19 @@
 
 :class:`Candidates` holds the user's settings of the search: which terms, how many may be added.
 
-A candidate is a dict: the ``component`` (output index, or a list of them for a group) it is placed
-on, its ``term`` name, ``kind``, ``function``, starting ``shape`` and ``coef``. :func:`rank_by_residual` ranks
-them by the residual the network still carries, :func:`rank_by_fit` by the network-free model's
-training error they would remove; :func:`augment_with` turns the placed candidates into an augmented
-science function (:func:`~sklearn_hybrid.diagnosis.augment_science`) for
-:mod:`~sklearn_hybrid.diagnosis.loop.stepwise` to refit and judge.
+A candidate is a term placed on a component with a starting ``shape`` and ``coef``
+(:class:`~sklearn_hybrid.diagnosis.loop.placed.PlacedTerm`), or several judged as one
+(:class:`~sklearn_hybrid.diagnosis.loop.placed.PlacedGroup`). :func:`rank_by_residual` ranks them by
+the residual the network still carries, :func:`rank_by_fit` by the network-free model's training error
+they would remove; :func:`augment_with` turns the placed terms into an augmented science function
+(:func:`~sklearn_hybrid.diagnosis.augment_science`) for :mod:`~sklearn_hybrid.diagnosis.loop.stepwise`
+to refit and judge.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from itertools import zip_longest
 from typing import Any
 
@@ -23,7 +24,8 @@ import torch
 from ..augment import augment_science
 from ..science_fit import ScienceFit
 from ..sensitivity import finite_differences, free_columns
-from ..terms import Term
+from ..terms import Term, physics_terms
+from .placed import PlacedGroup, PlacedTerm, offset_term
 
 
 @dataclass(frozen=True, eq=False)
@@ -74,6 +76,15 @@ class Candidates:
                     what = "a function" if callable(term) else f"a {type(term).__name__}"
                     raise TypeError(f"terms holds {term!r} ({what}); it must hold Term objects: {how}.")
 
+    def library(self, variables: Sequence[str], values: np.ndarray, units: Mapping[str, str] | None,
+                scaled: Mapping[int, str] | None, n_states: int | None) -> list[Term]:
+        """The candidate terms: ``terms``, or :func:`~sklearn_hybrid.diagnosis.physics_terms` of ``kinds``,
+        ``user_terms`` and ``positive`` over the ``variables`` at ``values`` (and the ``scaled`` outputs of
+        an ODE's uncertain equations, by index)."""
+        if self.terms is not None:
+            return list(self.terms)
+        return physics_terms(variables, values, units, self.kinds, self.user_terms, self.positive, scaled, n_states)
+
 
 def term_columns(terms: Sequence[Term], variables: dict[str, torch.Tensor]) -> list[tuple]:
     """``(term, shape, values)`` of every term at every starting shape, on the visited states.
@@ -95,7 +106,7 @@ def term_columns(terms: Sequence[Term], variables: dict[str, torch.Tensor]) -> l
 
 
 def rank_by_residual(columns: list[tuple], remaining: np.ndarray, jac: np.ndarray, components: Sequence[int],
-          taken: set) -> list[dict]:
+          taken: set) -> list[PlacedTerm]:
     """Every (component, term) scored by the share of the remaining residual it explains.
 
     The term is fitted together with the parameter sensitivities of its component, so a term that
@@ -123,19 +134,18 @@ def rank_by_residual(columns: list[tuple], remaining: np.ndarray, jac: np.ndarra
                 if cc < 1e-3 * float(col @ col):  # within the parameters' span: a shift, not a term
                     continue
                 gain = float(c @ r) ** 2 / cc
-                if best is None or gain > best["gain"]:
-                    best = {"component": j, "term": name, "kind": term.kind, "unit": term.unit,
-                            "function": term.func, "shape": shape, "bounds": term.shape,
-                            "coef": float(c @ r) / cc, "gain": gain / total}
+                # (this compares the unscaled gain with the best one's share of the total, as it always has)
+                if best is None or gain > best.gain:
+                    best = PlacedTerm(term, j, shape, float(c @ r) / cc, gain / total)
             if best is not None:
                 ranked.append(best)
-    return sorted(ranked, key=lambda t: -t["gain"])
+    return sorted(ranked, key=lambda t: -t.gain)
 
 
-def rank_by_fit(columns: list[tuple], science: Callable, current: Callable, added: list[dict],
+def rank_by_fit(columns: list[tuple], science: Callable, current: Callable, added: list[PlacedTerm],
                  theta: Mapping[str, Any], fit: ScienceFit, scale: np.ndarray, components: Sequence[int],
                  taken: set, names: Sequence[str], n_states: int,
-                 param_names: Mapping[str, str] | None) -> list[dict]:
+                 param_names: Mapping[str, str] | None) -> list[PlacedTerm]:
     """Every (component, term, shape) scored by the training error its addition removes, without the network.
 
     A score test in trajectory space: the sensitivity of the network-free prediction to the new
@@ -152,7 +162,7 @@ def rank_by_fit(columns: list[tuple], science: Callable, current: Callable, adde
     Q = np.linalg.qr(J)[0] if J.shape[1] else np.zeros((len(base), 0))
     r = r - Q @ (Q.T @ r)
     total = float(r @ r) or 1.0
-    best: dict[tuple, dict] = {}
+    best: dict[tuple, PlacedTerm] = {}
     for term, shape, values in columns:
         size = float(np.sqrt(np.mean(values ** 2)))
         if not np.isfinite(size) or size == 0:
@@ -161,8 +171,7 @@ def rank_by_fit(columns: list[tuple], science: Callable, current: Callable, adde
             if (j, term.name) in taken or term.component not in (None, j):
                 continue
             h = 1e-4 * scale[j] / size
-            cand = {"component": j, "term": term.name, "kind": term.kind, "unit": term.unit,
-                    "function": term.func, "shape": shape, "bounds": term.shape, "coef": h}
+            cand = PlacedTerm(term, j, shape, h)
             augmented = augment_with(science, [*added, cand], names, n_states, param_names)
             start = {**theta, **initial_values(augmented, [*added, cand])}
             with np.errstate(all="ignore"):
@@ -174,21 +183,21 @@ def rank_by_fit(columns: list[tuple], science: Callable, current: Callable, adde
             if cc < 1e-6 * float(col @ col) or cc == 0:  # within the parameters' span
                 continue
             gain = float(c @ r) ** 2 / cc / total
-            if (j, term.name) not in best or gain > best[j, term.name]["gain"]:
-                best[j, term.name] = {**cand, "coef": float(c @ r) / cc, "gain": gain, "ranked_by": "fit"}
-    return sorted(best.values(), key=lambda t: -t["gain"])
+            if (j, term.name) not in best or gain > best[j, term.name].gain:
+                best[j, term.name] = replace(cand, coef=float(c @ r) / cc, gain=gain, ranked_by="fit")
+    return sorted(best.values(), key=lambda t: -t.gain)
 
 
-def interleave(ranked: list[dict], n: int) -> list[dict]:
+def interleave(ranked: list[PlacedTerm], n: int) -> list[PlacedTerm]:
     """The ``n`` best candidates, taken in turn from each component's own ranking.
 
     Shares are compared within a component only: a large residual on one component (say the
     observed tank) must not crowd out every candidate for another (the unobserved one).
     """
-    by_component: dict[int, list[dict]] = {}
+    by_component: dict[int, list[PlacedTerm]] = {}
     for cand in ranked:
-        by_component.setdefault(cand["component"], []).append(cand)
-    queues = sorted(by_component.values(), key=lambda q: -q[0]["gain"])
+        by_component.setdefault(cand.component, []).append(cand)
+    queues = sorted(by_component.values(), key=lambda q: -q[0].gain)
     out = []
     while len(out) < n and any(queues):
         for queue in queues:
@@ -197,7 +206,7 @@ def interleave(ranked: list[dict], n: int) -> list[dict]:
     return out
 
 
-def candidate_groups(ranked: list[dict]) -> list[dict]:
+def candidate_groups(ranked: list[PlacedTerm]) -> list[PlacedGroup]:
     """One candidate per term that stands on two or more components among ``ranked``: the term on all of
     them at once, each with its own coefficient.
 
@@ -207,77 +216,47 @@ def candidate_groups(ranked: list[dict]) -> list[dict]:
     candidate, and costing one parameter per component, a group wins only where it validates better
     than each of its single terms by more than ``min_gain`` (see :func:`_simplest_of_the_best`).
     """
-    by_term: dict[str, list[dict]] = {}
+    by_term: dict[str, list[PlacedTerm]] = {}
     for cand in ranked:
-        by_term.setdefault(cand["term"], []).append(cand)
-    return [{**entries[0], "component": [e["component"] for e in entries], "group": entries,
-             "ranked_by": "group"} for entries in by_term.values() if len(entries) > 1]
+        by_term.setdefault(cand.name, []).append(cand)
+    return [PlacedGroup(tuple(entries), gain=entries[0].gain) for entries in by_term.values() if len(entries) > 1]
 
 
-def term_entries(cand: dict) -> list[dict]:
-    """The single terms a candidate places: its group's, or itself."""
-    return cand.get("group", [cand])
-
-
-def where_acts(cand: dict) -> str:
-    components = cand["component"]
-    if cand["kind"] == "offset":
-        return f"the sensor of state {components}"
-    return (f"components {', '.join(map(str, components))}" if isinstance(components, list)
-            else f"component {components}")
-
-
-def count_parameters(cand: dict) -> int:
-    """Coefficients and shape parameters a candidate adds."""
-    return sum(1 + len(e["shape"]) for e in term_entries(cand))
-
-
-def merge_rankings(*rankings: list[dict]) -> list[dict]:
+def merge_rankings(*rankings: list[PlacedTerm]) -> list[PlacedTerm]:
     """The candidates of several rankings, taken in turn, each (component, term) once."""
     out, seen = [], set()
     for group in zip_longest(*rankings):
         for cand in group:
-            if cand is not None and (cand["component"], cand["term"]) not in seen:
-                seen.add((cand["component"], cand["term"]))
+            if cand is not None and cand.key not in seen:
+                seen.add(cand.key)
                 out.append(cand)
     return out
 
 
-def offset_candidate(state: int, variables: Sequence[str]) -> dict:
+def offset_candidate(state: int, variables: Sequence[str]) -> PlacedTerm:
     """The candidate "the sensor of this state reads with a constant offset", starting at zero."""
-    return {"component": state, "term": f"offset({variables[state]})", "kind": "offset", "unit": "",
-            "function": None, "shape": {}, "bounds": {}, "coef": 0.0, "gain": float("nan"), "ranked_by": "declared"}
+    return PlacedTerm(offset_term(f"offset({variables[state]})"), state, {}, 0.0, float("nan"), "declared")
 
 
-def augment_with(science, placed, variables, n_states, param_names):
-    terms = [{"component": t["component"], "term": t["term"], "kind": t["kind"], "coef": t["coef"],
-              "function": t["function"], "shape": t["shape"], "param": (param_names or {}).get(t["term"])}
-             for t in placed]
+def augment_with(science: Callable, placed: Sequence[PlacedTerm], variables: Sequence[str], n_states: int | None,
+                 param_names: Mapping[str, str] | None):
+    """``science`` with the ``placed`` terms, in that order (:func:`~sklearn_hybrid.diagnosis.augment_science`,
+    whose public input is a list of dicts: each term is handed over as one)."""
+    terms = [{"component": t.component, "term": t.name, "kind": t.kind, "coef": t.coef, "function": t.term.func,
+              "shape": t.shape, "param": (param_names or {}).get(t.name)} for t in placed]
     return augment_science(science, terms, variables, n_states=n_states)
 
 
-def initial_values(augmented, placed, newest: int = 1) -> dict:
+def initial_values(augmented, placed: Sequence[PlacedTerm], newest: int = 1) -> dict:
     """Starting values of the coefficients and shape parameters of the ``newest`` terms."""
     out = {}
     for i in range(len(placed) - newest, len(placed)):
-        out[augmented.terms[i][2]] = placed[i]["coef"]
-        out.update({glob: placed[i]["shape"][local] for local, glob in augmented.shape_names[i].items()})
+        out[augmented.terms[i][2]] = placed[i].coef
+        out.update({glob: placed[i].shape[local] for local, glob in augmented.shape_names[i].items()})
     return out
 
 
-def shape_bounds(augmented, placed) -> dict:
-    return {glob: t["bounds"][local][1] for t, names in zip(placed, augmented.shape_names)
+def shape_bounds(augmented, placed: Sequence[PlacedTerm]) -> dict:
+    """The bounds of the ``placed`` terms' shape parameters, by their names in ``augmented``."""
+    return {glob: t.term.shape[local][1] for t, names in zip(placed, augmented.shape_names)
             for local, glob in names.items()}
-
-
-def with_fitted(cand, augmented, theta, i) -> dict:
-    """The accepted term with its fitted coefficient and shape values."""
-    _, _, coef_name = augmented.terms[i]
-    shape = {local: float(theta[glob]) for local, glob in augmented.shape_names[i].items()}
-    return {**cand, "coef": float(theta[coef_name]), "shape": shape, "param": coef_name,
-            "shape_params": dict(augmented.shape_names[i])}
-
-
-def public_record(cand: dict) -> dict:
-    return {"ranked_by": cand.get("ranked_by", "residual"),
-            **{k: cand[k] for k in ("component", "term", "kind", "gain", "shape")}}

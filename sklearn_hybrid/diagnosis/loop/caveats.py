@@ -26,7 +26,8 @@ import numpy as np
 from ...science import read_signature
 from ..judge import FIT_FAILURES
 from ..science_fit import ScienceFit
-from .candidates import augment_with, shape_bounds, term_entries
+from .candidates import augment_with, shape_bounds
+from .placed import PlacedTerm
 
 __all__ = ["open_question", "left_unexplained", "weigh_rivals", "OPEN_Z", "UNEXPLAINED_SHARE", "MAX_RIVALS"]
 
@@ -98,7 +99,7 @@ def left_unexplained(unexplained: Mapping[str, Any], network: np.ndarray, learne
             "remainder against every variable)")
 
 
-def weigh_rivals(intervals: Any, rivals: Sequence[dict], science: Callable, added: list[dict],
+def weigh_rivals(intervals: Any, rivals: Sequence[dict], science: Callable, added: list[PlacedTerm],
                  theta: Mapping[str, Any], fit: ScienceFit, variables: Sequence[str], n_states: int,
                  param_names: Mapping[str, str] | None, log: Callable[[str], None] = lambda s: None) -> list[dict]:
     """Refit the rival forms that move a science parameter, and call it conditional on the chosen form.
@@ -108,7 +109,7 @@ def weigh_rivals(intervals: Any, rivals: Sequence[dict], science: Callable, adde
     (at most ``MAX_RIVALS``, the lowest held-out error first). Where the refit confirms it, the
     interval (in ``intervals``, changed in place) is widened to hold the rival's value, and where the
     rival moves it by more than the interval's width, the parameter becomes ``"conditional"``: the
-    data leave it to the term's form.
+    data leave it to the term's form. ``added`` are the final model's terms at their values in ``theta``.
 
     Returns
     -------
@@ -120,7 +121,7 @@ def weigh_rivals(intervals: Any, rivals: Sequence[dict], science: Callable, adde
     labels = [k for k in names if intervals.verdicts.get(k) in ("identified", "conditional")]
     if not labels:
         return []
-    final = {(t["component"], t["term"]) for t in added}
+    final = {t.key for t in added}
     width = {k: intervals.intervals[k][1] - intervals.intervals[k][0] for k in labels}
 
     def outside(values):
@@ -131,13 +132,13 @@ def weigh_rivals(intervals: Any, rivals: Sequence[dict], science: Callable, adde
     for rival in sorted(rivals, key=lambda r: r["mse"]):
         if len(out) == MAX_RIVALS:
             break
-        entries = term_entries(rival["cand"])
+        entries = rival["cand"].entries()
         replaced = set(rival.get("of", ()))
-        if not replaced <= final or any((e["component"], e["term"]) in final - replaced for e in entries):
+        if not replaced <= final or any(e.key in final - replaced for e in entries):
             continue  # the final model no longer holds what it replaced, or holds it already
         if not outside(rival["theta"]):
             continue
-        placed = [t for t in added if (t["component"], t["term"]) not in replaced] + list(entries)
+        placed = [t for t in added if t.key not in replaced] + entries
         model = augment_with(science, placed, variables, n_states, param_names)
         start = dict(read_signature(model)[1])
         start.update({k: v for k, v in theta.items() if k in start})
@@ -146,7 +147,7 @@ def weigh_rivals(intervals: Any, rivals: Sequence[dict], science: Callable, adde
             fitted = fit.fit(model, start, shape_bounds(model, placed))
         except FIT_FAILURES:
             continue
-        what = " + ".join(e["term"] for e in entries)
+        what = " + ".join(e.name for e in entries)
         words = (f"with {what} instead of {' + '.join(term for _, term in sorted(replaced))}" if replaced
                  else f"with {what} added")
         moved = outside(fitted)

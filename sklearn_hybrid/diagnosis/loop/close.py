@@ -38,7 +38,6 @@ from .report import LoopResult, Scoring, format_table, residual_profile
 from ..sensitivity import state_labels, science_output
 from ..science_fit import ScienceFit
 from .stepwise import forward_selection
-from ..terms import physics_terms
 from .watch import current_watch
 
 __all__ = ["close_the_loop"]
@@ -277,11 +276,8 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
             print(message if detail else f"[{time.perf_counter() - start:4.0f} s] {message}", flush=True)
     evidence = _settings("evidence", evidence, Evidence, "Evidence(z=..., cv=...)")
     candidates = _settings("candidates", candidates, Candidates, "Candidates(kinds=..., max_terms=...)")
-    terms, term_kinds, user_terms = candidates.terms, candidates.kinds, candidates.user_terms
-    positive, max_terms, n_candidates = candidates.positive, candidates.max_terms, candidates.n_candidates
     check_options(n_jobs, X_test, y_test)
     _check_targets(X, y, X_test, y_test, test_scorer)
-    z, min_gain, cv, second_look = evidence.z, evidence.min_gain, evidence.cv, evidence.second_look
     # the held-out split checks the groups and its own limits before anything is fitted
     splits, codes = evidence.splits(len(y))
     _check_fitted_horizon(estimator, y)
@@ -294,14 +290,14 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
                          "with one theta shared by every sample. Close the loop on a model with a shared theta.")
     uncertain = uncertain_components(estimator, X, y, exact, state_names)
     offsets = offset_states(estimator, X, y, offsets, state_names)
-    variables, first_values = check_names(estimator, X, y, state_names, input_names, units, user_terms, positive)
+    variables, first_values = check_names(estimator, X, y, state_names, input_names, units, candidates.user_terms,
+                                          candidates.positive)
     # the user's terms are tried on the data's first states before anything is fitted
     n_states = count_states(estimator, X, y) if ode is not None else None
     # an ODE's uncertain equations may have a parameter that varies with the state or an input: f_j(x) * x_k
     scaled = (None if n_states is None else
               {j: variables[j] for j in (range(n_states) if uncertain is None else uncertain)})
-    library = physics_terms(variables, first_values, units, term_kinds, user_terms, positive, scaled,
-                            n_states) if terms is None else terms
+    library = candidates.library(variables, first_values, units, scaled, n_states)
     check_param_names(param_names, {t.name for t in library} | {f"offset({variables[j]})" for j in offsets})
     check_refit_params(estimator, refit_params)
     if not isinstance(refit_hybrid, (bool, np.bool_)):
@@ -342,8 +338,8 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
     outputs = [f"g[{s}]" for s in states] if ode is not None else [f"g[{j}]" for j in range(base.shape[1])]
     components = list(range(base.shape[1])) if uncertain is None else uncertain
     values = np.hstack([a.reshape(len(a), -1) for a in args])
-    if terms is None:
-        terms = physics_terms(variables, values, units, term_kinds, user_terms, positive, scaled, n_states)
+    # the candidates on the visited states (a library made on the data's first states only checked the names)
+    candidates = replace(candidates, terms=candidates.library(variables, values, units, scaled, n_states))
 
     with Scoring(n_jobs, X, X_test, y_test, test_scorer, theta_true) as scoring:
         log("scoring the first hybrid ..." if scoring.executor is None else
@@ -366,32 +362,35 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         if window:
             unit = (f"{unit} (windows of {window} steps cut from the {len(y)} records, each started from its "
                     "measured first state; the chosen model refitted on the whole records)")
-        log(f"selecting terms ({len(terms)} candidates on {len(components)} component(s), "
-            f"{n_val} validation {unit}{'' if cv is None else f' in {cv} blocks'}) ...")
-        sel = forward_selection(science, before.theta_, select, select_splits, terms,
-                                variables, n_states, args, learned, components, max_terms=max_terms,
-                                n_candidates=n_candidates, z=z, min_gain=min_gain, param_names=param_names,
-                                groups=select_codes, offsets=offsets, second_look=second_look, log=log)
+        blocks = "" if evidence.cv is None else f" in {evidence.cv} blocks"
+        log(f"selecting terms ({len(candidates.terms)} candidates on {len(components)} component(s), "
+            f"{n_val} validation {unit}{blocks}) ...")
+        sel = forward_selection(science, before.theta_, select, select_splits, variables, n_states, args, learned,
+                                components, candidates=candidates, evidence=evidence,
+                                param_names=param_names, groups=select_codes, offsets=offsets, log=log)
         final = sel["science"]
         lap("selection")
-        bounds = {g: t["bounds"][loc][1] for t in sel["added"] for loc, g in t["shape_params"].items()}
+        bounds = {g: b for t in sel["added"] for g, b in t.parameter_bounds().items()}
         substeps = accurate_substeps(fit, final, sel["theta"])
         if substeps is not None:  # the model chosen needs a finer integration than the science did
             fit = ScienceFit(before, X, y, fit_initial_states, n_substeps=substeps)
         science_theta = fit.fit(final, sel["theta"], bounds)  # every sample, now that the terms are chosen
+        final_terms = [t.with_values(science_theta) for t in sel["added"]]
 
-        def outputs_of(t):  # a sensor offset stands on a measured state, not on an equation
-            return states[t["component"]] if t["kind"] == "offset" else outputs[t["component"]]
+        def outputs_of(component, kind):  # a sensor offset stands on a measured state, not on an equation
+            return states[component] if kind == "offset" else outputs[component]
 
-        added = [{**t, "output": outputs_of(t), "coef": float(science_theta[t["param"]]),
-                  **({"unit": (units or {}).get(states[t["component"]], "")} if t["kind"] == "offset" else {}),
-                  "shape": {loc: float(science_theta[g]) for loc, g in t["shape_params"].items()}}
-                 for t in sel["added"]]
+        # what leaves the loop is a dict per term and per step, as the report, the benchmarks and users read it
+        added = [t.record() for t in final_terms]
+        for record in added:
+            record["output"] = outputs_of(record["component"], record["kind"])
+            if record["kind"] == "offset":
+                record["unit"] = (units or {}).get(states[record["component"]], "")
         for s in sel["steps"]:  # a group's step stands on several components
-            s["output"] = ", ".join(outputs_of({**s, "component": j}) for j in np.atleast_1d(s["component"]))
+            s["output"] = ", ".join(outputs_of(j, s["kind"]) for j in np.atleast_1d(s["component"]))
         remaining = learned - science_output(final, science_theta, args)
         unexplained = residual_profile(remaining, learned, values, variables, outputs, components)
-        incomplete = (open_question(sel["steps"], min_gain)
+        incomplete = (open_question(sel["steps"], evidence.min_gain)
                       or left_unexplained(unexplained, residual, learned, outputs))
 
         if fit_initial_states:  # the hybrid refit starts every sample from the states fitted with the final model
@@ -405,8 +404,8 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
                   for t in added if t["kind"] != "offset"}
         intervals = science_intervals(alone, X, y, incomplete=incomplete, fitted_states=fit.latent or None,
                                        terms=chosen)
-        rivals = weigh_rivals(intervals, sel["rivals"], science, added, science_theta, fit, variables, n_states,
-                              param_names, log)
+        rivals = weigh_rivals(intervals, sel["rivals"], science, final_terms, science_theta, fit, variables,
+                              n_states, param_names, log)
         lap("network-free refit and intervals")
         log("scoring the network-free model ..." if scoring.executor is None else
             "scoring the network-free model in a worker process ...")
@@ -438,8 +437,8 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
     if unscored:  # only now known: theta_true may name the coefficient of a term the loop might add
         warnings.warn(f"theta_true names {unscored}, parameters of neither the science model nor the terms added: "
                       "their error is not reported.", UserWarning, stacklevel=2)
-    report = format_table(rows, added, sel["steps"], unexplained, n_val, z=z, min_gain=min_gain, cv=cv,
-                          unit=unit, tested=X_test is not None or test_scorer is not None)
+    report = format_table(rows, added, sel["steps"], unexplained, n_val, z=evidence.z, min_gain=evidence.min_gain,
+                          cv=evidence.cv, unit=unit, tested=X_test is not None or test_scorer is not None)
     log(report)
     return LoopResult(before=before, after=after, science=augmented, science_theta=science_theta, science_only=alone,
                  intervals=intervals, initial_states=fit.initial_states.copy() if fit_initial_states else None,

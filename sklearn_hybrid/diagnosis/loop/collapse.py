@@ -17,18 +17,20 @@ from collections.abc import Callable, Mapping, Sequence
 import numpy as np
 
 from ...science import read_signature
+from ..evidence import Evidence
 from ..judge import FIT_FAILURES, Judge
-from .candidates import (augment_with, count_parameters, initial_values, public_record, rank_by_residual,
-                         shape_bounds, with_fitted)
+from .candidates import Candidates, augment_with, initial_values, rank_by_residual, shape_bounds
+from .placed import PlacedTerm
 from ..sensitivity import free_columns, parameter_jacobian, science_output
 
 __all__ = ["replace_stand_ins"]
 
 
-def replace_stand_ins(science: Callable, current: Callable, added: list[dict], theta: dict, errors: np.ndarray,
-                      judge: Judge, columns: list[tuple], learned: np.ndarray, args: Sequence[np.ndarray],
-                      variables: Sequence[str], n_states: int, param_names: Mapping[str, str] | None,
-                      min_gain: float, steps: list[dict], log: Callable[[str], None], n_candidates: int = 4,
+def replace_stand_ins(science: Callable, current: Callable, added: list[PlacedTerm], theta: dict,
+                      errors: np.ndarray, judge: Judge, columns: list[tuple], learned: np.ndarray,
+                      args: Sequence[np.ndarray], variables: Sequence[str], n_states: int,
+                      param_names: Mapping[str, str] | None, steps: list[dict], log: Callable[[str], None], *,
+                      evidence: Evidence, candidates: Candidates = Candidates(),
                       fixed: set = frozenset()) -> tuple:
     """Replace the terms of an equation by one term of another kind that validates as well.
 
@@ -36,21 +38,21 @@ def replace_stand_ins(science: Callable, current: Callable, added: list[dict], t
     ----------
     science, current : callable
         The original science function, and it with the ``added`` terms.
-    added : list of dict
-        The accepted terms (as :func:`~sklearn_hybrid.diagnosis.loop.stepwise.forward_selection` keeps
-        them), with ``theta`` their model's parameters and ``errors`` its held-out errors.
+    added : list of PlacedTerm
+        The accepted terms, fitted (as :func:`~sklearn_hybrid.diagnosis.loop.stepwise.forward_selection`
+        keeps them), with ``theta`` their model's parameters and ``errors`` its held-out errors.
     judge : Judge
         Refits and held-out errors, the selection's own.
     columns, learned, args, variables, n_states, param_names
         As in the selection: the terms' columns on the visited states, what the hybrid learned
         there, the science function's inputs, the variables' names, the number of states, and the
         new coefficients' names.
-    min_gain : float
-        A replacement does as well when its held-out error is within this share of the model's.
     steps : list of dict
         The selection's rows; each replacement tried adds one (``step`` ``"replace"``).
-    n_candidates : int, default=4
-        Single terms tried per equation.
+    evidence : Evidence
+        A replacement does as well when its held-out error is within ``min_gain`` of the model's.
+    candidates : Candidates, default=Candidates()
+        Its ``n_candidates``: the single terms tried per equation.
     fixed : set of str
         Parameters the refits hold (they cannot absorb a shift).
 
@@ -59,9 +61,10 @@ def replace_stand_ins(science: Callable, current: Callable, added: list[dict], t
     tuple
         ``(current, added, theta, errors)``, replaced where a single term did as well.
     """
-    for j in sorted({t["component"] for t in added if t["kind"] != "offset"}):
-        on_j = [t for t in added if t["component"] == j and t["kind"] != "offset"]
-        if len(on_j) < 2 or all(t["kind"] == "polynomial" for t in on_j):
+    min_gain = evidence.min_gain
+    for j in sorted({t.component for t in added if t.kind != "offset"}):
+        on_j = [t for t in added if t.component == j and t.kind != "offset"]
+        if len(on_j) < 2 or all(t.kind == "polynomial" for t in on_j):
             continue  # a Taylor reading (x + x^3, the two terms of a limit cycle) is not a stand-in
         rest = [t for t in added if t not in on_j]
         reduced = augment_with(science, rest, variables, n_states, param_names)
@@ -72,10 +75,10 @@ def replace_stand_ins(science: Callable, current: Callable, added: list[dict], t
             continue
         remaining = learned - science_output(reduced, base, args)
         jac = free_columns(*parameter_jacobian(reduced, base, args), fixed)
-        kinds, budget = {t["kind"] for t in on_j}, sum(count_parameters(t) for t in on_j)
-        taken = {(t["component"], t["term"]) for t in rest}
+        kinds, budget = {t.kind for t in on_j}, sum(t.n_parameters() for t in on_j)
+        taken = {t.key for t in rest}
         ranked = [c for c in rank_by_residual(columns, remaining, jac, [j], taken)
-                  if c["kind"] not in kinds and count_parameters(c) < budget][:n_candidates]
+                  if c.kind not in kinds and c.n_parameters() < budget][:candidates.n_candidates]
         best = None
         for cand in ranked:
             placed = [*rest, cand]
@@ -88,10 +91,10 @@ def replace_stand_ins(science: Callable, current: Callable, added: list[dict], t
                 continue
             mse, now = float(np.mean(cand_errors)), float(np.mean(errors))
             ok = bool(np.isfinite(mse) and mse <= (1 + min_gain) * now)
-            steps.append({"step": "replace", **public_record(cand), "mse_before": now, "mse_after": mse,
+            steps.append({"step": "replace", **cand.row(), "mse_before": now, "mse_after": mse,
                           "gain": 1 - mse / now if now > 0 else 0.0, "z": float("nan"), "accepted": False,
-                          "replaces": [t["term"] for t in on_j]})
-            log(f"  replace {', '.join(t['term'] for t in on_j)} on component {j} by {cand['term']}: validation "
+                          "replaces": [t.name for t in on_j]})
+            log(f"  replace {', '.join(t.name for t in on_j)} on component {j} by {cand.name}: validation "
                 f"MSE {mse:.4g} against {now:.4g}{' (as well)' if ok else ''}")
             if ok and (best is None or mse < best[0]):
                 best = (mse, cand, model, fitted, cand_errors, len(steps) - 1)
@@ -99,16 +102,15 @@ def replace_stand_ins(science: Callable, current: Callable, added: list[dict], t
             continue
         _, cand, current, theta, errors, index = best
         steps[index]["accepted"] = True
-        added = [with_fitted(t, current, theta, k) for k, t in enumerate([*rest, cand])]
-        added[-1]["second_look"] = False
-        log(f"  replaced {', '.join(t['term'] for t in on_j)} on component {j} by {cand['term']}")
+        added = [t.with_fitted(current, theta, k) for k, t in enumerate([*rest, cand])]  # the new one: no second look
+        log(f"  replaced {', '.join(t.name for t in on_j)} on component {j} by {cand.name}")
     return current, added, theta, errors
 
 
-def _start(science: Callable, reduced, rest: list[dict], theta: dict) -> dict:
+def _start(science: Callable, reduced, rest: list[PlacedTerm], theta: dict) -> dict:
     """The reduced model's starting values: the original parameters and the kept terms' latest values."""
     start = {k: v for k, v in theta.items() if k in read_signature(science)[1]}
     for k, t in enumerate(rest):
-        start[reduced.terms[k][2]] = theta[t["param"]]
-        start.update({glob: theta[t["shape_params"][loc]] for loc, glob in reduced.shape_names[k].items()})
+        start[reduced.terms[k][2]] = theta[t.param]
+        start.update({glob: theta[t.shape_params[loc]] for loc, glob in reduced.shape_names[k].items()})
     return start

@@ -17,11 +17,13 @@ same evidence as a single term, with the threshold corrected for the number of s
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import replace
 from itertools import combinations
 
 import numpy as np
 
 from ..supports import select_support, support_stats
+from .placed import PlacedGroup, PlacedTerm
 
 __all__ = ["joint_candidates"]
 
@@ -32,7 +34,7 @@ _SPARSE = {"criterion": "ebic", "max_terms": 3, "min_explained": 0.01}
 
 def joint_candidates(columns: list[tuple], remaining: np.ndarray, jac: np.ndarray, components: Sequence[int],
                      taken: set, *, n: int = 4, n_leads: int = 3, n_partners: int = 2,
-                     min_share: float = 0.05) -> list[dict]:
+                     min_share: float = 0.05) -> list[PlacedGroup]:
     """Sets of two or three terms on one equation that explain the residual only together.
 
     Parameters
@@ -60,12 +62,12 @@ def joint_candidates(columns: list[tuple], remaining: np.ndarray, jac: np.ndarra
 
     Returns
     -------
-    list of dict
-        Candidates of kind ``"joint"`` on one ``component`` each, whose ``group`` holds the single
-        terms (each a candidate as :func:`~sklearn_hybrid.diagnosis.loop.candidates.rank_by_residual`
-        makes them, with its coefficient from the joint fit); ``gain`` is the share the set explains.
+    list of PlacedGroup
+        Joint candidates (kind ``"joint"``) on one component each, whose ``members`` are the single
+        terms (each placed as :func:`~sklearn_hybrid.diagnosis.loop.candidates.rank_by_residual`
+        places them, with its coefficient from the joint fit); ``gain`` is the share the set explains.
     """
-    found: dict[frozenset, dict] = {}
+    found: dict[frozenset, PlacedGroup] = {}
     for j in components:
         pool, U, r = _pool(columns, remaining[:, j], jac[:, j, :], j, taken)
         if len(pool) < 2:
@@ -83,12 +85,9 @@ def joint_candidates(columns: list[tuple], remaining: np.ndarray, jac: np.ndarra
             share = 1.0 - float(np.sum((r - U[:, idx] @ beta) ** 2))
             if share - float(alone[idx].sum()) < min_share:
                 continue
-            group = [{**pool[k], "coef": float(b) * pool[k]["coef"]} for k, b in zip(idx, beta)]
-            key = frozenset((j, e["term"]) for e in group)
-            found[key] = {"component": j, "term": " + ".join(e["term"] for e in group), "kind": "joint",
-                          "unit": "", "function": None, "shape": {}, "bounds": {}, "coef": float("nan"),
-                          "gain": share, "group": group, "ranked_by": "joint"}
-    return sorted(found.values(), key=lambda c: -c["gain"])[:n]
+            group = tuple(replace(pool[k], coef=float(b) * pool[k].coef) for k, b in zip(idx, beta))
+            found[frozenset(e.key for e in group)] = PlacedGroup(group, joint=True, gain=share)
+    return sorted(found.values(), key=lambda c: -c.gain)[:n]
 
 
 def _pool(columns: list[tuple], residual: np.ndarray, S: np.ndarray, j: int, taken: set):
@@ -115,9 +114,7 @@ def _pool(columns: list[tuple], residual: np.ndarray, S: np.ndarray, j: int, tak
         u = c / np.sqrt(cc)
         score = float(u @ r) ** 2
         if term.name not in best or score > best[term.name][0]:
-            entry = {"component": j, "term": term.name, "kind": term.kind, "unit": term.unit, "function": term.func,
-                     "shape": shape, "bounds": term.shape, "coef": norm / np.sqrt(cc), "gain": score}
-            best[term.name] = (score, entry, u)
+            best[term.name] = (score, PlacedTerm(term, j, shape, norm / np.sqrt(cc), score), u)
     pool = [entry for _, entry, _ in best.values()]
     U = np.column_stack([u for *_, u in best.values()]) if best else np.zeros((len(r), 0))
     return pool, U, r

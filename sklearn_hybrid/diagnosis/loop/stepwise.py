@@ -23,39 +23,58 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Mapping, Sequence
-from typing import Any
+from dataclasses import replace
+from typing import Any, NamedTuple
 
 import numpy as np
 import torch
 
 from ...science import read_signature
 from ..judge import FIT_FAILURES, Judge, training_folds
-from .candidates import (augment_with, term_entries, free_columns, candidate_groups, initial_values, interleave, merge_rankings,
-                         count_parameters, offset_candidate, public_record, rank_by_residual, rank_by_fit, shape_bounds, term_columns, where_acts,
-                         with_fitted)
+from .candidates import (Candidates, augment_with, candidate_groups, initial_values, interleave, merge_rankings,
+                         offset_candidate, rank_by_residual, rank_by_fit, shape_bounds, term_columns)
 from .collapse import replace_stand_ins
-from ..evidence import evidence, holm
+from ..evidence import Evidence, holm
 from .joint import joint_candidates
+from .placed import Candidate, PlacedTerm
 from .report import format_gain
-from ..sensitivity import parameter_jacobian, science_output
+from ..sensitivity import free_columns, parameter_jacobian, science_output
 from ..science_fit import ScienceFit
-from ..terms import SCIENCE_OUTPUT, Term
+from ..terms import SCIENCE_OUTPUT
 from .watch import current_watch
 
 # worth_a_second_look and SECOND_LOOK_Z are public: the identification benchmark finds with them, in its
 # stored records, the candidates a second look would see (--inconclusive)
-__all__ = ["forward_selection", "look_again", "worth_a_second_look", "SECOND_LOOK_Z"]
+__all__ = ["forward_selection", "look_again", "worth_a_second_look", "Screened", "SECOND_LOOK_Z"]
+
+
+class Screened(NamedTuple):
+    """A candidate judged at a step: its screening fit, verdict and held-out errors.
+
+    A tuple, so that code that watches the selection (the identification benchmark's
+    ``--second-look-null``) can read ``index`` as its sixth item.
+    """
+
+    cand: Candidate
+    theta: dict  # the screening fit of the model with the candidate
+    verdict: dict  # evidence's verdict on its held-out errors
+    errors: np.ndarray  # its held-out errors, one per judged sample (or group)
+    science: Any  # the augmented science function with the candidate
+    index: int  # its row in the selection's steps
+    second_look: bool = False  # judged again by folds of the training samples
 
 
 def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceFit,
-                      splits: Sequence[tuple[np.ndarray, np.ndarray]], terms: Sequence[Term],
-                      variables: Sequence[str], n_states: int,
+                      splits: Sequence[tuple[np.ndarray, np.ndarray]], variables: Sequence[str], n_states: int,
                       args: Sequence[np.ndarray], learned: np.ndarray, components: Sequence[int], *,
-                      max_terms: int = 4, n_candidates: int = 4, z: float = 3.0, min_gain: float = 0.05,
+                      candidates: Candidates, evidence: Evidence,
                       param_names: Mapping[str, str] | None = None, groups: np.ndarray | None = None,
-                      offsets: Sequence[int] = (), second_look: int | None = None,
-                      log: Callable[[str], None] = lambda s: None) -> dict:
+                      offsets: Sequence[int] = (), log: Callable[[str], None] = lambda s: None) -> dict:
     """Add terms one at a time while a network-free refit validates better by more than the noise.
+
+    With one split, when no candidate passes but some lowered the validation error by ``min_gain``
+    with z above 2, those are judged again by ``evidence.second_look`` contiguous folds of the
+    *training* samples (see :func:`look_again`).
 
     Parameters
     ----------
@@ -68,8 +87,6 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
     splits : list of (train, validation) row-index pairs
         One pair: fitted on ``train``, judged on ``validation``. Several (contiguous blocks as
         validation, the other rows as train): every sample judges, by a fit without its block.
-    terms : list of Term
-        The candidates.
     variables : list of str
         Names of the columns of ``args`` (states, then inputs).
     n_states : int
@@ -80,6 +97,13 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
         What the hybrid model learned there: science output plus network.
     components : list of int
         Outputs that may receive terms (the uncertain ones).
+    candidates : Candidates
+        The terms (``terms``: a list, the library itself), ``max_terms`` and ``n_candidates``.
+    evidence : Evidence
+        The test a candidate must pass (``z``, ``min_gain``) and the second look (``second_look``). Its
+        samples are ``splits`` and ``groups``: the selection's own, which may be windows of the records.
+    param_names : dict of str to str, optional
+        Names of the new coefficients by term.
     groups : ndarray of int, optional
         Every sample's group, numbered from 0 (see ``evidence.held_out_splits``): the
         evidence compares one mean error per judged group.
@@ -87,34 +111,31 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
         States whose sensor may read with a constant offset: each is a candidate at every step until
         accepted (an offset changes every equation that reads the state, so no ranking of
         right-hand-side columns can rank it), judged like a term.
-    second_look : int, optional
-        With one split: when no candidate passes but some lowered the validation error by
-        ``min_gain`` with z above 2, those are judged again by ``second_look`` contiguous folds of
-        the *training* samples (see :func:`look_again`). None: no second look.
 
     Returns
     -------
     dict
         ``science`` (augmented function, or the original), ``theta`` (fitted on the training
-        samples), ``added`` (accepted term dicts), ``steps`` (every candidate tried, with its
-        validation error and verdict), ``rivals`` (candidates the held-out data could not tell from
-        the choice: ``role`` ``"instead"`` of the accepted terms ``of`` or ``"add"``-ed to the final
-        model, with ``cand``, its screening fit ``theta`` and validation ``mse``), ``base_errors`` /
+        samples), ``added`` (the accepted terms, fitted: :class:`PlacedTerm`), ``steps`` (a dict per
+        candidate tried, with its validation error and verdict), ``rivals`` (candidates the held-out
+        data could not tell from the choice: ``role`` ``"instead"`` of the accepted terms ``of`` (their
+        keys) or ``"add"``-ed to the final model, with ``cand``, its screening fit ``theta`` and
+        validation ``mse``), ``base_errors`` /
         ``errors`` (validation errors per sample before any term and at the end) and ``seconds``.
     """
     start_time = time.perf_counter()
     tensors = {name: torch.as_tensor(np.asarray(col, dtype=float))
                for name, col in zip(variables, np.hstack([np.asarray(a).reshape(len(a), -1) for a in args]).T)}
     tensors[SCIENCE_OUTPUT] = torch.as_tensor(science_output(science, theta, args), dtype=torch.float64)
-    columns = term_columns(terms, tensors)
+    columns = term_columns(candidates.terms, tensors)
     judge = Judge(fit, splits, groups)
-    recheck = training_folds(fit, splits, groups, second_look)
+    recheck = training_folds(fit, splits, groups, evidence.second_look)
     current, theta_now = science, judge.fit(science, theta)
     judge.settle(science, theta_now)
     errors = base_errors = judge.errors(science, theta_now)
     scale = np.sqrt(np.mean(np.asarray(learned, dtype=float) ** 2, axis=0))
     log(f"science refitted alone: validation MSE {errors.mean():.4g}")
-    added: list[dict] = []
+    added: list[PlacedTerm] = []
     # A term dropped by the converged test right after the screening test accepted it: not proposed
     # again (the two tests disagree on it, and proposing it again would repeat the same step forever).
     rejected: set[tuple] = set()
@@ -125,65 +146,67 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
     # min_gain of its error) or, at the last step, added to the final model (lowering its error a little)
     rivals: list[dict] = []
     step = 0
-    while len(added) < max_terms:
+    while len(added) < candidates.max_terms:
         step += 1
         remaining = learned - science_output(current, theta_now, args)
         jac = free_columns(*parameter_jacobian(current, theta_now, args), fit.fixed)
-        taken = {(t["component"], t["term"]) for t in added} | rejected
-        by_residual = interleave(rank_by_residual(columns, remaining, jac, components, taken), n_candidates)
+        taken = {t.key for t in added} | rejected
+        by_residual = interleave(rank_by_residual(columns, remaining, jac, components, taken),
+                                 candidates.n_candidates)
         by_fit = rank_by_fit(columns, science, current, added, theta_now, judge.screen, scale, components, taken,
-                              variables, n_states, param_names)[:n_candidates]
+                              variables, n_states, param_names)[:candidates.n_candidates]
         declared = [offset_candidate(k, variables) for k in offsets]
-        ranked = merge_rankings(by_residual, by_fit) + [c for c in declared if (c["component"], c["term"]) not in taken]
+        ranked = merge_rankings(by_residual, by_fit) + [c for c in declared if c.key not in taken]
         if not ranked:
             break
-        tried = []
-        together = [g for g in candidate_groups(ranked) if len(added) + len(g["group"]) <= max_terms]
-        joint = [g for g in joint_candidates(columns, remaining, jac, components, taken, n=n_candidates)
-                 if len(added) + len(g["group"]) <= max_terms]
+        tried: list[Screened] = []
+        room = candidates.max_terms - len(added)  # a group adds a term per member
+        together = [g for g in candidate_groups(ranked) if len(g.members) <= room]
+        joint = [g for g in joint_candidates(columns, remaining, jac, components, taken, n=candidates.n_candidates)
+                 if len(g.members) <= room]
         for cand in ranked + together + joint:
-            placed = [*added, *term_entries(cand)]
+            placed = [*added, *cand.entries()]
             candidate_science = augment_with(science, placed, variables, n_states, param_names)
-            start = {**theta_now, **initial_values(candidate_science, placed, len(term_entries(cand)))}
+            start = {**theta_now, **initial_values(candidate_science, placed, len(cand.entries()))}
             try:
                 bounds = shape_bounds(candidate_science, placed)
-                fitted = _screen(judge, candidate_science, start, bounds, len(placed) - len(term_entries(cand)))
+                fitted = _screen(judge, candidate_science, start, bounds, len(added))
                 cand_errors = judge.errors(candidate_science, fitted, bounds, screening=True)
             except FIT_FAILURES as exc:  # a term that breaks the simulation
-                steps.append({"step": step, **public_record(cand), "failed": repr(exc), "accepted": False})
+                steps.append({"step": step, **cand.row(), "failed": repr(exc), "accepted": False})
                 continue
-            verdict = evidence(errors, cand_errors, z=z, min_gain=min_gain)
-            steps.append({"step": step, **public_record(cand), **verdict, "accepted": False})
-            log(f"  step {step}: {cand['term']} on {where_acts(cand)}: validation MSE "
+            verdict = evidence.verdict(errors, cand_errors)
+            steps.append({"step": step, **cand.row(), **verdict, "accepted": False})
+            log(f"  step {step}: {cand.name} on {cand.where()}: validation MSE "
                 f"{verdict['mse_after']:.4g} (gain {format_gain(verdict['gain'])}, z {verdict['z']:.1f})")
-            tried.append((cand, fitted, verdict, cand_errors, candidate_science, len(steps) - 1))
-        _correct_joint(tried, steps, len(joint), z, min_gain, log)
-        best = _simplest_of_the_best(tried, min_gain)
+            tried.append(Screened(cand, fitted, verdict, cand_errors, candidate_science, len(steps) - 1))
+        _correct_joint(tried, steps, len(joint), evidence, log)
+        best = _simplest_of_the_best(tried, evidence.min_gain)
         if best is None and recheck is not None:
-            best = look_again(recheck, tried, current, theta_now, added, steps, z, min_gain, log, len(joint))
+            best = look_again(recheck, tried, current, theta_now, added, steps, evidence, log, len(joint))
         if best is None:
-            rivals += [{"role": "add", "cand": t[0], "theta": t[1], "mse": t[2]["mse_after"]} for t in tried
-                       if t[2]["gain"] > 0 and np.isfinite(t[2]["mse_after"])]
+            rivals += [{"role": "add", "cand": t.cand, "theta": t.theta, "mse": t.verdict["mse_after"]} for t in tried
+                       if t.verdict["gain"] > 0 and np.isfinite(t.verdict["mse_after"])]
             break
-        best_mse = best[2]["mse_after"]
-        rivals += [{"role": "instead", "of": _key(term_entries(best[0])), "cand": t[0], "theta": t[1],
-                    "mse": t[2]["mse_after"]} for t in tried
-                   if t[0] is not best[0] and t[2]["mse_after"] <= (1 + min_gain) * best_mse]
-        cand, theta_now, _, errors, current, index = best
+        best_mse = best.verdict["mse_after"]
+        rivals += [{"role": "instead", "of": _key(best.cand.entries()), "cand": t.cand, "theta": t.theta,
+                    "mse": t.verdict["mse_after"]} for t in tried
+                   if t.cand is not best.cand and t.verdict["mse_after"] <= (1 + evidence.min_gain) * best_mse]
+        cand, theta_now, _, errors, current, index, second_look = best
         # the screen may have stopped early: converge, so that the next step's gains are the terms'
-        bounds = shape_bounds(current, [*added, *term_entries(cand)])
+        bounds = shape_bounds(current, [*added, *cand.entries()])
         theta_now = judge.fit(current, theta_now, bounds)
         errors = judge.errors(current, theta_now, bounds)
         steps[index]["accepted"] = True
-        added += [{**with_fitted(entry, current, theta_now, len(added) + k), "second_look": "second_look" in cand}
-                  for k, entry in enumerate(term_entries(cand))]
-        log(f"  accepted {cand['term']} on {where_acts(cand)}")
+        added += [replace(entry.with_fitted(current, theta_now, len(added) + k), second_look=second_look)
+                  for k, entry in enumerate(cand.entries())]
+        log(f"  accepted {cand.name} on {cand.where()}")
         known[_key(added)] = theta_now
         current, added, theta_now, errors = _drop_dispensable(
             science, current, added, theta_now, errors, judge, variables, n_states, param_names,
-            z, min_gain, steps, log, known, recheck)
-        model = frozenset((t["component"], t["term"]) for t in added)
-        dropped_at_once = {(e["component"], e["term"]) for e in term_entries(cand)} - model
+            evidence, steps, log, known, recheck)
+        model = frozenset(t.key for t in added)
+        dropped_at_once = {e.key for e in cand.entries()} - model
         rejected |= dropped_at_once
         if not dropped_at_once and model in visited:  # drops and additions that lead back to a model already left
             log("  stopped: the selection came back to a model it had left")
@@ -192,7 +215,7 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
         judge.settle(current, theta_now)
     current, added, theta_now, errors = replace_stand_ins(
         science, current, added, theta_now, errors, judge, columns, learned, args, variables, n_states, param_names,
-        min_gain, steps, log, n_candidates, fit.fixed)
+        steps, log, evidence=evidence, candidates=candidates, fixed=fit.fixed)
     return {"science": current, "theta": theta_now, "added": added, "steps": steps, "rivals": rivals,
             "base_errors": base_errors, "errors": errors, "seconds": time.perf_counter() - start_time}
 
@@ -208,8 +231,8 @@ def worth_a_second_look(verdict: dict, min_gain: float) -> bool:
     return verdict["gain"] >= min_gain and verdict["z"] > SECOND_LOOK_Z
 
 
-def look_again(recheck: Judge, tried: list, current, theta: dict, added: list, steps: list,
-               z: float, min_gain: float, log, n_joint: int = 0) -> tuple | None:
+def look_again(recheck: Judge, tried: list[Screened], current, theta: dict, added: list[PlacedTerm], steps: list,
+               evidence: Evidence, log, n_joint: int = 0) -> Screened | None:
     """Judge again, on the training samples, the candidates one split found promising but not proven.
 
     Twelve validation trajectories tell a real term from chance only when its gain is large next to
@@ -222,31 +245,31 @@ def look_again(recheck: Judge, tried: list, current, theta: dict, added: list, s
     not the first one repeated, and a candidate must have passed z > 2 on them to be looked at.
     Joint candidates are judged with the threshold corrected for the ``n_joint`` sets the step
     judged (:func:`_correct_joint`). Returns the simplest of the best that pass (as
-    :func:`_simplest_of_the_best`), its tuple marked ``"second_look"``, or None.
+    :func:`_simplest_of_the_best`), marked ``second_look``, or None.
     """
-    promising = [t for t in tried if worth_a_second_look(t[2], min_gain)
+    promising = [t for t in tried if worth_a_second_look(t.verdict, evidence.min_gain)
                  or not current_watch().second_look_gate]  # a study may look at all again (watch.py)
     if not promising:
         return None
     recheck.settle(current, theta)
     base = recheck.errors(current, theta, shape_bounds(current, added) if added else None)
     looked = []
-    for cand, fitted, _, _, candidate_science, index in promising:
+    for cand, fitted, _, _, candidate_science, index, _ in promising:
         try:
-            bounds = shape_bounds(candidate_science, [*added, *term_entries(cand)])
+            bounds = shape_bounds(candidate_science, [*added, *cand.entries()])
             errors = recheck.errors(candidate_science, fitted, bounds, screening=True)
         except FIT_FAILURES:
             continue
-        verdict = evidence(base, errors, z=z, min_gain=min_gain)
+        verdict = evidence.verdict(base, errors)
         steps.append({**steps[index], **verdict, "step": f"{steps[index]['step']}, second look", "accepted": False})
-        log(f"  second look at {cand['term']} on {where_acts(cand)}: training-fold MSE {verdict['mse_after']:.4g} "
+        log(f"  second look at {cand.name} on {cand.where()}: training-fold MSE {verdict['mse_after']:.4g} "
             f"(gain {format_gain(verdict['gain'])}, z {verdict['z']:.1f})")
-        looked.append(({**cand, "second_look": True}, fitted, verdict, errors, candidate_science, len(steps) - 1))
-    _correct_joint(looked, steps, n_joint, z, min_gain, log)
-    return _simplest_of_the_best(looked, min_gain)
+        looked.append(Screened(cand, fitted, verdict, errors, candidate_science, len(steps) - 1, second_look=True))
+    _correct_joint(looked, steps, n_joint, evidence, log)
+    return _simplest_of_the_best(looked, evidence.min_gain)
 
 
-def _correct_joint(tried: list, steps: list, m: int, z: float, min_gain: float, log) -> None:
+def _correct_joint(tried: list[Screened], steps: list, m: int, evidence: Evidence, log) -> None:
     """Judge the joint candidates among ``tried`` as one family of ``m`` (Holm's rule, in place).
 
     Each single term keeps its own test, as before joint candidates existed; the sets a step adds
@@ -254,15 +277,15 @@ def _correct_joint(tried: list, steps: list, m: int, z: float, min_gain: float, 
     (:func:`~sklearn_hybrid.diagnosis.evidence.holm`). A step then accepts a useless term at most
     about as often as with one more single candidate, however many sets it judges.
     """
-    at = [i for i, t in enumerate(tried) if t[0]["kind"] == "joint"]
+    at = [i for i, t in enumerate(tried) if t.cand.kind == "joint"]
     if not at:
         return
-    verdicts = holm([tried[i][2] for i in at], len(tried[at[0]][3]), z, min_gain, m)
+    verdicts = holm([tried[i].verdict for i in at], len(tried[at[0]].errors), evidence.z, evidence.min_gain, m)
     for i, verdict in zip(at, verdicts):
-        cand, fitted, _, errors, science, index = tried[i]
-        tried[i] = (cand, fitted, verdict, errors, science, index)
-        steps[index].update({k: v for k, v in verdict.items() if k != "accepted"})  # a row says yes when chosen
-        log(f"  {cand['term']} judged as one of {max(m, len(at))} sets: threshold {verdict['threshold']:.2f}, "
+        tried[i] = tried[i]._replace(verdict=verdict)
+        # a row says yes when chosen
+        steps[tried[i].index].update({k: v for k, v in verdict.items() if k != "accepted"})
+        log(f"  {tried[i].cand.name} judged as one of {max(m, len(at))} sets: threshold {verdict['threshold']:.2f}, "
             f"{'passed' if verdict['accepted'] else 'not passed'}")
 
 
@@ -288,18 +311,18 @@ def _screen(judge: Judge, science, start: dict, bounds: dict, n_kept: int) -> di
     return fitted
 
 
-def _key(added: Sequence[dict]) -> tuple:
+def _key(added: Sequence[PlacedTerm]) -> tuple:
     """A model's terms in order: the same key gives the same parameter names."""
-    return tuple((t["component"], t["term"]) for t in added)
+    return tuple(t.key for t in added)
 
 
-def _drop_dispensable(science, current, added, theta, errors, judge, variables, n_states,
-                      param_names, z, min_gain, steps, log, known=None, recheck=None):
+def _drop_dispensable(science, current, added: list[PlacedTerm], theta, errors, judge, variables, n_states,
+                      param_names, evidence: Evidence, steps, log, known=None, recheck=None):
     """Backward steps: drop a term that the terms accepted after it have made dispensable.
 
     A term that passed early may only have stood in for one found later (a hinge with a low knot
     for ``B^2``); it goes when the model without it, refitted, validates as well by the same test
-    a new term must pass (the model with it is not better by ``min_gain`` and ``z``). ``known``:
+    a new term must pass (the model with it is not better by ``evidence``'s ``min_gain`` and ``z``). ``known``:
     fits of models the path has settled on, by :func:`_key`; a reduced model among them is refitted
     from that fit too (see :func:`_refit_from_best`). A term accepted on a second look is tested by
     the judge that accepted it, ``recheck``: the validation samples alone found it unproven.
@@ -313,30 +336,30 @@ def _drop_dispensable(science, current, added, theta, errors, judge, variables, 
             reduced = augment_with(science, rest, variables, n_states, param_names)
             start = {k: v for k, v in theta.items() if k in original}
             for k, t in enumerate(rest):  # the kept terms' latest values, under the reduced model's names
-                start[reduced.terms[k][2]] = theta[t["param"]]
-                start.update({glob: theta[t["shape_params"][loc]] for loc, glob in reduced.shape_names[k].items()})
+                start[reduced.terms[k][2]] = theta[t.param]
+                start.update({glob: theta[t.shape_params[loc]] for loc, glob in reduced.shape_names[k].items()})
             starts = [start] + ([{**start, **known[_key(rest)]}] if known and _key(rest) in known else [])
             try:
                 bounds = shape_bounds(reduced, rest)
                 fitted = _refit_from_best(judge, reduced, starts, bounds)
                 reduced_errors = judge.errors(reduced, fitted, bounds)
                 with_it, without = errors, reduced_errors  # the judged errors with and without the term
-                if added[i].get("second_look"):
+                if added[i].second_look:
                     if on_folds is None:
                         on_folds = recheck.errors(current, theta, shape_bounds(current, added))
                     with_it, without = on_folds, recheck.errors(reduced, fitted, bounds)
             except FIT_FAILURES:
                 continue
-            if not evidence(without, with_it, z=z, min_gain=min_gain)["accepted"]:
+            if not evidence.verdict(without, with_it)["accepted"]:
                 trials.append((reduced_errors.mean(), i, rest, reduced, fitted, reduced_errors, with_it, without))
         if not trials:
             break
         _, i, rest, reduced, fitted, reduced_errors, with_it, without = min(trials, key=lambda t: t[0])
-        label = "drop, second look" if added[i].get("second_look") else "drop"  # which judge's errors the row holds
-        steps.append({"step": label, **public_record(added[i]), **evidence(with_it, without, z=z, min_gain=min_gain),
+        label = "drop, second look" if added[i].second_look else "drop"  # which judge's errors the row holds
+        steps.append({"step": label, **added[i].row(), **evidence.verdict(with_it, without),
                       "accepted": False, "dropped": True})
-        log(f"  dropped {added[i]['term']} on component {added[i]['component']}: the later terms explain it")
-        added = [with_fitted(t, reduced, fitted, k) for k, t in enumerate(rest)]
+        log(f"  dropped {added[i].name} on component {added[i].component}: the later terms explain it")
+        added = [t.with_fitted(reduced, fitted, k) for k, t in enumerate(rest)]
         current, theta, errors = reduced, fitted, reduced_errors
     return current, added, theta, errors
 
@@ -355,7 +378,7 @@ def _refit_from_best(judge: Judge, science, starts: Sequence[dict], bounds: dict
     return min(fits, key=lambda theta: judge.training_error(science, theta))
 
 
-def _simplest_of_the_best(tried: list, min_gain: float) -> tuple | None:
+def _simplest_of_the_best(tried: list[Screened], min_gain: float) -> Screened | None:
     """The simplest candidate among those the data cannot tell from the best.
 
     ``c tanh(v/w)`` with a large ``w`` mimics ``v^3`` once the linear part is absorbed, and over a
@@ -365,13 +388,13 @@ def _simplest_of_the_best(tried: list, min_gain: float) -> tuple | None:
     (a Taylor term). A paired test is no judge here: the samples' noise is shared by both models,
     so a 3 % difference from noise in the fitted parameters looks "significant".
     """
-    passed = [t for t in tried if t[2]["accepted"]]  # each candidate is judged on its own evidence
+    passed = [t for t in tried if t.verdict["accepted"]]  # each candidate is judged on its own evidence
     if not passed:
         return None
-    best = min(passed, key=lambda t: t[2]["mse_after"])
-    alike = [t for t in passed if t[2]["mse_after"] <= (1 + min_gain) * best[2]["mse_after"]]
+    best = min(passed, key=lambda t: t.verdict["mse_after"])
+    alike = [t for t in passed if t.verdict["mse_after"] <= (1 + min_gain) * best.verdict["mse_after"]]
     def taylor(t):  # a set of monomials is a polynomial too
-        return all(e["kind"] == "polynomial" for e in term_entries(t[0]))
-    return min(alike, key=lambda t: (count_parameters(t[0]), not taylor(t), t[2]["mse_after"]))
+        return all(e.kind == "polynomial" for e in t.cand.entries())
+    return min(alike, key=lambda t: (t.cand.n_parameters(), not taylor(t), t.verdict["mse_after"]))
 
 
