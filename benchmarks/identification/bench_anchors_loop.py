@@ -38,7 +38,7 @@ import torch
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the helpers, the studies' modules
 from helpers import PACKAGE_COMMIT, runs_folder, write_results  # noqa: E402
-from identification.protocol import PROTOCOL, cache_dir, case_name, make_data, score  # noqa: E402
+from identification.protocol import PROTOCOL, cache_dir, case_name, load_fit, make_data, score  # noqa: E402
 from identification.sparse_grid import GRID, cv_choice  # noqa: E402
 from identification.systems import SYSTEMS, simulate  # noqa: E402
 
@@ -163,7 +163,7 @@ def first_fit(system, noise, seed, data):
 
     path = cache_dir(False) / "fits" / f"{case_name(system.name, noise, seed)}.pkl"
     if path.exists():
-        return pickle.loads(path.read_bytes()), True
+        return load_fit(path), True
     from sklearn_hybrid.diagnosis import MLPOn  # the loop starts its network at zero over the uncertain equations
 
     est = HybridRegressor(science=system.science, dt=system.dt, method="erm", n_inputs=int(system.forced),

@@ -56,7 +56,7 @@ import torch
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the helpers, the studies' modules
 from helpers import PACKAGE_COMMIT, RESULTS, as_run_today, machine_description  # noqa: E402
 from identification.batches import BATCHES  # noqa: E402
-from identification.protocol import (FAST, NOISE_LEVELS, PROTOCOL, cache_dir, case_name, load,  # noqa: E402
+from identification.protocol import (FAST, NOISE_LEVELS, PROTOCOL, cache_dir, case_name, load, load_fit,  # noqa: E402
                                      loop_arguments, make_data, score)
 from identification.systems import SYSTEMS, System  # noqa: E402
 
@@ -136,7 +136,7 @@ def run_case(system: System, noise: float, seed: int, fast: bool, command: str) 
     fit_path = cache_dir(fast) / "fits" / f"{case_name(system.name, noise, seed)}.pkl"
     reused = fit_path.exists()
     if reused:
-        est = pickle.loads(fit_path.read_bytes())
+        est = load_fit(fit_path)
     start = time.perf_counter()
     res = close_the_loop(est, data["X"], data["y"], **loop_arguments(system))
     wall = time.perf_counter() - start

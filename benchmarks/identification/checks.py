@@ -32,7 +32,6 @@ ends (:func:`helpers.run_each_case`).
 from __future__ import annotations
 
 import json
-import pickle
 import re
 import time
 from typing import Callable
@@ -104,7 +103,7 @@ def selection(name: str, noise: float, data: dict | None = None, second_look_gat
     system = SYSTEMS[name]
     data = protocol.make_data(system, noise, 0, False) if data is None else data
     fits = protocol.cache_dir(False) / "fits"
-    est = pickle.loads((fits / f"{protocol.case_name(name, noise, 0)}.pkl").read_bytes())
+    est = protocol.load_fit(fits / f"{protocol.case_name(name, noise, 0)}.pkl")
     try:
         with watching(LoopWatch(on_selection=_stop, second_look_gate=second_look_gate)):
             close_the_loop(est, data["X"], data["y"], **protocol.loop_arguments(system), **options)
