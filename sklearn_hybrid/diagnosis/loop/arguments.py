@@ -5,11 +5,15 @@ Each names the problem: an unknown state, an option out of range, a unit for a v
 
 from __future__ import annotations
 
+import math
+from collections.abc import Callable, Mapping, Sequence
 from difflib import get_close_matches
+from typing import Any
 
 import numpy as np
 
 from ..._estimator import ode_structure
+from ..._validation import check_not_nested
 from ...science import read_signature
 from ..sensitivity import exact_components, state_labels, parameter_jacobian
 
@@ -142,3 +146,83 @@ def count_states(estimator, X, y) -> int:
 def _n_variables(estimator, X, y) -> int:
     """The states of an ODE estimator, the features of any other."""
     return count_states(estimator, X, y) if ode_structure(estimator) is not None else int(np.prod(np.shape(X)[1:]))
+
+
+def settings_object(name: str, value: Any, cls: type, example: str) -> Any:
+    """A settings object of ``close_the_loop`` (``Evidence``, ``Candidates``): the default for None, checked."""
+    value = cls() if value is None else value
+    if not isinstance(value, cls):
+        raise TypeError(f"{name} must be a {cls.__name__} object (sklearn_hybrid.diagnosis.{example}), got "
+                        f"{type(value).__name__}.")
+    value.check()
+    return value
+
+
+#: Keywords of close_the_loop that moved into its settings objects: name -> (class, its field).
+MOVED = {**{name: ("Evidence", name) for name in ("validation_fraction", "cv", "second_look", "groups", "z",
+                                                  "min_gain")},
+         **{name: ("Candidates", name) for name in ("terms", "kinds", "user_terms", "positive", "max_terms",
+                                                     "n_candidates")},
+         "term_kinds": ("Candidates", "kinds")}
+
+
+def refuse_moved(moved: Mapping[str, Any], known: Sequence[str]) -> None:
+    """Say where each keyword that moved into ``Evidence`` / ``Candidates`` went (Python's own
+    TypeError for any other unknown keyword)."""
+    unknown = [name for name in moved if name not in MOVED]
+    if unknown:
+        close = get_close_matches(unknown[0], known, n=1)
+        raise TypeError(f"close_the_loop() got an unexpected keyword argument {unknown[0]!r}"
+                        + (f"; did you mean {close[0]!r}?" if close else ""))
+    lines = []
+    for cls in ("Evidence", "Candidates"):
+        names = [name for name in moved if MOVED[name][0] == cls]
+        if names:
+            shown = ", ".join(f"{MOVED[name][1]}={short_repr(moved[name])}" for name in names)
+            lines.append(f"{' and '.join(names)} moved into {cls}: close_the_loop(..., {cls.lower()}={cls}({shown}))")
+    raise TypeError("; ".join(lines) + " (from sklearn_hybrid.diagnosis).")
+
+
+def short_repr(value: Any) -> str:
+    text = repr(value)
+    return text if len(text) <= 30 and "\n" not in text else "..."
+
+
+def check_targets(X: Any, y: Any, X_test: Any, y_test: Any, test_scorer: Callable | None) -> None:
+    """Refuse what would fail deep inside a refit or the scoring: y or y_test not finite, y_test of
+    other states or steps (without a ``test_scorer``, y_test is scored against the predictions).
+
+    The arguments are read, never changed: what the estimator is given stays the caller's.
+    """
+    y = np.atleast_1d(np.asarray(check_not_nested(y), dtype=float))
+    tested = [("y", X, y)]
+    scored = y_test is not None and test_scorer is None
+    if scored:
+        tested.append(("y_test", X_test, np.atleast_1d(np.asarray(check_not_nested(y_test, "y_test"), dtype=float))))
+    for name, X_, values in tested:
+        bad = ~np.isfinite(values.reshape(len(values), -1)).all(axis=1)
+        if np.any(bad):
+            raise ValueError(f"{name} is not finite: sample(s) {np.flatnonzero(bad)[:5].tolist()} hold NaN or "
+                             "infinite values, which no least-squares refit can match. Drop them: keep = "
+                             f"np.isfinite({name}).reshape(len({name}), -1).all(axis=1).")
+        if len(values) != len(X_):
+            raise ValueError(f"{name} has {len(values)} samples and {name.replace('y', 'X')} {len(X_)}.")
+    if scored:
+        shape, test_shape = y.shape[1:], tested[1][2].shape[1:]
+        if test_shape != shape and test_shape != (math.prod(shape),):
+            raise ValueError(f"y_test has per-sample shape {test_shape}; y has {shape}: the test data must hold the "
+                             "same observed components over the same steps as y (for a longer horizon, "
+                             "give test_scorer, a function of the fitted estimator that runs est.simulate).")
+
+
+def check_fitted_horizon(estimator: Any, y: Any) -> None:
+    """A fitted estimator predicts y's per-sample shape of its fit: refuse another (torch would say
+    only that a shape is invalid, deep inside a refit)."""
+    fitted = getattr(estimator, "y_shape_", None)
+    if fitted is None or not hasattr(estimator, "model_"):
+        return
+    shape = tuple(np.shape(y)[1:])
+    if shape != tuple(fitted) and shape != (math.prod(fitted),):
+        raise ValueError(f"y has per-sample shape {shape}; the estimator was fitted on y of per-sample shape "
+                         f"{tuple(fitted)}. Close the loop on data of the fitted horizon, or pass an unfitted "
+                         "estimator (sklearn.base.clone(est)), which close_the_loop fits on these data.")

@@ -7,6 +7,7 @@
 from __future__ import annotations
 
 import copy
+import inspect
 import math
 import sys
 import time
@@ -28,9 +29,9 @@ from ...identifiability import science_intervals
 from ...training.engine import DivergenceError, is_interactive
 from ...residual import MLPOn, ZeroResidual
 from ...science import read_signature
-from ..._validation import check_not_nested
-from .arguments import (check_names, check_options, check_param_names, check_refit_params, count_states,
-                         offset_states, uncertain_components)
+from .arguments import (check_fitted_horizon, check_names, check_options, check_param_names, check_refit_params,
+                        check_targets, count_states, offset_states, refuse_moved, settings_object,
+                        uncertain_components)
 from ..evidence import Evidence
 from .candidates import Candidates
 from .caveats import left_unexplained, open_question, weigh_rivals
@@ -41,90 +42,6 @@ from .stepwise import forward_selection
 from .watch import current_watch
 
 __all__ = ["close_the_loop"]
-
-
-def _settings(name: str, value: Any, cls: type, example: str) -> Any:
-    """A settings object of ``close_the_loop`` (``Evidence``, ``Candidates``): the default for None, checked."""
-    value = cls() if value is None else value
-    if not isinstance(value, cls):
-        raise TypeError(f"{name} must be a {cls.__name__} object (sklearn_hybrid.diagnosis.{example}), got "
-                        f"{type(value).__name__}.")
-    value.check()
-    return value
-
-
-#: Keywords of close_the_loop that moved into its settings objects: name -> (class, its field).
-MOVED = {**{name: ("Evidence", name) for name in ("validation_fraction", "cv", "second_look", "groups", "z",
-                                                  "min_gain")},
-         **{name: ("Candidates", name) for name in ("terms", "kinds", "user_terms", "positive", "max_terms",
-                                                     "n_candidates")},
-         "term_kinds": ("Candidates", "kinds")}
-
-
-def _refuse_moved(moved: Mapping[str, Any]) -> None:
-    """Say where each keyword that moved into ``Evidence`` / ``Candidates`` went (Python's own
-    TypeError for any other unknown keyword)."""
-    import inspect
-    from difflib import get_close_matches
-
-    unknown = [name for name in moved if name not in MOVED]
-    if unknown:
-        known = [name for name in inspect.signature(close_the_loop).parameters if name != "moved"]
-        close = get_close_matches(unknown[0], known, n=1)
-        raise TypeError(f"close_the_loop() got an unexpected keyword argument {unknown[0]!r}"
-                        + (f"; did you mean {close[0]!r}?" if close else ""))
-    lines = []
-    for cls in ("Evidence", "Candidates"):
-        names = [name for name in moved if MOVED[name][0] == cls]
-        if names:
-            shown = ", ".join(f"{MOVED[name][1]}={_short(moved[name])}" for name in names)
-            lines.append(f"{' and '.join(names)} moved into {cls}: close_the_loop(..., {cls.lower()}={cls}({shown}))")
-    raise TypeError("; ".join(lines) + " (from sklearn_hybrid.diagnosis).")
-
-
-def _short(value: Any) -> str:
-    text = repr(value)
-    return text if len(text) <= 30 and "\n" not in text else "..."
-
-
-def _check_targets(X: Any, y: Any, X_test: Any, y_test: Any, test_scorer: Callable | None) -> None:
-    """Refuse what would fail deep inside a refit or the scoring: y or y_test not finite, y_test of
-    other states or steps (without a ``test_scorer``, y_test is scored against the predictions).
-
-    The arguments are read, never changed: what the estimator is given stays the caller's.
-    """
-    y = np.atleast_1d(np.asarray(check_not_nested(y), dtype=float))
-    tested = [("y", X, y)]
-    scored = y_test is not None and test_scorer is None
-    if scored:
-        tested.append(("y_test", X_test, np.atleast_1d(np.asarray(check_not_nested(y_test, "y_test"), dtype=float))))
-    for name, X_, values in tested:
-        bad = ~np.isfinite(values.reshape(len(values), -1)).all(axis=1)
-        if np.any(bad):
-            raise ValueError(f"{name} is not finite: sample(s) {np.flatnonzero(bad)[:5].tolist()} hold NaN or "
-                             "infinite values, which no least-squares refit can match. Drop them: keep = "
-                             f"np.isfinite({name}).reshape(len({name}), -1).all(axis=1).")
-        if len(values) != len(X_):
-            raise ValueError(f"{name} has {len(values)} samples and {name.replace('y', 'X')} {len(X_)}.")
-    if scored:
-        shape, test_shape = y.shape[1:], tested[1][2].shape[1:]
-        if test_shape != shape and test_shape != (math.prod(shape),):
-            raise ValueError(f"y_test has per-sample shape {test_shape}; y has {shape}: the test data must hold the "
-                             "same observed components over the same steps as y (for a longer horizon, "
-                             "give test_scorer, a function of the fitted estimator that runs est.simulate).")
-
-
-def _check_fitted_horizon(estimator: Any, y: Any) -> None:
-    """A fitted estimator predicts y's per-sample shape of its fit: refuse another (torch would say
-    only that a shape is invalid, deep inside a refit)."""
-    fitted = getattr(estimator, "y_shape_", None)
-    if fitted is None or not hasattr(estimator, "model_"):
-        return
-    shape = tuple(np.shape(y)[1:])
-    if shape != tuple(fitted) and shape != (math.prod(fitted),):
-        raise ValueError(f"y has per-sample shape {shape}; the estimator was fitted on y of per-sample shape "
-                         f"{tuple(fitted)}. Close the loop on data of the fitted horizon, or pass an unfitted "
-                         "estimator (sklearn.base.clone(est)), which close_the_loop fits on these data.")
 
 
 def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: Any = None, *,
@@ -258,7 +175,7 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         intervals, the hybrid refit and the scoring).
     """
     if moved:
-        _refuse_moved(moved)
+        refuse_moved(moved, [name for name in inspect.signature(close_the_loop).parameters if name != "moved"])
     start = time.perf_counter()
     timings, clock = {}, [time.process_time()]
 
@@ -274,13 +191,13 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         detail = message.startswith(("  ", "|")) or "\n" in message
         if show and not (auto and detail):  # "auto": the stages only
             print(message if detail else f"[{time.perf_counter() - start:4.0f} s] {message}", flush=True)
-    evidence = _settings("evidence", evidence, Evidence, "Evidence(z=..., cv=...)")
-    candidates = _settings("candidates", candidates, Candidates, "Candidates(kinds=..., max_terms=...)")
+    evidence = settings_object("evidence", evidence, Evidence, "Evidence(z=..., cv=...)")
+    candidates = settings_object("candidates", candidates, Candidates, "Candidates(kinds=..., max_terms=...)")
     check_options(n_jobs, X_test, y_test)
-    _check_targets(X, y, X_test, y_test, test_scorer)
+    check_targets(X, y, X_test, y_test, test_scorer)
     # the held-out split checks the groups and its own limits before anything is fitted
     splits, codes = evidence.splits(len(y))
-    _check_fitted_horizon(estimator, y)
+    check_fitted_horizon(estimator, y)
     ode = ode_structure(estimator)
     if fit_initial_states and (ode is None or ode.observed is None):
         raise ValueError("fit_initial_states=True needs an estimator with structure='ode' and observed=[...] "
