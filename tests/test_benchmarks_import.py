@@ -99,3 +99,25 @@ def test_no_benchmark_script_imports_another_script():
     found = [(p.relative_to(BENCHMARKS).as_posix(), module) for p in FILES for module in _imports(p)
              if module in scripts or module in stems]
     assert found == []
+
+
+def test_the_identification_benchmark_refuses_list_alone(benchmarks_path):
+    """``--list`` belongs to ``--more-validation``: alone it once fell through to running every case."""
+    bench = importlib.import_module("identification.bench_identification")
+    with pytest.raises(SystemExit) as exit_:
+        bench.main(["--list"])
+    assert exit_.value.code == 2
+
+
+def test_first_fits_pickled_before_the_grouping_load(benchmarks_path, tmp_path):
+    """A first fit stored while the systems lived in ``_identification_systems`` loads from ``identification.systems``."""
+    import pickle
+
+    systems = importlib.import_module("identification.systems")
+    protocol = importlib.import_module("identification.protocol")
+    old = pickle.dumps(systems.gyrating_f, protocol=0).replace(b"identification.systems", b"_identification_systems")
+    path = tmp_path / "fit.pkl"
+    path.write_bytes(old)
+    with pytest.raises(ModuleNotFoundError):
+        pickle.loads(old)
+    assert protocol.load_fit(path) is systems.gyrating_f
