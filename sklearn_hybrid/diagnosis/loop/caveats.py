@@ -26,6 +26,7 @@ import numpy as np
 from ...science import read_signature
 from ..judge import FIT_FAILURES
 from ..science_fit import ScienceFit
+from ..sensitivity import root_mean_square
 from .candidates import augment_with, shape_bounds
 from .placed import PlacedTerm
 
@@ -78,8 +79,8 @@ def left_unexplained(unexplained: Mapping[str, Any], network: np.ndarray, learne
         The equation, its shares, and the variable the remainder varies most with; None where every
         explained equation is left with less than ``UNEXPLAINED_SHARE``.
     """
-    total = np.sqrt(np.mean(np.asarray(learned, dtype=float) ** 2, axis=0))
-    carried = np.sqrt(np.mean(np.asarray(network, dtype=float) ** 2, axis=0)) / np.where(total > 0, total, np.nan)
+    total = root_mean_square(learned)  # the scale residual_profile's shares are taken against
+    carried = root_mean_square(network) / np.where(total > 0, total, np.nan)
     worst = None
     for j, name in enumerate(outputs):
         share = unexplained["share"].get(name)
