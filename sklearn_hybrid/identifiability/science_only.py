@@ -156,6 +156,7 @@ def science_intervals(estimator, X, y, level=0.95, incomplete: str | None = None
                          "that hold them (keep = np.isfinite(y).reshape(len(y), -1).all(axis=1); X[keep], y[keep]).")
     model = copy.deepcopy(model).to(torch.float64).eval()
     science = model.science
+    _check_terms(terms, science.names)
     with torch_threads(estimator.n_threads), torch.no_grad():
         def predict():
             return model(*inputs)[0].reshape(len(X), -1).cpu().numpy()
@@ -193,6 +194,20 @@ def science_intervals(estimator, X, y, level=0.95, incomplete: str | None = None
     for label, why in _confounded(A, [lab for _, _, lab in labels], [name for name, _, _ in labels], terms).items():
         out.make_conditional(label, why)
     return out
+
+
+def _check_terms(terms, names) -> None:
+    """``terms`` maps each chosen term's label to parameters of this model (its coefficient and shape)."""
+    if terms is None:
+        return
+    if not isinstance(terms, Mapping) or any(isinstance(p, str) or not isinstance(p, Sequence)
+                                             for p in terms.values()):
+        raise TypeError("terms must map each chosen term's label to a list of its parameters' names, e.g. "
+                        f"{{'x/(K + |x|) on g[x]': ['c_sat', 'K_sat']}}; got {terms!r}.")
+    unknown = sorted({p for params in terms.values() for p in params} - set(names))
+    if unknown:
+        raise ValueError(f"terms names {unknown}, which are not parameters of this model; its parameters are "
+                         f"{list(names)}.")
 
 
 def _confounded(A: np.ndarray, labels: list[str], names: list[str],
