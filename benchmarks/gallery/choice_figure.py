@@ -60,7 +60,7 @@ def main() -> None:
     fig, ax = plt.subplots(figsize=(7.5, 0.7 + 0.55 * len(forms)))
     rows = np.arange(len(forms))[::-1]
     ax.axvspan(*ci.intervals["r"], color="tab:orange", alpha=0.2,
-               label=f"r's interval: {ci.verdicts['r']}")
+               label=f"r's range: {ci.verdicts['r']}")
     ax.scatter([v for _, v in forms], rows, color="k", zorder=3, label="r under each form")
     ax.axvline(TRUE["r"], color="tab:green", lw=2, label="true r")
     ax.set_yticks(rows, [name for name, _ in forms])

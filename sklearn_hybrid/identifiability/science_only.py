@@ -91,7 +91,7 @@ class ScienceIntervals:
             elif verdict == "conditional":
                 lines.append(f"    {label}: {self.estimate[label]:.6g}  CONDITIONAL on the form of the term added "
                              f"({self.conditional[label]}); [{low:.6g}, {high:.6g}] over the forms the data cannot "
-                             "tell apart")
+                             "tell apart (a range of estimates, not a confidence interval)")
             elif self.incomplete:
                 lines.append(f"    {label}: {self.estimate[label]:.6g}  NOT IDENTIFIED: the model may be incomplete")
             else:
