@@ -88,6 +88,10 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
     residual : str, dict or callable, default="mlp"
         Specification of the network g_phi (see
         :func:`sklearn_hybrid.residual.build_residual`); built inside ``fit``.
+        ``"mlp"``: two hidden layers of 64 (ReLU) whose last layer starts at
+        zero, so that training starts from the science model alone
+        (``{"hidden": (128, 128), "zero_init": False}`` for a wider network
+        with a random start).
     method : {"erm", "p-reg", "f-reg", "sam", "asam", "fsam"} or Method, default="fsam"
         Training method, by name (its hyperparameters from ``rho``, ``lam``,
         ``eta``) or as an object of :mod:`sklearn_hybrid.methods` such as
@@ -172,7 +176,7 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
         0.66 where the data say 0.83; with ``lr_theta=1e-2``, at 0.83; see
         ``benchmarks/results/theta_convergence.md``).  ``theta_drift_`` shows
         a theta that was still on its way when the schedule ended.
-    max_iter : int, default=2000
+    max_iter : int, default=1000
         Largest number of optimisation steps (the cosine schedule spans it).
     tol : float or None, default=1e-3
         Early stopping: training stops once, over ``n_iter_no_change``
@@ -278,7 +282,7 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
                  theta_bounds=None, theta_fixed=None, theta_encoder=None, dt=None, n_substeps="auto",
                  solver="rk4",
                  observed=None, n_inputs=0, input_interp="cubic", lr=1e-2, lr_theta=None,
-                 max_iter=2000, tol=1e-3, n_iter_no_change=100, validation_fraction=None,
+                 max_iter=1000, tol=1e-3, n_iter_no_change=100, validation_fraction=None,
                  batch_size=None, weight_decay=1e-5, dtype="float32", device="cpu",
                  n_threads=1, random_state=None, verbose="auto"):
         self.science = science

@@ -40,18 +40,23 @@ class MLP(nn.Module):
         ``((200, 3), (200,))`` for features and a science output).
     out_shape : tuple
         Per-sample output shape.
-    hidden : sequence of int
-        Hidden layer widths.
+    hidden : sequence of int, default=(64, 64)
+        Hidden layer widths.  The missing effect of a hybrid ODE is usually a
+        smooth function of a few states; a wider network costs more per
+        iteration (``benchmarks/speed/bench_time_to_answer.py`` measures the
+        default path).
     activation : str
         Activation between layers.
-    zero_init : bool, default=False
-        Start the last layer at zero, so that a hybrid ODE starts from the
+    zero_init : bool, default=True
+        Start the last layer at zero, so that a hybrid starts from the
         science model alone: over a long integration a random start can add a
-        force that blows the trajectories up before any training step.
+        force that blows the trajectories up before any training step, and a
+        network that starts at zero has nothing to trade with theta at the
+        start.  False keeps PyTorch's random last layer.
     """
 
     def __init__(self, in_shapes: Sequence[tuple], out_shape: tuple,
-                 hidden: Sequence[int] = (128, 128), activation: str = "relu", zero_init: bool = False):
+                 hidden: Sequence[int] = (64, 64), activation: str = "relu", zero_init: bool = True):
         super().__init__()
         self.out_shape = tuple(out_shape)
         widths = [sum(math.prod(s) for s in in_shapes), *hidden, math.prod(out_shape)]

@@ -346,7 +346,7 @@ def test_passes_after_fit_take_what_the_fits_memory_allows(monkeypatch):
     prediction = est.predict(data.X_train)
     hook.remove()
     assert sizes == [2] * 5
-    np.testing.assert_allclose(prediction, whole, rtol=1e-6, atol=1e-7)
+    np.testing.assert_allclose(prediction, whole, rtol=1e-6, atol=1e-6)  # float32: a pass of 2 rounds differently
     assert est.theta_std_["omega"] == pytest.approx(whole_std, rel=1e-6)  # in passes of 2
     inputs = est.model_.structure.tensors(est._structure_X(est._fitted_X(data.X_train)), torch.float32)
     y = torch.as_tensor(data.y_train, dtype=torch.float32)

@@ -247,7 +247,7 @@ def test_recovers_per_sample_rate():
     """A tiny fit infers each sample's decay rate (easy case: the window shows it)."""
     X, y, k = make_decay(64, seed=0)
     X_test, _, k_test = make_decay(32, seed=1)
-    est = HybridRegressor(science=decay_columns_f, dt=DT, n_substeps=1, residual={"hidden": (16,)},
+    est = HybridRegressor(science=decay_columns_f, dt=DT, n_substeps=1, residual={"hidden": (16,), "zero_init": False},
                           theta_encoder={"hidden": (32, 32)}, theta_bounds={"k": (0.1, 3.0)},
                           method="erm", lr=1e-2, max_iter=300, random_state=0).fit(X, y)
     inferred = est.predict_theta(X_test)["k"]

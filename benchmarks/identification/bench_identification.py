@@ -25,6 +25,7 @@ them, outside git, and reused, so that a change of the selection is measured wit
     python benchmarks/identification/bench_identification.py --cases budworm --noise 0.05 --seeds 0 1
     python benchmarks/identification/bench_identification.py --batch 15  # one batch's cases, both noise levels
     python benchmarks/identification/bench_identification.py --render  # rebuild identification.md/.json from the cache
+    python benchmarks/identification/bench_identification.py --rerun --refit --sample 12 48  # 12 cases, seed 48
 
 Its checks and side studies are options, each with its own run records and page (``identification/checks.py``
 says what each does):
@@ -43,6 +44,7 @@ from __future__ import annotations
 import argparse
 import json
 import pickle
+import random
 import re
 import subprocess
 import sys
@@ -125,8 +127,9 @@ def _floats(theta: dict) -> dict:
     return {k: np.asarray(v, dtype=float).tolist() for k, v in theta.items()}
 
 
-def run_case(system: System, noise: float, seed: int, fast: bool, command: str) -> dict:
-    """Generate the data, close the loop once, score it; returns the record that is cached."""
+def run_case(system: System, noise: float, seed: int, fast: bool, command: str, refit: bool = False) -> dict:
+    """Generate the data, close the loop once, score it; returns the record that is cached (``refit``: fit the
+    hybrid again even where a first fit is stored, for a change of the fit's defaults)."""
     data = make_data(system, noise, seed, fast)
     extra = {"max_iter": FAST["max_iter"]} if fast else {}
     est = HybridRegressor(science=system.science, dt=system.dt, method="erm", n_inputs=int(system.forced),
@@ -134,12 +137,12 @@ def run_case(system: System, noise: float, seed: int, fast: bool, command: str) 
     # The first hybrid fit does not depend on the selection: kept (not committed) so that a change of the
     # selection can be measured again without it; the record says whether it was reused.
     fit_path = cache_dir(fast) / "fits" / f"{case_name(system.name, noise, seed)}.pkl"
-    reused = fit_path.exists()
+    reused = fit_path.exists() and not refit
     if reused:
         est = load_fit(fit_path)
-    start = time.perf_counter()
+    start, cpu = time.perf_counter(), time.process_time()
     res = close_the_loop(est, data["X"], data["y"], **loop_arguments(system))
-    wall = time.perf_counter() - start
+    wall, cpu = time.perf_counter() - start, time.process_time() - cpu
     if not reused:
         fit_path.parent.mkdir(parents=True, exist_ok=True)
         fit_path.write_bytes(pickle.dumps(res.before))
@@ -154,6 +157,7 @@ def run_case(system: System, noise: float, seed: int, fast: bool, command: str) 
                               "verdict": res.intervals.verdicts[k]} for k in system.theta_true
                           if k in res.intervals.verdicts},
             "noise_sigma": data["sigma"].tolist(), "seconds": float(res.seconds), "wall_seconds": wall,
+            "cpu_seconds": cpu,
             "report": res.report, "first_fit_reused": reused, "package_commit": PACKAGE_COMMIT, "command": command,
             "protocol": FAST if fast else PROTOCOL, "machine": machine_description()}
 
@@ -697,6 +701,12 @@ def main(argv=None) -> None:
                         help="with --check-selection: the folder of runs/identification/ for the checks of one "
                              "change, kept apart from the others (selection_checks_periodic: the harmonics of an "
                              "angle)")
+    parser.add_argument("--refit", action="store_true",
+                        help="with --rerun: fit the hybrid again even where its first fit is stored (a change of "
+                             "the fit itself; the stored fit is replaced)")
+    parser.add_argument("--sample", nargs=2, type=int, metavar=("K", "SEED"),
+                        help="only K of the selected cases, drawn with random.Random(SEED): a check of a change "
+                             "in parts when the whole benchmark is too long to rerun")
     parser.add_argument("--list", action="store_true",
                         help="with --more-validation: print its cases, one 'NAME LEVEL' a line")
     args = parser.parse_args(argv)
@@ -724,6 +734,10 @@ def main(argv=None) -> None:
     if args.batch:
         args.cases = [c for c in args.cases if SYSTEMS[c].batch in args.batch]
     todo = [(n, s, c) for n in args.noise for s in args.seeds for c in RUN_ORDER if c in args.cases]
+    if args.sample:
+        k, draw = args.sample
+        chosen = set(random.Random(draw).sample(todo, min(k, len(todo))))
+        todo = [case for case in todo if case in chosen]
     for i, (noise, seed, name) in enumerate(todo, 1):
         path = folder / f"{case_name(name, noise, seed)}.json"
         if path.exists() and not args.rerun:
@@ -732,7 +746,7 @@ def main(argv=None) -> None:
         print(f"[{i}/{len(todo)}] {name} noise={noise:g} seed={seed} ...", end=" ", flush=True)
         start = time.perf_counter()
         try:
-            rec = run_case(SYSTEMS[name], noise, seed, args.fast, command.strip())
+            rec = run_case(SYSTEMS[name], noise, seed, args.fast, command.strip(), args.refit)
         except Exception:  # a failure is a result: cached and shown in the table
             rec = {"system": name, "noise": noise, "seed": seed, "fast": args.fast, "identified": False,
                    "error": traceback.format_exc(), "wall_seconds": time.perf_counter() - start,

@@ -12,7 +12,7 @@ import numpy as np
 from helpers import runs_folder
 
 RUNS = runs_folder("uncertainty")
-SETTINGS = {"residual": {"hidden": (32, 32)}, "max_iter": 300, "n_threads": 1}
+SETTINGS = {"residual": {"hidden": (32, 32), "zero_init": False}, "max_iter": 300, "n_threads": 1}
 
 
 def _interval_of(record, method, label):

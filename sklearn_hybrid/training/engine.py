@@ -42,7 +42,7 @@ class TrainConfig:
 
     lr: float = 1e-2
     lr_theta: float | None = None
-    max_iter: int = 2000
+    max_iter: int = 1000
     batch_size: int | None = None
     weight_decay: float = 1e-5
     perturb: str = "residual"
