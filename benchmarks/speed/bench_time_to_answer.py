@@ -23,6 +23,7 @@ confidently wrong: a parameter called identified whose interval misses the truth
 
     python benchmarks/speed/bench_time_to_answer.py [--systems ...] [--seeds 0] [--paths recommended]
     python benchmarks/speed/bench_time_to_answer.py --paths today --package ../old     # the old code
+    python benchmarks/speed/bench_time_to_answer.py --package ../prev --label "at bf8d06e"  # same path, older code
     python benchmarks/speed/bench_time_to_answer.py --render
 
 Each (path, system, seed) runs in its own process and is cached under
@@ -204,15 +205,16 @@ def _commit_of(root: Path) -> str:
 
 
 def _case_path(path: str, name: str, seed: int) -> Path:
-    return FOLDER / path / f"{name}_seed{seed}.json"
+    return FOLDER / path.replace(" ", "_") / f"{name}_seed{seed}.json"
 
 
-def run_all(paths, names, seeds, package, rerun) -> None:
-    """Each case in its own process (fresh imports, its own CPU clock), interleaved over the paths."""
+def run_all(paths, names, seeds, package, rerun, label=None) -> None:
+    """Each case in its own process (fresh imports, its own CPU clock), interleaved over the paths;
+    ``label`` files the records of ``package`` apart, as ``PATH LABEL`` (e.g. the path at an earlier commit)."""
     for seed in seeds:
         for name in names:
             for path in paths:
-                out = _case_path(path, name, seed)
+                out = _case_path(f"{path} {label}" if label else path, name, seed)
                 if out.exists() and not rerun:
                     print(f"{path} {name} seed {seed}: cached", flush=True)
                     continue
@@ -226,6 +228,8 @@ def run_all(paths, names, seeds, package, rerun) -> None:
                     print(f"{path} {name} seed {seed}: FAILED\n{done.stderr[-3000:]}", flush=True)
                     continue
                 record = json.loads(done.stdout.strip().splitlines()[-1])
+                if label:
+                    record["path"] = f"{path} {label}"
                 out.parent.mkdir(parents=True, exist_ok=True)
                 out.write_text(json.dumps(record, indent=1, default=float) + "\n")
                 print(f"{path} {name} seed {seed}: {record['path_cpu_s']:.0f} CPU s, "
@@ -273,7 +277,7 @@ def render() -> None:
             f"{', '.join(r['confidently_wrong']) or 'none'} | {r['package_commit']} |")
     lines += ["", "| path | runs | median path CPU s | max path CPU s | theta within 5 % | intervals held where "
               "identified | confidently wrong verdicts | median profile CPU s / fit CPU s |", "|---" * 8 + "|"]
-    for path in PATHS:
+    for path in sorted({r["path"] for r in records}, key=lambda p: (p.split()[0] != PATHS[0], p)):
         rs = [r for r in records if r["path"] == path]
         if not rs:
             continue
@@ -308,6 +312,8 @@ def main(argv=None):
     parser.add_argument("--seeds", nargs="+", type=int, default=[0])
     parser.add_argument("--package", default=None, help="a checkout whose sklearn_hybrid the cases import")
     parser.add_argument("--rerun", action="store_true")
+    parser.add_argument("--label", default=None,
+                        help="with --package: file its records as 'PATH LABEL' (the same path at another commit)")
     parser.add_argument("--render", action="store_true")
     parser.add_argument("--one", nargs=3, metavar=("PATH", "SYSTEM", "SEED"), help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
@@ -320,7 +326,7 @@ def main(argv=None):
         return
     from speed.time_to_answer_systems import SYSTEMS
 
-    run_all(args.paths, args.systems or list(SYSTEMS), args.seeds, args.package, args.rerun)
+    run_all(args.paths, args.systems or list(SYSTEMS), args.seeds, args.package, args.rerun, args.label)
     render()
 
 
