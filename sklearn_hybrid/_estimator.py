@@ -29,7 +29,7 @@ from ._validation import (check_dtype_range, check_not_nested, check_positive, c
 from ._fit_report import flat_predictions, theta_uncertainty
 from .metrics import network_share
 from .methods import make_method
-from .residual import build_residual
+from .residual import build_residual, is_zero_residual
 from .science import ScienceModel
 from .structures import HybridModule, OdeStructure, make_structure
 
@@ -58,6 +58,8 @@ def _standard_error_rows(model, n: int, n_iter: int, batch_size, seed: int):
 def _network_share(model, inputs, chunk) -> float | None:
     """The network's share of the prediction on ``inputs`` (None where the science alone predicts no ``y``:
     a user's composition, or a science output of another shape)."""
+    if is_zero_residual(model.residual):  # no network: nothing to predict twice
+        return 0.0
     try:
         hybrid, science = (flat_predictions(model, inputs, chunk, use_residual=flag) for flag in (True, False))
     except ValueError:  # a user-supplied composition has no science-only prediction

@@ -15,7 +15,7 @@ import torch
 from torch import nn
 
 __all__ = ["MLP", "MaskedMLP", "ConvNet", "MLPOn", "ZeroResidual", "build_residual", "RESIDUALS", "new_module",
-           "from_registry"]
+           "from_registry", "is_zero_residual"]
 
 _ACTIVATIONS = {"relu": nn.ReLU, "tanh": nn.Tanh, "elu": nn.ELU, "gelu": nn.GELU,
                 "silu": nn.SiLU, "leaky_relu": nn.LeakyReLU, "softplus": nn.Softplus}
@@ -189,16 +189,21 @@ class MLPOn:
 
 
 class _Zero(nn.Module):
-    """No network: zeros of the output shape (one unused parameter keeps the optimiser content)."""
+    """No network: zeros of the output shape (one parameter, never trained, keeps the optimiser content;
+    a training with every theta held then only evaluates the loss)."""
 
     def __init__(self, out_shape):
         super().__init__()
         self.out_shape = tuple(out_shape)
-        self.unused = nn.Parameter(torch.zeros(1))
+        self.unused = nn.Parameter(torch.zeros(1), requires_grad=False)
 
     def forward(self, *inputs):
-        # times the unused parameter: the loss stays differentiable when every theta is fixed
-        return self.unused * torch.zeros(len(inputs[0]), *self.out_shape, dtype=inputs[0].dtype)
+        return torch.zeros(len(inputs[0]), *self.out_shape, dtype=inputs[0].dtype, device=inputs[0].device)
+
+
+def is_zero_residual(module: nn.Module) -> bool:
+    """Whether ``module`` is the network of :class:`ZeroResidual` (no network: the science model alone)."""
+    return isinstance(module, _Zero)
 
 
 class ZeroResidual:

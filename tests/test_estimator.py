@@ -352,3 +352,25 @@ def test_passes_after_fit_take_what_the_fits_memory_allows(monkeypatch):
     y = torch.as_tensor(data.y_train, dtype=torch.float32)
     one, chunked = (theta_uncertainty(est.model_, inputs, y, chunk=c)[0]["omega"] for c in (None, 3))
     assert chunked == pytest.approx(one, rel=1e-9) and np.isfinite(one) and one > 0
+
+
+def test_a_model_with_every_parameter_held_is_evaluated_not_trained(monkeypatch):
+    """The closed loop's network-free estimator holds every theta and has no network: its one iteration
+    evaluates the loss without a backward pass (on long records that pass cost seconds), its network
+    share is 0 without predicting twice, and a SAM-family fit of the science alone still moves theta."""
+    from sklearn_hybrid.residual import ZeroResidual
+
+    data = make_pendulum(8, 2, 2, random_state=0)
+    backward = []
+    original = torch.autograd.grad
+    monkeypatch.setattr(torch.autograd, "grad", lambda *a, **k: backward.append(1) or original(*a, **k))
+    held = HybridRegressor(science=pendulum_f, dt=data.dt, residual=ZeroResidual(), method="erm", max_iter=1,
+                           theta_fixed={"omega": 0.6}, verbose=False).fit(data.X_train, data.y_train)
+    assert backward == [] and held.n_iter_ == 1 and held.theta_["omega"] == pytest.approx(0.6)
+    assert held.network_share_ == 0.0
+    science_alone = held.predict(data.X_train)
+    np.testing.assert_allclose(held.history_["loss"][0], np.mean((science_alone - data.y_train) ** 2), rtol=1e-5)
+    free = {m: HybridRegressor(science=pendulum_f, dt=data.dt, residual=ZeroResidual(), method=m, max_iter=20,
+                               random_state=0, verbose=False).fit(data.X_train, data.y_train).theta_["omega"]
+            for m in ("erm", "fsam")}
+    assert free["fsam"] == pytest.approx(free["erm"]) and free["erm"] != pytest.approx(0.5)  # nothing to perturb

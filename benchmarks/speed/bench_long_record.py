@@ -10,6 +10,7 @@ acceleration, 30 iterations, 4 RK4 steps per interval: the same fit in both code
 
     python benchmarks/speed/bench_long_record.py                       # the package of this checkout
     python benchmarks/speed/bench_long_record.py --package ../old      # a checkout of the old code
+    python benchmarks/speed/bench_long_record.py --package ../prev --label bf8d06e  # another commit, its own row
     python benchmarks/speed/bench_long_record.py --render
 """
 
@@ -99,6 +100,7 @@ def render() -> None:
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--package", default=None, help="a checkout of the old code (recorded as 'old')")
+    parser.add_argument("--label", default=None, help="with --package: the record's name instead of 'old'")
     parser.add_argument("--render", action="store_true")
     parser.add_argument("--one", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
@@ -114,7 +116,7 @@ def main(argv=None):
         if done.returncode:
             sys.exit(done.stderr[-3000:])
         FOLDER.mkdir(parents=True, exist_ok=True)
-        name = "old" if args.package else "new"
+        name = (args.label or "old") if args.package else "new"
         (FOLDER / f"{name}.json").write_text(done.stdout.strip().splitlines()[-1] + "\n")
     render()
 

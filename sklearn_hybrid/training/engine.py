@@ -257,9 +257,16 @@ def explain_nonfinite(model: nn.Module, inputs: tuple[torch.Tensor, ...]) -> str
 
 
 def _loss_and_grads(model, method, inputs, y, weight, params):
+    wanted = [p for p in params if p.requires_grad]
+    if not wanted:  # nothing to differentiate (a science model held at its values): the loss, without a graph
+        with torch.no_grad():
+            pred, extras = model(*inputs)
+            loss = data_loss(pred, y, weight) + method.penalty(model, pred, extras, weight)
+        return loss, [torch.zeros_like(p) for p in params]
     pred, extras = model(*inputs)
     loss = data_loss(pred, y, weight) + method.penalty(model, pred, extras, weight)
-    grads = torch.autograd.grad(loss, params, allow_unused=True)
+    grads = iter(torch.autograd.grad(loss, wanted, allow_unused=True))
+    grads = [next(grads) if p.requires_grad else None for p in params]
     return loss.detach(), [torch.zeros_like(p) if g is None else g for p, g in zip(params, grads)]
 
 

@@ -314,7 +314,8 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
             X = np.array(X, dtype=float)
             X[:, :fit.initial_states.shape[1]] = fit.initial_states
         current_watch().selected(final, science_theta, sel["steps"])  # a study may stop here (watch.py)
-        alone = fixed_science(before, final, science_theta, X, y)
+        alone = fixed_science(before, final, science_theta, X, y,
+                              n_substeps=getattr(fit.structure, "n_substeps", None))
         # a chosen term's form is a choice: a science parameter that trades with it, or that a rival form
         # moves, is identified only given that form (caveats.py)
         chosen = {f"{t['term']} on {t['output']}": [t["param"], *t["shape_params"].values()]
@@ -436,10 +437,16 @@ def _inside(theta: dict, bounds: Mapping | None) -> dict:
     return out
 
 
-def fixed_science(before, science, theta, X, y):
-    """An estimator holding ``science`` at ``theta``, no network: the model an engineer keeps."""
+def fixed_science(before, science, theta, X, y, n_substeps=None):
+    """An estimator holding ``science`` at ``theta``, no network: the model an engineer keeps.
+
+    ``n_substeps``: the RK4 steps per interval its parameters were fitted with, taken instead of
+    choosing them again where ``before`` chose them (``"auto"``: a fine free run of every record).
+    """
     names = list(read_signature(science)[1])
     est = clone(before).set_params(science=science, residual=ZeroResidual(), method="erm", max_iter=1,
                                    theta_init=_inside(theta, before.theta_bounds), theta_fixed=names,
                                    verbose=False)
+    if n_substeps is not None and isinstance(before.structure, str) and before.n_substeps == "auto":
+        est.set_params(n_substeps=int(n_substeps))
     return est.fit(X, y)
