@@ -48,7 +48,7 @@ data = make_duffing(N_TRAIN, N_TRAIN, N_TRAIN, random_state=0)
 estimators = {}
 for method in ["erm", "fsam"]:
     est = HybridRegressor(science=duffing_f, method=method, dt=data.dt, n_substeps=1,
-                          lr=3e-3, max_iter=MAX_ITER,
+                          lr=3e-3, max_iter=MAX_ITER, residual={"hidden": (128, 128), "zero_init": False},
                           random_state=0)
     estimators[method] = est.fit(data.X_train, data.y_train)
 

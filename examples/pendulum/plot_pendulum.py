@@ -7,7 +7,8 @@ The data come from a damped pendulum ``v'' + gamma v' + (2 pi omega)^2 sin v = 0
 with gamma = 0.5 and omega = 2/3 (the paper's *pendulum time-series* task).
 The scientist knows only the undamped part, :func:`~sklearn_hybrid.models.pendulum_f`,
 and wants omega.  A hybrid neural ODE ``dv/dt = f_omega(v) + g_phi(v)`` lets an
-MLP with two hidden layers of 128 units (``residual="mlp"``) learn the damping.
+MLP with two hidden layers of 64 units (``residual="mlp"``, its last layer
+starting at zero) learn the damping.
 
 Plain training (``erm``) lets the network absorb part of the physics, which
 biases omega; Fisher sharpness-aware minimisation (``fsam``) keeps the
@@ -42,7 +43,7 @@ print(data.DESCR)
 # %%
 # Fit with erm and fsam
 # ---------------------
-# The Quick start's settings: the defaults (at most 2,000 iterations, stopped
+# The Quick start's settings: the defaults (at most 1,000 iterations, stopped
 # once loss and theta settle), only the method differs.  The fsam fit is the
 # Quick start's fit, with the same omega.  (``benchmarks/paper/bench_tasks.py`` runs
 # the paper's protocol instead: 2,000 iterations at lr 3e-3, no early stop.)
