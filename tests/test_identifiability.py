@@ -11,7 +11,7 @@ from sklearn.exceptions import NotFittedError
 
 from sklearn_hybrid import HybridRegressor
 from sklearn_hybrid.diagnosis import ZeroResidual
-from sklearn_hybrid.identifiability import (IDENTIFIED, STRUCTURAL, ThetaProfile, bootstrap_theta, plot_profile,
+from sklearn_hybrid.identifiability import (IDENTIFIED, STRUCTURAL, UNSETTLED, ThetaProfile, bootstrap_theta, plot_profile,
                                             profile_theta, science_intervals)
 
 matplotlib.use("Agg")
@@ -302,3 +302,20 @@ def test_a_diverged_profile_member_is_left_out_and_named():
     assert "1 value(s) left out, their training diverged: k at [1.5]" in profile.report()
     # members stop together once each has settled, within the fit's own budget
     assert profile.n_iter <= est.n_iter_
+
+
+def test_an_interval_that_leaves_out_the_estimate_is_not_called_identified():
+    """A fit stopped after 5 iterations, far from its optimum: the profile's members train on from it and
+    find a sharp minimum away from the estimate. That interval is no interval of the fit's theta (the
+    time-to-answer benchmark once called such a profile identified): the verdict is NOT SETTLED."""
+    from sklearn_hybrid.datasets import make_pendulum
+    from sklearn_hybrid.demo import pendulum_f
+
+    d = make_pendulum(8, 2, 2, random_state=0)
+    est = HybridRegressor(science=pendulum_f, dt=d.dt, residual=ZeroResidual(), method="erm", max_iter=5, tol=None,
+                          random_state=0, verbose=False).fit(d.X_train, d.y_train)
+    profile = profile_theta(est, d.X_train, d.y_train, max_iter=150, refine=False, verbose=False)
+    low, high = profile.intervals["omega"]
+    assert not low <= est.theta_["omega"] <= high and low <= d.theta_true["omega"] <= high
+    assert profile.verdicts["omega"] == UNSETTLED
+    assert "NOT SETTLED" in profile.report() and "larger max_iter" in profile.report()

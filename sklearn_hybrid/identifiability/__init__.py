@@ -11,8 +11,9 @@
 """
 
 from .bootstrap import ThetaBootstrap, bootstrap_theta
-from .profile import ADVICE, IDENTIFIED, PRACTICAL, STRUCTURAL, ThetaProfile, plot_profile, profile_theta
+from .profile import ADVICE, IDENTIFIED, PRACTICAL, STRUCTURAL, UNSETTLED, ThetaProfile, plot_profile, profile_theta
 from .science_only import ScienceIntervals, science_intervals
 
 __all__ = ["profile_theta", "ThetaProfile", "plot_profile", "bootstrap_theta", "ThetaBootstrap",
-           "science_intervals", "ScienceIntervals", "IDENTIFIED", "PRACTICAL", "STRUCTURAL", "ADVICE"]
+           "science_intervals", "ScienceIntervals", "IDENTIFIED", "PRACTICAL", "STRUCTURAL", "UNSETTLED",
+           "ADVICE"]

@@ -33,7 +33,8 @@ from .._validation import check_n_jobs, torch_threads
 from ._members import (bounds_of, check_level, entry_values, fitted_problem, member_config,
                        parameter_entries, set_entry)
 
-__all__ = ["profile_theta", "ThetaProfile", "plot_profile", "IDENTIFIED", "PRACTICAL", "STRUCTURAL", "ADVICE"]
+__all__ = ["profile_theta", "ThetaProfile", "plot_profile", "IDENTIFIED", "PRACTICAL", "STRUCTURAL", "UNSETTLED",
+           "ADVICE"]
 
 #: What would identify a parameter the data leave open, said wherever a verdict is.
 ADVICE = ("a parameter the data do not identify is the regulariser's choice, not a measurement: close_the_loop "
@@ -44,6 +45,9 @@ ADVICE = ("a parameter the data do not identify is the regulariser's choice, not
 IDENTIFIED = "identified"
 PRACTICAL = "practically non-identifiable"
 STRUCTURAL = "structurally non-identifiable"
+#: An interval that leaves out the fit's own estimate: the members, trained from the fit with its budget, moved
+#: theta on, so the fit had not converged and neither had the profile: no interval is backed.
+UNSETTLED = "not settled"
 
 
 @dataclass
@@ -68,8 +72,11 @@ class ThetaProfile:
         ``(low, high)``; a side where the profile stays under the threshold to
         the end of the profiled range is ``-inf`` / ``inf``.
     verdicts : dict of str to str
-        ``"identified"``, ``"practically non-identifiable"`` or
-        ``"structurally non-identifiable"``.
+        ``"identified"``, ``"practically non-identifiable"``,
+        ``"structurally non-identifiable"``, or ``"not settled"`` where the
+        profile crosses the threshold on both sides of an interval that leaves
+        out the fit's own estimate (more training moved theta: the fit had not
+        converged, and the members, trained with its budget, neither).
     objective_minimum : dict of str to float
         Where the method's objective is lowest along the profile: the value of
         theta the regulariser prefers (with ``objective=True``).
@@ -107,10 +114,11 @@ class ThetaProfile:
         low, high = self.intervals[label]
         span = f"[{_fmt(self.values[label][0])}, {_fmt(self.values[label][-1])}]"
         if self.verdicts[label] == IDENTIFIED:
-            outside = not low <= self.estimate[label] <= high
-            return (f"identified, {100 * self.level:.0f} % interval [{_fmt(low)}, {_fmt(high)}] (profile)"
-                    + (" -- the estimate lies outside it: more training moved theta, refit with a larger "
-                       "max_iter" if outside else ""))
+            return f"identified, {100 * self.level:.0f} % interval [{_fmt(low)}, {_fmt(high)}] (profile)"
+        if self.verdicts[label] == UNSETTLED:
+            return (f"NOT SETTLED: the profile's interval [{_fmt(low)}, {_fmt(high)}] leaves out the estimate: "
+                    "training on from the fit moved theta, so the fit had not converged and the profile is not "
+                    "a converged one either; refit with a larger max_iter before profiling")
         if self.verdicts[label] == STRUCTURAL:
             return (f"NOT IDENTIFIED: the data fit as well over the whole profiled range {span} "
                     "(the network takes over what this parameter does)")
@@ -283,6 +291,9 @@ def profile_theta(estimator, X, y, params=None, *, grid=None, span=0.5, n_points
         out.estimate[label] = float(entry_values(science, name)[k])
         out.values[label], out.loss[label] = values, loss
         out.intervals[label], out.verdicts[label] = _interval(values, loss, out.threshold)
+        low, high = out.intervals[label]
+        if out.verdicts[label] == IDENTIFIED and not low <= out.estimate[label] <= high:
+            out.verdicts[label] = UNSETTLED
     if objective:  # the method's own objective, each member trained on it, at the plain profile's values
         at = [(label, name, k, v) for name, k, label in entries for v in out.values[label]]
         regularised, _ = _train_points(problem, problem.method, at, config, n_jobs, n_threads, objective=True)
