@@ -290,13 +290,17 @@ def render() -> None:
                      f"{max(cost):.0f} | {sum(r['theta_within'] for r in rs)} of {len(rs)} | "
                      f"{sum(v['holds'] for v in ident)} of {len(ident)} | "
                      f"{sum(len(r['confidently_wrong']) for r in rs)} | {np.nanmedian(ratio):.2f} |")
-    pairs = [(a, b) for a in records if a["path"] == "recommended" and "failed" not in a for b in records
-             if b["path"] == "today" and "failed" not in b and (b["system"], b["seed"]) == (a["system"], a["seed"])]
-    if pairs:
-        ratios = [b["path_cpu_s"] / a["path_cpu_s"] for a, b in pairs]
-        lines += ["", f"Side by side on {len(pairs)} system(s) (same data and seeds, each path in a fresh process "
-                  f"of the same run): the old path costs {np.median(ratios):.1f} times the recommended one "
-                  f"(median; range {min(ratios):.1f}-{max(ratios):.1f})."]
+    for other in sorted({r["path"] for r in records} - {"recommended"}):
+        pairs = [(a, b) for a in records if a["path"] == "recommended" and "failed" not in a for b in records
+                 if b["path"] == other and "failed" not in b and (b["system"], b["seed"]) == (a["system"], a["seed"])]
+        if pairs:
+            ratios = [b["path_cpu_s"] / a["path_cpu_s"] for a, b in pairs]
+            fits = [b["steps"]["fit"]["cpu_s"] / a["steps"]["fit"]["cpu_s"] for a, b in pairs]
+            dates = sorted({r["machine"].get("date", "")[:10] for pair in pairs for r in pair} - {""})
+            lines += ["", f"Side by side on {len(pairs)} system(s) (same data and seeds, each path in a fresh process; "
+                      f"run on {', '.join(dates)}): the path '{other}' costs {np.median(ratios):.1f} times the "
+                      f"recommended one (median; range {min(ratios):.1f}-{max(ratios):.1f}), its fit "
+                      f"{np.median(fits):.1f} times (range {min(fits):.1f}-{max(fits):.1f})."]
     lines += ["", "Targets (issue \"The right answer in a minute\"): median path <= 60 CPU s and every system <= 120; "
               "theta within 5 % with intervals that hold wherever the loop names the effect; no confidently wrong "
               "verdict; a profile costs at most its fit."]
