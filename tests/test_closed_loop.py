@@ -1159,7 +1159,7 @@ def _linear_oscillator_f(v, k=1.0):
 
 
 def test_cut_windows_keeps_each_record_in_order():
-    from sklearn_hybrid.diagnosis.loop.close import cut_windows
+    from sklearn_hybrid.diagnosis.loop.refit import cut_windows
 
     X = np.array([[0.0, 10.0], [100.0, 110.0]])
     y = X[:, None] + np.arange(1, 8)[None, :, None]  # 7 steps of two records
@@ -1213,7 +1213,7 @@ def _with_dry_friction(v, k=0.5, mu=0.3):
 def test_a_stiffer_chosen_model_is_refitted_with_the_steps_it_needs():
     """n_substeps='auto' chose the RK4 steps for the science model; a term the loop adds can be far stiffer
     (dry friction's tanh(v/w) with a small w), so the final refit integrates it with the steps it needs."""
-    from sklearn_hybrid.diagnosis.loop.close import accurate_substeps
+    from sklearn_hybrid.diagnosis.loop.refit import accurate_substeps
 
     rng = np.random.default_rng(0)
     X = rng.uniform(-1, 1, (8, 2))

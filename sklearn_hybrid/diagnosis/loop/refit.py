@@ -1,0 +1,99 @@
+"""The loop's refits after the selection: long records cut into windows, the RK4 steps a chosen model
+needs, and the network-free estimator an engineer keeps."""
+
+from __future__ import annotations
+
+import copy
+import math
+from collections.abc import Callable, Mapping
+from typing import Any
+
+import numpy as np
+import torch
+from sklearn.base import clone
+
+from ..._estimator import ode_structure
+from ...datasets import make_windows
+from ...residual import ZeroResidual
+from ...science import read_signature
+from ..science_fit import ScienceFit
+
+__all__ = ["windowable", "accurate_substeps", "cut_windows", "fixed_science", "inside_bounds"]
+
+
+def windowable(estimator: Any) -> bool:
+    """Whether a long record of ``estimator``'s data can be cut into windows started from measured states:
+    an unforced ODE that observes every state component."""
+    structure = ode_structure(estimator)
+    return structure is not None and structure.observed is None and not structure.n_inputs
+
+
+def accurate_substeps(fit: ScienceFit, science: Callable, theta: Mapping[str, Any]) -> int | None:
+    """With ``n_substeps="auto"``: the RK4 steps per interval that ``science`` at ``theta`` needs, where
+    more than the fit's (an added term can be stiffer than the science the steps were chosen for: dry
+    friction's ``tanh(v/w)`` with a small ``w``); None where the fit's suffice."""
+    structure = fit.structure
+    if not getattr(structure, "auto_substeps", False):
+        return None
+    probe = copy.copy(structure)
+    values = {k: torch.as_tensor(np.asarray(v, dtype=float)) for k, v in theta.items()}
+    probe.choose_substeps(lambda *args: science(*args, **values), fit.inputs[0], torch.as_tensor(fit.y))
+    return probe.n_substeps if probe.n_substeps > structure.n_substeps else None
+
+
+def cut_windows(X: Any, y: Any, window: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Non-overlapping windows of ``window`` steps cut from fully observed ODE records
+    (:func:`~sklearn_hybrid.datasets.make_windows` on each record, its initial state first).
+
+    Parameters
+    ----------
+    X : array-like of shape (n_records, *state_shape)
+        The initial states.
+    y : array-like of shape (n_records, n_steps, *state_shape) or flattened per record
+        The states at the output times.
+    window : int
+        Steps per window.
+
+    Returns
+    -------
+    X_windows : ndarray of shape (n_windows, *state_shape)
+        Each window's first state: ``X`` for the first window of a record, else the measured state
+        before the window.
+    y_windows : ndarray of shape (n_windows, window, *state_shape)
+    record : ndarray of int, shape (n_windows,)
+        The record each window was cut from (records in order, each record's windows in time order).
+    """
+    X = np.asarray(X, dtype=float)
+    shape, size = X.shape[1:], math.prod(X.shape[1:])
+    records = np.concatenate([X.reshape(len(X), 1, size), np.asarray(y, dtype=float).reshape(len(X), -1, size)], axis=1)
+    cut = [make_windows(record, length=window, stride=window) for record in records]
+    return (np.concatenate([c.X for c in cut]).reshape(-1, *shape),
+            np.concatenate([c.y for c in cut]).reshape(-1, window, *shape),
+            np.repeat(np.arange(len(X)), [len(c.X) for c in cut]))
+
+
+def inside_bounds(theta: dict, bounds: Mapping | None) -> dict:
+    """Keep values strictly inside their bounds (the reparametrisation needs it)."""
+    out = dict(theta)
+    for k, (low, high) in (bounds or {}).items():
+        if k in out and np.ndim(out[k]) == 0:
+            lo = -np.inf if low is None else low
+            hi = np.inf if high is None else high
+            span = (hi - lo) if np.isfinite(hi - lo) else 1.0
+            out[k] = float(np.clip(out[k], lo + 1e-6 * span, hi - 1e-6 * span))
+    return out
+
+
+def fixed_science(before, science, theta, X, y, n_substeps=None):
+    """An estimator holding ``science`` at ``theta``, no network: the model an engineer keeps.
+
+    ``n_substeps``: the RK4 steps per interval its parameters were fitted with, taken instead of
+    choosing them again where ``before`` chose them (``"auto"``: a fine free run of every record).
+    """
+    names = list(read_signature(science)[1])
+    est = clone(before).set_params(science=science, residual=ZeroResidual(), method="erm", max_iter=1,
+                                   theta_init=inside_bounds(theta, before.theta_bounds), theta_fixed=names,
+                                   verbose=False)
+    if n_substeps is not None and isinstance(before.structure, str) and before.n_substeps == "auto":
+        est.set_params(n_substeps=int(n_substeps))
+    return est.fit(X, y)
