@@ -202,7 +202,10 @@ class _Zero(nn.Module):
 
 
 def is_zero_residual(module: nn.Module) -> bool:
-    """Whether ``module`` is the network of :class:`ZeroResidual` (no network: the science model alone)."""
+    """Whether ``module`` is the network :class:`ZeroResidual` builds (no network: the science model alone).
+
+    A network of another kind is not, even one whose output starts at zero (``MLP(zero_init=True)``).
+    """
     return isinstance(module, _Zero)
 
 

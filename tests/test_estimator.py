@@ -358,7 +358,7 @@ def test_a_model_with_every_parameter_held_is_evaluated_not_trained(monkeypatch)
     """The closed loop's network-free estimator holds every theta and has no network: its one iteration
     evaluates the loss without a backward pass (on long records that pass cost seconds), its network
     share is 0 without predicting twice, and a SAM-family fit of the science alone still moves theta."""
-    from sklearn_hybrid.residual import ZeroResidual
+    from sklearn_hybrid.residual import MLP, ZeroResidual, is_zero_residual
 
     data = make_pendulum(8, 2, 2, random_state=0)
     backward = []
@@ -368,6 +368,8 @@ def test_a_model_with_every_parameter_held_is_evaluated_not_trained(monkeypatch)
                            theta_fixed={"omega": 0.6}, verbose=False).fit(data.X_train, data.y_train)
     assert backward == [] and held.n_iter_ == 1 and held.theta_["omega"] == pytest.approx(0.6)
     assert held.network_share_ == 0.0
+    assert is_zero_residual(held.model_.residual)
+    assert not is_zero_residual(MLP([(2,)], (2,)))  # a network that starts at zero is still a network
     science_alone = held.predict(data.X_train)
     np.testing.assert_allclose(held.history_["loss"][0], np.mean((science_alone - data.y_train) ** 2), rtol=1e-5)
     free = {m: HybridRegressor(science=pendulum_f, dt=data.dt, residual=ZeroResidual(), method=m, max_iter=20,
