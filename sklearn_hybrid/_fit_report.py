@@ -40,7 +40,7 @@ def flat_predictions(model, inputs, chunk=None, use_residual=True) -> np.ndarray
     return torch.cat(parts).reshape(n, -1).cpu().numpy()
 
 
-def theta_jacobian(science, predict, entries) -> np.ndarray:
+def theta_jacobian(science, predict, entries, predict_many=None, base=None) -> np.ndarray:
     """Central differences of ``predict()`` by theta's entries, in theta's own units.
 
     Parameters
@@ -52,6 +52,15 @@ def theta_jacobian(science, predict, entries) -> np.ndarray:
         Returns the predictions (an array) at the current theta.
     entries : list of (str, int)
         ``(name, flat index)`` of each entry to differentiate by, free or fixed.
+    predict_many : callable, optional
+        ``predict_many(raw) -> ndarray``: the predictions at a batch of raw
+        (reparametrised) values, ``raw`` mapping each name to a tensor with a
+        leading batch axis, in one vectorised pass (a small model's simulation
+        costs its per-operation overhead, about the same for one theta as for
+        several).  Used when its unmoved row reproduces ``base``; otherwise,
+        or when it raises, ``predict()`` runs once per step.
+    base : ndarray, optional
+        ``predict()`` at the current theta, which ``predict_many`` is checked against.
 
     Returns
     -------
@@ -59,20 +68,42 @@ def theta_jacobian(science, predict, entries) -> np.ndarray:
         Each raw (reparametrised) entry is moved by +-h and the step in theta
         read back through its bounds' transform.
     """
-    columns = []
     with torch.no_grad():
+        raw = {name: science.raw[name].detach().clone() for name in science.names}
+        moves = []  # (name, k, step) of every row after the unmoved one
         for name, k in entries:
-            flat = science.raw[name].data.view(-1)
-            original = float(flat[k])
-            h = 1e-6 * max(abs(original), 1.0)
-            values, preds = [], []
-            for step in (h, -h):
-                flat[k] = original + step
-                values.append(science.values()[name].detach().reshape(-1)[k].item())
+            h = 1e-6 * max(abs(float(raw[name].view(-1)[k])), 1.0)
+            moves += [(name, k, h), (name, k, -h)]
+        rows = {name: value.expand(1 + len(moves), *value.shape).clone() for name, value in raw.items()}
+        for i, (name, k, step) in enumerate(moves, start=1):
+            rows[name][i].view(-1)[k] += step
+        values = np.array([float(science.transforms[name](rows[name][i]).reshape(-1)[k])
+                           for i, (name, k, _) in enumerate(moves, start=1)])
+        preds = _batched(predict_many, rows, base)
+        if preds is None:  # one prediction per step
+            preds = [base]
+            for i, (name, _, _) in enumerate(moves, start=1):
+                science.raw[name].data.copy_(rows[name][i])
                 preds.append(predict())
-            flat[k] = original
-            columns.append((preds[0] - preds[1]) / (values[0] - values[1]))
+                science.raw[name].data.copy_(raw[name])
+    columns = [(preds[1 + 2 * j] - preds[2 + 2 * j]) / (values[2 * j] - values[2 * j + 1])
+               for j in range(len(entries))]
     return np.stack(columns, axis=-1)
+
+
+def _batched(predict_many, rows, base):
+    """``predict_many(rows)`` as a list of arrays, or None where it cannot serve: not given, it raised
+    (a science function with Python control flow on values cannot be vectorised), or its unmoved row
+    differs from ``base``."""
+    if predict_many is None or base is None:
+        return None
+    try:
+        preds = np.asarray(predict_many(rows))
+    except Exception:  # noqa: BLE001 -- any failure means: one prediction per step
+        return None
+    if preds.shape[1:] != np.shape(base) or not np.allclose(preds[0], base, rtol=1e-9, atol=1e-12, equal_nan=True):
+        return None
+    return list(preds)
 
 
 def theta_uncertainty(model, inputs, y, sample_weight=None, chunk=None) -> tuple[dict, np.ndarray, list]:
@@ -119,15 +150,15 @@ def theta_uncertainty(model, inputs, y, sample_weight=None, chunk=None) -> tuple
     counted = w > 0  # a zero weight removes a sample, in the fit and here
     n_values = int(counted.sum()) * y.shape[1]
     w = np.repeat(w / w[counted].mean(), y.shape[1])  # one weight per output value, mean 1 where counted
-    base = flat_predictions(model, inputs, chunk).ravel()
     where = [(name, k) for name in science.names if science.raw[name].requires_grad
              for k in range(science.raw[name].numel())]
     labels = [name if science.shapes[name] == () else f"{name}[{k}]" for name, k in where]
     p = len(where)
     std = {name: (0.0 if science.shapes[name] == () else np.zeros(science.shapes[name]))
            for name in science.names}
-    if p == 0:
+    if p == 0:  # every parameter held: known exactly, and no prediction is needed to say so
         return std, np.zeros((0, 0)), labels
+    base = flat_predictions(model, inputs, chunk).ravel()
     J = theta_jacobian(science, lambda: flat_predictions(model, inputs, chunk).ravel(), where)
     resid = y.ravel() - base
     dof = max(n_values - p, 1)

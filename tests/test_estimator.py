@@ -354,6 +354,71 @@ def test_passes_after_fit_take_what_the_fits_memory_allows(monkeypatch):
     assert chunked == pytest.approx(one, rel=1e-9) and np.isfinite(one) and one > 0
 
 
+def test_a_model_with_every_parameter_held_predicts_no_more_than_it_needs(monkeypatch):
+    """Without a network the science part's loss is the loss (the verdict predicts once, not twice), and
+    with every parameter held there is no standard error to compute (no prediction for it): on a long
+    record each of those passes integrates every step."""
+    from sklearn_hybrid import _fit_report
+    from sklearn_hybrid.residual import ZeroResidual
+    from sklearn_hybrid.training import verdict
+
+    data = make_pendulum(8, 2, 2, random_state=0)
+    passes = {"science alone": 0, "standard errors": 0}
+    predict, flat = verdict._predict, _fit_report.flat_predictions
+
+    def counted_predict(model, inputs, chunk, use_residual=True):
+        passes["science alone"] += not use_residual
+        return predict(model, inputs, chunk, use_residual)
+
+    monkeypatch.setattr(verdict, "_predict", counted_predict)
+    monkeypatch.setattr(_fit_report, "flat_predictions",
+                        lambda *a, **k: passes.__setitem__("standard errors", passes["standard errors"] + 1) or flat(*a, **k))
+    held = HybridRegressor(science=pendulum_f, dt=data.dt, residual=ZeroResidual(), method="erm", max_iter=30,
+                           theta_fixed={"omega": 0.6}, verbose=False).fit(data.X_train, data.y_train)
+    assert passes == {"science alone": 0, "standard errors": 0}
+    assert held.theta_std_ == {"omega": 0.0}
+    free = HybridRegressor(science=pendulum_f, dt=data.dt, max_iter=30, random_state=0,
+                           verbose=False).fit(data.X_train, data.y_train)
+    assert passes["science alone"] == 1 and passes["standard errors"] == 3  # base and +-h of omega
+    assert np.isfinite(free.theta_std_["omega"]) and free.theta_std_["omega"] > 0
+
+
+def test_theta_jacobian_in_one_vectorised_pass_matches_one_pass_per_step():
+    """``theta_jacobian`` with ``predict_many`` (every step of the central differences in one batch)
+    gives the differences of one prediction per step, through the bounds' transform; a batch that raises
+    or does not reproduce ``base`` is not used."""
+    from sklearn_hybrid._fit_report import theta_jacobian
+    from sklearn_hybrid.science import ScienceModel
+
+    def f(x, a=2.0, b=(0.5, 1.5)):
+        return a * x[:, :1] ** 2 + b[0] * x[:, 1:] + torch.exp(b[1] * x[:, :1])
+
+    science = ScienceModel(f, theta_bounds={"a": (0.0, 10.0)}, dtype=torch.float64)
+    x = torch.linspace(-1, 1, 14, dtype=torch.float64).reshape(7, 2)
+
+    def predict():
+        return science(x).detach().numpy()
+
+    def predict_many(raw):
+        values = {n: science.transforms[n](raw[n]) for n in raw}
+        return torch.stack([f(x, values["a"][i], values["b"][i]) for i in range(len(values["a"]))]).detach().numpy()
+
+    entries = [("a", 0), ("b", 0), ("b", 1)]
+    base = predict()
+    before = {n: science.raw[n].detach().clone() for n in science.names}
+    one_by_one = theta_jacobian(science, predict, entries)
+    batched = theta_jacobian(science, predict, entries, predict_many, base)
+    np.testing.assert_allclose(batched, one_by_one, rtol=1e-12, atol=1e-12)
+    # the analytic derivatives, in theta's own units
+    np.testing.assert_allclose(one_by_one[..., 0], x[:, :1].numpy() ** 2, rtol=1e-5)
+    np.testing.assert_allclose(one_by_one[..., 1], x[:, 1:].numpy(), rtol=1e-5, atol=1e-9)
+    assert all(torch.equal(science.raw[n], before[n]) for n in science.names)  # theta left as it was
+    wrong = theta_jacobian(science, predict, entries, lambda raw: predict_many(raw) + 1.0, base)
+    failing = theta_jacobian(science, predict, entries, lambda raw: 1 / 0, base)
+    np.testing.assert_allclose(wrong, one_by_one, rtol=1e-12)
+    np.testing.assert_allclose(failing, one_by_one, rtol=1e-12)
+
+
 def test_a_model_with_every_parameter_held_is_evaluated_not_trained(monkeypatch):
     """The closed loop's network-free estimator holds every theta and has no network: its one iteration
     evaluates the loss without a backward pass (on long records that pass cost seconds), its network

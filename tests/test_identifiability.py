@@ -197,6 +197,32 @@ def test_profile_on_a_dask_cluster_matches_local(offset_fit, line_data):
         assert other.intervals == local.intervals
 
 
+def test_science_intervals_differentiate_an_ode_in_one_vectorised_simulation(monkeypatch):
+    """The central differences of a network-free ODE model run as one batched simulation (a long record
+    integrates every step per simulation), with the intervals of one simulation per step."""
+    rng = np.random.default_rng(0)
+    X = rng.uniform(-1, 1, (12, 2))
+    y = np.stack([X * np.cos(0.3 * t) for t in range(1, 9)], 1) + 0.01 * rng.normal(size=(12, 8, 2))
+
+    def spring(v, k=1.0, c=0.1):
+        return torch.stack([v[:, 1], -k * v[:, 0] - c * v[:, 1]], -1)
+
+    est = HybridRegressor(science=spring, dt=0.3, residual=ZeroResidual(), method="erm", max_iter=20,
+                          random_state=0, verbose=False).fit(X, y)
+    calls = []
+    hook = est.model_.register_forward_pre_hook(lambda module, args: calls.append(1))
+    batched = science_intervals(est, X, y)
+    vectorised_calls = len(calls)
+    monkeypatch.setattr(torch.func, "vmap", lambda *a, **k: 1 / 0)  # the fallback: one simulation per step
+    calls.clear()
+    one_by_one = science_intervals(est, X, y)
+    hook.remove()
+    assert vectorised_calls == 2 and len(calls) == 1 + 2 * 2  # the base and one batch; one per step without
+    for name in ("k", "c"):
+        assert batched.std[name] == pytest.approx(one_by_one.std[name], rel=1e-9)
+        assert batched.intervals[name] == pytest.approx(one_by_one.intervals[name], rel=1e-9)
+
+
 def test_science_intervals_of_a_possibly_incomplete_model_are_not_backed(line_data):
     X, y = line_data
     est = HybridRegressor(science=line_f, structure="additive", residual=ZeroResidual(), method="erm", lr=5e-2,

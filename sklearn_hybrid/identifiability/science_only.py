@@ -161,10 +161,15 @@ def science_intervals(estimator, X, y, level=0.95, incomplete: str | None = None
         def predict():
             return model(*inputs)[0].reshape(len(X), -1).cpu().numpy()
 
+        def predict_many(raw):  # every step of the differences in one vectorised simulation
+            params = {f"science.raw.{name}": value for name, value in raw.items()}
+            out = torch.func.vmap(lambda p: torch.func.functional_call(model, p, inputs)[0])(params)
+            return out.reshape(len(out), len(X), -1).cpu().numpy()
+
         base = predict()
         entries = [(name, k) for name in science.names for k in range(science.raw[name].numel())]
         labels = [(name, k, name if science.shapes[name] == () else f"{name}[{k}]") for name, k in entries]
-        J = theta_jacobian(science, predict, entries)  # (n, m, p)
+        J = theta_jacobian(science, predict, entries, predict_many, base)  # (n, m, p)
         if states:
             K = _state_derivatives(predict, inputs, states)  # (n, m, q)
     if states:  # theta's derivatives orthogonal to what each sample's own states can do

@@ -16,6 +16,7 @@ import inspect
 import numpy as np
 import torch
 
+from ..residual import is_zero_residual
 from .stopping import SpikeGuard
 from .engine import DivergenceError, data_loss, explain_nonfinite
 
@@ -168,10 +169,13 @@ def judge_training(model, history: dict, inputs, y, sample_weight=None, *, theta
         raise DivergenceError(
             f"The training diverged: the training loss ended at {loss:.4g}, {loss / max(start, 1e-300):.3g} "
             f"times its start ({start:.4g}); the training R^2 is {r2:.4g}.{spikes}{advice}")
-    try:
-        science_loss = float(data_loss(_predict(model, inputs, chunk, use_residual=False), y, weight))
-    except ValueError:  # a structure without a science-only prediction (a user composition)
-        science_loss = float("nan")
+    if is_zero_residual(getattr(model, "residual", None)):  # no network: the prediction is the science's
+        science_loss = loss
+    else:
+        try:
+            science_loss = float(data_loss(_predict(model, inputs, chunk, use_residual=False), y, weight))
+        except ValueError:  # a structure without a science-only prediction (a user composition)
+            science_loss = float("nan")
     problems = []
     if len(history["loss"]) < _GUARD_WINDOW:  # a smoke test of a few iterations: too short to judge
         return TrainingVerdict(loss, start, science_loss, baseline, r2, problems)
