@@ -1165,9 +1165,32 @@ def test_cut_windows_keeps_each_record_in_order():
     y = X[:, None] + np.arange(1, 8)[None, :, None]  # 7 steps of two records
     X_w, y_w, record = cut_windows(X, y, 3)
     assert record.tolist() == [0, 0, 1, 1]  # 7 steps hold two windows of 3; the last step is left over
-    np.testing.assert_array_equal(X_w[:, 0], [0, 3, 100, 103])  # a window starts from the state before it
+    # a window starts from the state before it (a record that varies as a cubic keeps its values when smoothed)
+    np.testing.assert_allclose(X_w[:, 0], [0, 3, 100, 103], atol=1e-12)
     np.testing.assert_array_equal(y_w[1, :, 0], [4, 5, 6])
     np.testing.assert_array_equal(y_w[3, :, 1], [114, 115, 116])
+
+
+def test_windows_of_a_noisy_record_start_from_the_smoothed_record():
+    """A window's start carries its noise into every step of the window (a model that damps more would be
+    rewarded for removing it): a window starts from the record smoothed there, the first from X as given
+    (the start of the whole record's fit), and the targets stay as measured."""
+    from sklearn_hybrid.diagnosis.loop.refit import cut_windows
+
+    rng = np.random.default_rng(0)
+    t = 0.1 * np.arange(1, 401)
+    X = np.array([[1.0, 0.0], [0.5, 0.2]])
+    clean = np.stack([np.stack([a * np.cos(t) + b * np.sin(t), -a * np.sin(t) + b * np.cos(t)], -1) for a, b in X])
+    y = clean + 0.01 * rng.standard_normal(clean.shape)
+    X_w, y_w, record = cut_windows(X, y, 25)
+    truth = clean[:, 24:-1:25][:, :15].reshape(-1, 2)  # the state before every window but the first
+    later = np.flatnonzero(np.arange(len(X_w)) % 16 != 0)
+    measured = y[:, 24:-1:25][:, :15].reshape(-1, 2)
+    assert len(X_w) == 32 and record.tolist() == [0] * 16 + [1] * 16
+    np.testing.assert_array_equal(X_w[[0, 16]], X)
+    smoothed_error = np.sqrt(np.mean((X_w[later] - truth) ** 2))
+    assert smoothed_error < 0.6 * np.sqrt(np.mean((measured - truth) ** 2))
+    np.testing.assert_array_equal(y_w[1], y[0, 25:50])
 
 
 def test_a_long_record_is_selected_on_windows_and_refitted_whole():

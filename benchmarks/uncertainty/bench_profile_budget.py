@@ -79,7 +79,8 @@ def render() -> None:
     if not records:
         sys.exit("no runs yet")
     lines = ["# Can a profile's members train less?", "",
-             f"{len(records)} fits of the uncertainty study's systems ({', '.join(sorted({r['system'] for r in records}))}; "
+             f"{len(records)} fits of the uncertainty study's systems "
+             f"({', '.join(sorted({r['system'] for r in records}))}; "
              f"methods {', '.join(sorted({r['method'] for r in records}))}; repeats "
              f"{', '.join(str(x) for x in sorted({r['repeat'] for r in records}))}), each profiled with its members "
              "trained at most a share of the fit's iterations (5 points, +/- 50 %, refined near the crossings). "

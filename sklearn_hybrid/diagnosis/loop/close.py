@@ -274,7 +274,7 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         unit = "samples" if select_codes is None else "groups"
         if window:
             unit = (f"{unit} (windows of {window} steps cut from the {len(y)} records, each started from its "
-                    "measured first state; the chosen model refitted on the whole records)")
+                    "smoothed first state; the chosen model refitted on the whole records)")
         blocks = "" if evidence.cv is None else f" in {evidence.cv} blocks"
         log(f"selecting terms ({len(candidates.terms)} candidates on {len(components)} component(s), "
             f"{n_val} validation {unit}{blocks}) ...")

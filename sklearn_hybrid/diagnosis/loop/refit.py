@@ -10,6 +10,7 @@ from typing import Any
 
 import numpy as np
 import torch
+from scipy.signal import savgol_filter
 from sklearn.base import clone
 
 from ..._estimator import ode_structure
@@ -18,7 +19,7 @@ from ...residual import ZeroResidual
 from ...science import read_signature
 from ..science_fit import ScienceFit
 
-__all__ = ["windowable", "accurate_substeps", "cut_windows", "fixed_science", "inside_bounds"]
+__all__ = ["windowable", "accurate_substeps", "cut_windows", "fixed_science", "inside_bounds", "START_SMOOTHING"]
 
 
 def windowable(estimator: Any) -> bool:
@@ -41,6 +42,13 @@ def accurate_substeps(fit: ScienceFit, science: Callable, theta: Mapping[str, An
     return probe.n_substeps if probe.n_substeps > structure.n_substeps else None
 
 
+#: A window of a long record starts from the record smoothed there: a local cubic over this many steps
+#: (Savitzky-Golay). The measured start carries its noise into every step of the window, and a candidate
+#: that damps more than the truth is rewarded for removing it: an oscillator missing a linear damping
+#: was given a dry friction beside it on windows started from the raw measurements.
+START_SMOOTHING = 15
+
+
 def cut_windows(X: Any, y: Any, window: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Non-overlapping windows of ``window`` steps cut from fully observed ODE records
     (:func:`~sklearn_hybrid.datasets.make_windows` on each record, its initial state first).
@@ -57,9 +65,11 @@ def cut_windows(X: Any, y: Any, window: int) -> tuple[np.ndarray, np.ndarray, np
     Returns
     -------
     X_windows : ndarray of shape (n_windows, *state_shape)
-        Each window's first state: ``X`` for the first window of a record, else the measured state
-        before the window.
+        Each window's first state: ``X`` for the first window of a record (the start the whole
+        record's fit takes), else the record at the step before the window, smoothed by a local cubic
+        over ``START_SMOOTHING`` steps (a record that varies as a cubic there keeps its values).
     y_windows : ndarray of shape (n_windows, window, *state_shape)
+        The measured states, as they are.
     record : ndarray of int, shape (n_windows,)
         The record each window was cut from (records in order, each record's windows in time order).
     """
@@ -67,9 +77,24 @@ def cut_windows(X: Any, y: Any, window: int) -> tuple[np.ndarray, np.ndarray, np
     shape, size = X.shape[1:], math.prod(X.shape[1:])
     records = np.concatenate([X.reshape(len(X), 1, size), np.asarray(y, dtype=float).reshape(len(X), -1, size)], axis=1)
     cut = [make_windows(record, length=window, stride=window) for record in records]
-    return (np.concatenate([c.X for c in cut]).reshape(-1, *shape),
+    smoothed = _smoothed(records)
+    starts = []
+    for r, c in enumerate(cut):
+        first = smoothed[r, c.starts]
+        first[c.starts == 0] = records[r, 0]
+        starts.append(first)
+    return (np.concatenate(starts).reshape(-1, *shape),
             np.concatenate([c.y for c in cut]).reshape(-1, window, *shape),
             np.repeat(np.arange(len(X)), [len(c.X) for c in cut]))
+
+
+def _smoothed(records: np.ndarray) -> np.ndarray:
+    """Each record (axis 1 is time) smoothed by a local cubic over ``START_SMOOTHING`` steps, or over all of
+    a shorter record (an odd count, at least 5); a record shorter than 5 steps as it is."""
+    length = min(START_SMOOTHING, records.shape[1] - (1 - records.shape[1] % 2))
+    if length < 5:
+        return records
+    return savgol_filter(records, length, 3, axis=1, mode="interp")
 
 
 def inside_bounds(theta: dict, bounds: Mapping | None) -> dict:
