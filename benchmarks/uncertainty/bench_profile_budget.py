@@ -103,7 +103,11 @@ def render() -> None:
         lines.append(f"| {budget} ({share:g} of the fit's iterations) | {cpu:.0f} | {cpu / full_cpu:.2f} | {entries} | "
                      f"{identified} | {missed} | {changed} |")
     lines += ["", "Reading: a verdict that changes with the members' budget is the budget's, not the data's; the "
-              "profile keeps the full budget, whose coverage `bench_uncertainty.py` measured."]
+              "profile keeps the full budget, whose coverage `bench_uncertainty.py` measured.", "",
+              "Runs: `python benchmarks/uncertainty/bench_profile_budget.py --repeats "
+              f"{' '.join(str(x) for x in sorted({r['repeat'] for r in records}))} --methods "
+              f"{' '.join(sorted({r['method'] for r in records}))}` at package commit "
+              f"{', '.join(sorted({r['package_commit'] for r in records}))}."]
     write_results("profile_budget", {"records": records}, "\n".join(lines))
     print("\n".join(lines))
 
