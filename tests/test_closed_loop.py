@@ -1191,6 +1191,11 @@ def test_windows_of_a_noisy_record_start_from_the_smoothed_record():
     smoothed_error = np.sqrt(np.mean((X_w[later] - truth) ** 2))
     assert smoothed_error < 0.6 * np.sqrt(np.mean((measured - truth) ** 2))
     np.testing.assert_array_equal(y_w[1], y[0, 25:50])
+    # an oscillation sampled 8 times a period: any smoothing would shrink it, so its windows start as measured
+    fast = np.stack([np.cos(2 * np.pi * np.arange(1, 401) / 8), np.sin(2 * np.pi * np.arange(1, 401) / 8)], -1)
+    fast = fast[None] + 0.01 * rng.standard_normal((1, 400, 2))
+    X_w, _, _ = cut_windows(np.array([[1.0, 0.0]]), fast, 25)
+    np.testing.assert_array_equal(X_w[1:], fast[0, 24:-1:25][:15])
 
 
 def test_a_long_record_is_selected_on_windows_and_refitted_whole():

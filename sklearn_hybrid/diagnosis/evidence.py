@@ -60,10 +60,10 @@ class Evidence:
         candidates on non-overlapping windows of this many steps cut from the records, each started
         from the record at its beginning, so that every refit integrates ``window`` steps for all
         windows at once instead of every step of the record in sequence (its cost no longer grows
-        with the record's length).  A start is the record smoothed there (a local cubic over
-        15 steps, ``sklearn_hybrid.diagnosis.loop.refit.START_SMOOTHING``): a
-        measured start carries its noise into every step of its window, and a candidate that damps
-        more than the truth would be rewarded for removing it.  The chosen model is refitted on the
+        with the record's length).  A start is the record smoothed there (a local cubic whose width
+        cross-validation chooses; as measured where the record varies too fast for its sampling):
+        a measured start carries its noise into every step of its window, and a candidate that
+        damps more than the truth would be rewarded for removing it.  The chosen model is refitted on the
         whole records, and its intervals are theirs.  ``"auto"``: windows of 25 steps for records longer than 100
         steps; an integer: windows of that length for records more than twice as long; None: whole
         records always.  ``groups`` then label the records, and each window takes its record's.

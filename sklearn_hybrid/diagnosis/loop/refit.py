@@ -10,7 +10,7 @@ from typing import Any
 
 import numpy as np
 import torch
-from scipy.signal import savgol_filter
+from scipy.signal import savgol_coeffs, savgol_filter
 from sklearn.base import clone
 
 from ..._estimator import ode_structure
@@ -19,7 +19,8 @@ from ...residual import ZeroResidual
 from ...science import read_signature
 from ..science_fit import ScienceFit
 
-__all__ = ["windowable", "accurate_substeps", "cut_windows", "fixed_science", "inside_bounds", "START_SMOOTHING"]
+__all__ = ["windowable", "accurate_substeps", "cut_windows", "fixed_science", "inside_bounds", "START_SMOOTHING",
+           "NARROWEST_SMOOTHING"]
 
 
 def windowable(estimator: Any) -> bool:
@@ -42,11 +43,16 @@ def accurate_substeps(fit: ScienceFit, science: Callable, theta: Mapping[str, An
     return probe.n_substeps if probe.n_substeps > structure.n_substeps else None
 
 
-#: A window of a long record starts from the record smoothed there: a local cubic over this many steps
-#: (Savitzky-Golay). The measured start carries its noise into every step of the window, and a candidate
-#: that damps more than the truth is rewarded for removing it: an oscillator missing a linear damping
-#: was given a dry friction beside it on windows started from the raw measurements.
-START_SMOOTHING = 15
+#: A window of a long record starts from the record smoothed there, a local cubic over one of these many
+#: steps (Savitzky-Golay), chosen per record and state by generalised cross-validation. The measured start
+#: carries its noise into every step of the window, and a candidate that damps more than the truth is
+#: rewarded for removing it: an oscillator missing a linear damping was given a dry friction beside it on
+#: windows started from the raw measurements.
+START_SMOOTHING = (5, 7, 9, 11, 15, 21)
+#: Where cross-validation prefers a narrower window than this, the record varies too fast for its sampling
+#: to be smoothed without bias (a cubic over 15 steps of an oscillation sampled 16 times a period shrinks it
+#: by a fifth): its windows start from the measurements, as they are.
+NARROWEST_SMOOTHING = 9
 
 
 def cut_windows(X: Any, y: Any, window: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -67,7 +73,8 @@ def cut_windows(X: Any, y: Any, window: int) -> tuple[np.ndarray, np.ndarray, np
     X_windows : ndarray of shape (n_windows, *state_shape)
         Each window's first state: ``X`` for the first window of a record (the start the whole
         record's fit takes), else the record at the step before the window, smoothed by a local cubic
-        over ``START_SMOOTHING`` steps (a record that varies as a cubic there keeps its values).
+        (a record that varies as a cubic there keeps its values) where the record is finely sampled enough
+        for it (see ``START_SMOOTHING`` and ``NARROWEST_SMOOTHING``), else as measured.
     y_windows : ndarray of shape (n_windows, window, *state_shape)
         The measured states, as they are.
     record : ndarray of int, shape (n_windows,)
@@ -89,12 +96,23 @@ def cut_windows(X: Any, y: Any, window: int) -> tuple[np.ndarray, np.ndarray, np
 
 
 def _smoothed(records: np.ndarray) -> np.ndarray:
-    """Each record (axis 1 is time) smoothed by a local cubic over ``START_SMOOTHING`` steps, or over all of
-    a shorter record (an odd count, at least 5); a record shorter than 5 steps as it is."""
-    length = min(START_SMOOTHING, records.shape[1] - (1 - records.shape[1] % 2))
-    if length < 5:
-        return records
-    return savgol_filter(records, length, 3, axis=1, mode="interp")
+    """Each record (axis 1 is time) and state smoothed by the local cubic of ``START_SMOOTHING`` steps that
+    generalised cross-validation prefers (the residual's mean square over (1 - the centre weight)^2, the
+    leave-one-out error of a linear smoother), where that is at least ``NARROWEST_SMOOTHING`` steps; every
+    other one as it is."""
+    out = records.copy()
+    lengths = [n for n in START_SMOOTHING if n <= records.shape[1]]
+    if not lengths:
+        return out
+    smooth, score = [], []
+    for n in lengths:
+        smooth.append(savgol_filter(records, n, 3, axis=1, mode="interp"))
+        score.append(np.mean((records - smooth[-1]) ** 2, axis=1) / (1 - savgol_coeffs(n, 3)[n // 2]) ** 2)
+    best = np.argmin(np.stack(score), axis=0)  # (n_records, n_components)
+    for i, n in enumerate(lengths):
+        chosen = (best == i) & (n >= NARROWEST_SMOOTHING)
+        out.transpose(0, 2, 1)[chosen] = smooth[i].transpose(0, 2, 1)[chosen]
+    return out
 
 
 def inside_bounds(theta: dict, bounds: Mapping | None) -> dict:
