@@ -8,6 +8,9 @@ and each is said in the result instead of an interval that would read as certain
   ``min_gain``, short of the evidence;
 - :func:`left_unexplained`: the final model leaves a clear share of what the hybrid learned on an
   equation (and the remainder varies with a variable the report names);
+- :func:`worse_than_hybrid`: the hybrid fits the data far better than the final model (a share of the
+  right-hand side too small to see there can add up along a trajectory, and no candidate may have
+  captured it);
 - :func:`weigh_rivals`: a term the held-out data could not tell from the chosen one (another form
   instead of it, or one more term) moves a science parameter outside its interval; the parameter
   is identified only given the chosen form, and its interval is widened to the rival values.
@@ -24,13 +27,15 @@ from typing import Any
 import numpy as np
 
 from ...science import read_signature
+from ..evidence import Evidence, evidence
 from ..judge import FIT_FAILURES
 from ..science_fit import ScienceFit
 from ..sensitivity import root_mean_square
 from .candidates import augment_with, shape_bounds
 from .placed import PlacedTerm
 
-__all__ = ["open_question", "left_unexplained", "weigh_rivals", "OPEN_Z", "UNEXPLAINED_SHARE", "MAX_RIVALS"]
+__all__ = ["open_question", "left_unexplained", "worse_than_hybrid", "weigh_rivals", "OPEN_Z", "UNEXPLAINED_SHARE",
+           "HYBRID_GAIN", "MAX_RIVALS"]
 
 #: A candidate left at the last step that lowered the held-out error by ``min_gain`` at this z (one
 #: standard error) is evidence, short of the threshold, that the final model misses something.
@@ -38,6 +43,11 @@ OPEN_Z = 1.0
 #: What the final model leaves of what the hybrid learned on an equation, to call it incomplete: this
 #: share of the learned right-hand side, and this share of what the network carried there.
 UNEXPLAINED_SHARE = (0.1, 0.3)
+#: The share of the final model's error on the data the hybrid must remove (by more than the noise explains,
+#: the selection's test on every sample) to call the final model incomplete. The hybrid is judged on the
+#: samples it was trained on, so the share asked is large: a network does not halve the error of a complete
+#: model on trajectories by fitting their noise.
+HYBRID_GAIN = 0.5
 #: Rival forms refitted on every sample (the most competitive first) to see how far they move theta.
 MAX_RIVALS = 3
 
@@ -98,6 +108,38 @@ def left_unexplained(unexplained: Mapping[str, Any], network: np.ndarray, learne
     return (f"the final model leaves {share:.0%} of what the hybrid learned on {name} unexplained ({share / carried_j:.0%} "
             f"of what its network carried){along}: an effect no added term captures (result.plot() shows the "
             "remainder against every variable)")
+
+
+def worse_than_hybrid(errors_final: np.ndarray, errors_hybrid: np.ndarray, evidence_: Evidence,
+                      codes: np.ndarray | None = None) -> str | None:
+    """Why the final model is incomplete, if the hybrid fits the data far better than it does.
+
+    Parameters
+    ----------
+    errors_final, errors_hybrid : ndarray of shape (n_samples,)
+        Each sample's mean squared error of the final network-free model and of the hybrid.
+    evidence_ : Evidence
+        The selection's test (its ``z``); the gain asked is ``HYBRID_GAIN``.
+    codes : ndarray of shape (n_samples,), optional
+        Each sample's group: a group's mean error counts as one value.
+
+    Returns
+    -------
+    str or None
+        The two errors and the test, where the hybrid removes at least ``HYBRID_GAIN`` of the final
+        model's error by more than the noise explains; None otherwise.
+    """
+    final, hybrid = np.asarray(errors_final, float), np.asarray(errors_hybrid, float)
+    if codes is not None:
+        final, hybrid = (np.array([a[codes == c].mean() for c in np.unique(codes)]) for a in (final, hybrid))
+    if len(final) < 2 or not np.all(np.isfinite(hybrid)):
+        return None
+    test = evidence(final, hybrid, z=evidence_.z, min_gain=HYBRID_GAIN)
+    if not test["accepted"]:
+        return None
+    return (f"the hybrid fits the data with {1 - test['gain']:.0%} of the final model's error ({test['mse_after']:.4g} "
+            f"against {test['mse_before']:.4g} over {len(final)} samples, z {test['z']:.1f}): it explains something "
+            "the final model misses, which no added term captured")
 
 
 def weigh_rivals(intervals: Any, rivals: Sequence[dict], science: Callable, added: list[PlacedTerm],

@@ -29,7 +29,7 @@ from .arguments import (check_fitted_horizon, check_names, check_options, check_
                         uncertain_components)
 from ..evidence import Evidence
 from .candidates import Candidates
-from .caveats import left_unexplained, open_question, weigh_rivals
+from .caveats import left_unexplained, open_question, weigh_rivals, worse_than_hybrid
 from .report import LoopResult, Scoring, format_table, residual_profile
 from ..sensitivity import state_labels, science_output
 from ..science_fit import ScienceFit
@@ -304,7 +304,10 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         remaining = learned - science_output(final, science_theta, args)
         unexplained = residual_profile(remaining, learned, values, variables, outputs, components)
         incomplete = (open_question(sel["steps"], evidence.min_gain)
-                      or left_unexplained(unexplained, residual, learned, outputs))
+                      or left_unexplained(unexplained, residual, learned, outputs)
+                      or (None if fit.latent else  # fitted unmeasured starts: the hybrid's are other ones
+                          worse_than_hybrid(fit.errors(final, science_theta), _sample_errors(before, X, y), evidence,
+                                            codes)))
 
         if fit_initial_states:  # the hybrid refit starts every sample from the states fitted with the final model
             X = np.array(X, dtype=float)
@@ -360,6 +363,12 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
                  [j for j in range(base.shape[1]) if j not in uncertain],
                  unexplained=unexplained, table=rows, report=report, seconds=time.perf_counter() - start,
                  timings=timings)
+
+
+def _sample_errors(estimator, X, y) -> np.ndarray:
+    """Each sample's mean squared error of a fitted estimator on ``X, y`` (its outputs flattened)."""
+    pred = np.asarray(estimator.predict(X), dtype=float).reshape(len(X), -1)
+    return np.mean((pred - np.asarray(y, dtype=float).reshape(len(X), -1)) ** 2, axis=1)
 
 
 _MAX_POINTS = 5000  # visited states used to rank candidates: plenty for a handful of columns
