@@ -79,22 +79,21 @@ def theta_jacobian(science, predict, entries, predict_many=None, base=None) -> n
             rows[name][i].view(-1)[k] += step
         values = np.array([float(science.transforms[name](rows[name][i]).reshape(-1)[k])
                            for i, (name, k, _) in enumerate(moves, start=1)])
-        preds = _batched(predict_many, rows, base)
+        preds = _batched(predict_many, rows, base)  # the moved rows' predictions
         if preds is None:  # one prediction per step
-            preds = [base]
+            preds = []
             for i, (name, _, _) in enumerate(moves, start=1):
                 science.raw[name].data.copy_(rows[name][i])
                 preds.append(predict())
                 science.raw[name].data.copy_(raw[name])
-    columns = [(preds[1 + 2 * j] - preds[2 + 2 * j]) / (values[2 * j] - values[2 * j + 1])
-               for j in range(len(entries))]
+    columns = [(preds[2 * j] - preds[2 * j + 1]) / (values[2 * j] - values[2 * j + 1]) for j in range(len(entries))]
     return np.stack(columns, axis=-1)
 
 
 def _batched(predict_many, rows, base):
-    """``predict_many(rows)`` as a list of arrays, or None where it cannot serve: not given, it raised
-    (a science function with Python control flow on values cannot be vectorised), or its unmoved row
-    differs from ``base``."""
+    """``predict_many(rows)`` of the moved rows (all but the first, unmoved one) as a list of arrays, or
+    None where it cannot serve: not given, it raised (a science function with Python control flow on
+    values cannot be vectorised), or its unmoved row differs from ``base``."""
     if predict_many is None or base is None:
         return None
     try:
@@ -103,7 +102,7 @@ def _batched(predict_many, rows, base):
         return None
     if preds.shape[1:] != np.shape(base) or not np.allclose(preds[0], base, rtol=1e-9, atol=1e-12, equal_nan=True):
         return None
-    return list(preds)
+    return list(preds[1:])
 
 
 def theta_uncertainty(model, inputs, y, sample_weight=None, chunk=None) -> tuple[dict, np.ndarray, list]:

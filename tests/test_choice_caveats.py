@@ -9,6 +9,7 @@ from scipy.integrate import solve_ivp
 from sklearn_hybrid import HybridRegressor
 from sklearn_hybrid.diagnosis import Candidates, ZeroResidual, close_the_loop, physics_terms
 from sklearn_hybrid.diagnosis import Evidence
+from sklearn_hybrid.diagnosis.evidence import group_means
 from sklearn_hybrid.diagnosis.loop.caveats import HYBRID_GAIN, UNEXPLAINED_SHARE, left_unexplained, worse_than_hybrid
 from sklearn_hybrid.identifiability import ScienceIntervals, science_intervals
 
@@ -92,6 +93,8 @@ def test_worse_than_hybrid_asks_for_a_large_and_clear_gain():
     scattered = final * np.where(np.arange(20) < 2, 0.01, 1.5)  # two samples better, the others worse
     assert worse_than_hybrid(final, scattered, Evidence()) is None
     codes = np.repeat(np.arange(2), 10)  # two groups: too few to pass Student's t
+    np.testing.assert_allclose(group_means(final, codes), [final[:10].mean(), final[10:].mean()])
+    assert group_means(final, None) is final
     assert worse_than_hybrid(final, final * rng.uniform(0.2, 0.4, 20), Evidence(), codes) is None
 
 

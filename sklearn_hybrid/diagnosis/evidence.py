@@ -19,7 +19,7 @@ import numpy as np
 from scipy.stats import norm
 from scipy.stats import t as student_t
 
-__all__ = ["Evidence", "evidence", "critical_value", "holm"]
+__all__ = ["Evidence", "evidence", "critical_value", "holm", "group_means"]
 
 
 #: ``Evidence(window="auto")``: records longer than ``LONG_RECORD`` steps are judged on windows of
@@ -112,6 +112,26 @@ class Evidence:
     def verdict(self, errors_before: np.ndarray, errors_after: np.ndarray) -> dict[str, float | bool]:
         """:func:`evidence` of these held-out errors, asked with this ``z`` and ``min_gain``."""
         return evidence(errors_before, errors_after, z=self.z, min_gain=self.min_gain)
+
+
+def group_means(errors: np.ndarray, codes: np.ndarray | None) -> np.ndarray:
+    """Each group's mean of per-sample errors: a group's samples count as one value in a test.
+
+    Parameters
+    ----------
+    errors : ndarray of shape (n_samples,)
+        One error per sample.
+    codes : ndarray of int, shape (n_samples,), or None
+        Each sample's group, numbered ``0, 1, ...`` (:func:`group_codes`); None: every sample its own.
+
+    Returns
+    -------
+    ndarray
+        One mean per group, in the codes' order (``errors`` as given where ``codes`` is None).
+    """
+    if codes is None:
+        return errors
+    return np.bincount(codes, weights=errors) / np.bincount(codes)
 
 
 def critical_value(z: float, n: int) -> float:

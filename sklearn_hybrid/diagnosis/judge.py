@@ -16,7 +16,7 @@ import numpy as np
 
 from ..science import read_signature
 from .augment import augment_science
-from .evidence import evidence, held_out_splits
+from .evidence import evidence, group_means, held_out_splits
 from .science_fit import ScienceFit
 
 # Iterations of a candidate's screening refit. Most converge in under 20; a shape parameter that
@@ -76,9 +76,7 @@ class Judge:
             errors = np.concatenate([test.errors(science, _fit_on(screen if screening else train, science,
                                                                   theta, bounds, screening))
                                      for train, screen, test in self.folds])
-        if self.judged_groups is None:
-            return errors
-        return np.bincount(self.judged_groups, weights=errors) / np.bincount(self.judged_groups)
+        return group_means(errors, self.judged_groups)
 
 
 # What a candidate's refit raises when the term breaks the simulation or least squares: the candidate failed.

@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 
 from ...science import read_signature
-from ..evidence import Evidence, evidence
+from ..evidence import Evidence, evidence, group_means
 from ..judge import FIT_FAILURES
 from ..science_fit import ScienceFit
 from ..sensitivity import root_mean_square
@@ -121,7 +121,7 @@ def worse_than_hybrid(errors_final: np.ndarray, errors_hybrid: np.ndarray, evide
     evidence_ : Evidence
         The selection's test (its ``z``); the gain asked is ``HYBRID_GAIN``.
     codes : ndarray of shape (n_samples,), optional
-        Each sample's group: a group's mean error counts as one value.
+        Each sample's group (numbered ``0, 1, ...``): a group's mean error counts as one value.
 
     Returns
     -------
@@ -129,9 +129,7 @@ def worse_than_hybrid(errors_final: np.ndarray, errors_hybrid: np.ndarray, evide
         The two errors and the test, where the hybrid removes at least ``HYBRID_GAIN`` of the final
         model's error by more than the noise explains; None otherwise.
     """
-    final, hybrid = np.asarray(errors_final, float), np.asarray(errors_hybrid, float)
-    if codes is not None:
-        final, hybrid = (np.array([a[codes == c].mean() for c in np.unique(codes)]) for a in (final, hybrid))
+    final, hybrid = (group_means(np.asarray(e, float), codes) for e in (errors_final, errors_hybrid))
     if len(final) < 2 or not np.all(np.isfinite(hybrid)):
         return None
     test = evidence(final, hybrid, z=evidence_.z, min_gain=HYBRID_GAIN)

@@ -100,18 +100,15 @@ def _smoothed(records: np.ndarray) -> np.ndarray:
     generalised cross-validation prefers (the residual's mean square over (1 - the centre weight)^2, the
     leave-one-out error of a linear smoother), where that is at least ``NARROWEST_SMOOTHING`` steps; every
     other one as it is."""
-    out = records.copy()
+    out = records
     lengths = [n for n in START_SMOOTHING if n <= records.shape[1]]
-    if not lengths:
-        return out
-    smooth, score = [], []
-    for n in lengths:
-        smooth.append(savgol_filter(records, n, 3, axis=1, mode="interp"))
-        score.append(np.mean((records - smooth[-1]) ** 2, axis=1) / (1 - savgol_coeffs(n, 3)[n // 2]) ** 2)
-    best = np.argmin(np.stack(score), axis=0)  # (n_records, n_components)
+    smooth = [savgol_filter(records, n, 3, axis=1, mode="interp") for n in lengths]
+    score = [np.mean((records - s) ** 2, axis=1) / (1 - savgol_coeffs(n, 3)[n // 2]) ** 2
+             for n, s in zip(lengths, smooth)]
+    best = np.argmin(score, axis=0) if score else None  # (n_records, n_components)
     for i, n in enumerate(lengths):
-        chosen = (best == i) & (n >= NARROWEST_SMOOTHING)
-        out.transpose(0, 2, 1)[chosen] = smooth[i].transpose(0, 2, 1)[chosen]
+        if n >= NARROWEST_SMOOTHING:
+            out = np.where((best == i)[:, None, :], smooth[i], out)
     return out
 
 
