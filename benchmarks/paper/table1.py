@@ -34,7 +34,7 @@ Each record: task, method, seed, hyper, iters, theta_error_end, theta_error_best
 y_error_test, val_error, theta_end, drift (largest relative change of theta over the last
 10 % of iterations), drift_lr (the same over the last 10 % of theta's summed learning rate,
 ``theta_drift_``: under the cosine schedule the plain drift is small for every theta), reference
-(the theta the errors are measured against), lr_theta, seconds, device,
+(the theta the errors are measured against), lr_theta, seconds, device, machine (newer runs),
 protocol, source (the wind and light tunnel run on SIMULATED stand-ins where the measured
 Causal Chamber files are absent). Light tunnel: theta_error_* is 1 - cosine similarity.
 
@@ -224,8 +224,16 @@ def run(task, budget, method, hyper, seed, device="cpu"):
               "reference": {k: np.ravel(v).tolist() for k, v in spec.theta.items()},
               **({"drift_lr": max(est.theta_drift_.values()), "lr_theta": est.lr_theta}
                  if hasattr(est, "theta_drift_") else {}),
-              "device": str(est.device_), "source": spec.source}
+              "device": str(est.device_), "source": spec.source, "machine": _machine(est.device_)}
     return _save(path, record)
+
+
+def _machine(device) -> dict:
+    """Where the run ran (runs of one table come from several machines): CPU, cores, versions, and the GPU."""
+    machine = machine_description()
+    if torch.device(device).type == "cuda":
+        machine["gpu"] = torch.cuda.get_device_name(torch.device(device))
+    return machine
 
 
 def _save(path: Path, record: dict) -> dict:
