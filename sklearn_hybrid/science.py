@@ -108,7 +108,7 @@ class _Bounded(nn.Module):
         return raw
 
     def inverse(self, value: np.ndarray) -> np.ndarray:
-        low, high = self.low.numpy(), self.high.numpy()
+        low, high = self.low.cpu().numpy(), self.high.cpu().numpy()
         if self.has_low and self.has_high:
             p = (value - low) / (high - low)
             return np.log(p) - np.log1p(-p)

@@ -110,6 +110,6 @@ def set_entry(science, name: str, k: int, value: float) -> None:
 
 def bounds_of(science, name: str, k: int) -> tuple[float, float]:
     t = science.transforms[name]
-    low = np.broadcast_to(t.low.numpy(), science.shapes[name]).reshape(-1)[k]
-    high = np.broadcast_to(t.high.numpy(), science.shapes[name]).reshape(-1)[k]
+    low = np.broadcast_to(t.low.cpu().numpy(), science.shapes[name]).reshape(-1)[k]
+    high = np.broadcast_to(t.high.cpu().numpy(), science.shapes[name]).reshape(-1)[k]
     return float(low), float(high)

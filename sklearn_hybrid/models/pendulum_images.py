@@ -152,8 +152,8 @@ def latent_trajectories(estimator, X) -> np.ndarray:
     structure = getattr(model.structure, "func", None)
     if not isinstance(structure, PendulumImagesStructure):
         raise TypeError("latent_trajectories needs an estimator fitted with PendulumImagesStructure.")
-    dtype = next(model.parameters()).dtype
+    first = next(model.parameters())
     with torch.no_grad():
-        x = torch.as_tensor(np.asarray(X), dtype=dtype)
+        x = torch.as_tensor(np.asarray(X), dtype=first.dtype, device=first.device)
         states, _ = structure.states(x, model.science, model.residual)
-    return states.numpy().astype(float)
+    return states.cpu().numpy().astype(float)

@@ -195,8 +195,8 @@ def light_tunnel_colour(x: torch.Tensor, w, t_p, t_c, exposure: float = EXPOSURE
     -------
     Tensor of shape (batch, 3)
     """
-    S = torch.as_tensor(S_CAMERA, dtype=x.dtype)
-    w, t_p, t_c = (torch.as_tensor(p, dtype=x.dtype) for p in (w, t_p, t_c))
+    S = torch.as_tensor(S_CAMERA, dtype=x.dtype, device=x.device)
+    w, t_p, t_c = (torch.as_tensor(p, dtype=x.dtype, device=x.device) for p in (w, t_p, t_c))
     malus = torch.cos(torch.deg2rad(x[:, 3] - x[:, 4])) ** 2
     transmission = (t_p - t_c) * malus[:, None] + t_c
     camera = (x[:, :3] / 255.0) @ S.T  # LED colours seen by the camera channels

@@ -235,7 +235,7 @@ class _MembersWatch:
         self.bar = None
 
     def check(self, it, loss, batch):
-        values = loss.numpy()
+        values = loss.cpu().numpy()
         self.diverged[~np.isfinite(values) & (self.diverged < 0)] = it
         if (self.diverged >= 0).all():  # nothing left to train
             self.losses[it:] = np.nan
@@ -262,7 +262,7 @@ class _MembersWatch:
         self.losses[it] = self.values
         with torch.no_grad():
             for n in self.science.names:
-                self.thetas[n][it] = self.science.transforms[n](self.stacked.params[f"science.raw.{n}"]).numpy()
+                self.thetas[n][it] = self.science.transforms[n](self.stacked.params[f"science.raw.{n}"]).cpu().numpy()
         return self.stoppers is not None and _all_settled(self.stoppers, it, self.losses, self.thetas,
                                                            self.diverged)
 
@@ -305,7 +305,8 @@ def evaluate_members(models: list, method, inputs: tuple, y: torch.Tensor, confi
         with torch.no_grad():
             eps = method.perturbation(perturbed, grads, is_weight, n_batch_dims=1)
             objective = gradients_at_perturbed(perturbed, eps, lambda: _member_loss(stacked.predictions(xb), yb, wb))
-    return {"loss": data.detach().numpy().astype(float), "objective": objective.detach().numpy().astype(float)}
+    return {"loss": data.detach().cpu().numpy().astype(float),
+            "objective": objective.detach().cpu().numpy().astype(float)}
 
 
 def _train_group(models, method, inputs, y, config, seeds, n_threads, sample_weight, held):
