@@ -126,7 +126,8 @@ def _trained_groups(stacked, method, config, held):
     for name, mask in (held or {}).items():
         key = f"science.raw.{name}"
         if key in names:
-            masks[names.index(key)] = (~torch.as_tensor(mask, dtype=torch.bool)).to(theta[0].dtype)
+            free = ~torch.as_tensor(mask, dtype=torch.bool, device=theta[0].device)
+            masks[names.index(key)] = free.to(theta[0].dtype)
     return theta, phi, perturbed, is_weight, masks
 
 
