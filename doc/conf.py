@@ -38,7 +38,7 @@ RESULT_PAGES = ["tasks", "pendulum_theta", "early_stopping", "sensitivity_pendul
                 "coverage", "uncertainty", "profile_budget", "laplace", "loop_states", "quickstart", "time_to_answer", "long_record", "time_to_theta", "closed_loop",
                 "greybox", "identification", "selection_checks", "second_look_null", "inconclusive_candidates",
                 "more_validation", "anchors_loop", "varying_theta", "speed", "free_run",
-                "sparse_regression", "large_fit", "memory_check"]
+                "sparse_regression", "large_fit", "memory_check", "gpu"]
 render_all(RESULT_PAGES)  # -> doc/results/<name>.rst
 render_snippets()
 
