@@ -17,7 +17,8 @@ from sklearn.metrics import check_scoring
 from sklearn.utils.validation import check_is_fitted, validate_data
 
 from .training.stacked import train_members
-from ._estimator import HybridRegressor, prepare_fit, store_fit
+from ._estimator import HybridRegressor
+from ._fitting import prepare_fit, store_fit
 from .methods import Method, make_method, stackable_methods
 from ._validation import check_n_jobs, set_feature_info, torch_threads, validate_into_copy
 from .integrate.kernels import reusing_buffers

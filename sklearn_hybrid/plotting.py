@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._estimator import ode_structure
+from ._fitting import ode_structure
 from .metrics import network_share
 
 __all__ = ["plot_fit", "plot_profile"]

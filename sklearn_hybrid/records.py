@@ -12,7 +12,7 @@ import numpy as np
 from scipy.optimize import least_squares
 from sklearn.utils.validation import check_is_fitted
 
-from ._estimator import ode_structure
+from ._fitting import ode_structure
 
 __all__ = ["free_run", "fit_initial_state"]
 

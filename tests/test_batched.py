@@ -5,7 +5,7 @@ import pytest
 import torch
 from sklearn.base import clone
 
-from sklearn_hybrid import DivergenceError, HybridRegressor, HybridRegressorCV, make_theta_scorer
+from sklearn_hybrid import DivergenceError, HybridRegressor, HybridRegressorCV, _cv, make_theta_scorer
 from sklearn_hybrid.integrate import fast as fast_rk4
 from sklearn_hybrid.models import pendulum_f
 
@@ -111,26 +111,23 @@ def test_bad_input(pendulum):
         HybridRegressorCV(base).fit(np.full_like(X, np.nan), y)
 
 
-def test_one_diverging_member_does_not_spoil_the_others(pendulum):
+def test_one_diverging_member_does_not_spoil_the_others(pendulum, monkeypatch):
     X, y = pendulum
     base = HybridRegressor(science=pendulum_f, method="erm", dt=0.2, max_iter=6,
                            residual={"hidden": (8,)}, theta_bounds={"omega": (0.1, 5.0)})
     cv = HybridRegressorCV(base, seeds=[0, 1], validation_fraction=None)
     # seed 1's network starts with an infinite weight: only that member diverges
-    original = HybridRegressor._setup_fit
+    original = _cv.prepare_fit
 
-    def poisoned(self, X, y):
-        setup = original(self, X, y)
-        if self.random_state == 1:
+    def poisoned(estimator, X, y):
+        setup = original(estimator, X, y)
+        if estimator.random_state == 1:
             with torch.no_grad():
                 setup.model.residual.net[0].weight[0, 0] = float("inf")
         return setup
 
-    HybridRegressor._setup_fit = poisoned
-    try:
-        cv.fit(X, y)
-    finally:
-        HybridRegressor._setup_fit = original
+    monkeypatch.setattr(_cv, "prepare_fit", poisoned)
+    cv.fit(X, y)
     assert list(cv.cv_results_["diverged_at"]) == [-1, 0]
     assert cv.best_index_ == 0 and np.isfinite(cv.theta_["omega"])
     alone = clone(base).set_params(random_state=0).fit(X, y)

@@ -360,7 +360,7 @@ def test_a_new_method_with_its_own_hyperparameter_trains_in_a_sweep(reach_sam):
     from sklearn.base import clone
 
     from sklearn_hybrid import HybridRegressorCV
-    from sklearn_hybrid._estimator import prepare_fit
+    from sklearn_hybrid._fitting import prepare_fit
     from sklearn_hybrid.training.stacked import train_members
 
     X, y = _pendulum_data()

@@ -13,7 +13,7 @@ from sklearn.utils.estimator_checks import (check_do_not_raise_errors_in_init_or
                                             check_set_params)
 
 from sklearn_hybrid import HybridRegressor, OdeStructure, pack_inputs
-from sklearn_hybrid._estimator import ode_structure
+from sklearn_hybrid._fitting import ode_structure
 from sklearn_hybrid.datasets import make_pendulum
 from sklearn_hybrid.diagnosis import close_the_loop
 from sklearn_hybrid.models import pendulum_f

@@ -5,6 +5,7 @@ import pytest
 import torch
 
 from sklearn_hybrid import DivergenceError, HybridRegressor
+from sklearn_hybrid._fitting import prepare_fit
 from sklearn_hybrid.models import pendulum_f
 
 FAST = dict(max_iter=5, residual={"hidden": (8,)}, random_state=0, dt=0.2)
@@ -232,7 +233,7 @@ def test_memory_of_a_fit_grows_with_batch_and_steps():
     sizes = {}
     for n_steps in (5, 10):
         y = np.zeros((4, n_steps, 2))
-        setup = HybridRegressor(science=pendulum_f, **FAST)._setup_fit(X, y)
+        setup = prepare_fit(HybridRegressor(science=pendulum_f, **FAST), X, y)
         sizes[n_steps] = [fit_memory_bytes(setup.model, setup.inputs, n) for n in (100, 200)]
     assert sizes[5][1] == pytest.approx(2 * sizes[5][0], rel=1e-6)
     assert sizes[10][0] == pytest.approx(2 * sizes[5][0], rel=0.1)
@@ -253,7 +254,7 @@ def test_memory_check_stays_cheap_at_an_extreme_horizon():
 
     X = np.random.default_rng(0).uniform(-1, 1, (4, 2))
     est = HybridRegressor(science=counted, **{**FAST, "n_substeps": 1000, "batch_size": 1})
-    setup = est._setup_fit(X, np.zeros((4, 2000, 2)))
+    setup = prepare_fit(est, X, np.zeros((4, 2000, 2)))
     calls.clear()
     start = time.perf_counter()
     check_fit_memory(setup)
@@ -277,7 +278,7 @@ def test_memory_of_a_short_horizon_extrapolates_exactly(params):
         X, params = pack_inputs(X, rng.uniform(-1, 1, (40, 31, 1))), {**params, "science": forced, "n_inputs": 1}
     if "observed" in params:
         y = y[..., :1]
-    setup = HybridRegressor(**params)._setup_fit(X, y)
+    setup = prepare_fit(HybridRegressor(**params), X, y)
     two = tuple(t[:2].clone() for t in setup.inputs)
     whole = memory._saved_bytes(setup.model, two)
     assert memory.fit_memory_bytes(setup.model, setup.inputs, 2) == int(memory._PEAK_OVER_SAVED * whole)
@@ -360,8 +361,8 @@ def test_memory_probe_leaves_batch_norm_statistics_alone():
                                    torch.nn.Linear(2, 2))
 
     X = np.random.default_rng(0).uniform(-1, 1, (4, 2)) + 5  # far from BN's initial mean 0
-    setup = HybridRegressor(**{**FAST, "science": pendulum_f, "structure": "additive",
-                               "residual": net})._setup_fit(X, X)
+    setup = prepare_fit(HybridRegressor(**{**FAST, "science": pendulum_f, "structure": "additive",
+                                           "residual": net}), X, X)
     before = [b.clone() for b in setup.model.buffers()]
     fit_memory_bytes(setup.model, setup.inputs, 4)
     assert all(torch.equal(a, b) for a, b in zip(before, setup.model.buffers()))
@@ -372,7 +373,7 @@ def test_sweep_counts_the_memory_of_every_stacked_member(data, monkeypatch):
     from sklearn_hybrid.training import memory
 
     estimator = HybridRegressor(science=pendulum_f, method="erm", **FAST)
-    setup = estimator._setup_fit(*data)
+    setup = prepare_fit(estimator, *data)
     one = memory.fit_memory_bytes(setup.model, setup.inputs, len(data[0]))
     # room for two members, not for the four of the sweep (each trains on 3 of the 6 samples)
     monkeypatch.setattr(memory, "available_memory_bytes", lambda device=None: one / 0.8)

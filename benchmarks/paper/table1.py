@@ -62,6 +62,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the
 from helpers import RESULTS, machine_description, runs_folder  # noqa: E402
 from paper.tasks import TASKS  # noqa: E402
 from sklearn_hybrid import HybridRegressor  # noqa: E402
+from sklearn_hybrid._fitting import prepare_fit  # noqa: E402
 from sklearn_hybrid.diagnosis import ZeroResidual  # noqa: E402
 from sklearn_hybrid.training.engine import DivergenceError, train  # noqa: E402
 
@@ -407,7 +408,7 @@ def _train_seconds(params: dict, X, y, iters: int) -> float:
     float64 standard errors, three passes over every training sample: longer than the timed
     iterations for the paper-size image tasks) are not timed."""
     est = HybridRegressor(**dict(params, max_iter=iters))
-    setup = est._setup_fit(X, y)
+    setup = prepare_fit(est, X, y)
     start = time.perf_counter()
     train(setup.model, setup.method, setup.inputs, setup.y, setup.config,
           torch.Generator().manual_seed(setup.seed))

@@ -19,7 +19,7 @@ import torch
 from scipy import sparse
 from scipy.optimize import least_squares
 
-from .._estimator import fitted_data, ode_structure, structure_X
+from .._fitting import fitted_data, ode_structure, structure_X
 from ..science import read_signature
 
 __all__ = ["ScienceFit"]

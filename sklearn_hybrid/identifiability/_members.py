@@ -10,7 +10,8 @@ import torch
 from sklearn.utils import Bunch
 from sklearn.utils.validation import check_is_fitted
 
-from .._estimator import HybridRegressor, fitted_data, fitted_settings
+from .._estimator import HybridRegressor
+from .._fitting import fitted_data, fitted_settings
 from .._validation import check_target_layout
 from ..training.engine import TrainConfig
 from ..methods import make_method, stackable_methods

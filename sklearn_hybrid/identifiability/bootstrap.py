@@ -19,7 +19,7 @@ from scipy import stats
 from sklearn.base import clone
 
 from ..training.stacked import train_members
-from .._estimator import prepare_fit
+from .._fitting import prepare_fit
 from .._validation import check_n_jobs, torch_threads
 from ._members import check_level, entry_values, fitted_problem, member_config, parameter_entries
 

@@ -28,7 +28,7 @@ import torch
 from scipy import stats
 from sklearn.utils.validation import check_is_fitted
 
-from .._estimator import fitted_data, fitted_settings, ode_structure
+from .._fitting import fitted_data, fitted_settings, ode_structure
 from .._validation import check_target_layout, torch_threads
 from .._fit_report import theta_jacobian
 from ..residual import ZeroResidual

@@ -132,7 +132,7 @@ def check_fit_memory(setup, n_models: int = 1) -> int:
     Parameters
     ----------
     setup : Bunch
-        What ``HybridRegressor._setup_fit`` builds (``model``, ``inputs``,
+        What ``prepare_fit`` builds (``model``, ``inputs``,
         ``y``, ``config``).
     n_models : int, default=1
         How many such models train at once (the stacked members of a sweep):

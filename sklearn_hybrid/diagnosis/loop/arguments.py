@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from ..._estimator import ode_structure
+from ..._fitting import ode_structure
 from ..._validation import check_not_nested
 from ...science import read_signature
 from ..sensitivity import exact_components, state_labels, parameter_jacobian

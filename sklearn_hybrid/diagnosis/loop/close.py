@@ -20,7 +20,7 @@ from sklearn.exceptions import NotFittedError
 from sklearn.utils import check_random_state
 from sklearn.utils.validation import check_is_fitted
 
-from ..._estimator import ode_structure
+from ..._fitting import ode_structure
 from ...identifiability import science_intervals
 from ...training.engine import DivergenceError, is_interactive
 from ...residual import MLPOn

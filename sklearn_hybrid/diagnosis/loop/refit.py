@@ -13,7 +13,7 @@ import torch
 from scipy.signal import savgol_coeffs, savgol_filter
 from sklearn.base import clone
 
-from ..._estimator import ode_structure
+from ..._fitting import ode_structure
 from ...datasets import make_windows
 from ...residual import ZeroResidual
 from ...science import read_signature

@@ -33,7 +33,7 @@ from sklearn.base import BaseEstimator, clone
 from sklearn.utils import check_random_state
 from sklearn.utils.validation import check_is_fitted
 
-from ..._estimator import ode_structure
+from ..._fitting import ode_structure
 from ..._validation import check_positive
 
 from ..judge import judge_terms
