@@ -1,94 +1,23 @@
-"""How the science model f_theta and the network g_phi combine: a name-to-structure registry.
-
-A structure learns the per-sample shapes from the training data (``setup``),
-turns arrays into tensors (``tensors``), checks the science function on a
-few samples (``probe``), names the shapes its network needs
-(``residual_shapes``), computes predictions (``forward``), and defines the
-functional regulariser of ``method="f-reg"`` (``functional_penalty``, one value per sample).
-
-==============  =========================================================
-``"ode"``       hybrid neural ODE ``dv/dt = f_theta(v[, u]) + g_phi(v[, u])``
-``"compose"``   general composition ``y = g_phi(x, f_theta(x))``
-``"additive"``  static additive model ``y = f_theta(x) + g_phi(x)``
-callable        ``structure(x, f, g) -> y`` for anything more nested
-==============  =========================================================
-
-The estimator takes a name or the object itself, as scikit-learn takes
-``kernel="rbf"`` or ``kernel=RBF()``: ``structure=OdeStructure(dt=0.1,
-observed=[0])`` carries the ODE's options, ``structure="ode"`` takes them from
-the estimator's keywords (``dt``, ``n_substeps``, ...).  A fit sets up a fresh
-copy, never the object given.
-"""
+"""The hybrid neural ODE ``dv/dt = f_theta(v[, u]) + g_phi(v[, u])``: forced, partially observed, its RK4
+steps per output chosen from the data (``n_substeps="auto"``)."""
 
 from __future__ import annotations
 
-import copy
 import inspect
 import math
 import numbers
-from types import SimpleNamespace
 import warnings
-from typing import Callable
+from types import SimpleNamespace
 
 import numpy as np
 import torch
-from torch import nn
 
-from .integrate import fast
-from ._probe import call_science, probe_batch
-from ._validation import check_positive
-from .integrate import INPUT_INTERPOLATIONS, integrate, upsample_inputs
+from ..integrate import fast
+from .._probe import call_science, probe_batch
+from .._validation import check_positive
+from ..integrate import INPUT_INTERPOLATIONS, integrate, upsample_inputs
 
-__all__ = ["HybridModule", "make_structure", "STRUCTURES", "pack_inputs", "OdeStructure", "ComposeStructure",
-           "AdditiveStructure", "ode_options"]
-
-
-class HybridModule(nn.Module):
-    """Science part, network and structure in one module (what training updates).
-
-    With a theta ``encoder`` (see :mod:`sklearn_hybrid.encoder`) the last
-    input is the encoder's window: each sample's theta is inferred from it and
-    the structure runs on the other inputs with that theta bound.
-    """
-
-    def __init__(self, science: nn.Module, residual: nn.Module, structure,
-                 reduction: nn.Module | None = None, encoder: nn.Module | None = None):
-        super().__init__()
-        self.science = science
-        self.residual = residual
-        self.reduction = reduction
-        self.structure = structure
-        self.encoder = encoder
-
-    def bind(self, inputs):
-        """The model the structure sees and the structure's inputs (per-sample theta bound)."""
-        if self.encoder is None:
-            return self, inputs
-        from .encoder import BoundModel
-
-        *inputs, window = inputs
-        return BoundModel(self, self.encoder(window, self.science)), tuple(inputs)
-
-    def forward(self, *inputs: torch.Tensor, use_residual: bool = True):
-        model, inputs = self.bind(inputs)
-        return self.structure.forward(model, *inputs, use_residual=use_residual)
-
-    def trace(self, inputs, pred, extras):
-        """Where the network acts and what it contributes (see ``HybridRegressor.residual_trace``)."""
-        model, inputs = self.bind(inputs)
-        return self.structure.trace(model, inputs, pred, extras)
-
-    def theta_parameters(self) -> list:
-        """Trainable tensors of theta: free science parameters, or the encoder's weights."""
-        own = [p for p in self.science.parameters() if p.requires_grad]
-        return own + ([] if self.encoder is None else list(self.encoder.parameters()))
-
-    def theta_values(self) -> dict:
-        """Current theta; with an encoder, the batch mean of its last forward pass."""
-        values = self.science.values()
-        if self.encoder is not None and self.encoder.last_mean is not None:
-            values.update(self.encoder.last_mean)
-        return values
+__all__ = ["OdeStructure", "pack_inputs", "ODE_DEFAULTS"]
 
 
 def pack_inputs(x0: np.ndarray, u: np.ndarray) -> np.ndarray:
@@ -454,184 +383,5 @@ class OdeStructure:
         return None
 
 
-class ComposeStructure:
-    """General composition ``y = g_phi(x, f_theta(x))``; g sees x and z = f(x)."""
-
-    additive = False
-
-    def __init__(self, **_):
-        pass
-
-    def __repr__(self) -> str:
-        return f"{type(self).__name__}()"
-
-    def setup(self, X, y_shape):
-        self.x_shape, self.y_shape = X.shape[1:], tuple(y_shape)
-
-    def tensors(self, X, dtype):
-        return (torch.tensor(X, dtype=dtype),)  # a copy: the science never sees the caller's memory
-
-    def probe(self, science, inputs):
-        x = probe_batch(inputs, (*self.x_shape, *self.y_shape))[0]
-        self.z_shape = tuple(call_science(science, (x,), None, "X").shape[1:])
-
-    def residual_shapes(self):
-        return (tuple(self.x_shape), self.z_shape), self.y_shape
-
-    def forward(self, model, x, use_residual=True):
-        z = model.science(x)
-        if use_residual:
-            return model.residual(x, z).reshape(len(x), *self.y_shape), {"z": z}
-        if model.reduction is not None:
-            return model.reduction(z.reshape(len(x), -1)).reshape(len(x), *self.y_shape), {"z": z}
-        if self.z_shape != self.y_shape:
-            raise ValueError(
-                f"The science output has shape {self.z_shape} and y has {self.y_shape}: without "
-                "the linear map A of method='f-reg' there is no science-only prediction of y."
-            )
-        return z, {"z": z}
-
-    def trace(self, model, inputs, pred, extras):
-        science_only, _ = self.forward(model, *inputs, use_residual=False)
-        n = len(pred)
-        return {"points": inputs[0], "inputs": None,
-                "residual": (pred - science_only).reshape(n, *self.y_shape)}
-
-    def make_reduction(self, dtype):
-        """The learnable linear map A of f-reg (identity when z and y share a shape)."""
-        if self.z_shape == self.y_shape:
-            return None
-        return nn.Linear(math.prod(self.z_shape), math.prod(self.y_shape), bias=False).to(dtype)
-
-    def functional_penalty(self, model, pred, extras):
-        z = extras["z"].reshape(len(pred), -1)
-        reduced = z if model.reduction is None else model.reduction(z)
-        return (pred.reshape(len(pred), -1) - reduced).pow(2).sum(-1)
-
-
-class AdditiveStructure(ComposeStructure):
-    """Static additive model ``y = f_theta(x) + g_phi(x)``."""
-
-    additive = True
-
-    def probe(self, science, inputs):
-        x = probe_batch(inputs, (*self.x_shape, *self.y_shape))[0]
-        call_science(science, (x,), (len(x), *self.y_shape), "X")
-
-    def residual_shapes(self):
-        return (tuple(self.x_shape),), self.y_shape
-
-    def forward(self, model, x, use_residual=True):
-        if not use_residual:
-            return model.science(x), {}
-        g = model.residual(x).reshape(len(x), *self.y_shape)
-        return model.science(x) + g, {"g": g}
-
-    def trace(self, model, inputs, pred, extras):
-        return {"points": inputs[0], "inputs": None, "residual": extras["g"]}
-
-    def make_reduction(self, dtype):
-        return None
-
-    def functional_penalty(self, model, pred, extras):
-        return extras["g"].pow(2).reshape(len(pred), -1).sum(-1)
-
-
-class CallableStructure(ComposeStructure):
-    """A user composition ``func(x, f, g) -> y`` (f: science with theta bound, g: network)."""
-
-    additive = False
-
-    def __init__(self, func: Callable):
-        self.func = func
-
-    def probe(self, science, inputs):
-        pass
-
-    def residual_shapes(self):
-        return None, None
-
-    def forward(self, model, x, use_residual=True):
-        if not use_residual:
-            raise ValueError("A user-supplied composition has no science-only prediction.")
-        out = self.func(x, model.science, model.residual)
-        # a transposed (outputs, samples) result reshaped anyway would mix the samples' values
-        if (not torch.is_tensor(out) or out.ndim == 0 or out.shape[0] != len(x)
-                or math.prod(out.shape[1:]) != math.prod(self.y_shape)):
-            got = tuple(out.shape) if torch.is_tensor(out) else type(out).__name__
-            raise ValueError(f"The structure {getattr(self.func, '__name__', self.func)!r} returned {got} for "
-                             f"{len(x)} samples; it must return a tensor of shape {(len(x), *self.y_shape)}, "
-                             "one row per sample, like y.")
-        return out.reshape(len(x), *self.y_shape), {}
-
-    def trace(self, model, inputs, pred, extras):
-        raise ValueError("A user-supplied composition does not say where its network acts.")
-
-    def make_reduction(self, dtype):
-        raise ValueError(self._NO_REDUCTION)
-
-    def functional_penalty(self, model, pred, extras):
-        raise ValueError(self._NO_REDUCTION)
-
-    _NO_REDUCTION = ("method='f-reg' needs a structure that defines a science-only reduction "
-                     "('ode', 'compose' or 'additive'); a user-supplied composition has none.")
-
-
-STRUCTURES = {"ode": OdeStructure, "compose": ComposeStructure, "additive": AdditiveStructure}
-
 #: OdeStructure's options and their defaults, which the estimator's keywords of the same names share.
 ODE_DEFAULTS = {name: p.default for name, p in inspect.signature(OdeStructure).parameters.items()}
-
-
-def ode_options(structure: OdeStructure, **keywords) -> dict:
-    """The options of ``structure`` with the estimator's keywords of the same names.
-
-    A keyword left at its default defers to the object; one given must agree with it, since two
-    values of ``dt`` would leave the reader to guess which one the fit used.
-
-    Parameters
-    ----------
-    structure : OdeStructure
-        The estimator's ``structure``.
-    **keywords
-        The estimator's ``dt``, ``n_substeps``, ``solver``, ``observed``, ``n_inputs``, ``input_interp``.
-
-    Returns
-    -------
-    dict
-        The options a fresh OdeStructure is built from.
-
-    Raises
-    ------
-    ValueError
-        If a keyword given differs from the object's option.
-    """
-    options = structure.options()
-    for name, value in keywords.items():
-        if value is ODE_DEFAULTS[name] or (not isinstance(value, np.ndarray) and value == ODE_DEFAULTS[name]):
-            continue
-        stored = OdeStructure(**{name: value}).options()[name]  # as the object stores it: dt a float...
-        if stored != options[name]:
-            raise ValueError(f"structure={structure!r} and {name}={value!r} disagree: give {name} once, in "
-                             f"OdeStructure({name}=...) or as the estimator's {name}.")
-    return options
-
-
-def make_structure(spec, **options):
-    """A fresh structure from its name (with the estimator's ``options``), from a structure object (a copy,
-    which a fit sets up; an OdeStructure's options merged with ``options`` by ``ode_options``), or from
-    a callable ``structure(x, f, g) -> y``."""
-    if isinstance(spec, OdeStructure):
-        return OdeStructure(**ode_options(spec, **options))
-    if isinstance(spec, ComposeStructure):
-        return copy.deepcopy(spec)
-    if callable(spec) and not isinstance(spec, type):
-        return CallableStructure(spec)
-    if spec not in STRUCTURES:
-        raise ValueError(
-            f"Unknown structure {spec!r}; choose one of {sorted(STRUCTURES)}, pass a structure object such "
-            "as OdeStructure(dt=0.1) or a callable structure(x, f, g) -> y."
-        )
-    if spec == "ode":
-        return OdeStructure(**options)
-    return STRUCTURES[spec]()
