@@ -200,7 +200,7 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
         How far each parameter still moved at the end of training: its largest
         relative change ``|theta_end - theta_start| / |theta_end|`` over the
         last iterations in which 10 % of theta's summed learning rate was
-        spent (see ``sklearn_hybrid.training.engine.theta_drift``).  A theta that
+        spent (see ``sklearn_hybrid.training.schedule.theta_drift``).  A theta that
         settled moves by much less there than one the cosine schedule froze
         on its way (which moves about 10 % of its whole travel); a change of
         plain iterations would hide that, as the learning rate is close to

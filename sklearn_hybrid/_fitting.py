@@ -29,7 +29,7 @@ from .metrics import network_share
 from .residual import build_residual, is_zero_residual
 from .science import ScienceModel
 from .structures import HybridModule, OdeStructure
-from .training.engine import TrainConfig, cosine_lr, theta_drift
+from .training.schedule import TrainConfig, cosine_lr, theta_drift
 
 #: The ``dtype`` parameter's names.
 DTYPES = {"float32": torch.float32, "float64": torch.float64}

@@ -288,7 +288,7 @@ def test_lr_theta_gives_theta_its_own_step(pendulum):
 
 def test_theta_drift_tells_a_frozen_theta_from_a_settled_one():
     """The window is the last 10 % of the summed learning rate, not of the iterations."""
-    from sklearn_hybrid.training.engine import TrainConfig, cosine_lr, theta_drift
+    from sklearn_hybrid.training.schedule import TrainConfig, cosine_lr, theta_drift
 
     config = TrainConfig(lr=1e-2, max_iter=1000)
     lr = cosine_lr(config.lr, 1000, config)
@@ -309,7 +309,7 @@ def test_theta_drift_attribute_and_schedule_match_the_optimizer(pendulum):
     X, y = pendulum.X_train, pendulum.y_train
     est = HybridRegressor(science=pendulum_f, dt=0.2, method="erm", lr=1e-2, lr_theta=3e-2,
                           tol=None, **FAST).fit(X, y)
-    from sklearn_hybrid.training.engine import TrainConfig, cosine_lr, make_optimizer, theta_drift
+    from sklearn_hybrid.training.schedule import TrainConfig, cosine_lr, make_optimizer, theta_drift
 
     config = TrainConfig(lr=1e-2, lr_theta=3e-2, max_iter=30)
     p = torch.nn.Parameter(torch.zeros(1))

@@ -8,7 +8,8 @@ import pytest
 import torch
 from torch import nn
 
-from sklearn_hybrid.training.engine import TrainConfig, train
+from sklearn_hybrid.training.engine import train
+from sklearn_hybrid.training.schedule import TrainConfig
 from sklearn_hybrid.methods import (METHODS, Method, asam_perturbation, fsam_perturbation, make_method,
                                     sam_perturbation)
 from sklearn_hybrid.science import ScienceModel

@@ -2,7 +2,7 @@
 
 import numpy as np
 
-import sklearn_hybrid.training.engine as engine
+import sklearn_hybrid.training.progress as progress
 from sklearn_hybrid import HybridRegressor
 
 FAST = dict(max_iter=15, residual={"hidden": (8, 8)}, random_state=0)
@@ -25,8 +25,8 @@ def test_the_default_is_auto_and_a_short_fit_prints_nothing(capsys):
 
 
 def test_auto_shows_the_bar_once_the_fit_has_run_its_delay(capsys, monkeypatch):
-    monkeypatch.setattr(engine, "AUTO_DELAY", 0.0)  # every fit is "long" now
-    monkeypatch.setattr(engine, "is_interactive", lambda stream: True)  # as in a terminal
+    monkeypatch.setattr(progress, "AUTO_DELAY", 0.0)  # every fit is "long" now
+    monkeypatch.setattr(progress, "is_interactive", lambda stream: True)  # as in a terminal
     HybridRegressor(science=cooling_f, dt=0.3, **FAST).fit(*data())
     err = capsys.readouterr().err
     assert "15/15" in err and "k=" in err and "it/s" in err
@@ -34,21 +34,21 @@ def test_auto_shows_the_bar_once_the_fit_has_run_its_delay(capsys, monkeypatch):
 
 def test_auto_stays_out_of_logs_and_captured_output(capsys, monkeypatch):
     """A bar redrawn with carriage returns is noise in a log file or a documentation page."""
-    monkeypatch.setattr(engine, "AUTO_DELAY", 0.0)
+    monkeypatch.setattr(progress, "AUTO_DELAY", 0.0)
     HybridRegressor(science=cooling_f, dt=0.3, **FAST).fit(*data())  # pytest's capture is no terminal
     assert capsys.readouterr().err == ""
-    assert not engine.is_interactive(None)
+    assert not progress.is_interactive(None)
 
     class Closed:
         def isatty(self):
             raise ValueError("I/O operation on closed file")
 
-    assert not engine.is_interactive(Closed())
+    assert not progress.is_interactive(Closed())
 
 
 def test_verbose_false_silences_it(capsys, monkeypatch):
-    monkeypatch.setattr(engine, "AUTO_DELAY", 0.0)
-    monkeypatch.setattr(engine, "is_interactive", lambda stream: True)
+    monkeypatch.setattr(progress, "AUTO_DELAY", 0.0)
+    monkeypatch.setattr(progress, "is_interactive", lambda stream: True)
     HybridRegressor(science=cooling_f, dt=0.3, verbose=False, **FAST).fit(*data())
     assert capsys.readouterr().err == ""
 
@@ -64,8 +64,8 @@ def test_the_profile_and_the_loop_show_their_progress_in_a_terminal(capsys, monk
     profile_theta(est, X, y, n_points=3, refine=False, max_iter=5)  # captured output is no terminal: silent
     close.close_the_loop(est, X, y, candidates=Candidates(kinds=["polynomial"], max_terms=1))
     assert capsys.readouterr() == ("", "")
-    monkeypatch.setattr(engine, "AUTO_DELAY", 0.0)
-    monkeypatch.setattr(engine, "is_interactive", lambda stream: True)  # as in a terminal
+    monkeypatch.setattr(progress, "AUTO_DELAY", 0.0)
+    monkeypatch.setattr(progress, "is_interactive", lambda stream: True)  # as in a terminal
     monkeypatch.setattr(close, "is_interactive", lambda stream: True)
     profile_theta(est, X, y, n_points=3, refine=False, max_iter=5)
     assert "3 members" in capsys.readouterr().err  # two values of k and the free member

@@ -13,7 +13,7 @@ from sklearn.utils.validation import check_is_fitted
 from .._estimator import HybridRegressor
 from .._fitting import fitted_data, fitted_settings
 from .._validation import check_target_layout
-from ..training.engine import TrainConfig
+from ..training.schedule import TrainConfig
 from ..methods import make_method, stackable_methods
 
 __all__ = ["fitted_problem", "member_config", "parameter_entries", "check_level", "entry_values",

@@ -1,7 +1,9 @@
 """Training a hybrid model: the loop, its watchers and the verdict on what it produced.
 
-- ``engine.py``: the training loop (Adam + cosine, full or mini-batch); ``step_gradients`` is
+- ``engine.py``: the training loop (full or mini-batch); ``step_gradients`` is
   the one place a method's rule (``sklearn_hybrid.methods``) is called;
+- ``schedule.py``: its settings, Adam with cosine annealing, theta's drift at the end;
+- ``progress.py``: the progress bar of a training that runs long;
 - ``stacked.py``: K configurations trained as one stacked model (sweeps, profiles, bootstrap),
   through the same ``step_gradients``;
 - ``stopping.py``: early stopping and the loss-spike guard;
@@ -12,6 +14,7 @@ The methods themselves stay in :mod:`sklearn_hybrid.methods`: they are a choice 
 makes (``method="fsam"`` or ``FisherSAM(rho=0.1)``), this package is how the choice is run.
 """
 
-from .engine import DivergenceError, TrainConfig, train
+from .engine import DivergenceError, train
+from .schedule import TrainConfig
 
 __all__ = ["train", "TrainConfig", "DivergenceError"]

@@ -9,117 +9,27 @@ not by subtraction); then one Adam step on all parameters.
 
 from __future__ import annotations
 
-import sys
 from contextlib import contextmanager
-from dataclasses import dataclass
 
 import numpy as np
 import torch
 from torch import nn
 
 from ..integrate import fast
+from .progress import progress_bar
+from .schedule import TrainConfig, make_optimizer
 from .stopping import EarlyStopping, SpikeGuard, target_variance
 
-__all__ = ["TrainConfig", "train", "run_steps", "is_interactive", "STEP", "SKIP", "STOP", "DivergenceError", "data_loss", "make_optimizer", "step_gradients", "progress_bar",
-           "gradients_at_perturbed", "MiniBatches",
-           "explain_nonfinite", "cosine_lr", "theta_drift"]
+__all__ = ["train", "run_steps", "STEP", "SKIP", "STOP", "DivergenceError", "data_loss", "step_gradients",
+           "gradients_at_perturbed", "MiniBatches", "explain_nonfinite"]
 
 
-#: Seconds a fit with ``verbose="auto"`` (the default) runs before its progress bar appears: a
-#: short fit prints nothing, a longer one shows signs of life and its estimated time.
-AUTO_DELAY = 5.0
 #: Halvings of a SAM perturbation at which the loss is not finite (see :func:`step_gradients`).
 RADIUS_HALVINGS = 5
 
 
 class DivergenceError(FloatingPointError):
     """The training loss became NaN or infinite."""
-
-
-@dataclass
-class TrainConfig:
-    """Optimisation settings (validated by the estimator)."""
-
-    lr: float = 1e-2
-    lr_theta: float | None = None
-    max_iter: int = 1000
-    batch_size: int | None = None
-    weight_decay: float = 1e-5
-    perturb: str = "residual"
-    min_lr: float = 1e-6
-    verbose: bool | str = False  # "auto": a bar once the fit has run AUTO_DELAY seconds
-    tol: float | None = None
-    n_iter_no_change: int = 100
-
-
-def make_optimizer(theta: list, phi: list, config: TrainConfig):
-    """Adam with a cosine-annealed learning rate (one period over ``max_iter``).
-
-    theta gets no weight decay (decay would bias the physics) and its own
-    learning rate when ``config.lr_theta`` is set; the network gets the slight
-    ``weight_decay``.  Parameter tensors may carry a leading member axis.
-    """
-    optimizer = torch.optim.Adam(
-        [{"params": theta, "weight_decay": 0.0, "lr": config.lr_theta or config.lr},
-         {"params": phi, "weight_decay": config.weight_decay}], lr=config.lr)
-    scheduler = torch.optim.lr_scheduler.CosineAnnealingLR(
-        optimizer, T_max=config.max_iter, eta_min=min(config.min_lr, config.lr))
-    return optimizer, scheduler
-
-
-def cosine_lr(base_lr: float, n_iter: int, config: TrainConfig) -> np.ndarray:
-    """The learning rate of a parameter group over its first ``n_iter`` iterations.
-
-    Closed form of :func:`make_optimizer`'s schedule: ``base_lr`` (``config.lr``
-    or ``config.lr_theta``) cosine-annealed over ``config.max_iter`` to
-    ``min(config.min_lr, config.lr)``.
-    """
-    eta_min = min(config.min_lr, config.lr)
-    t = np.arange(n_iter)
-    return eta_min + (base_lr - eta_min) * (1 + np.cos(np.pi * t / config.max_iter)) / 2
-
-
-def theta_drift(theta: dict, lr: np.ndarray, fraction: float = 0.1) -> dict:
-    """How much theta still moved at the end of training, independently of the schedule.
-
-    The window is the last iterations in which ``fraction`` of theta's summed
-    learning rate was spent (under a cosine schedule to ~0 that is about the
-    last 30 % of the iterations for ``fraction=0.1``; under a constant rate,
-    the last 10 %).  Adam moves a parameter by about its learning rate per
-    step, so a theta pushed steadily in one direction moves about ``fraction``
-    of its whole travel there however the rate was annealed, while a theta
-    that has settled moves by much less.  A window of plain iterations would
-    not tell the two apart: the cosine schedule makes every theta look still
-    in its last 10 % of iterations (they hold 0.2 % of the summed rate).
-
-    Parameters
-    ----------
-    theta : dict of str to ndarray
-        ``name -> (n_iter, ...)``: theta after each iteration (``history_["theta"]``).
-    lr : ndarray of shape (n_iter,)
-        theta's learning rate at each iteration (see :func:`cosine_lr`).
-    fraction : float, default=0.1
-        Share of the summed learning rate that the window holds.
-
-    Returns
-    -------
-    dict of str to float
-        ``name -> `` the largest relative change ``|theta_end - theta_start| /
-        |theta_end|`` over the parameter's entries, ``theta_start`` the value
-        at the window's start (NaN for an empty history).
-    """
-    lr = np.asarray(lr, dtype=float)
-    out = {}
-    for name, path in theta.items():
-        path = np.reshape(np.asarray(path, dtype=float), (len(path), -1))
-        if len(path) == 0:
-            out[name] = float("nan")
-            continue
-        cum = np.cumsum(lr[:len(path)])
-        start = min(int(np.searchsorted(cum, (1 - fraction) * cum[-1])), len(path) - 1)
-        change = np.abs(path[-1] - path[start]) / np.maximum(np.abs(path[-1]), 1e-12)
-        out[name] = float(change.max())
-    return out
 
 
 def gradients_at_perturbed(perturbed: list, eps: list, loss_and_grads):
@@ -479,33 +389,6 @@ def train(model: nn.Module, method, inputs: tuple[torch.Tensor, ...], y: torch.T
     if watch.stopper is not None and validation is not None:
         history["validation_loss"] = np.array(watch.stopper.validation_history)
     return history
-
-
-def progress_bar(n_iter: int, verbose, desc: str):
-    """The iterations of a training, as a tqdm bar where ``verbose`` asks for one.
-
-    ``verbose=True`` shows it, ``False`` does not, ``"auto"`` shows it once
-    the training has run ``AUTO_DELAY`` seconds, and only where it is seen as
-    it runs (a terminal or a notebook).  A single fit and stacked members
-    (sweeps, profiles, the bootstrap) take it from here alike.
-    """
-    from tqdm.auto import tqdm
-
-    stream = sys.stderr or sys.stdout  # both are None under pythonw and some services
-    auto = verbose == "auto"
-    return tqdm(range(n_iter), disable=stream is None or not (is_interactive(stream) if auto else verbose),
-                desc=desc, file=stream, delay=AUTO_DELAY if auto else 0.0)
-
-
-def is_interactive(stream) -> bool:
-    """Whether a progress bar on ``stream`` is seen as it runs: a terminal or a notebook, not a log,
-    a captured output (pytest, a documentation build) or a missing stream (pythonw)."""
-    if stream is None:
-        return False
-    try:
-        return stream.isatty() or "ipykernel" in sys.modules
-    except (AttributeError, ValueError):  # a stream without isatty, or a closed one
-        return False
 
 
 def _make_stopper(model, config, y, validation):

@@ -29,7 +29,8 @@ from joblib import Parallel, delayed
 from ..integrate import fast
 from ..integrate.kernels import reusing_buffers
 from .._validation import torch_threads
-from .engine import STEP, STOP, TrainConfig, MiniBatches, gradients_at_perturbed, make_optimizer, run_steps
+from .engine import MiniBatches, STEP, STOP, gradients_at_perturbed, run_steps
+from .schedule import TrainConfig, make_optimizer
 from .stopping import EarlyStopping, target_variance
 from .verdict import DIVERGED_FACTOR
 

@@ -22,7 +22,8 @@ from sklearn.utils.validation import check_is_fitted
 
 from ..._fitting import ode_structure
 from ...identifiability import science_intervals
-from ...training.engine import DivergenceError, is_interactive
+from ...training.engine import DivergenceError
+from ...training.progress import is_interactive
 from ...residual import MLPOn
 from .arguments import (check_fitted_horizon, check_names, check_options, check_param_names, check_refit_params,
                         check_targets, count_states, offset_states, refuse_moved, settings_object,
