@@ -2,8 +2,8 @@
 
 - :func:`plot_fit`: the data against the hybrid's prediction and the science
   part alone, with the network's share between them and the residuals above.
-- :func:`~sklearn_hybrid.identifiability.plot_profile`: the profiles of theta
-  (re-exported here, so that every plot of a fit is found in one place).
+- :func:`plot_profile`: the profiles of theta (also
+  :func:`~sklearn_hybrid.identifiability.plot_profile` and ``ThetaProfile.plot``).
 
 matplotlib is optional: ``pip install "sklearn_hybrid[plot]"``.
 """
@@ -19,10 +19,48 @@ __all__ = ["plot_fit", "plot_profile"]
 
 
 def plot_profile(profile, ax=None):
-    """Plot the profiles of theta (see :func:`sklearn_hybrid.identifiability.plot_profile`)."""
-    from .identifiability import plot_profile as _plot_profile  # scipy and the batched engine: on use
+    """Plot each profile: the data loss (and the method's objective, if profiled) against the parameter.
 
-    return _plot_profile(profile, ax=ax)
+    The threshold of the interval is drawn as a horizontal line, the fit's
+    estimate and the interval as vertical ones.  Needs matplotlib (the
+    ``plot`` extra).
+
+    Parameters
+    ----------
+    profile : ThetaProfile
+        From :func:`~sklearn_hybrid.identifiability.profile_theta`.
+    ax : matplotlib Axes or array of Axes, optional
+        One axes per profiled entry (new ones by default).
+
+    Returns
+    -------
+    array of matplotlib Axes
+    """
+    try:
+        import matplotlib.pyplot as plt
+    except ImportError as error:  # an optional dependency
+        raise ImportError("plot_profile needs matplotlib: pip install 'sklearn_hybrid[plot]'.") from error
+    labels = list(profile.verdicts)
+    if ax is None:
+        _, ax = plt.subplots(1, len(labels), figsize=(4 * len(labels), 3.2), squeeze=False)
+    axes = np.ravel(ax)
+    if len(axes) != len(labels):
+        raise ValueError(f"ax holds {len(axes)} axes for {len(labels)} profiles.")
+    for a, label in zip(axes, labels):
+        values = profile.values[label]
+        a.plot(values, profile.loss[label], "o-", label="data loss")
+        if label in profile.objective:
+            a.plot(values, profile.objective[label], "s--", alpha=0.7, label=f"{profile.method} objective")
+        a.axhline(profile.threshold, color="grey", lw=1, label=f"{100 * profile.level:.0f} % threshold")
+        a.axvline(profile.estimate[label], color="k", lw=1, ls=":", label="fit")
+        for side in profile.intervals[label]:
+            if np.isfinite(side):
+                a.axvline(side, color="C2", lw=1)
+        a.set_xlabel(label)
+        a.set_title(profile.verdicts[label], fontsize=9)
+    axes[0].set_ylabel("mean squared error")
+    axes[0].legend(fontsize=7)
+    return axes
 
 
 def _pyplot():

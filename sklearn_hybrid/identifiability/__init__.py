@@ -10,8 +10,9 @@
   closed loop's ``science_only``), robust to errors correlated along a trajectory.
 """
 
+from ..plotting import plot_profile
 from .bootstrap import ThetaBootstrap, bootstrap_theta
-from .profile import ADVICE, IDENTIFIED, PRACTICAL, STRUCTURAL, UNSETTLED, ThetaProfile, plot_profile, profile_theta
+from .profile import ADVICE, IDENTIFIED, PRACTICAL, STRUCTURAL, UNSETTLED, ThetaProfile, profile_theta
 from .science_only import ScienceIntervals, science_intervals
 
 __all__ = ["profile_theta", "ThetaProfile", "plot_profile", "bootstrap_theta", "ThetaBootstrap",

@@ -33,7 +33,7 @@ from .._validation import check_n_jobs, torch_threads
 from ._members import (bounds_of, check_level, entry_values, fitted_problem, member_config,
                        parameter_entries, set_entry)
 
-__all__ = ["profile_theta", "ThetaProfile", "plot_profile", "IDENTIFIED", "PRACTICAL", "STRUCTURAL", "UNSETTLED",
+__all__ = ["profile_theta", "ThetaProfile", "IDENTIFIED", "PRACTICAL", "STRUCTURAL", "UNSETTLED",
            "ADVICE"]
 
 #: What would identify a parameter the data leave open, said wherever a verdict is.
@@ -176,7 +176,9 @@ class ThetaProfile:
         return self.report()
 
     def plot(self, ax=None):
-        """Plot the profiles (see :func:`plot_profile`)."""
+        """Plot the profiles (see :func:`~sklearn_hybrid.plotting.plot_profile`)."""
+        from ..plotting import plot_profile
+
         return plot_profile(self, ax=ax)
 
 
@@ -415,47 +417,3 @@ def _interval(values, loss, threshold):
     open_sides = (sides[0] is None) + (sides[1] is None)
     verdict = IDENTIFIED if open_sides == 0 else STRUCTURAL if open_sides == 2 else PRACTICAL
     return (low, high), verdict
-
-
-def plot_profile(profile: ThetaProfile, ax=None):
-    """Plot each profile: the data loss (and the method's objective, if profiled) against the parameter.
-
-    The threshold of the interval is drawn as a horizontal line, the fit's
-    estimate and the interval as vertical ones.  Needs matplotlib (the
-    ``plot`` extra).
-
-    Parameters
-    ----------
-    profile : ThetaProfile
-    ax : matplotlib Axes or array of Axes, optional
-        One axes per profiled entry (new ones by default).
-
-    Returns
-    -------
-    array of matplotlib Axes
-    """
-    try:
-        import matplotlib.pyplot as plt
-    except ImportError as error:  # an optional dependency
-        raise ImportError("plot_profile needs matplotlib: pip install 'sklearn_hybrid[plot]'.") from error
-    labels = list(profile.verdicts)
-    if ax is None:
-        _, ax = plt.subplots(1, len(labels), figsize=(4 * len(labels), 3.2), squeeze=False)
-    axes = np.ravel(ax)
-    if len(axes) != len(labels):
-        raise ValueError(f"ax holds {len(axes)} axes for {len(labels)} profiles.")
-    for a, label in zip(axes, labels):
-        values = profile.values[label]
-        a.plot(values, profile.loss[label], "o-", label="data loss")
-        if label in profile.objective:
-            a.plot(values, profile.objective[label], "s--", alpha=0.7, label=f"{profile.method} objective")
-        a.axhline(profile.threshold, color="grey", lw=1, label=f"{100 * profile.level:.0f} % threshold")
-        a.axvline(profile.estimate[label], color="k", lw=1, ls=":", label="fit")
-        for side in profile.intervals[label]:
-            if np.isfinite(side):
-                a.axvline(side, color="C2", lw=1)
-        a.set_xlabel(label)
-        a.set_title(profile.verdicts[label], fontsize=9)
-    axes[0].set_ylabel("mean squared error")
-    axes[0].legend(fontsize=7)
-    return axes
