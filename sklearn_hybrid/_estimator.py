@@ -163,7 +163,9 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
         Where fit and predict run: ``"auto"`` takes a CUDA GPU when torch
         finds one, else the CPU; asking for ``"cuda"`` where there is none is
         an error.  The fast RK4 path is CPU-only; on a GPU hybrid ODEs train
-        with the plain autograd loop.
+        with the plain autograd loop, so a small ODE (a few states, a small
+        network) trains faster on the CPU, while fields and images train far
+        faster on a GPU (the user guide's page on scaling).
     n_threads : int or None, default=1
         torch threads during fit/predict (small models are fastest on one);
         None keeps torch's setting.
