@@ -176,7 +176,7 @@ class ThetaProfile:
         return self.report()
 
     def plot(self, ax=None):
-        """Plot the profiles (see :func:`~sklearn_hybrid.plotting.plot_profile`)."""
+        """Plot the profiles (see :func:`~sklearn_hybrid.identifiability.plot_profile`)."""
         from ..plotting import plot_profile
 
         return plot_profile(self, ax=ax)
