@@ -135,7 +135,7 @@ NOTES = {"wind_tunnel": (
     "fsam that perturbs theta too (fsam-all, Table 2) 0.085, no better than erm, where fsam "
     "perturbing phi only gets 0.056 / 0.023: as in the paper (0.037 vs 0.0037). The paper's protocol "
     "(20,000 iterations at lr 1e-4, 3 seeds; erm's and science-only's seed 0 on a lent machine's Xeon cores, "
-    "the rest on this project's CPU): the paper's order, p-reg 0.0014 (paper 0.0026), f-reg 0.0068 (0.00037), "
+    "the rest on this project's CPU): erm worst, fsam next, the two penalties best, as in the paper (which has f-reg ahead of p-reg): p-reg 0.0014 (paper 0.0026), f-reg 0.0068 (0.00037), "
     "fsam 0.036 at rho 0.2 (0.0037), erm 0.115 (0.020), science-only 0.0048; at this learning rate omega "
     "climbs from its start 0.5 through all 20,000 iterations for erm and fsam (best along training = end), "
     "and fsam's largest rho pulls it furthest (mean 0.554, 0.594, 0.630 for rho 0.01, 0.05, 0.2; erm 0.552; "
