@@ -36,10 +36,7 @@ def plot_profile(profile, ax=None):
     -------
     array of matplotlib Axes
     """
-    try:
-        import matplotlib.pyplot as plt
-    except ImportError as error:  # an optional dependency
-        raise ImportError("plot_profile needs matplotlib: pip install 'sklearn_hybrid[plot]'.") from error
+    plt = _pyplot("plot_profile")
     labels = list(profile.verdicts)
     if ax is None:
         _, ax = plt.subplots(1, len(labels), figsize=(4 * len(labels), 3.2), squeeze=False)
@@ -63,11 +60,11 @@ def plot_profile(profile, ax=None):
     return axes
 
 
-def _pyplot():
+def _pyplot(caller: str):
     try:
         import matplotlib.pyplot as plt
     except ImportError as error:  # an optional dependency
-        raise ImportError("plot_fit needs matplotlib: pip install 'sklearn_hybrid[plot]'.") from error
+        raise ImportError(f"{caller} needs matplotlib: pip install 'sklearn_hybrid[plot]'.") from error
     return plt
 
 
@@ -107,7 +104,7 @@ def plot_fit(estimator, X, y, *, samples=3, components=None, names=None, fig=Non
     from ._validation import check_target_layout
 
     check_is_fitted(estimator)
-    plt = _pyplot()
+    plt = _pyplot("plot_fit")
     X = np.asarray(X)
     idx = np.arange(min(int(samples), len(X))) if np.isscalar(samples) else np.asarray(samples, dtype=int)
     if idx.size == 0 or idx.min() < 0 or idx.max() >= len(X):

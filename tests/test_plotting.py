@@ -1,5 +1,6 @@
 """plot_fit: what it draws is the data, the hybrid's prediction and the science part alone."""
 
+import sys
 import matplotlib
 import numpy as np
 import pytest
@@ -118,3 +119,12 @@ def test_plots_are_found_at_the_top_and_in_plotting():
     from sklearn_hybrid.identifiability import plot_profile as original
 
     assert plot_profile.__doc__ and callable(original)
+
+
+def test_a_plot_without_matplotlib_names_itself_and_the_extra(fitted, monkeypatch):
+    monkeypatch.setitem(sys.modules, "matplotlib.pyplot", None)  # import matplotlib.pyplot now fails
+    extra = r"needs matplotlib: pip install 'sklearn_hybrid\[plot\]'"
+    with pytest.raises(ImportError, match="plot_fit " + extra):
+        plot_fit(*fitted)
+    with pytest.raises(ImportError, match="plot_profile " + extra):
+        plot_profile(None)
