@@ -27,6 +27,29 @@ def test_norm_terms_pair_states_of_one_unit_only():
                                          units={"vx": "m/s", "vy": "m/s"}) if t.name == "|(vx, vy)|*vx")
     d = {"vx": torch.tensor([3.0]), "vy": torch.tensor([4.0])}
     assert float(drag(d)) == pytest.approx(15.0)
+    assert drag.field == "|(vx, vy)|*(vx, vy)"  # one component of the drag along the speed
+
+
+def test_a_vector_fields_terms_are_tried_together_each_on_its_own_equation():
+    """|v| vx ranked on g[vx]: the group places it there and |v| vy where that ranks best (not on
+    g[vx] again, and not where it ranks second), each with its own coefficient; a term of no field
+    makes no group."""
+    from sklearn_hybrid.diagnosis.loop.candidates import field_groups
+    from sklearn_hybrid.diagnosis.loop.placed import PlacedTerm
+
+    terms = {t.name: t for t in physics_terms(["vx", "vy"], np.ones((5, 2)), kinds=["norm", "polynomial"],
+                                              units={"vx": "m/s", "vy": "m/s"})}
+    on_vx = PlacedTerm(terms["|(vx, vy)|*vx"], 0, {}, -0.3, 0.4)
+    scored = [on_vx, PlacedTerm(terms["|(vx, vy)|*vy"], 0, {}, -0.1, 0.3),  # best on g[vx], taken there
+              PlacedTerm(terms["|(vx, vy)|*vy"], 1, {}, -0.3, 0.2), PlacedTerm(terms["vx"], 1, {}, 1.0, 0.5),
+              PlacedTerm(terms["|(vx, vy)|*vx"], 1, {}, 0.1, 0.01)]
+    group, = field_groups([on_vx, scored[3]], scored)
+    assert [(m.name, m.component, m.coef) for m in group.members] == [("|(vx, vy)|*vx", 0, -0.3),
+                                                                       ("|(vx, vy)|*vy", 1, -0.3)]
+    assert group.name == "|(vx, vy)|*(vx, vy)" and group.component == [0, 1] and group.n_parameters() == 2
+    assert group.row()["ranked_by"] == "group"
+    assert field_groups([scored[3]], scored) == []
+    assert field_groups([on_vx], [on_vx]) == []  # its partner taken already: nothing to group
 
 
 def test_a_parameter_that_trades_with_a_chosen_term_is_conditional():

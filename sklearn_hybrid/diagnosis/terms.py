@@ -61,13 +61,19 @@ class Term:
     component : int, optional
         The only output component the term may be added to (a ``"scaled"`` term scales that
         component's science output); default any.
+    field : str, optional
+        The vector field the term is one component of, e.g. ``"|(vx, vz)|*(vx, vz)"`` for
+        ``|(vx, vz)|*vx``: a drag along the speed acts on every velocity component at once. The closed
+        loop also tries the field's terms together, each on its own equation.
     """
+
+    field: str | None = None  # (a Term pickled before fields existed has none)
 
     def __init__(self, name: str, func: Callable, kind: str,
                  shape: Mapping[str, tuple[Sequence[float], tuple[float, float]]] | None = None,
-                 unit: str = "", component: int | None = None) -> None:
+                 unit: str = "", component: int | None = None, field: str | None = None) -> None:
         self.name, self.func, self.kind, self.unit = name, func, kind, unit
-        self.shape, self.component = dict(shape or {}), component
+        self.shape, self.component, self.field = dict(shape or {}), component, field
 
     def __call__(self, d: Mapping[str, torch.Tensor], **shape: Any) -> torch.Tensor:
         return self.func(d, **shape)
@@ -375,7 +381,8 @@ _SPATIAL_UNIT = re.compile(r"^(k|c|m|u|µ|n)?m(/((m|u|µ)?s|h|min))?$")
 def _norms(states: Sequence[str], units: Mapping[str, str]) -> list[Term]:
     """For every pair of states in one unit of length or speed (two coordinates, two velocity
     components): their norm ``|(a, b)|`` and the norm times each, ``|(a, b)|*a``: drag along the
-    speed, a force that grows with the distance. The norm of two concentrations, populations or
+    speed, a force that grows with the distance (the latter two the components of one vector field,
+    ``field`` ``|(a, b)|*(a, b)``). The norm of two concentrations, populations or
     angles, or of states of unknown units, is no physical quantity, and no such term is offered."""
     out = []
     for a, b in combinations(states, 2):
@@ -384,8 +391,8 @@ def _norms(states: Sequence[str], units: Mapping[str, str]) -> list[Term]:
             continue
         label = f"|({a}, {b})|"
         out.append(Term(label, partial(norm_term, over=(a, b)), "norm", unit=unit))
-        out += [Term(f"{label}*{x}", partial(norm_term, over=(a, b), factor=x), "norm", unit=power_unit(unit, 2))
-                for x in (a, b)]
+        out += [Term(f"{label}*{x}", partial(norm_term, over=(a, b), factor=x), "norm", unit=power_unit(unit, 2),
+                     field=f"{label}*({a}, {b})") for x in (a, b)]
     return out
 
 

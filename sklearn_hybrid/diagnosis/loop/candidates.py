@@ -222,6 +222,29 @@ def candidate_groups(ranked: list[PlacedTerm]) -> list[PlacedGroup]:
     return [PlacedGroup(tuple(entries), gain=entries[0].gain) for entries in by_term.values() if len(entries) > 1]
 
 
+def field_groups(ranked: list[PlacedTerm], scored: list[PlacedTerm]) -> list[PlacedGroup]:
+    """One candidate per vector field with a term among ``ranked``: every term of the field at once, each
+    on the equation where it explains most of the residual (``scored``, :func:`rank_by_residual`'s whole
+    ranking), no two on one equation, each with its own coefficient.
+
+    A drag along the speed, ``-c |v| (vx, vz)``, acts on both velocity equations; where the science
+    already has a linear drag ``-k (vx, vz)`` with one ``k``, the term on one equation alone explains
+    little, since ``k``, held by the other equation, keeps standing in for part of the drag there.
+    Judged like :func:`candidate_groups`.
+    """
+    fields = list(dict.fromkeys(c.term.field for c in ranked if c.term.field is not None))
+    out = []
+    for field in fields:
+        members: list[PlacedTerm] = []
+        for cand in sorted(scored, key=lambda t: -t.gain):
+            if (cand.term.field == field and cand.name not in {m.name for m in members}
+                    and cand.component not in {m.component for m in members}):
+                members.append(cand)
+        if len(members) > 1:
+            out.append(PlacedGroup(tuple(members), gain=sum(m.gain for m in members)))
+    return out
+
+
 def merge_rankings(*rankings: list[PlacedTerm]) -> list[PlacedTerm]:
     """The candidates of several rankings, taken in turn, each (component, term) once."""
     out, seen = [], set()

@@ -141,8 +141,9 @@ class PlacedGroup:
     members : tuple of PlacedTerm
         The terms it places.
     joint : bool, default=False
-        False: one term on several components (``ranked_by`` ``"group"``, see
-        :func:`~sklearn_hybrid.diagnosis.loop.candidates.candidate_groups`); True: a set of terms on one
+        False: one term on several components, or the terms of one vector field each on its own
+        (``ranked_by`` ``"group"``, see :func:`~sklearn_hybrid.diagnosis.loop.candidates.candidate_groups`
+        and :func:`~sklearn_hybrid.diagnosis.loop.candidates.field_groups`); True: a set of terms on one
         equation that explain the residual only together (kind ``"joint"``, see
         :func:`~sklearn_hybrid.diagnosis.loop.joint.joint_candidates`).
     gain : float, default=nan
@@ -155,8 +156,12 @@ class PlacedGroup:
 
     @property
     def name(self) -> str:
-        """A joint set's terms joined by ``+``; a group's one term."""
-        return " + ".join(m.name for m in self.members) if self.joint else self.members[0].name
+        """A joint set's terms joined by ``+``; a group's one term, or the vector field its terms make up."""
+        if self.joint:
+            return " + ".join(m.name for m in self.members)
+        if len({m.name for m in self.members}) > 1:
+            return self.members[0].term.field or " + ".join(m.name for m in self.members)
+        return self.members[0].name
 
     @property
     def kind(self) -> str:

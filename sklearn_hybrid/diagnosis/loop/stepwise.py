@@ -6,7 +6,8 @@ science parameters' sensitivities, which absorb mere parameter shifts), and by h
 network-free model's training error its addition would remove (a score test on the trajectories,
 which does not trust the network to have learned the effect). The best few of each ranking are
 added to the science model one at a time (and a term that ranks on several components also on all
-of them at once: a reaction's flux enters every balance it converts; and sets of terms on one equation
+of them at once: a reaction's flux enters every balance it converts; the terms of one vector field,
+each on its own equation: a drag along the speed acts on every velocity component; and sets of terms on one equation
 that explain the residual only together, :func:`~sklearn_hybrid.diagnosis.loop.joint.joint_candidates`,
 judged as one family per step by Holm's rule), refitted without the network
 (:class:`ScienceFit`, on at most 256 evenly spaced training samples) and judged on validation
@@ -31,8 +32,8 @@ import torch
 
 from ...science import read_signature
 from ..judge import FIT_FAILURES, Judge, training_folds
-from .candidates import (Candidates, augment_with, candidate_groups, initial_values, interleave, merge_rankings,
-                         offset_candidate, rank_by_residual, rank_by_fit, shape_bounds, term_columns)
+from .candidates import (Candidates, augment_with, candidate_groups, field_groups, initial_values, interleave,
+                         merge_rankings, offset_candidate, rank_by_residual, rank_by_fit, shape_bounds, term_columns)
 from .collapse import replace_stand_ins
 from ..evidence import Evidence, holm
 from .joint import joint_candidates
@@ -151,8 +152,8 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
         remaining = learned - science_output(current, theta_now, args)
         jac = free_columns(*parameter_jacobian(current, theta_now, args), fit.fixed)
         taken = {t.key for t in added} | rejected
-        by_residual = interleave(rank_by_residual(columns, remaining, jac, components, taken),
-                                 candidates.n_candidates)
+        scored = rank_by_residual(columns, remaining, jac, components, taken)
+        by_residual = interleave(scored, candidates.n_candidates)
         by_fit = rank_by_fit(columns, science, current, added, theta_now, judge.screen, scale, components, taken,
                               variables, n_states, param_names)[:candidates.n_candidates]
         declared = [offset_candidate(k, variables) for k in offsets]
@@ -161,7 +162,7 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
             break
         tried: list[Screened] = []
         room = candidates.max_terms - len(added)  # a group adds a term per member
-        together = [g for g in candidate_groups(ranked) if len(g.members) <= room]
+        together = [g for g in candidate_groups(ranked) + field_groups(ranked, scored) if len(g.members) <= room]
         joint = [g for g in joint_candidates(columns, remaining, jac, components, taken, n=candidates.n_candidates)
                  if len(g.members) <= room]
         for cand in ranked + together + joint:
