@@ -380,19 +380,24 @@ _SPATIAL_UNIT = re.compile(r"^(k|c|m|u|µ|n)?m(/((m|u|µ)?s|h|min))?$")
 
 def _norms(states: Sequence[str], units: Mapping[str, str]) -> list[Term]:
     """For every pair of states in one unit of length or speed (two coordinates, two velocity
-    components): their norm ``|(a, b)|`` and the norm times each, ``|(a, b)|*a``: drag along the
-    speed, a force that grows with the distance (the latter two the components of one vector field,
+    components), and for all of them where three or more share it (a position or a velocity in
+    space): their norm ``|(a, b)|`` and the norm times each, ``|(a, b)|*a``: drag along the
+    speed, a force that grows with the distance (the latter the components of one vector field,
     ``field`` ``|(a, b)|*(a, b)``). The norm of two concentrations, populations or
     angles, or of states of unknown units, is no physical quantity, and no such term is offered."""
+    by_unit: dict[str, list[str]] = {}
+    for x in states:
+        unit = units.get(x, "")
+        if isinstance(unit, str) and _SPATIAL_UNIT.match(unit):
+            by_unit.setdefault(unit, []).append(x)
     out = []
-    for a, b in combinations(states, 2):
-        unit = units.get(a, "")
-        if not _SPATIAL_UNIT.match(unit) or units.get(b, "") != unit:
-            continue
-        label = f"|({a}, {b})|"
-        out.append(Term(label, partial(norm_term, over=(a, b)), "norm", unit=unit))
-        out += [Term(f"{label}*{x}", partial(norm_term, over=(a, b), factor=x), "norm", unit=power_unit(unit, 2),
-                     field=f"{label}*({a}, {b})") for x in (a, b)]
+    for unit, group in by_unit.items():
+        vectors = list(combinations(group, 2)) + ([tuple(group)] if len(group) > 2 else [])
+        for over in vectors:
+            label = f"|({', '.join(over)})|"
+            out.append(Term(label, partial(norm_term, over=over), "norm", unit=unit))
+            out += [Term(f"{label}*{x}", partial(norm_term, over=over, factor=x), "norm", unit=power_unit(unit, 2),
+                         field=f"{label}*({', '.join(over)})") for x in over]
     return out
 
 
