@@ -192,4 +192,17 @@ BATCHES = {
          "Note: the first run began about eleven minutes before this commit, by mistake (`--list` without "
          "`--more-validation` ran the whole benchmark; it now refuses): eleven cases ran at 6a852e8 with these "
          "definitions exactly as committed, their records unread at the commit and kept as the first run."),
+    17: ("## Batch 17: a vector field's terms together, norms of two and three states",
+         "Written on 2026-11-28 at package commit 3b94294, after the loop learnt to try the terms of one vector "
+         "field together, each on its "
+         "own equation (`field_groups`, which named batch 16's drag along the speed and its distance-stiffened "
+         "spring once batch 16 had shown they were missed), and the norm of three states of one unit; committed "
+         "before any of it ran: air drag along the speed of a puck whose linear drag is declared (four states), "
+         "quadratic drag along the speed of a falling body in three dimensions (the norm of three states), a "
+         "damped trap that softens with the distance (+c r (x, y)), dry friction along the speed (v / |v|, "
+         "smoothed: in no term list, so a stand-in or an honest 'not identified' is the right answer), a food "
+         "chain whose predator also eats the resource (x z on two balances of three), a middle plate of three "
+         "that radiates (T2^4, which the loss h partly takes), and two controls (the falling body with its "
+         "quadratic drag declared, the damped trap). None is a system of the tests; no trajectory was simulated "
+         "before the commit. Each case runs once and is shown whatever it gives."),
 }

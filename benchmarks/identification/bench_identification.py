@@ -120,7 +120,10 @@ RUN_ORDER = ["drag_oscillator", "control_rlc", "budworm", "enzyme_reactor", "sat
              # batch 16 (_identification_systems.FRESH_16: more states, norms of several states, functions outside
              # the term list, effects that partly confound a science parameter)
              "magnetised_drag", "control_coupled_pair", "quadratic_projectile", "product_inhibited_chain",
-             "control_inhibited_chain", "optical_trap", "waning_sir", "stiffening_orbit"]
+             "control_inhibited_chain", "optical_trap", "waning_sir", "stiffening_orbit",
+             # batch 17 (systems.FRESH_17: a vector field's terms together, norms of two and three states)
+             "puck_air_drag", "control_drag_body", "falling_body_drag", "softening_trap", "dry_puck",
+             "control_damped_trap", "intraguild_predation", "radiating_plate"]
 
 
 def _floats(theta: dict) -> dict:

@@ -56,7 +56,7 @@ class System:
     batch : int
         1: the systems the benchmark was built with; 2 and 3: systems written on 2026-11-25, after the
         selection's code was last changed, and added unchanged whatever they gave (``FRESH``, ``FRESH_3``);
-        4 to 16: written in later sessions (``FRESH_4`` to ``FRESH_16``), likewise.
+        4 to 17: written in later sessions (``FRESH_4`` to ``FRESH_17``), likewise.
     sign_of : int or None
         For an effect that jumps with the sign of one state (dry friction): that state's index.  Trajectories
         are then integrated piecewise between its zero crossings (no chattering of the step size), and a
@@ -1443,8 +1443,117 @@ FRESH_16 = [
            (0.5, 0.0, 0.0), (2.0, 0.5, 1.5), batch=16),
 ]
 
+# --------------------------------------------------------------------------------------------------------- batch 17
+# Written after the loop learnt to try a vector field's terms together (field_groups) and the norm of three states:
+# effects along a speed or a distance of two and three states, one outside the term list, a three-state food chain,
+# a radiating node, and controls with the quadratic drag declared.
+def puck_f(v, k=0.3):
+    """A puck on an air table (x, y, vx, vy) with linear drag k."""
+    return torch.stack([v[:, 2], v[:, 3], -k * v[:, 2], -k * v[:, 3]], dim=-1)
+
+
+def falling_body_f(v, g=1.0, k=0.2):
+    """The velocity (vx, vy, vz) of a body under gravity g along -z with linear drag k."""
+    return torch.stack([-k * v[:, 0], -k * v[:, 1], -g - k * v[:, 2]], dim=-1)
+
+
+def damped_trap_f(v, k=1.0, c=0.1):
+    """A mass (x, y, vx, vy) on an isotropic linear spring k with viscous damping c."""
+    return torch.stack([v[:, 2], v[:, 3], -k * v[:, 0] - c * v[:, 2], -k * v[:, 1] - c * v[:, 3]], dim=-1)
+
+
+def sliding_puck_f(v, k=0.3):
+    """A puck's velocity (vx, vy) with linear drag k."""
+    return -k * v
+
+
+def food_chain_f(v, a=1.0, d=0.3, b=0.8, e=0.3):
+    """Resource x (logistic), consumer y eating x at a, predator z eating y at b; deaths d and e."""
+    x, y, z = v[:, 0], v[:, 1], v[:, 2]
+    return torch.stack([x * (1 - x) - a * x * y, a * x * y - d * y - b * y * z, b * y * z - e * z], dim=-1)
+
+
+def plate_chain_f(v, h=0.3, g=0.5):
+    """Three plates in a row (temperatures above ambient): each loses h to the air, neighbours exchange g."""
+    T1, T2, T3 = v[:, 0], v[:, 1], v[:, 2]
+    return torch.stack([-h * T1 + g * (T2 - T1), -h * T2 + g * (T1 - T2) + g * (T3 - T2), -h * T3 + g * (T2 - T3)],
+                       dim=-1)
+
+
+def drag_body_f(v, g=1.0, k=0.2, c=0.1):
+    """Control: the falling body with its quadratic drag along the speed declared."""
+    speed = torch.sqrt(v[:, 0] ** 2 + v[:, 1] ** 2 + v[:, 2] ** 2)
+    return torch.stack([-k * v[:, 0] - c * speed * v[:, 0], -k * v[:, 1] - c * speed * v[:, 1],
+                        -g - k * v[:, 2] - c * speed * v[:, 2]], dim=-1)
+
+
+def _along_speed(c: float, d: int, first: int, n: int, power: float = 1.0, eps: float = 0.0) -> Callable:
+    """``-c |v|^power v`` over the ``n`` components from ``first`` of a ``d``-state system (``|v|`` made
+    ``sqrt(|v|^2 + eps^2)``)."""
+    def missing(x, u):
+        vel = x[:, first:first + n]
+        speed = np.sqrt(np.sum(vel ** 2, axis=1, keepdims=True) + eps ** 2)
+        out = np.zeros((len(x), d))
+        out[:, first:first + n] = -c * speed ** power * vel
+        return out
+    return missing
+
+
+def _softening(x, u):
+    """+0.4 r (x, y) on the accelerations: a trap that softens with the distance from its centre."""
+    out = np.zeros((len(x), 4))
+    out[:, 2:] = 0.4 * np.linalg.norm(x[:, :2], axis=1, keepdims=True) * x[:, :2]
+    return out
+
+
+def _intraguild(x, u):
+    """The predator also eats the resource: -0.5 x z on x, +0.2 x z on z."""
+    xz = x[:, 0] * x[:, 2]
+    return np.stack([-0.5 * xz, np.zeros(len(x)), 0.2 * xz], axis=1)
+
+
+FRESH_17 = [
+    System("puck_air_drag", "mechanical", "norm of two states (speed), partly confounds k",
+           "air drag along the speed of a puck whose linear drag is declared: -0.35 |v| (vx, vy)",
+           puck_f, {"k": 0.15}, _along_speed(0.35, 4, 2, 2),
+           ["x", "y", "vx", "vy"], {"x": "m", "y": "m", "vx": "m/s", "vy": "m/s"}, 0.1, 40,
+           (-1.0, -1.0, -2.0, -2.0), (1.0, 1.0, 2.0, 2.0), zero_components=[0, 1], batch=17),
+    System("falling_body_drag", "mechanical", "norm of three states (speed), partly confounds k",
+           "quadratic drag along the speed of a falling body in three dimensions: -0.25 |v| (vx, vy, vz)",
+           falling_body_f, {"g": 1.0, "k": 0.1}, _along_speed(0.25, 3, 0, 3),
+           ["vx", "vy", "vz"], {"vx": "m/s", "vy": "m/s", "vz": "m/s"}, 0.1, 40,
+           (-2.0, -2.0, -2.0), (2.0, 2.0, 2.0), batch=17),
+    System("softening_trap", "mechanical", "norm of two states (distance), partly confounds k",
+           "a damped trap that softens with the distance: +0.4 r (x, y)",
+           damped_trap_f, {"k": 2.0, "c": 0.2}, _softening,
+           ["x", "y", "vx", "vy"], {"x": "m", "y": "m", "vx": "m/s", "vy": "m/s"}, 0.1, 40,
+           (-1.5, -1.5, -1.0, -1.0), (1.5, 1.5, 1.0, 1.0), zero_components=[0, 1], batch=17),
+    System("dry_puck", "mechanical", "outside the term list (v / |v|, smoothed), partly confounds k",
+           "dry friction along the speed: -0.3 (vx, vy) / sqrt(|v|^2 + 0.1^2)",
+           sliding_puck_f, {"k": 0.2}, _along_speed(0.3, 2, 0, 2, power=-1.0, eps=0.1),
+           ["vx", "vy"], {"vx": "m/s", "vy": "m/s"}, 0.1, 40, (-2.0, -2.0), (2.0, 2.0), batch=17),
+    System("intraguild_predation", "population", "polynomial product on two balances of a three-state chain",
+           "the predator also eats the resource: -0.5 x z on x, +0.2 x z on z",
+           food_chain_f, {"a": 1.2, "d": 0.3, "b": 0.9, "e": 0.25}, _intraguild,
+           ["x", "y", "z"], {"x": "1", "y": "1", "z": "1"}, 0.25, 30,
+           (0.3, 0.2, 0.1), (1.0, 0.8, 0.5), zero_components=[1], batch=17),
+    System("radiating_plate", "thermal", "power law on one node of three, partly confounds h",
+           "the middle plate also radiates: -0.08 T2^4",
+           plate_chain_f, {"h": 0.2, "g": 0.6}, lambda x, u: _on(1, 3, -0.08 * x[:, 1] ** 4),
+           ["T1", "T2", "T3"], {"T1": "K", "T2": "K", "T3": "K"}, 0.2, 30,
+           (0.5, 0.5, 0.5), (2.5, 2.5, 2.5), zero_components=[0, 2], batch=17),
+    System("control_drag_body", "mechanical", "control", "nothing (the falling body with its quadratic drag declared)",
+           drag_body_f, {"g": 1.0, "k": 0.1, "c": 0.25}, None,
+           ["vx", "vy", "vz"], {"vx": "m/s", "vy": "m/s", "vz": "m/s"}, 0.1, 40,
+           (-2.0, -2.0, -2.0), (2.0, 2.0, 2.0), batch=17),
+    System("control_damped_trap", "mechanical", "control", "nothing (a damped isotropic trap)",
+           damped_trap_f, {"k": 2.0, "c": 0.2}, None,
+           ["x", "y", "vx", "vy"], {"x": "m", "y": "m", "vx": "m/s", "vy": "m/s"}, 0.1, 40,
+           (-1.5, -1.5, -1.0, -1.0), (1.5, 1.5, 1.0, 1.0), batch=17),
+]
+
 SYSTEMS = {s.name: s for s in SYSTEMS + FRESH + FRESH_3 + FRESH_4 + FRESH_5 + FRESH_6 + FRESH_7 + FRESH_8 + FRESH_9
-           + FRESH_10 + FRESH_11 + FRESH_12 + FRESH_13 + FRESH_14 + FRESH_15 + FRESH_16}
+           + FRESH_10 + FRESH_11 + FRESH_12 + FRESH_13 + FRESH_14 + FRESH_15 + FRESH_16 + FRESH_17}
 
 
 # ----------------------------------------------------------------------------------------------------- simulation
