@@ -160,7 +160,7 @@ def run_case(system: System, noise: float, seed: int, fast: bool, command: str, 
                               "verdict": res.intervals.verdicts[k]} for k in system.theta_true
                           if k in res.intervals.verdicts},
             "noise_sigma": data["sigma"].tolist(), "seconds": float(res.seconds), "wall_seconds": wall,
-            "cpu_seconds": cpu,
+            "cpu_seconds": cpu, "timings": {k: float(v) for k, v in res.timings.items()},
             "report": res.report, "first_fit_reused": reused, "package_commit": PACKAGE_COMMIT, "command": command,
             "protocol": FAST if fast else PROTOCOL, "machine": machine_description()}
 
