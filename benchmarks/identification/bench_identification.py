@@ -165,6 +165,24 @@ def run_case(system: System, noise: float, seed: int, fast: bool, command: str, 
             "protocol": FAST if fast else PROTOCOL, "machine": machine_description()}
 
 
+def _time_section(records: list[dict]) -> list[str]:
+    """Where a case's CPU time goes, over the records that keep the loop's timings by stage."""
+    timed = [r for r in records if r.get("timings")]
+    if not timed:
+        return []
+    stages = list(dict.fromkeys(k for r in timed for k in r["timings"]))
+    total = {k: sum(r["timings"].get(k, 0.0) for r in timed) for k in stages}
+    whole = sum(total.values()) or 1.0
+    slow = sorted(timed, key=lambda r: -sum(r["timings"].values()))[:3]
+    return ["", "## Where the time goes", "",
+            f"CPU seconds of `close_the_loop` by stage, over the {len(timed)} records that keep them (made since "
+            "the benchmark stores them): " + ", ".join(f"{k} {total[k]:.0f} ({100 * total[k] / whole:.0f} %)"
+                                                        for k in stages)
+            + ". Slowest: " + "; ".join(f"{r['system']} {r['noise']:g} ("
+                                        + ", ".join(f"{k} {v:.0f}" for k, v in r["timings"].items() if v >= 1)
+                                        + ")" for r in slow) + "."]
+
+
 def _fmt(v, digits=3) -> str:
     return "" if v is None else f"{v:.{digits}f}"
 
@@ -549,7 +567,8 @@ def render(records: list[dict]) -> str:
             md += ["", heading, ""] + ([preface, ""] if preface else []) + _tables(batches[batch])
     machines = sorted({f"{r['machine']['cpu']}, {r['machine']['cores']} cores, torch {r['machine']['torch']}"
                        for r in records if "machine" in r})
-    md += CHECKS_SECTION + ["", "## Machine and command", ""] + [f"- machine: {m}" for m in machines]
+    md += _time_section(records) + CHECKS_SECTION + ["", "## Machine and command", ""] + [f"- machine: {m}"
+                                                                                            for m in machines]
     commits = {}
     for r in records:
         commits.setdefault(r.get("package_commit") or "not recorded", []).append(f"{r['system']} {r['noise']:g}")
