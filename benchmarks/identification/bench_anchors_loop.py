@@ -190,9 +190,7 @@ def run_case(name, noise, seed=0):
     powers = polynomial_powers(d + int(system.forced))
     loop = json.loads((cache_dir(False) / f"{case_name(name, noise, seed)}.json").read_text())
     out = {"system": name, "noise": noise, "seed": seed, "package_commit": PACKAGE_COMMIT,
-           "loop": {"rel_err": loop.get("rel_err"), "control_err": loop.get("control_err"),
-                    "n_added": loop.get("n_added"), "theta_error": theta_error(system, loop["science_theta"]),
-                    "seconds": loop.get("wall_seconds")}}
+           "loop": loop_scores(system, loop)}
     start = time.perf_counter()
     hybrid, reused = first_fit(system, noise, seed, data)
     out["first_fit_s"], out["first_fit_reused"] = time.perf_counter() - start, reused
@@ -277,39 +275,22 @@ def cases(names, noises, batches):
     return out
 
 
-def render():
-    recs = [json.loads(p.read_text()) for p in sorted(RUNS.glob("*.json"))]
-    for r in recs:  # records made before the loop's seconds were copied: read them from its own record
-        if r["loop"].get("seconds") is None:
-            loop = cache_dir(False) / f"{case_name(r['system'], r['noise'], r['seed'])}.json"
-            r["loop"]["seconds"] = json.loads(loop.read_text()).get("wall_seconds") if loop.exists() else None
-    effects = [r for r in recs if not SYSTEMS[r["system"]].is_control]
-    controls = [r for r in recs if SYSTEMS[r["system"]].is_control]
-    lines = ["# The closed loop beside the UDE recipe with pysindy and pysindy alone", "",
-             "`benchmarks/identification/bench_anchors_loop.py` (its docstring gives the recipes). Scores as the "
-             "identification "
-             "benchmark's: `rel_err = |F - T| / |m|` on noise-free test states, identified when <= 0.10; controls: "
-             "terms added and `|F - T| / |T|`. Theta error: mean relative error of the science's parameters (SINDy "
-             "on the data has no theta). Seconds: the loop's whole run (its first hybrid fit included); for the "
-             "UDE recipes the sparse fit and the refit after that same first fit; SINDy on the data alone.", ""]
-    # which of the identification benchmark's cases ran: each needs the loop's first hybrid fit, stored only for
-    # the cases run since the fits were kept (batch 15, the controls), made again (minutes each) for the others
-    eligible = cases([], [], [])
-    by_batch = {}
-    for name, noise, _ in eligible:
-        by_batch.setdefault(SYSTEMS[name].batch, [0, 0])[0] += 1
-    for r in recs:
-        by_batch.setdefault(SYSTEMS[r["system"]].batch, [0, 0])[1] += 1
-    lines += [f"Cases run: {len(recs)} of the identification benchmark's {len(eligible)} (without declared "
-              "offsets): " + ", ".join(f"batch {b} {done} of {n}" for b, (n, done) in sorted(by_batch.items())
-                                       if done) + ". Every control ran; of the effects, all of batch 15 (the "
-              "several-term and sharp effects) and the few others the time allowed: each needs the loop's first "
-              "hybrid fit, made again (minutes) where it was not kept.", ""]
-    arms = [("loop", "closed loop"), ("ude_stlsq", "UDE + SINDy (STLSQ)"), ("ude_sbr", "UDE + SINDy (SBR)"),
-            ("sindy_data", "SINDy on the data")]
-    lines += ["| recipe | effects within 10 % | median rel_err | median theta error | controls with nothing added "
-              "| median seconds |", "|---|---|---|---|---|---|"]
-    for key, label in arms:
+def loop_scores(system, loop: dict) -> dict:
+    """The closed loop's scores in its identification record."""
+    return {"rel_err": loop.get("rel_err"), "control_err": loop.get("control_err"), "n_added": loop.get("n_added"),
+            "theta_error": theta_error(system, loop["science_theta"]), "seconds": loop.get("wall_seconds"),
+            "package_commit": loop.get("package_commit")}
+
+
+ARMS = [("loop", "closed loop"), ("ude_stlsq", "UDE + SINDy (STLSQ)"), ("ude_sbr", "UDE + SINDy (SBR)"),
+        ("sindy_data", "SINDy on the data")]
+
+
+def _summary(effects: list[dict], controls: list[dict]) -> list[str]:
+    """One row per recipe: effects within 10 %, median errors, clean controls, median seconds."""
+    lines = ["| recipe | effects within 10 % | median rel_err | median theta error | controls with nothing added "
+             "| median seconds |", "|---|---|---|---|---|---|"]
+    for key, label in ARMS:
         got = [r[key] for r in effects if key in r and "skipped" not in r[key]]
         ctl = [r[key] for r in controls if key in r and "skipped" not in r[key]]
         if not got and not ctl:
@@ -323,11 +304,51 @@ def render():
                      f"{np.median([g['rel_err'] for g in got]):.3f} | " if got else f"| {label} | | | ")
         lines[-1] += (f"{np.median(theta):.3f} | " if theta else "| ") + f"{clean} of {len(ctl)} | " + \
             (f"{np.median(secs):.1f} |" if secs else "|")
+    return lines
+
+
+def render():
+    recs = [json.loads(p.read_text()) for p in sorted(RUNS.glob("*.json"))]
+    for r in recs:  # the loop as its record stands now (it may have run again since the anchors did)
+        loop = cache_dir(False) / f"{case_name(r['system'], r['noise'], r['seed'])}.json"
+        if loop.exists():
+            r["loop"] = loop_scores(SYSTEMS[r["system"]], json.loads(loop.read_text()))
+    effects = [r for r in recs if not SYSTEMS[r["system"]].is_control]
+    controls = [r for r in recs if SYSTEMS[r["system"]].is_control]
+    lines = ["# The closed loop beside the UDE recipe with pysindy and pysindy alone", "",
+             "`benchmarks/identification/bench_anchors_loop.py` (its docstring gives the recipes). Scores as the "
+             "identification "
+             "benchmark's: `rel_err = |F - T| / |m|` on noise-free test states, identified when <= 0.10; controls: "
+             "terms added and `|F - T| / |T|`. Theta error: mean relative error of the science's parameters (SINDy "
+             "on the data has no theta). Seconds: the loop's whole run (its first hybrid fit included); for the "
+             "UDE recipes the sparse fit and the refit after that same first fit; SINDy on the data alone. The "
+             "loop's columns are its identification records as they stand when this page is made (a case the loop "
+             "ran again after its anchors shows the loop's new result beside them; the UDE recipes used the first "
+             "hybrid fit stored when they ran).", ""]
+    # which of the identification benchmark's cases ran: each needs the loop's first hybrid fit, stored only for
+    # the cases run since the fits were kept (batch 15, the controls), made again (minutes each) for the others
+    eligible = cases([], [], [])
+    by_batch = {}
+    for name, noise, _ in eligible:
+        by_batch.setdefault(SYSTEMS[name].batch, [0, 0])[0] += 1
+    for r in recs:
+        by_batch.setdefault(SYSTEMS[r["system"]].batch, [0, 0])[1] += 1
+    lines += [f"Cases run: {len(recs)} of the identification benchmark's {len(eligible)} (without declared "
+              "offsets): " + ", ".join(f"batch {b} {done} of {n}" for b, (n, done) in sorted(by_batch.items())
+                                       if done) + ". Every control ran; of the effects, all of batch 15 (the "
+              "several-term and sharp effects) and the few others the time allowed: each needs the loop's first "
+              "hybrid fit, made again (minutes) where it was not kept.", ""]
+    lines += _summary(effects, controls)
+    newest = max(SYSTEMS[r["system"]].batch for r in recs)
+    fresh = [r for r in recs if SYSTEMS[r["system"]].batch == newest]
+    lines += ["", f"Batch {newest} alone, the freshest (committed before it first ran):", ""]
+    lines += _summary([r for r in fresh if not SYSTEMS[r["system"]].is_control],
+                      [r for r in fresh if SYSTEMS[r["system"]].is_control])
     lines += ["", "| system | noise | loop | UDE + STLSQ | UDE + SBR | SINDy on data | UDE terms |",
               "|---|---|---|---|---|---|---|"]
     for r in recs:
         key = "control_err" if SYSTEMS[r["system"]].is_control else "rel_err"
-        cell = {k: (f"{r[k][key]:.3f}" if k in r and r[k].get(key) is not None else "") for k, _ in arms}
+        cell = {k: (f"{r[k][key]:.3f}" if k in r and r[k].get(key) is not None else "") for k, _ in ARMS}
         lines.append(f"| {r['system']} | {r['noise']:g} | {cell['loop']} | {cell['ude_stlsq']} | {cell['ude_sbr']} | "
                      f"{cell['sindy_data']} | {'; '.join(r['ude_stlsq'].get('terms', []))[:120]} |")
     return "\n".join(lines) + "\n", {"records": recs}
