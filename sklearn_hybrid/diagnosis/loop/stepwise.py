@@ -143,9 +143,8 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
     visited: set[frozenset] = {frozenset()}
     known: dict[tuple, dict] = {}  # each model the path settled on (its terms in order) and its fit
     steps: list[dict] = []
-    # candidates the held-out data could not tell from the choice: instead of an accepted term (which
-    # would not have passed the selection's test against them, see _rival) or, at the last step, added to
-    # the final model (lowering its error a little)
+    # candidates the held-out data could not tell from the choice: instead of an accepted term (within
+    # min_gain of its error) or, at the last step, added to the final model (lowering its error a little)
     rivals: list[dict] = []
     step = 0
     while len(added) < candidates.max_terms:
@@ -190,8 +189,10 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
             rivals += [{"role": "add", "cand": t.cand, "theta": t.theta, "mse": t.verdict["mse_after"]} for t in tried
                        if t.verdict["gain"] > 0 and np.isfinite(t.verdict["mse_after"])]
             break
+        best_mse = best.verdict["mse_after"]
         rivals += [{"role": "instead", "of": _key(best.cand.entries()), "cand": t.cand, "theta": t.theta,
-                    "mse": t.verdict["mse_after"]} for t in tried if t.cand is not best.cand and _rival(t, best, evidence)]
+                    "mse": t.verdict["mse_after"]} for t in tried
+                   if t.cand is not best.cand and t.verdict["mse_after"] <= (1 + evidence.min_gain) * best_mse]
         cand, theta_now, _, errors, current, index, second_look = best
         # the screen may have stopped early: converge, so that the next step's gains are the terms'
         bounds = shape_bounds(current, [*added, *cand.entries()])
@@ -218,18 +219,6 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
         steps, log, evidence=evidence, candidates=candidates, fixed=fit.fixed)
     return {"science": current, "theta": theta_now, "added": added, "steps": steps, "rivals": rivals,
             "base_errors": base_errors, "errors": errors, "seconds": time.perf_counter() - start_time}
-
-
-def _rival(other: Screened, best: Screened, evidence: Evidence) -> bool:
-    """Whether the held-out data could not tell ``other`` from the accepted ``best``: ``best`` would
-    not have passed the selection's own test against it (a gain of ``min_gain`` and ``z``). A form
-    a few per cent worse on a dozen trajectories is as likely as the chosen one, and the science
-    parameters it implies are as much the data's answer."""
-    if not np.all(np.isfinite(other.errors)):
-        return False
-    if np.shape(other.errors) != np.shape(best.errors):  # best chosen on a second look, on other samples
-        return other.verdict["mse_after"] <= (1 + evidence.min_gain) * best.verdict["mse_after"]
-    return not evidence.verdict(other.errors, best.errors)["accepted"]
 
 
 # A candidate gets a second look when the first split's z is above this (and its gain is enough).
