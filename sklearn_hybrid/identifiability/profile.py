@@ -232,7 +232,11 @@ def profile_theta(estimator, X, y, params=None, *, grid=None, span=0.5, n_points
         where the method's regulariser puts theta inside what the data allow.
     n_jobs : int, optional
         Train the members in this many worker processes (joblib; under
-        ``joblib.parallel_backend("dask")`` on a Dask cluster).
+        ``joblib.parallel_backend("dask")`` on a Dask cluster).  Default: one
+        group in this process, which on a small model costs the fewest CPU
+        seconds (each group pays the per-operation overhead again).  Each
+        group stops when its own members settle, so a verdict at the margin
+        may differ from one group's.
     verbose : bool or "auto", default="auto"
         A progress bar over the members' iterations: ``"auto"`` once they
         have trained 5 seconds, in a terminal or a notebook (as a fit's).
