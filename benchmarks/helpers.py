@@ -16,6 +16,7 @@ import platform
 import re
 import subprocess
 import sys
+import time
 from datetime import datetime, timezone
 from pathlib import Path
 from typing import Callable
@@ -98,6 +99,20 @@ def machine_description() -> dict:
             "torch_threads": torch.get_num_threads(), "numpy": numpy.__version__,
             "scikit-learn": sklearn.__version__, "reference_s": reference_seconds(),
             "date": datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")}
+
+
+def cpu_seconds() -> float:
+    """CPU seconds of this process and its worker processes (joblib's loky workers stay alive between calls)."""
+    import psutil
+
+    total = time.process_time()
+    for child in psutil.Process().children(recursive=True):
+        try:
+            t = child.cpu_times()
+            total += t.user + t.system
+        except psutil.Error:  # ended meanwhile
+            pass
+    return total
 
 
 def rk4_trajectories(rhs: Callable, X, dt: float, n_steps: int, substeps: int = 64):

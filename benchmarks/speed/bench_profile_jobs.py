@@ -18,23 +18,9 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the helpers, the studies' modules
-from helpers import write_results  # noqa: E402
+from helpers import cpu_seconds, write_results  # noqa: E402
 
 DEFAULT_SYSTEMS = ("stage", "sir", "drug", "drag_mass")
-
-
-def cpu_seconds() -> float:
-    """CPU seconds of this process and its worker processes."""
-    import psutil
-
-    total = time.process_time()
-    for child in psutil.Process().children(recursive=True):
-        try:
-            times = child.cpu_times()
-            total += times.user + times.system
-        except psutil.Error:
-            pass
-    return total
 
 
 def run(name: str) -> list[dict]:

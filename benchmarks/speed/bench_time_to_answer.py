@@ -43,26 +43,11 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the helpers, the studies' modules
-from helpers import PACKAGE_COMMIT, machine_description, runs_folder, write_results  # noqa: E402
+from helpers import cpu_seconds, machine_description, runs_folder, write_results  # noqa: E402
 
 FOLDER = runs_folder("time_to_answer")
 PATHS = ("recommended", "today")
 TOLERANCE = 0.05  # theta within 5 % of the truth
-
-
-def cpu_seconds() -> float:
-    """CPU seconds of this process and its worker processes (joblib's loky workers stay alive)."""
-    import psutil
-
-    me = psutil.Process()
-    total = time.process_time()
-    for child in me.children(recursive=True):
-        try:
-            t = child.cpu_times()
-            total += t.user + t.system
-        except psutil.Error:  # ended meanwhile
-            pass
-    return total
 
 
 class Steps:
@@ -146,7 +131,6 @@ def _path(path, system, X, y, seed, clock, record) -> dict:
 
     from speed.time_to_answer_systems import call_science, test_states
 
-    name = system.name
     est = HybridRegressor(science=system.science, dt=system.dt, random_state=seed, verbose=False).fit(X, y)
     clock.mark("fit")
     record.update(fit_iterations=int(est.n_iter_), fit_theta={k: float(np.ravel(v)[0]) for k, v in est.theta_.items()})
