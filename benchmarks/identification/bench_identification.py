@@ -188,10 +188,12 @@ def _whole_rerun(records: list[dict]) -> list[str]:
     made = [r["cpu_seconds"] for r in records if r.get("cpu_seconds") and not r.get("first_fit_reused")]
     if not made:
         return []
-    hours = len(records) * float(np.mean(made)) / 3600
-    return ["", f"A case made end to end (its first fit included) took {np.mean(made):.0f} CPU s on average over "
-            f"the {len(made)} records that keep their CPU seconds (rerun for several reasons, not a random draw; median {np.median(made):.0f}, largest "
-            f"{max(made):.0f}): the {len(records)} cases again end to end, about {hours:.1f} CPU hours, "
+    mean = float(np.mean(made))
+    hours = len(records) * mean / 3600
+    return ["", f"A case made end to end (its first fit included) took {mean:.0f} CPU s on average over the "
+            f"{len(made)} records that keep their CPU seconds (rerun for several reasons, not a random draw; median "
+            f"{np.median(made):.0f}, largest {max(made):.0f}): the {len(records)} cases again end to end, about "
+            f"{hours:.1f} CPU hours, "
             f"{hours / 2:.1f} hours on both cores of this machine, one case per process and two at a time "
             "(target of issue \"The right answer in a minute\": 3 hours)."]
 
