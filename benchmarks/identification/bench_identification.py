@@ -26,6 +26,7 @@ them, outside git, and reused, so that a change of the selection is measured wit
     python benchmarks/identification/bench_identification.py --batch 15  # one batch's cases, both noise levels
     python benchmarks/identification/bench_identification.py --render  # rebuild identification.md/.json from the cache
     python benchmarks/identification/bench_identification.py --rerun --refit --sample 12 48  # 12 cases, seed 48
+    python benchmarks/identification/bench_identification.py --rerun --refit --resume  # a whole rerun, resumed
 
 Its checks and side studies are options, each with its own run records and page (``identification/checks.py``
 says what each does):
@@ -700,6 +701,12 @@ def write(records: list[dict]) -> None:
     (RESULTS / "identification.json").write_text(json.dumps({"protocol": PROTOCOL, "cases": slim}, indent=2))
 
 
+def _made_here(record: dict, refit: bool) -> bool:
+    """Whether ``record`` was made by this package commit (``refit``: end to end, its first fit included)."""
+    return (record.get("package_commit") == PACKAGE_COMMIT and not record.get("fast")
+            and not (refit and record.get("first_fit_reused", False)))
+
+
 def changes_since(rev: str) -> list[str]:
     """One line per cached case whose record differs from its version at git revision ``rev``: the terms and
     the score before and after (what a rerun changed)."""
@@ -752,12 +759,18 @@ def main(argv=None) -> None:
     parser.add_argument("--refit", action="store_true",
                         help="with --rerun: fit the hybrid again even where its first fit is stored (a change of "
                              "the fit itself; the stored fit is replaced)")
+    parser.add_argument("--resume", action="store_true",
+                        help="with --rerun: skip the cases whose record this package commit already made (with "
+                             "--refit: its first fit included), so that a rerun stopped part way goes on where it "
+                             "stopped")
     parser.add_argument("--sample", nargs=2, type=int, metavar=("K", "SEED"),
                         help="only K of the selected cases, drawn with random.Random(SEED): a check of a change "
                              "in parts when the whole benchmark is too long to rerun")
     parser.add_argument("--list", action="store_true",
                         help="with --more-validation: print its cases, one 'NAME LEVEL' a line")
     args = parser.parse_args(argv)
+    if args.resume and not args.rerun:
+        parser.error("--resume goes on with a --rerun stopped part way: pass both")
     if args.list and not args.more_validation:  # alone it would fall through to running every case
         parser.error("--list lists the cases of --more-validation: pass both")
     if args.check_selection or args.second_look_null or args.inconclusive or args.more_validation:
@@ -790,6 +803,10 @@ def main(argv=None) -> None:
         path = folder / f"{case_name(name, noise, seed)}.json"
         if path.exists() and not args.rerun:
             print(f"[{i}/{len(todo)}] {name} noise={noise:g} seed={seed}: cached", flush=True)
+            continue
+        if args.resume and path.exists() and _made_here(json.loads(path.read_text()), args.refit):
+            print(f"[{i}/{len(todo)}] {name} noise={noise:g} seed={seed}: rerun already at {PACKAGE_COMMIT}",
+                  flush=True)
             continue
         print(f"[{i}/{len(todo)}] {name} noise={noise:g} seed={seed} ...", end=" ", flush=True)
         start = time.perf_counter()
