@@ -196,7 +196,23 @@ def _whole_rerun(records: list[dict]) -> list[str]:
             f"{np.median(made):.0f}, largest {max(made):.0f}): the {len(records)} cases again end to end, about "
             f"{hours:.1f} CPU hours, "
             f"{hours / 2:.1f} hours on both cores of this machine, one case per process and two at a time "
-            "(target of issue \"The right answer in a minute\": 3 hours)."]
+            "(target of issue \"The right answer in a minute\": 3 hours)."] + _resumed_rerun(records)
+
+
+def _resumed_rerun(records: list[dict]) -> list[str]:
+    """How far the whole rerun at one package commit (``--rerun --refit --resume``) has come, and its cost."""
+    runs = [r for r in records if "--resume" in r.get("command", "") and r.get("cpu_seconds")]
+    if not runs:
+        return []
+    commit = max({r["package_commit"] for r in runs}, key=lambda c: sum(r["package_commit"] == c for r in runs))
+    runs = [r for r in runs if r["package_commit"] == commit]
+    cpu = np.array([r["cpu_seconds"] for r in runs])
+    wall = sum(r["wall_seconds"] for r in runs)  # both processes: two cases at a time
+    return ["", f"The whole rerun at package commit {commit} (`--rerun --refit --resume`, one process per noise level, "
+            f"both cores), as far as it has come: {len(runs)} of {len(records)} cases, {cpu.sum() / 3600:.1f} CPU "
+            f"hours in `close_the_loop`, its first fit included (mean {cpu.mean():.0f} CPU s a case, median "
+            f"{np.median(cpu):.0f}, largest {cpu.max():.0f}; {wall / 7200:.1f} hours elapsed, two cases at a time); at "
+            f"that mean the {len(records)} cases take {len(records) * cpu.mean() / 7200:.1f} hours on both cores."]
 
 
 def _fmt(v, digits=3) -> str:
