@@ -220,3 +220,36 @@ def test_the_loop_names_a_drag_along_the_speed_that_a_declared_linear_drag_partl
     assert all(abs(a["coef"] + 0.4) < 0.04 for a in res.added), res.added
     assert abs(res.science_theta["k"] - 0.1) < 0.02 and abs(res.science_theta["fx"] - 0.5) < 0.02
     assert any(s["term"] == "|(vx, vy)|*(vx, vy)" and s["accepted"] for s in res.steps)
+
+
+def test_a_parameter_that_a_terms_mirror_would_absorb_is_conditional():
+    """Plasma P and tissue T: a transfer P -> T the science lacks, found as +q P on g[T] only. Its mirror
+    -q P on g[P] would be absorbed by the elimination rate k (k + q is all the data see), so k is
+    conditional; the tissue's loss e, which no mirror resembles, stays identified; a term on every
+    uncertain equation already, or an equation left exact, makes no mirror."""
+    from sklearn_hybrid.diagnosis.loop.caveats import mirror_trades
+    from sklearn_hybrid.diagnosis.loop.placed import PlacedTerm
+
+    def plasma_tissue(v, k=0.5, e=0.2):
+        return torch.stack([-k * v[:, 0], -e * v[:, 1] ** 2], dim=-1)
+
+    def fresh():
+        return ScienceIntervals(estimate={"k": 0.9, "e": 0.2}, std={"k": 0.01, "e": 0.01},
+                                intervals={"k": (0.88, 0.92), "e": (0.18, 0.22)},
+                                verdicts={"k": "identified", "e": "identified"}, level=0.95, n_samples=20)
+
+    states = np.random.default_rng(0).uniform(0.1, 2.0, (200, 2))
+    terms = {t.name: t for t in physics_terms(["P", "T"], states, kinds=["polynomial"])}
+    on_tissue = PlacedTerm(terms["P"], 1, {}, 0.4)
+    ci = fresh()
+    why = mirror_trades(ci, plasma_tissue, {"k": 0.9, "e": 0.2, "c_P": 0.4}, [on_tissue], [states], ["P", "T"],
+                        [0, 1], ["g[P]", "g[T]"])
+    assert list(why) == ["k"] and ci.verdicts == {"k": "conditional", "e": "identified"}
+    assert "trades with P on g[P] (added on g[T])" in ci.conditional["k"] and "R^2 1.00" in why["k"]
+    assert ci.intervals["k"] == (0.88, 0.92)  # how much acts there, the data cannot say: no range to widen to
+    on_both = [on_tissue, PlacedTerm(terms["P"], 0, {}, -0.4)]
+    for added, components in [(on_both, [0, 1]), ([on_tissue], [1])]:
+        ci = fresh()
+        assert mirror_trades(ci, plasma_tissue, {"k": 0.9, "e": 0.2}, added, [states], ["P", "T"], components,
+                             ["g[P]", "g[T]"]) == {}
+        assert ci.verdicts == {"k": "identified", "e": "identified"}

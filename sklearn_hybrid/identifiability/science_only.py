@@ -34,7 +34,7 @@ from .._fit_report import theta_jacobian
 from ..residual import ZeroResidual
 from ._members import check_level
 
-__all__ = ["science_intervals", "ScienceIntervals"]
+__all__ = ["science_intervals", "ScienceIntervals", "CONFOUNDED_R2"]
 
 
 #: A science parameter whose sensitivity column an added term's columns explain to this uncentred R^2
