@@ -253,3 +253,22 @@ def test_a_parameter_that_a_terms_mirror_would_absorb_is_conditional():
         assert mirror_trades(ci, plasma_tissue, {"k": 0.9, "e": 0.2}, added, [states], ["P", "T"], components,
                              ["g[P]", "g[T]"]) == {}
         assert ci.verdicts == {"k": "identified", "e": "identified"}
+
+
+def test_a_vector_fields_component_has_no_mirror():
+    """Drag |v| vx on g[vx] is one component of a field whose other component is |v| vy on g[vy]: its own
+    form on g[vy] is no partner, so a rotation w (w vy on g[vx], -w vx on g[vy]), which |v| vy on g[vx]
+    and |v| vx on g[vy] would nearly express, stays identified."""
+    from sklearn_hybrid.diagnosis.loop.caveats import mirror_trades
+    from sklearn_hybrid.diagnosis.loop.placed import PlacedTerm
+
+    def rotation(v, w=0.5):
+        return torch.stack([w * v[:, 1], -w * v[:, 0]], dim=-1)
+
+    states = np.random.default_rng(0).uniform(-1.0, 1.0, (200, 2))
+    terms = {t.name: t for t in physics_terms(["vx", "vy"], states, kinds=["norm"], units={"vx": "m/s", "vy": "m/s"})}
+    ci = ScienceIntervals(estimate={"w": 0.5}, std={"w": 0.01}, intervals={"w": (0.48, 0.52)},
+                          verdicts={"w": "identified"}, level=0.95, n_samples=20)
+    added = [PlacedTerm(terms["|(vx, vy)|*vx"], 0, {}, -0.3), PlacedTerm(terms["|(vx, vy)|*vy"], 1, {}, -0.3)]
+    assert mirror_trades(ci, rotation, {"w": 0.5}, added, [states], ["vx", "vy"], [0, 1], ["g[vx]", "g[vy]"]) == {}
+    assert ci.verdicts == {"w": "identified"}

@@ -219,7 +219,7 @@ def mirror_trades(intervals: Any, science: Callable, theta: Mapping[str, Any], a
     matter from B to A takes it from B, a spring between two pendula pulls on both. Its part on
     another equation is invisible to the data when a science parameter of that equation can absorb
     it: the parameter then holds its own value plus that part, with a narrow interval. So each
-    chosen term's form is placed on every other uncertain equation (``components``) where the model
+    chosen term's form (but a vector field's component) is placed on every other uncertain equation (``components``) where the model
     does not hold it already (its mirrors), and a science parameter whose sensitivity the mirrors
     explain to ``CONFOUNDED_R2`` or more (uncentred R^2, jointly, on the visited states ``args``) is
     made ``"conditional"`` in ``intervals`` (changed in place). Its interval is not widened: the data
@@ -238,7 +238,9 @@ def mirror_trades(intervals: Any, science: Callable, theta: Mapping[str, Any], a
     n = len(args[0])
     mirrors, where = [], []
     for t in added:
-        if t.kind in ("offset", "scaled"):  # an offset has no form; a scaled term is its own equation's
+        # an offset has no form; a scaled term is its own equation's; a vector field's component has its
+        # partners on the other equations (the field's other components), not its own form
+        if t.kind in ("offset", "scaled") or t.term.field is not None:
             continue
         with torch.no_grad():
             col = np.broadcast_to(t.term(values, **{k: torch.tensor(v, dtype=torch.float64)
