@@ -26,8 +26,8 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the helpers, the studies' modules
 from helpers import write_results  # noqa: E402
-from identification.protocol import load, loop_arguments, make_data  # noqa: E402
-from identification.systems import SYSTEMS  # noqa: E402
+from identification.protocol import PROTOCOL, load, loop_arguments  # noqa: E402
+from identification.systems import SYSTEMS, simulate  # noqa: E402
 from sklearn_hybrid.diagnosis import Candidates  # noqa: E402
 from sklearn_hybrid.diagnosis.loop.caveats import mirror_trades  # noqa: E402
 from sklearn_hybrid.diagnosis.loop.placed import PlacedTerm  # noqa: E402
@@ -38,8 +38,8 @@ from sklearn_hybrid.identifiability import ScienceIntervals  # noqa: E402
 def replay(record: dict) -> list[dict]:
     """One row per science parameter with an interval: its verdict, whether it holds, and the check's."""
     system = SYSTEMS[record["system"]]
-    data = make_data(system, record["noise"], record["seed"])
-    args = [data["x_test"]] + ([data["u_test"]] if system.forced else [])
+    x, u = simulate(system, PROTOCOL["n_test"], record["seed"], stream=1)  # make_data's test states
+    args = [x.reshape(-1, x.shape[-1])] + ([u.reshape(-1, 1)] if system.forced else [])
     arguments = loop_arguments(system)
     variables = arguments["state_names"] + (arguments["input_names"] or [])
     n_states = len(system.state_names)
