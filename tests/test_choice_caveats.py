@@ -77,6 +77,7 @@ def test_a_parameter_that_trades_with_a_chosen_term_is_conditional():
     assert "trades with x/(1 + x)" in given.conditional["a"]
     assert given.intervals["a"] == plain.intervals["a"]  # no rival form: the interval given the form
     assert "CONDITIONAL on the form of the term added" in given.report()
+    assert "given that form alone" in given.report() and "over the forms" not in given.report()
     with pytest.raises(ValueError, match=r"terms names \['c2'\], which are not parameters"):
         science_intervals(est, x, y, terms={"x/(1 + x)": ["c2"]})
     with pytest.raises(TypeError, match="terms must map each chosen term's label to a list"):

@@ -6,7 +6,7 @@ reaction that feeds A from B also drains B, and the elimination rate of B absorb
 This replays that check, without training anything, on every stored record of the identification
 benchmark: the record's final terms (rebuilt from the default term library by name, at the record's
 shape and coefficient) and science parameters, on the noise-free test states of the record's system
-(``make_data``; the loop itself uses the hybrid's visited states of the training data). It counts the
+(``make_data``'s; the loop itself uses the hybrid's visited states of the training data). It counts the
 parameters the records call identified that it would make conditional, split by whether their
 interval holds the truth: a parameter made conditional while its interval held the truth is a cost (a
 verdict lost), one whose interval missed the truth is an answer no longer confidently wrong.
