@@ -273,3 +273,36 @@ def test_a_vector_fields_component_has_no_mirror():
     added = [PlacedTerm(terms["|(vx, vy)|*vx"], 0, {}, -0.3), PlacedTerm(terms["|(vx, vy)|*vy"], 1, {}, -0.3)]
     assert mirror_trades(ci, rotation, {"w": 0.5}, added, [states], ["vx", "vy"], [0, 1], ["g[vx]", "g[vy]"]) == {}
     assert ci.verdicts == {"w": "identified"}
+
+
+def test_rival_forms_are_weighed_beside_rival_additions():
+    """Terms the last step left (judged against the final model, so with lower errors) must not crowd out the
+    forms that could have stood in place of a chosen term: MAX_RIVALS of each are refitted."""
+    from sklearn_hybrid.diagnosis.loop.caveats import MAX_RIVALS, weigh_rivals
+    from sklearn_hybrid.diagnosis.loop.placed import PlacedTerm
+
+    def decay(v, a=1.0):
+        return torch.stack([-a * v[:, 0], -v[:, 1]], dim=-1)
+
+    class Refit:  # every refit puts a farther outside its interval
+        calls = 0
+
+        def fit(self, model, start, bounds):
+            Refit.calls += 1
+            return {**start, "a": 10.0 * Refit.calls}
+
+    values = np.random.default_rng(0).uniform(0.1, 2.0, (20, 2))
+    terms = {t.name: t for t in physics_terms(["x", "y"], values, kinds=["polynomial"])}
+    chosen = PlacedTerm(terms["x^2"], 0, {}, 0.1, param="c_x2", shape_params={})
+    more = [n for n in terms if n not in ("x^2", "x")][:MAX_RIVALS + 1]
+    # each screening fit puts a outside the interval, however far the refits before have widened it
+    rivals = [{"role": "add", "cand": PlacedTerm(terms[n], 0, {}, 0.1), "theta": {"a": 100.0}, "mse": 1.0 + i}
+              for i, n in enumerate(more)]
+    rivals.append({"role": "instead", "of": [(0, "x^2")], "cand": PlacedTerm(terms["x"], 0, {}, 0.1),
+                   "theta": {"a": 100.0}, "mse": 10.0})
+    ci = ScienceIntervals(estimate={"a": 1.0}, std={"a": 0.01}, intervals={"a": (0.98, 1.02)},
+                          verdicts={"a": "identified"}, level=0.95, n_samples=20)
+    out = weigh_rivals(ci, rivals, decay, [chosen], {"a": 1.0, "c_x2": 0.1}, Refit(), ["x", "y"], 2, None)
+    assert len(more) == MAX_RIVALS + 1 and Refit.calls == MAX_RIVALS + 1  # the fourth addition is not refitted
+    assert [r["model"] for r in out][-1] == "with x instead of x^2"
+    assert ci.verdicts["a"] == "conditional" and ci.intervals["a"] == (0.98, 40.0)

@@ -54,7 +54,8 @@ UNEXPLAINED_SHARE = (0.1, 0.3)
 #: samples it was trained on, so the share asked is large: a network does not halve the error of a complete
 #: model on trajectories by fitting their noise.
 HYBRID_GAIN = 0.5
-#: Rival forms refitted on every sample (the most competitive first) to see how far they move theta.
+#: Rivals refitted on every sample (the most competitive first) to see how far they move theta: this many
+#: of each kind, forms in place of a chosen term and terms added to the final model.
 MAX_RIVALS = 3
 
 
@@ -153,7 +154,9 @@ def weigh_rivals(intervals: Any, rivals: Sequence[dict], science: Callable, adde
 
     A rival (see :func:`~sklearn_hybrid.diagnosis.loop.stepwise.forward_selection`) whose screening
     fit puts one of the original science parameters outside its interval is refitted on every sample
-    (at most ``MAX_RIVALS``, the lowest held-out error first). Where the refit confirms it, the
+    (at most ``MAX_RIVALS`` of each role, the lowest held-out error first: another form in place of a
+    chosen term, and a term added to the final model, answer two questions, and the second kind, judged
+    against a model with more terms, would otherwise crowd out the first). Where the refit confirms it, the
     interval (in ``intervals``, changed in place) is widened to hold the rival's value, and where the
     rival moves it by more than the interval's width, the parameter becomes ``"conditional"``: the
     data leave it to the term's form. ``added`` are the final model's terms at their values in ``theta``.
@@ -175,10 +178,10 @@ def weigh_rivals(intervals: Any, rivals: Sequence[dict], science: Callable, adde
         return [k for k in labels if k in values and np.isfinite(values[k])
                 and not intervals.intervals[k][0] <= float(values[k]) <= intervals.intervals[k][1]]
 
-    out = []
+    out, weighed = [], {"add": 0, "instead": 0}
     for rival in sorted(rivals, key=lambda r: r["mse"]):
-        if len(out) == MAX_RIVALS:
-            break
+        if weighed[rival["role"]] == MAX_RIVALS:
+            continue
         entries = rival["cand"].entries()
         replaced = set(rival.get("of", ()))
         if not replaced <= final or any(e.key in final - replaced for e in entries):
@@ -206,6 +209,7 @@ def weigh_rivals(intervals: Any, rivals: Sequence[dict], science: Callable, adde
             else:
                 intervals.widen(k, [value])
         log(f"  rival {words}: " + ", ".join(f"{k} = {float(fitted[k]):.4g}" for k in names if k in fitted))
+        weighed[rival["role"]] += 1
         out.append({"model": words, "theta": {k: float(fitted[k]) for k in names if k in fitted}, "moved": moved})
     return out
 
