@@ -77,6 +77,7 @@ def test_a_parameter_that_trades_with_a_chosen_term_is_conditional():
     assert "trades with x/(1 + x)" in given.conditional["a"]
     assert given.intervals["a"] == plain.intervals["a"]  # no rival form: the interval given the form
     assert "CONDITIONAL on the form of the term added" in given.report()
+    assert "given that form alone" in given.report() and "over the forms" not in given.report()
     with pytest.raises(ValueError, match=r"terms names \['c2'\], which are not parameters"):
         science_intervals(est, x, y, terms={"x/(1 + x)": ["c2"]})
     with pytest.raises(TypeError, match="terms must map each chosen term's label to a list"):
@@ -220,3 +221,88 @@ def test_the_loop_names_a_drag_along_the_speed_that_a_declared_linear_drag_partl
     assert all(abs(a["coef"] + 0.4) < 0.04 for a in res.added), res.added
     assert abs(res.science_theta["k"] - 0.1) < 0.02 and abs(res.science_theta["fx"] - 0.5) < 0.02
     assert any(s["term"] == "|(vx, vy)|*(vx, vy)" and s["accepted"] for s in res.steps)
+
+
+def test_a_parameter_that_a_terms_mirror_would_absorb_is_conditional():
+    """Plasma P and tissue T: a transfer P -> T the science lacks, found as +q P on g[T] only. Its mirror
+    -q P on g[P] would be absorbed by the elimination rate k (k + q is all the data see), so k is
+    conditional; the tissue's loss e, which no mirror resembles, stays identified; a term on every
+    uncertain equation already, or an equation left exact, makes no mirror."""
+    from sklearn_hybrid.diagnosis.loop.caveats import mirror_trades
+    from sklearn_hybrid.diagnosis.loop.placed import PlacedTerm
+
+    def plasma_tissue(v, k=0.5, e=0.2):
+        return torch.stack([-k * v[:, 0], -e * v[:, 1] ** 2], dim=-1)
+
+    def fresh():
+        return ScienceIntervals(estimate={"k": 0.9, "e": 0.2}, std={"k": 0.01, "e": 0.01},
+                                intervals={"k": (0.88, 0.92), "e": (0.18, 0.22)},
+                                verdicts={"k": "identified", "e": "identified"}, level=0.95, n_samples=20)
+
+    states = np.random.default_rng(0).uniform(0.1, 2.0, (200, 2))
+    terms = {t.name: t for t in physics_terms(["P", "T"], states, kinds=["polynomial"])}
+    on_tissue = PlacedTerm(terms["P"], 1, {}, 0.4)
+    ci = fresh()
+    why = mirror_trades(ci, plasma_tissue, {"k": 0.9, "e": 0.2, "c_P": 0.4}, [on_tissue], [states], ["P", "T"],
+                        [0, 1], ["g[P]", "g[T]"])
+    assert list(why) == ["k"] and ci.verdicts == {"k": "conditional", "e": "identified"}
+    assert "trades with P on g[P] (added on g[T])" in ci.conditional["k"] and "R^2 1.00" in why["k"]
+    assert ci.intervals["k"] == (0.88, 0.92)  # how much acts there, the data cannot say: no range to widen to
+    on_both = [on_tissue, PlacedTerm(terms["P"], 0, {}, -0.4)]
+    for added, components in [(on_both, [0, 1]), ([on_tissue], [1])]:
+        ci = fresh()
+        assert mirror_trades(ci, plasma_tissue, {"k": 0.9, "e": 0.2}, added, [states], ["P", "T"], components,
+                             ["g[P]", "g[T]"]) == {}
+        assert ci.verdicts == {"k": "identified", "e": "identified"}
+
+
+def test_a_vector_fields_component_has_no_mirror():
+    """Drag |v| vx on g[vx] is one component of a field whose other component is |v| vy on g[vy]: its own
+    form on g[vy] is no partner, so a rotation w (w vy on g[vx], -w vx on g[vy]), which |v| vy on g[vx]
+    and |v| vx on g[vy] would nearly express, stays identified."""
+    from sklearn_hybrid.diagnosis.loop.caveats import mirror_trades
+    from sklearn_hybrid.diagnosis.loop.placed import PlacedTerm
+
+    def rotation(v, w=0.5):
+        return torch.stack([w * v[:, 1], -w * v[:, 0]], dim=-1)
+
+    states = np.random.default_rng(0).uniform(-1.0, 1.0, (200, 2))
+    terms = {t.name: t for t in physics_terms(["vx", "vy"], states, kinds=["norm"], units={"vx": "m/s", "vy": "m/s"})}
+    ci = ScienceIntervals(estimate={"w": 0.5}, std={"w": 0.01}, intervals={"w": (0.48, 0.52)},
+                          verdicts={"w": "identified"}, level=0.95, n_samples=20)
+    added = [PlacedTerm(terms["|(vx, vy)|*vx"], 0, {}, -0.3), PlacedTerm(terms["|(vx, vy)|*vy"], 1, {}, -0.3)]
+    assert mirror_trades(ci, rotation, {"w": 0.5}, added, [states], ["vx", "vy"], [0, 1], ["g[vx]", "g[vy]"]) == {}
+    assert ci.verdicts == {"w": "identified"}
+
+
+def test_rival_forms_are_weighed_beside_rival_additions():
+    """Terms the last step left (judged against the final model, so with lower errors) must not crowd out the
+    forms that could have stood in place of a chosen term: MAX_RIVALS of each are refitted."""
+    from sklearn_hybrid.diagnosis.loop.caveats import MAX_RIVALS, weigh_rivals
+    from sklearn_hybrid.diagnosis.loop.placed import PlacedTerm
+
+    def decay(v, a=1.0):
+        return torch.stack([-a * v[:, 0], -v[:, 1]], dim=-1)
+
+    class Refit:  # every refit puts a farther outside its interval
+        calls = 0
+
+        def fit(self, model, start, bounds):
+            Refit.calls += 1
+            return {**start, "a": 10.0 * Refit.calls}
+
+    values = np.random.default_rng(0).uniform(0.1, 2.0, (20, 2))
+    terms = {t.name: t for t in physics_terms(["x", "y"], values, kinds=["polynomial"])}
+    chosen = PlacedTerm(terms["x^2"], 0, {}, 0.1, param="c_x2", shape_params={})
+    more = [n for n in terms if n not in ("x^2", "x")][:MAX_RIVALS + 1]
+    # each screening fit puts a outside the interval, however far the refits before have widened it
+    rivals = [{"role": "add", "cand": PlacedTerm(terms[n], 0, {}, 0.1), "theta": {"a": 100.0}, "mse": 1.0 + i}
+              for i, n in enumerate(more)]
+    rivals.append({"role": "instead", "of": [(0, "x^2")], "cand": PlacedTerm(terms["x"], 0, {}, 0.1),
+                   "theta": {"a": 100.0}, "mse": 10.0})
+    ci = ScienceIntervals(estimate={"a": 1.0}, std={"a": 0.01}, intervals={"a": (0.98, 1.02)},
+                          verdicts={"a": "identified"}, level=0.95, n_samples=20)
+    out = weigh_rivals(ci, rivals, decay, [chosen], {"a": 1.0, "c_x2": 0.1}, Refit(), ["x", "y"], 2, None)
+    assert len(more) == MAX_RIVALS + 1 and Refit.calls == MAX_RIVALS + 1  # the fourth addition is not refitted
+    assert [r["model"] for r in out][-1] == "with x instead of x^2"
+    assert ci.verdicts["a"] == "conditional" and ci.intervals["a"] == (0.98, 40.0)

@@ -34,7 +34,7 @@ from .._fit_report import theta_jacobian
 from ..residual import ZeroResidual
 from ._members import check_level
 
-__all__ = ["science_intervals", "ScienceIntervals"]
+__all__ = ["science_intervals", "ScienceIntervals", "CONFOUNDED_R2"]
 
 
 #: A science parameter whose sensitivity column an added term's columns explain to this uncentred R^2
@@ -63,6 +63,8 @@ class ScienceIntervals:
     n_samples: int
     incomplete: str | None = None
     conditional: dict = field(default_factory=dict)
+    #: the conditional parameters whose interval was widened to their values under other forms
+    spans_forms: set = field(default_factory=set)
 
     def widen(self, label: str, values: Sequence[float]) -> None:
         """Widen ``label``'s interval to hold ``values``: its estimates under other forms of a chosen
@@ -77,6 +79,8 @@ class ScienceIntervals:
         if self.verdicts.get(label) not in ("identified", "conditional"):
             return
         self.widen(label, values)
+        if len(values):
+            self.spans_forms.add(label)
         self.verdicts[label] = "conditional"
         self.conditional[label] = "; ".join(filter(None, [self.conditional.get(label), why]))
 
@@ -89,9 +93,11 @@ class ScienceIntervals:
                 lines.append(f"    {label}: {self.estimate[label]:.6g} +/- {self.std[label]:.3g}, "
                              f"{100 * self.level:.0f} % interval [{low:.6g}, {high:.6g}]")
             elif verdict == "conditional":
+                span = ("over the forms the data cannot tell apart (a range of estimates, not a confidence interval)"
+                        if label in self.spans_forms else "given that form alone (how much the parameter trades "
+                        "with it, the data cannot say)")
                 lines.append(f"    {label}: {self.estimate[label]:.6g}  CONDITIONAL on the form of the term added "
-                             f"({self.conditional[label]}); [{low:.6g}, {high:.6g}] over the forms the data cannot "
-                             "tell apart (a range of estimates, not a confidence interval)")
+                             f"({self.conditional[label]}); [{low:.6g}, {high:.6g}] {span}")
             elif self.incomplete:
                 lines.append(f"    {label}: {self.estimate[label]:.6g}  NOT IDENTIFIED: the model may be incomplete")
             else:

@@ -13,7 +13,11 @@ and each is said in the result instead of an interval that would read as certain
   captured it);
 - :func:`weigh_rivals`: a term the held-out data could not tell from the chosen one (another form
   instead of it, or one more term) moves a science parameter outside its interval; the parameter
-  is identified only given the chosen form, and its interval is widened to the rival values.
+  is identified only given the chosen form, and its interval is widened to the rival values;
+- :func:`mirror_trades`: a chosen term's form, placed on another uncertain equation (its mirror),
+  would trade with a science parameter there: a flow between two states, or a force between two
+  bodies, acts on both equations, and the part on the parameter's equation is absorbed by the
+  parameter without a trace in the data.
 
 A science parameter that trades with part of an added term in its own direction is found by
 ``science_intervals`` itself (its ``terms`` argument), from the sensitivities.
@@ -25,16 +29,18 @@ from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
+import torch
 
+from ...identifiability.science_only import CONFOUNDED_R2
 from ...science import read_signature
 from ..evidence import Evidence, evidence, group_means
 from ..judge import FIT_FAILURES
 from ..science_fit import ScienceFit
-from ..sensitivity import root_mean_square
+from ..sensitivity import parameter_jacobian, root_mean_square
 from .candidates import augment_with, shape_bounds
 from .placed import PlacedTerm
 
-__all__ = ["open_question", "left_unexplained", "worse_than_hybrid", "weigh_rivals", "OPEN_Z", "UNEXPLAINED_SHARE",
+__all__ = ["open_question", "left_unexplained", "worse_than_hybrid", "weigh_rivals", "mirror_trades", "OPEN_Z", "UNEXPLAINED_SHARE",
            "HYBRID_GAIN", "MAX_RIVALS"]
 
 #: A candidate left at the last step that lowered the held-out error by ``min_gain`` at this z (one
@@ -48,7 +54,8 @@ UNEXPLAINED_SHARE = (0.1, 0.3)
 #: samples it was trained on, so the share asked is large: a network does not halve the error of a complete
 #: model on trajectories by fitting their noise.
 HYBRID_GAIN = 0.5
-#: Rival forms refitted on every sample (the most competitive first) to see how far they move theta.
+#: Rivals refitted on every sample (the most competitive first) to see how far they move theta: this many
+#: of each kind, forms in place of a chosen term and terms added to the final model.
 MAX_RIVALS = 3
 
 
@@ -147,7 +154,9 @@ def weigh_rivals(intervals: Any, rivals: Sequence[dict], science: Callable, adde
 
     A rival (see :func:`~sklearn_hybrid.diagnosis.loop.stepwise.forward_selection`) whose screening
     fit puts one of the original science parameters outside its interval is refitted on every sample
-    (at most ``MAX_RIVALS``, the lowest held-out error first). Where the refit confirms it, the
+    (at most ``MAX_RIVALS`` of each role, the lowest held-out error first: another form in place of a
+    chosen term, and a term added to the final model, answer two questions, and the second kind, judged
+    against a model with more terms, would otherwise crowd out the first). Where the refit confirms it, the
     interval (in ``intervals``, changed in place) is widened to hold the rival's value, and where the
     rival moves it by more than the interval's width, the parameter becomes ``"conditional"``: the
     data leave it to the term's form. ``added`` are the final model's terms at their values in ``theta``.
@@ -169,10 +178,10 @@ def weigh_rivals(intervals: Any, rivals: Sequence[dict], science: Callable, adde
         return [k for k in labels if k in values and np.isfinite(values[k])
                 and not intervals.intervals[k][0] <= float(values[k]) <= intervals.intervals[k][1]]
 
-    out = []
+    out, weighed = [], {"add": 0, "instead": 0}
     for rival in sorted(rivals, key=lambda r: r["mse"]):
-        if len(out) == MAX_RIVALS:
-            break
+        if weighed[rival["role"]] == MAX_RIVALS:
+            continue
         entries = rival["cand"].entries()
         replaced = set(rival.get("of", ()))
         if not replaced <= final or any(e.key in final - replaced for e in entries):
@@ -200,5 +209,67 @@ def weigh_rivals(intervals: Any, rivals: Sequence[dict], science: Callable, adde
             else:
                 intervals.widen(k, [value])
         log(f"  rival {words}: " + ", ".join(f"{k} = {float(fitted[k]):.4g}" for k in names if k in fitted))
+        weighed[rival["role"]] += 1
         out.append({"model": words, "theta": {k: float(fitted[k]) for k in names if k in fitted}, "moved": moved})
+    return out
+
+
+def mirror_trades(intervals: Any, science: Callable, theta: Mapping[str, Any], added: list[PlacedTerm],
+                  args: Sequence[np.ndarray], variables: Sequence[str], components: Sequence[int],
+                  outputs: Sequence[str]) -> dict[str, str]:
+    """Call conditional a science parameter that a chosen term's form would trade with on another equation.
+
+    A term the loop added on one equation may also act, unseen, on another: a reaction that moves
+    matter from B to A takes it from B, a spring between two pendula pulls on both. Its part on
+    another equation is invisible to the data when a science parameter of that equation can absorb
+    it: the parameter then holds its own value plus that part, with a narrow interval. So each
+    chosen term's form (but a vector field's component) is placed on every other uncertain equation (``components``) where the model
+    does not hold it already (its mirrors), and a science parameter whose sensitivity the mirrors
+    explain to ``CONFOUNDED_R2`` or more (uncentred R^2, jointly, on the visited states ``args``) is
+    made ``"conditional"`` in ``intervals`` (changed in place). Its interval is not widened: the data
+    cannot say how much of the term acts there.
+
+    Returns
+    -------
+    dict of str to str
+        Per parameter made conditional, the reason in words.
+    """
+    names = [k for k in read_signature(science)[1] if np.ndim(theta.get(k, 0.0)) == 0]
+    labels = [k for k in names if intervals.verdicts.get(k) in ("identified", "conditional")]
+    placed = {t.key for t in added}
+    values = {name: torch.as_tensor(np.asarray(a, dtype=float))
+              for name, a in zip(variables, np.hstack([a.reshape(len(a), -1) for a in args]).T)}
+    n = len(args[0])
+    mirrors, where = [], []
+    for t in added:
+        # an offset has no form; a scaled term is its own equation's; a vector field's component has its
+        # partners on the other equations (the field's other components), not its own form
+        if t.kind in ("offset", "scaled") or t.term.field is not None:
+            continue
+        with torch.no_grad():
+            col = np.broadcast_to(t.term(values, **{k: torch.tensor(v, dtype=torch.float64)
+                                                     for k, v in t.shape.items()}).numpy(), (n,))
+        for j in components:
+            if (j, t.name) not in placed and j != t.component:
+                mirror = np.zeros((n, len(outputs)))
+                mirror[:, j] = col
+                mirrors.append(mirror.ravel())
+                where.append(f"{t.name} on {outputs[j]} (added on {outputs[t.component]})")
+    if not labels or not mirrors:
+        return {}
+    jac, jac_names = parameter_jacobian(science, {k: theta[k] for k in read_signature(science)[1]}, args)
+    M = np.stack(mirrors, axis=1)
+    out = {}
+    for label in labels:
+        column = jac[..., jac_names.index(label)].ravel()
+        if not np.all(np.isfinite(column)) or column @ column <= 0:
+            continue
+        coef = np.linalg.lstsq(M, column, rcond=None)[0]
+        r2 = 1.0 - float(np.sum((column - M @ coef) ** 2) / (column @ column))
+        if r2 >= CONFOUNDED_R2:
+            share = np.abs(coef) * np.linalg.norm(M, axis=0)  # each mirror's part in the fit, to name the ones that count
+            used = [w for w, s in zip(where, share) if s >= 0.1 * share.max()]
+            out[label] = (f"trades with {' and '.join(used)}: a flow or a force between two states acts on both "
+                          f"equations, R^2 {r2:.2f}")
+            intervals.make_conditional(label, out[label])
     return out

@@ -30,7 +30,7 @@ from .arguments import (check_fitted_horizon, check_names, check_options, check_
                         uncertain_components)
 from ..evidence import Evidence
 from .candidates import Candidates
-from .caveats import left_unexplained, open_question, weigh_rivals, worse_than_hybrid
+from .caveats import left_unexplained, mirror_trades, open_question, weigh_rivals, worse_than_hybrid
 from .report import LoopResult, Scoring, format_table, residual_profile
 from ..sensitivity import state_labels, science_output
 from ..science_fit import ScienceFit
@@ -324,6 +324,7 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
                                        terms=chosen)
         rivals = weigh_rivals(intervals, sel["rivals"], science, final_terms, science_theta, fit, variables,
                               n_states, param_names, log)
+        mirror_trades(intervals, science, science_theta, final_terms, args, variables, components, outputs)
         lap("network-free refit and intervals")
         log("scoring the network-free model ..." if scoring.executor is None else
             "scoring the network-free model in a worker process ...")
