@@ -400,8 +400,9 @@ def _periodic_section(records: list[dict]) -> list[str]:
           f"batch up to 13 is fresh for them. Only the {len(angles)} systems with an angle among their units have a "
           f"new library; their {len(mine)} records were checked from their stored first fits "
           f"(`bench_identification.py --check-selection --cases NAME --noise LEVEL --into {PERIODIC_CHECKS}`): "
-          f"{len(same)} select the same terms with the same values, and the {len(rerun)} others were run again "
-          f"end to end at {PERIODIC_SINCE} (before: the records at {BEFORE_PERIODIC}). Batch {PERIODIC_BATCH}, the "
+          f"{len(same)} select the same terms with the same values, and the {len(mine) - len(same)} others were run "
+          f"again end to end at {PERIODIC_SINCE} (before: the records at {BEFORE_PERIODIC}"
+          + ("" if rerun else "; later reruns have made their records again") + f"). Batch {PERIODIC_BATCH}, the "
           "first written after them, ran with them.", ""]
     return md + _before_after(rerun)
 
@@ -424,7 +425,10 @@ CHECKS_SECTION = [
 
 
 def _before_after(pairs: list[tuple[dict, dict]]) -> list[str]:
-    """The table of records run again: each (record, its record before) as rel_err and terms, before and after."""
+    """The table of records run again: each (record, its record before) as rel_err and terms, before and after
+    (nothing where a later rerun has made every such record again)."""
+    if not pairs:
+        return []
     return (["| system | noise | rel_err before | after | terms before | after |", "|---|---|---|---|---|---|"]
             + [f"| {new['system']} | {new['noise']:g} | {_fmt(old.get('rel_err'))} | {_fmt(new.get('rel_err'))} | "
                f"{_terms(old)} | {_terms(new)} |" for new, old in pairs])
@@ -690,8 +694,9 @@ def _package_changes_note(records: list[dict]) -> str:
             "simulation grew to 1e165 without overflowing made least squares raise: the fault f7b3c24 worked "
             "around), and a judged sample whose simulation diverged counts as infinitely wrong (in a first rerun "
             "at 76a1151 a backward drop had let a term of `radiating_body` 0.01 go on such samples, and the final "
-            f"hybrid fit crashed). The {len(rerun)} records whose fits had raised were run again end to end at "
-            "d850188: the same terms and parameter values, the same rel_err. The records of systems without inputs "
+            "hybrid fit crashed). The " + (f"{len(rerun)} " if rerun else "") + "records whose fits had raised were "
+            "run again end to end at d850188: the same terms and parameter values, the same rel_err"
+            + ("" if rerun else " (later reruns have made them again)") + ". The records of systems without inputs "
             f"were checked from their stored first fits up to the selected model's network-free fit "
             "(`python benchmarks/identification/bench_identification.py --check-selection --cases NAME --noise LEVEL`, "
             f"`results/selection_checks.md`): {sum(c['same'] for c in first)} of {len(first)} select the same terms "
