@@ -97,6 +97,13 @@ def test_widen_and_make_conditional_keep_what_is_not_identified():
     assert ci.intervals["k"] == (0.6, 1.3) and ci.verdicts == {"k": "conditional", "q": "not identified"}
     assert ci.conditional == {"k": "with x^3 added: 0.6"}
     assert "[0.6, 1.3] over the forms the data cannot tell apart" in ci.report()
+    # conditional by a trade alone, then widened by a rival form that moves it a little: a range over forms now
+    ci = ScienceIntervals(estimate={"k": 1.0}, std={"k": 0.1}, intervals={"k": (0.8, 1.2)},
+                          verdicts={"k": "identified"}, level=0.95, n_samples=10)
+    ci.make_conditional("k", "trades with x^3, R^2 0.95")
+    assert "[0.8, 1.2] given that form alone" in ci.report()
+    ci.widen("k", [1.25])
+    assert "[0.8, 1.25] over the forms the data cannot tell apart" in ci.report()
 
 
 def test_left_unexplained_names_the_equation_and_the_variable():

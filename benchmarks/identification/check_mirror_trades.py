@@ -81,8 +81,8 @@ def main() -> None:
         if record.get("intervals") and placed and record["system"] in SYSTEMS:  # no term placed: no mirror
             rows.extend(replay(record))
     # the records without a placed term are left out: the check cannot change their verdicts
-    lines = ["| records with a term placed | parameters | holding the truth | made conditional | of them holding | of them > 10 % off |",
-             "|---|---|---|---|---|---|"]
+    lines = ["| records with a term placed | parameters | holding the truth | made conditional | of them holding "
+             "| of them > 10 % off |", "|---|---|---|---|---|---|"]
     for what, sel in [("effects, identified", [r for r in rows if not r["control"] and r["verdict"] == "identified"]),
                       ("controls, identified", [r for r in rows if r["control"] and r["verdict"] == "identified"])]:
         made = [r for r in sel if r["mirror"]]
@@ -101,7 +101,8 @@ def main() -> None:
           f"{r['mirror']}" for r in made],
         "", "Identified, more than 10 % off, and left identified by the check:", "",
         *[f"- {r['case']} {r['param']} ({r['off']:.0%} off)" for r in wrong if not r["mirror"]],
-        "", f"Terms of the records not in the default library rebuilt here (left out): {', '.join(unknown) or 'none'}."])
+        "", "Terms of the records not in the default library rebuilt here (left out): "
+        f"{', '.join(unknown) or 'none'}."])
     write_results("mirror_trades", {"rows": rows}, md)
     print(md)
 

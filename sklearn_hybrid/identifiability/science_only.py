@@ -63,7 +63,7 @@ class ScienceIntervals:
     n_samples: int
     incomplete: str | None = None
     conditional: dict = field(default_factory=dict)
-    #: the conditional parameters whose interval was widened to their values under other forms
+    #: the parameters whose interval was widened to their values under other forms (by ``widen``)
     spans_forms: set = field(default_factory=set)
 
     def widen(self, label: str, values: Sequence[float]) -> None:
@@ -72,6 +72,8 @@ class ScienceIntervals:
         if self.verdicts.get(label) in ("identified", "conditional"):
             low, high = self.intervals[label]
             self.intervals[label] = (min([low, *values]), max([high, *values]))
+            if len(values):
+                self.spans_forms.add(label)
 
     def make_conditional(self, label: str, why: str, values: Sequence[float] = ()) -> None:
         """Call ``label`` identified only given the chosen term's form, for the reason ``why``; its
@@ -79,8 +81,6 @@ class ScienceIntervals:
         if self.verdicts.get(label) not in ("identified", "conditional"):
             return
         self.widen(label, values)
-        if len(values):
-            self.spans_forms.add(label)
         self.verdicts[label] = "conditional"
         self.conditional[label] = "; ".join(filter(None, [self.conditional.get(label), why]))
 

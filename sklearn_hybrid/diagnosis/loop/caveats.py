@@ -40,8 +40,8 @@ from ..sensitivity import parameter_jacobian, root_mean_square
 from .candidates import augment_with, shape_bounds
 from .placed import PlacedTerm
 
-__all__ = ["open_question", "left_unexplained", "worse_than_hybrid", "weigh_rivals", "mirror_trades", "OPEN_Z", "UNEXPLAINED_SHARE",
-           "HYBRID_GAIN", "MAX_RIVALS"]
+__all__ = ["open_question", "left_unexplained", "worse_than_hybrid", "weigh_rivals", "mirror_trades", "OPEN_Z",
+           "UNEXPLAINED_SHARE", "HYBRID_GAIN", "MAX_RIVALS"]
 
 #: A candidate left at the last step that lowered the held-out error by ``min_gain`` at this z (one
 #: standard error) is evidence, short of the threshold, that the final model misses something.
@@ -223,8 +223,9 @@ def mirror_trades(intervals: Any, science: Callable, theta: Mapping[str, Any], a
     matter from B to A takes it from B, a spring between two pendula pulls on both. Its part on
     another equation is invisible to the data when a science parameter of that equation can absorb
     it: the parameter then holds its own value plus that part, with a narrow interval. So each
-    chosen term's form (but a vector field's component) is placed on every other uncertain equation (``components``) where the model
-    does not hold it already (its mirrors), and a science parameter whose sensitivity the mirrors
+    chosen term's form (but a vector field's component) is placed on every other uncertain equation
+    (``components``) where the model does not hold it already (its mirrors), and a science
+    parameter whose sensitivity the mirrors
     explain to ``CONFOUNDED_R2`` or more (uncentred R^2, jointly, on the visited states ``args``) is
     made ``"conditional"`` in ``intervals`` (changed in place). Its interval is not widened: the data
     cannot say how much of the term acts there.
@@ -267,7 +268,7 @@ def mirror_trades(intervals: Any, science: Callable, theta: Mapping[str, Any], a
         coef = np.linalg.lstsq(M, column, rcond=None)[0]
         r2 = 1.0 - float(np.sum((column - M @ coef) ** 2) / (column @ column))
         if r2 >= CONFOUNDED_R2:
-            share = np.abs(coef) * np.linalg.norm(M, axis=0)  # each mirror's part in the fit, to name the ones that count
+            share = np.abs(coef) * np.linalg.norm(M, axis=0)  # each mirror's part in the fit: name those that count
             used = [w for w, s in zip(where, share) if s >= 0.1 * share.max()]
             out[label] = (f"trades with {' and '.join(used)}: a flow or a force between two states acts on both "
                           f"equations, R^2 {r2:.2f}")
