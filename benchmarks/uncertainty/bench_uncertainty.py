@@ -6,8 +6,10 @@ states and noise): hybrid fits with erm, fsam and p-reg, each profiled
 (``bootstrap_theta``), and the closed loop's network-free refit
 (``close_the_loop(...).science_only``, intervals by ``science_intervals``).
 Each repeat is cached as ``results/runs/uncertainty/<system>/<repeat>.json``
-as soon as it ends; a rerun resumes.  ``--render`` writes
-``results/uncertainty.md`` and ``.json``.
+as soon as it ends; a rerun resumes.  ``--rerun`` makes again every repeat
+that another package commit made, keeping the record it replaces in
+``<system>/before/`` so that the page sets the two side by side on the same
+repeats.  ``--render`` writes ``results/uncertainty.md`` and ``.json``.
 
 Sizes are cut for a 2-core CPU (20 trajectories, a 32x32 network, at most 300
 iterations, 5-point profiles refined near each crossing, 8 bootstrap members; the
@@ -28,6 +30,8 @@ import json
 import sys
 import time
 from pathlib import Path
+
+import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the helpers, the studies' modules
 from helpers import PACKAGE_COMMIT, write_results  # noqa: E402
@@ -56,7 +60,7 @@ def run_repeat(system, repeat):
     X, y, dt = system.make(repeat)
     out = {"system": system.name, "repeat": repeat, "package_commit": PACKAGE_COMMIT, "methods": {}}
     for method in HYBRID_METHODS:
-        start = time.perf_counter()
+        start, cpu = time.perf_counter(), time.process_time()
         est = HybridRegressor(science=system.science, dt=dt, method=method, theta_init=system.theta_init,
                               random_state=repeat, **SETTINGS)
         record = {}
@@ -65,10 +69,11 @@ def run_repeat(system, repeat):
         except Exception as error:  # noqa: BLE001 -- a failed fit is a result of the benchmark
             out["methods"][method] = {"error": f"{type(error).__name__}: {error}"}
             continue
-        record.update(theta=est.theta_, n_iter=est.n_iter_, fit_s=time.perf_counter() - start)
-        start = time.perf_counter()
+        record.update(theta=est.theta_, n_iter=est.n_iter_, fit_s=time.perf_counter() - start,
+                      fit_cpu_s=time.process_time() - cpu)
+        start, cpu = time.perf_counter(), time.process_time()
         record["profile"] = _profile_record(profile_theta(est, X, y, **PROFILE))
-        record["profile_s"] = time.perf_counter() - start
+        record.update(profile_s=time.perf_counter() - start, profile_cpu_s=time.process_time() - cpu)
         if method == "fsam":
             start = time.perf_counter()
             boot = bootstrap_theta(est, X, y, n_resamples=N_RESAMPLES, random_state=repeat)
@@ -121,7 +126,7 @@ def refresh_loops(systems, every=False):
             print(f"{name} {record['repeat']}: loop again, {record['methods']['loop']['verdicts']}", flush=True)
 
 
-def run(systems, repeats):
+def run(systems, repeats, rerun=False):
     # repeat by repeat across the systems: a run cut short leaves every system with as many repeats
     for repeat in range(repeats):
         for name in systems:
@@ -129,9 +134,14 @@ def run(systems, repeats):
             folder.mkdir(parents=True, exist_ok=True)
             path = folder / f"{repeat:02d}.json"
             if path.exists():
-                continue
+                if not rerun or json.loads(path.read_text())["package_commit"] == PACKAGE_COMMIT:
+                    continue
             start = time.perf_counter()
             result = run_repeat(SYSTEMS[name], repeat)
+            before = folder / "before" / path.name
+            if path.exists() and not before.exists():  # the first record replaced is the one compared with
+                before.parent.mkdir(exist_ok=True)
+                path.replace(before)
             path.write_text(json.dumps(result, indent=1, default=float) + "\n")
             verdicts = {m: (r.get("profile", {}) or {}) for m, r in result["methods"].items()}
             print(f"{name} {repeat}: {time.perf_counter() - start:.0f} s; "
@@ -173,7 +183,8 @@ def render():
     lines = ["# Is theta identified? Coverage of the intervals on repeated data sets", "",
              "Each repeat: new initial states and noise; hybrid fits (erm, fsam, p-reg: a 32x32 MLP, at most 300 "
              "iterations, early stopping) profiled with `profile_theta` (the plain loss: members trained with erm from "
-             "the fit; 5 points, +/- 50 %, refined near each crossing, as many iterations as the fit took); fsam also with `bootstrap_theta` (8 members); the "
+             "the fit; 5 points, +/- 50 %, refined near each crossing, at most as many iterations as the fit took); "
+             "fsam also with `bootstrap_theta` (8 members); the "
              "closed loop (`close_the_loop`, its first hybrid at most 300 iterations) and `science_intervals` of "
              "its network-free refit. "
              "Systems: `benchmarks/uncertainty/systems.py` (kept out of the tests).", "",
@@ -198,7 +209,39 @@ def render():
                       "of them: " + ", ".join(f"{r['system']}/{r['param']} {r['verdict_conditional']}"
                                               for r in conditional) + "."]
     lines += ["", _targets(rows)]
+    compared = _side_by_side()
+    if compared:
+        lines += ["", compared]
     write_results("uncertainty", {"rows": rows, "repeats": counts}, "\n".join(lines))
+
+
+def _side_by_side():
+    """The targets over the repeats rerun by ``--rerun``, before (the records they replaced) and now, and
+    what a profile cost against its fit, in CPU seconds."""
+    now, before, commits = [], [], set()
+    for name, system in SYSTEMS.items():
+        pairs = [(json.loads(p.read_text()), json.loads((RUNS / name / p.name).read_text()))
+                 for p in sorted((RUNS / name / "before").glob("*.json")) if (RUNS / name / p.name).exists()]
+        if pairs:
+            old, new = zip(*pairs)
+            commits |= {r["package_commit"] for r in old}
+            before += summarise(old, system)
+            now += summarise(new, system)
+    if not now:
+        return ""
+    ratios = [m["profile_cpu_s"] / m["fit_cpu_s"] for name in SYSTEMS for p in sorted((RUNS / name).glob("*.json"))
+              for key, m in json.loads(p.read_text())["methods"].items()
+              if key in HYBRID_METHODS and "profile_cpu_s" in m]
+    n = sum(r["n"] for r in now if r["method"] == "loop")
+    lines = [f"## Side by side: the {n} repeats rerun at {PACKAGE_COMMIT} against their records at "
+             f"{', '.join(sorted(commits))}", "",
+             "Same data and seeds; what changed between is the package.", "",
+             "Now:", "", _targets(now), "", "Before:", "", _targets(before)]
+    if ratios:
+        lines += ["", f"A profile's CPU seconds over its fit's, over the {len(ratios)} hybrid fits that record both: "
+                      f"median {np.median(ratios):.2f}, range {min(ratios):.2f}-{max(ratios):.2f}; "
+                      f"{sum(r <= 1 for r in ratios)} of them cost at most their fit."]
+    return "\n".join(lines)
 
 
 def _targets(rows):
@@ -237,6 +280,8 @@ if __name__ == "__main__":
     parser.add_argument("--systems", nargs="*", default=list(SYSTEMS), choices=list(SYSTEMS))
     parser.add_argument("--repeats", type=int, default=20)
     parser.add_argument("--render", action="store_true", help="only write the results page")
+    parser.add_argument("--rerun", action="store_true",
+                        help="make again every repeat another package commit made (its record kept in before/)")
     parser.add_argument("--rerun-loops", action="store_true",
                         help="first run the closed loop again in every record this package commit did not make "
                              "(the hybrid fits and profiles stand)")
@@ -247,5 +292,5 @@ if __name__ == "__main__":
     if args.refresh_loops or args.rerun_loops:
         refresh_loops(args.systems, every=args.rerun_loops)
     if not args.render:
-        run(args.systems, args.repeats)
+        run(args.systems, args.repeats, rerun=args.rerun)
     render()
