@@ -218,12 +218,13 @@ def render():
 def _side_by_side():
     """The targets over the repeats rerun by ``--rerun``, before (the records they replaced) and now, and
     what a profile cost against its fit, in CPU seconds."""
-    now, before, commits = [], [], set()
+    now, before, commits, n = [], [], set(), 0
     for name, system in SYSTEMS.items():
         pairs = [(json.loads(p.read_text()), json.loads((RUNS / name / p.name).read_text()))
                  for p in sorted((RUNS / name / "before").glob("*.json")) if (RUNS / name / p.name).exists()]
         if pairs:
             old, new = zip(*pairs)
+            n += len(pairs)
             commits |= {r["package_commit"] for r in old}
             before += summarise(old, system)
             now += summarise(new, system)
@@ -232,11 +233,13 @@ def _side_by_side():
     ratios = [m["profile_cpu_s"] / m["fit_cpu_s"] for name in SYSTEMS for p in sorted((RUNS / name).glob("*.json"))
               for key, m in json.loads(p.read_text())["methods"].items()
               if key in HYBRID_METHODS and "profile_cpu_s" in m]
-    n = sum(r["n"] for r in now if r["method"] == "loop")
+    every = n == sum(len(list((RUNS / name).glob("*.json"))) for name in SYSTEMS)
     lines = [f"## Side by side: the {n} repeats rerun at {PACKAGE_COMMIT} against their records at "
              f"{', '.join(sorted(commits))}", "",
-             "Same data and seeds; what changed between is the package.", "",
-             "Now:", "", _targets(now), "", "Before:", "", _targets(before)]
+             "Same data and seeds (`python benchmarks/uncertainty/bench_uncertainty.py --rerun`); what changed "
+             "between is the package.", "",
+             *(["Now: the targets above (every repeat was rerun)."] if every else ["Now:", "", _targets(now)]),
+             "", "Before:", "", _targets(before)]
     if ratios:
         lines += ["", f"A profile's CPU seconds over its fit's, over the {len(ratios)} hybrid fits that record both: "
                       f"median {np.median(ratios):.2f}, range {min(ratios):.2f}-{max(ratios):.2f}; "
