@@ -13,9 +13,10 @@ squared error, counted in *samples* (trajectories), not output values: the
 errors along one trajectory are correlated (noise in its initial state runs
 through all of its steps), so each trajectory is one observation.  The verdict
 follows Raue et al. (2009): an interval where the profile crosses the
-threshold on both sides; *practically non-identifiable* where it stays under
-it beyond a bound on one or both sides; *structurally non-identifiable*
-(flat) where it stays under it over the whole profiled range.
+threshold on both sides (the interval spans every value under it, as the
+confidence set is all of them, not only those next to the minimum);
+*practically non-identifiable* where it is under it at one end of the
+profiled range; *structurally non-identifiable* (flat) at both ends.
 """
 
 from __future__ import annotations
@@ -69,8 +70,10 @@ class ThetaProfile:
     threshold : float
         Data loss under which a value is inside the interval at ``level``.
     intervals : dict of str to tuple
-        ``(low, high)``; a side where the profile stays under the threshold to
-        the end of the profiled range is ``-inf`` / ``inf``.
+        ``(low, high)``, spanning every profiled value under the threshold (a
+        profile that falls back under it beyond a crossing is not cut
+        there); a side where the profile is under the threshold at the end of
+        the profiled range is ``-inf`` / ``inf``.
     verdicts : dict of str to str
         ``"identified"``, ``"practically non-identifiable"``,
         ``"structurally non-identifiable"``, or ``"not settled"`` where the
@@ -402,16 +405,21 @@ def _grids(science, entries, grid, span, n_points):
 
 
 def _interval(values, loss, threshold):
-    """The interval where the profile ``loss`` over sorted ``values`` stays under ``threshold``
-    around its minimum (linear interpolation at the crossings), and the verdict."""
-    m = int(np.argmin(loss))
+    """The interval spanning every value of sorted ``values`` whose profile ``loss`` is under ``threshold``
+    (linear interpolation at the outermost crossings), and the verdict.
+
+    The confidence set is every value the data allow, not only those next to the minimum: a profile that
+    rises over the threshold and falls back under it further out (members that settled unevenly, or a
+    second region that fits as well) is not cut at its first crossing, and where it is back under the
+    threshold at the end of the profiled range that side is open.
+    """
+    under = np.flatnonzero(loss <= threshold)
+    if not under.size:  # no value under the threshold of the best one: an interval around the least bad
+        under = np.array([int(np.argmin(loss))])
     sides = []
-    for step, end in ((-1, -1), (1, len(values))):
-        i = m
-        while i + step != end and loss[i + step] <= threshold:
-            i += step
+    for i, step, end in ((under[0], -1, -1), (under[-1], 1, len(values))):
         if i + step == end:
-            sides.append(None)  # under the threshold to the end of the range
+            sides.append(None)  # under the threshold at the end of the range
             continue
         a, b = loss[i], loss[i + step]
         t = 1.0 if not np.isfinite(b) else (threshold - a) / (b - a)
