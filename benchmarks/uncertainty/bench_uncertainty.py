@@ -218,7 +218,7 @@ def render():
 def _side_by_side():
     """The targets over the repeats rerun by ``--rerun``, before (the records they replaced) and now, and
     what a profile cost against its fit, in CPU seconds."""
-    now, before, commits, n = [], [], set(), 0
+    now, before, commits, made, n = [], [], set(), set(), 0
     for name, system in SYSTEMS.items():
         pairs = [(json.loads(p.read_text()), json.loads((RUNS / name / p.name).read_text()))
                  for p in sorted((RUNS / name / "before").glob("*.json")) if (RUNS / name / p.name).exists()]
@@ -226,6 +226,7 @@ def _side_by_side():
             old, new = zip(*pairs)
             n += len(pairs)
             commits |= {r["package_commit"] for r in old}
+            made |= {r["package_commit"] for r in new}
             before += summarise(old, system)
             now += summarise(new, system)
     if not now:
@@ -234,7 +235,7 @@ def _side_by_side():
               for key, m in json.loads(p.read_text())["methods"].items()
               if key in HYBRID_METHODS and "profile_cpu_s" in m]
     every = n == sum(len(list((RUNS / name).glob("*.json"))) for name in SYSTEMS)
-    lines = [f"## Side by side: the {n} repeats rerun at {PACKAGE_COMMIT} against their records at "
+    lines = [f"## Side by side: the {n} repeats rerun at {', '.join(sorted(made))} against their records at "
              f"{', '.join(sorted(commits))}", "",
              "Same data and seeds (`python benchmarks/uncertainty/bench_uncertainty.py --rerun`); what changed "
              "between is the package.", "",
