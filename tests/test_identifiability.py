@@ -11,8 +11,8 @@ from sklearn.exceptions import NotFittedError
 
 from sklearn_hybrid import HybridRegressor
 from sklearn_hybrid.diagnosis import ZeroResidual
-from sklearn_hybrid.identifiability import (IDENTIFIED, STRUCTURAL, UNSETTLED, ThetaProfile, bootstrap_theta, plot_profile,
-                                            profile_theta, science_intervals)
+from sklearn_hybrid.identifiability import (IDENTIFIED, PRACTICAL, STRUCTURAL, UNSETTLED, ThetaProfile, bootstrap_theta,
+                                            plot_profile, profile_theta, science_intervals)
 
 matplotlib.use("Agg")
 
@@ -356,8 +356,6 @@ def test_the_interval_spans_every_value_under_the_threshold():
     crossing. The confidence set is both regions, so the interval spans them, not only the one around the
     minimum (the uncertainty benchmark's noisy profiles were cut at a first crossing and missed the truth);
     where the profile is back under the threshold at the end of the range, that side is open."""
-    from sklearn_hybrid.identifiability import PRACTICAL
-
     rng = np.random.default_rng(0)
     X = rng.uniform(-2, 2, (40, 1))
     y = np.cos(2.0 * X[:, 0]) + 0.1 + 0.05 * rng.normal(size=40)

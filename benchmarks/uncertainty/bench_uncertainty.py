@@ -169,11 +169,13 @@ def _fmt(v, pct=False):
 
 
 def render():
-    rows, counts, commits, loop_commits = [], {}, set(), set()
+    rows, counts, commits, loop_commits, ratios = [], {}, set(), set(), []
     for name, system in SYSTEMS.items():
         files = sorted((RUNS / name).glob("*.json"))
         records = [json.loads(p.read_text()) for p in files]
         counts[name] = len(records)
+        ratios += [m["profile_cpu_s"] / m["fit_cpu_s"] for r in records for key, m in r["methods"].items()
+                   if key in HYBRID_METHODS and "profile_cpu_s" in m]
         commits |= {r["package_commit"] for r in records}
         loop_commits |= {r["methods"]["loop"].get("package_commit", r["package_commit"]) for r in records}
         if records:
@@ -209,15 +211,19 @@ def render():
                       "of them: " + ", ".join(f"{r['system']}/{r['param']} {r['verdict_conditional']}"
                                               for r in conditional) + "."]
     lines += ["", _targets(rows)]
-    compared = _side_by_side()
+    compared = _side_by_side(sum(counts.values()))
     if compared:
         lines += ["", compared]
+    if ratios:
+        lines += ["", f"A profile's CPU seconds over its fit's, over the {len(ratios)} hybrid fits that record both: "
+                      f"median {np.median(ratios):.2f}, range {min(ratios):.2f}-{max(ratios):.2f}; "
+                      f"{sum(r <= 1 for r in ratios)} of them cost at most their fit."]
     write_results("uncertainty", {"rows": rows, "repeats": counts}, "\n".join(lines))
 
 
-def _side_by_side():
-    """The targets over the repeats rerun by ``--rerun``, before (the records they replaced) and now, and
-    what a profile cost against its fit, in CPU seconds."""
+def _side_by_side(n_records):
+    """The targets over the repeats rerun by ``--rerun``, before (the records they replaced) and now, of the
+    ``n_records`` repeats the page counts."""
     now, before, commits, made, n = [], [], set(), set(), 0
     for name, system in SYSTEMS.items():
         pairs = [(json.loads(p.read_text()), json.loads((RUNS / name / p.name).read_text()))
@@ -231,20 +237,13 @@ def _side_by_side():
             now += summarise(new, system)
     if not now:
         return ""
-    ratios = [m["profile_cpu_s"] / m["fit_cpu_s"] for name in SYSTEMS for p in sorted((RUNS / name).glob("*.json"))
-              for key, m in json.loads(p.read_text())["methods"].items()
-              if key in HYBRID_METHODS and "profile_cpu_s" in m]
-    every = n == sum(len(list((RUNS / name).glob("*.json"))) for name in SYSTEMS)
+    every = n == n_records
     lines = [f"## Side by side: the {n} repeats rerun at {', '.join(sorted(made))} against their records at "
              f"{', '.join(sorted(commits))}", "",
              "Same data and seeds (`python benchmarks/uncertainty/bench_uncertainty.py --rerun`); what changed "
              "between is the package.", "",
              *(["Now: the targets above (every repeat was rerun)."] if every else ["Now:", "", _targets(now)]),
              "", "Before:", "", _targets(before)]
-    if ratios:
-        lines += ["", f"A profile's CPU seconds over its fit's, over the {len(ratios)} hybrid fits that record both: "
-                      f"median {np.median(ratios):.2f}, range {min(ratios):.2f}-{max(ratios):.2f}; "
-                      f"{sum(r <= 1 for r in ratios)} of them cost at most their fit."]
     return "\n".join(lines)
 
 
