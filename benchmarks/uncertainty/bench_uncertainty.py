@@ -35,10 +35,9 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the helpers, the studies' modules
 from helpers import PACKAGE_COMMIT, write_results  # noqa: E402
-from uncertainty.protocol import RUNS, SETTINGS, member_row  # noqa: E402
+from uncertainty.protocol import HYBRID_METHODS, RUNS, SETTINGS, member_row  # noqa: E402
 from uncertainty.systems import SYSTEMS  # noqa: E402
 
-HYBRID_METHODS = ("erm", "fsam", "p-reg")
 PROFILE = {"n_points": 5, "span": 0.5}
 N_RESAMPLES = 8
 LOOP_FIT = {"max_iter": 300, "n_threads": 1}

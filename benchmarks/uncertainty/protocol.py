@@ -13,6 +13,8 @@ from helpers import runs_folder
 
 RUNS = runs_folder("uncertainty")
 SETTINGS = {"residual": {"hidden": (32, 32), "zero_init": False}, "max_iter": 300, "n_threads": 1}
+#: The hybrid fits of every repeat, each profiled.
+HYBRID_METHODS = ("erm", "fsam", "p-reg")
 
 
 def _interval_of(record, method, label):

@@ -15,8 +15,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the helpers, the studies' modules
 from helpers import ROOT, write_results  # noqa: E402
-from uncertainty.bench_uncertainty import HYBRID_METHODS  # noqa: E402
-from uncertainty.protocol import RUNS  # noqa: E402
+from uncertainty.protocol import HYBRID_METHODS, RUNS  # noqa: E402
 from uncertainty.systems import SYSTEMS  # noqa: E402
 
 
