@@ -1,0 +1,117 @@
+"""How far the README's printed numbers move on another CPU: its snippets under other float paths.
+
+Issue "Your units, your machine". float32 training rounds differently on another CPU (vector width, BLAS code
+path, thread count), and a fit amplifies it: an early stop a window sooner, another last digit of theta. On one
+machine the paths another CPU would take can be forced: PyTorch reads ``ATEN_CPU_CAPABILITY`` (``default``,
+``avx2``, ``avx512``) for its kernels' vector width, Intel MKL reads ``MKL_CBWR`` for a code path that does not
+depend on the CPU, ``torch.backends.mkldnn`` switches oneDNN off, and the thread count changes how sums split.
+Each README snippet is run under each setting in a fresh process, as ``tests/test_readme.py`` runs it; the page
+gives, for every number of every documented output line, the spread over the settings, which the README check's
+tolerances are set from (``tests/test_readme.py`` reads ``results/float_paths.json``).
+
+    python benchmarks/units/check_float_paths.py [--settings ...] [--jobs 2]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import re
+import subprocess
+import sys
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the helpers
+from helpers import ROOT, write_results  # noqa: E402
+
+README = ROOT / "README.md"
+BLOCK = re.compile(r"```python\n(.*?)```(?:(?:(?!```).)*?```text\n(.*?)```)?", re.S)  # as tests/test_readme.py
+NUMBER = re.compile(r"-?\d+(?:\.\d+)?(?:e-?\d+)?")
+
+#: name -> (environment, torch settings made before the snippet runs)
+SETTINGS = {
+    "native": ({}, ""),
+    "avx2": ({"ATEN_CPU_CAPABILITY": "avx2"}, ""),
+    "default (no vector kernels)": ({"ATEN_CPU_CAPABILITY": "default"}, ""),
+    "MKL compatible, avx2": ({"MKL_CBWR": "COMPATIBLE", "ATEN_CPU_CAPABILITY": "avx2"}, ""),
+    "MKL compatible, default": ({"MKL_CBWR": "COMPATIBLE", "ATEN_CPU_CAPABILITY": "default"}, ""),
+    "MKL AVX2 path": ({"MKL_CBWR": "AVX2"}, ""),
+    "oneDNN off": ({}, "torch.backends.mkldnn.enabled = False"),
+    "2 threads": ({"OMP_NUM_THREADS": "2"}, "torch.set_num_threads(2)"),
+    "4 threads": ({"OMP_NUM_THREADS": "4"}, "torch.set_num_threads(4)"),
+}
+
+
+def snippets() -> list[tuple[str, str]]:
+    return BLOCK.findall(README.read_text())
+
+
+def numbered_lines(text: str) -> list[str]:
+    return [line for line in text.splitlines() if NUMBER.search(line)]
+
+
+def run_setting(name: str) -> dict:
+    """Every README snippet in a fresh process under one setting: the printed lines with numbers."""
+    env, torch_code = SETTINGS[name]
+    out = {}
+    for k, (code, _) in enumerate(snippets()):
+        program = f"import torch\n{torch_code}\n" + code
+        done = subprocess.run([sys.executable, "-c", program], env=dict(os.environ, **env), capture_output=True,
+                              text=True, cwd=ROOT)
+        out[k] = {"lines": numbered_lines(done.stdout), "returncode": done.returncode,
+                  "stderr": done.stderr[-1500:] if done.returncode else ""}
+    return {"setting": name, "blocks": out}
+
+
+def spreads(runs: list[dict]) -> list[dict]:
+    """Per README block, line and number: the documented value, each setting's, and the relative spread."""
+    table = []
+    for k, (_, documented) in enumerate(snippets()):
+        for i, line in enumerate(numbered_lines(documented)):
+            shown = [float(x) for x in NUMBER.findall(line)]
+            for j, value in enumerate(shown):
+                got = {}
+                for run in runs:
+                    lines = run["blocks"][str(k)]["lines"] if str(k) in run["blocks"] else run["blocks"][k]["lines"]
+                    if i < len(lines):
+                        numbers = [float(x) for x in NUMBER.findall(lines[i])]
+                        if j < len(numbers):
+                            got[run["setting"]] = numbers[j]
+                values = list(got.values())
+                spread = (max(values) - min(values)) if values else float("nan")
+                table.append({"block": k, "line": i, "index": j, "text": line.strip()[:90], "documented": value,
+                              "values": got, "spread": spread,
+                              "relative_spread": spread / abs(value) if value else float("nan")})
+    return table
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--settings", nargs="+", default=list(SETTINGS), choices=list(SETTINGS))
+    parser.add_argument("--jobs", type=int, default=2)
+    args = parser.parse_args()
+    with ThreadPoolExecutor(args.jobs) as pool:
+        runs = list(pool.map(run_setting, args.settings))
+    failed = [f"{r['setting']} block {k + 1}: {b['stderr']}" for r in runs for k, b in r["blocks"].items()
+              if b["returncode"]]
+    table = spreads(runs)
+    lines = ["# The README's numbers under other float paths", "",
+             "Each README snippet run in a fresh process under each setting (another CPU's vector width, MKL's "
+             "CPU-independent path, oneDNN off, more threads); per documented number, the values and their spread. "
+             f"Settings: {', '.join(args.settings)}.", ""]
+    lines += [f"Failed: {f}" for f in failed] + ([""] if failed else [])
+    lines += ["| block | line | number | documented | min | max | relative spread |", "|---" * 7 + "|"]
+    for row in table:
+        values = list(row["values"].values())
+        lines.append(f"| {row['block'] + 1} | `{row['text'][:60]}` | {row['index']} | {row['documented']:g} | "
+                     f"{min(values) if values else float('nan'):g} | {max(values) if values else float('nan'):g} | "
+                     f"{row['relative_spread']:.2%} |")
+    write_results("float_paths", {"settings": args.settings, "readme": README.read_text(), "numbers": table,
+                                  "failed": failed}, "\n".join(lines))
+    print("\n".join(lines))
+
+
+if __name__ == "__main__":
+    main()
