@@ -23,6 +23,7 @@ from .training.verdict import explain_start, judge_training
 from ._validation import check_positive, check_target_layout, torch_threads
 from .methods import make_method
 from .structures import make_structure
+from .structures.scales import describe_scales
 
 __all__ = ["HybridRegressor"]
 
@@ -352,9 +353,7 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
                                 validation=validation.get("data"))
             except DivergenceError as error:  # a lower lr cannot help a model that blows up at its start
                 cause = explain_start(setup.model, initial, inputs, y_t, setup.samples_per_pass)
-                if cause is None:
-                    raise
-                raise DivergenceError(cause) from error
+                raise DivergenceError(f"{cause or error}{self._scales_note(setup)}") from error
             # a run that diverged is refused here, before it can replace an earlier fit
             verdict = judge_training(setup.model, history, inputs, y_t, weight, theta_start=theta_start,
                                      batch_size=self.batch_size, chunk=setup.samples_per_pass,
@@ -362,9 +361,18 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
         store_fit(self, setup, history, (inputs, y_t, weight), verdict=verdict)
         if not verdict.usable:
             warnings.warn(f"The fitted model is not usable: {verdict.summary()}. "
-                          f"{self._training_advice(setup.method)} fit_report() says so too.",
+                          f"{self._training_advice(setup.method)}{self._scales_note(setup)} "
+                          "fit_report() says so too.",
                           ConvergenceWarning, stacklevel=2)
         return self
+
+    def _scales_note(self, setup) -> str:
+        """The data's scales, and a forgotten ``dt``, beside the advice after a training that went bad."""
+        note = describe_scales(setup.scales)
+        if self.dt is None and setup.scales is not None:
+            note += (" dt was not given, so one time unit was taken between outputs: if the data were sampled "
+                     "at another step, every rate is off by that factor; give dt.")
+        return f" {note}" if note else ""
 
     def _training_advice(self, method):
         """What to change after a training that went bad."""

@@ -29,6 +29,7 @@ from .metrics import network_share
 from .residual import build_residual, is_zero_residual
 from .science import ScienceModel
 from .structures import HybridModule, OdeStructure
+from .structures.scales import ode_data_scales
 from .training.schedule import TrainConfig, cosine_lr, theta_drift
 
 #: The ``dtype`` parameter's names.
@@ -100,6 +101,7 @@ def prepare_fit(estimator: BaseEstimator, X, y) -> Bunch:
     structure.setup(X_struct, y_shape)
     with torch_threads(estimator.n_threads):
         inputs = structure.tensors(X_struct, dtype)  # copies: the science never sees the caller's X
+        structure_inputs = inputs
         structure.probe(science, inputs)
         # seed init without touching global state; the lock keeps fits in other threads
         # (dask or joblib threading workers) from reseeding the shared generator meanwhile
@@ -115,6 +117,10 @@ def prepare_fit(estimator: BaseEstimator, X, y) -> Bunch:
     if encoder is None and hasattr(structure, "choose_substeps"):
         with torch_threads(estimator.n_threads):
             structure.choose_substeps(science, inputs[0], torch.as_tensor(y, dtype=dtype))
+    scales = None
+    if isinstance(structure, OdeStructure):  # for the advice after a training that went bad
+        with torch_threads(estimator.n_threads):
+            scales = ode_data_scales(structure, science, structure_inputs, torch.as_tensor(y, dtype=dtype))
     model = HybridModule(science, residual, structure, reduction, encoder).to(device)
     inputs = tuple(t.to(device) for t in inputs)
     if encoder is not None:
@@ -127,7 +133,7 @@ def prepare_fit(estimator: BaseEstimator, X, y) -> Bunch:
     setup = Bunch(model=model, method=method, inputs=inputs,
                   y=torch.tensor(y, dtype=dtype, device=device),
                   config=config, seed=seed, y_shape=y_shape, x_shape=X.shape[1:],
-                  features=features)
+                  features=features, scales=scales)
     return setup
 
 

@@ -265,6 +265,8 @@ class _FitWatch:
         self.losses, self.lr_theta = np.empty(config.max_iter), np.empty(config.max_iter)
         self.thetas = {n: np.empty((config.max_iter, *model.science.shapes[n])) for n in self.names}
         self.stopper = _make_stopper(model, config, y, validation)
+        with torch.no_grad():  # where theta started, for the message of a theta that diverges
+            self.start = {n: v.detach().cpu().numpy().copy() for n, v in model.theta_values().items()}
         self.guard = SpikeGuard(model, optimizer, scheduler)
         self.bar = None
 
@@ -282,7 +284,7 @@ class _FitWatch:
                 self.record(it, guard.reference if guard.recent else loss_value, 0.0)
                 return SKIP
             if not np.isfinite(loss_value):
-                cause = explain_nonfinite(self.model, batch[0])
+                cause = self.theta_diverged(it) or explain_nonfinite(self.model, batch[0])
                 raise DivergenceError(
                     f"The training loss became {loss_value} at iteration {it}"
                     + (f" (after halving the learning rates {len(guard.halved_at)} times)"
@@ -290,6 +292,23 @@ class _FitWatch:
                         "Lower lr or rho, check the data scale, or bound theta with theta_bounds.")))
         guard.accept(it, loss_value)  # out of halvings, a finite spike is trained through
         return STEP
+
+    def theta_diverged(self, it) -> str | None:
+        """Say that theta itself diverged (became non-finite, or a million times its starting size), from
+        where, or None: such a theta makes any science function return NaN, and blaming the science for it
+        would send the user to the wrong place."""
+        with torch.no_grad():
+            now = {n: v.detach().cpu().numpy() for n, v in self.model.theta_values().items()}
+        bad = [n for n, v in now.items() if not np.all(np.isfinite(v))
+               or np.any((self.start[n] != 0) & (np.abs(v) > 1e6 * np.abs(self.start[n])))]
+        if not bad:
+            return None
+        last = {n: self.thetas[n][it - 1].tolist() for n in bad} if it > 0 else None
+        return (f"theta diverged: {', '.join(f'{n} became {now[n].tolist()}' for n in bad)}, from "
+                f"{ {n: self.start[n].tolist() for n in bad} } at the start"
+                + (f" ({last} at iteration {it - 1})" if it > 0 else "")
+                + "; the science function is not the cause. The steps were too large for the data: lower lr "
+                  "(or lr_theta), or bound theta with theta_bounds.")
 
     def masked(self, grads):
         return grads
