@@ -92,7 +92,9 @@ def _path(system, units, X, y, dt, seed, record, convert_back, science_in) -> No
                   fit_theta=convert_back(system, units, est.theta_), network_share=est.network_share_,
                   fit_warnings=sorted({type(w.message).__name__ for w in caught}))
     loop = close_the_loop(est, X, y, state_names=system.state_names)
-    theta = convert_back(system, units, loop.science_theta)
+    # the science's own parameters converted back; an added term's coefficients have no known dimension
+    theta = convert_back(system, units, {k: v for k, v in loop.science_theta.items() if k in system.dims})
+    record["added_theta"] = {k: float(np.ravel(v)[0]) for k, v in loop.science_theta.items() if k not in system.dims}
     record["added"] = [f"{a['term']} [{a['output']}]" for a in loop.added]
     record["loop_theta"] = theta
     record["theta_rel_err"] = {k: abs(theta[k] - v) / abs(v) for k, v in system.theta_true.items()}
