@@ -16,7 +16,7 @@ from sklearn.utils.validation import check_is_fitted, validate_data
 from .integrate.kernels import reusing_buffers
 from . import encoder as _encoder
 from .training.engine import DivergenceError, explain_nonfinite, train
-from ._extras import EstimatorExtras, check_sample_weight, split_holdout
+from ._extras import EstimatorExtras, split_holdout
 from ._fitting import DTYPES, ode_structure, prepare_fit, store_fit
 from .training.memory import check_fit_memory, explained_memory_errors
 from .training.verdict import explain_start, judge_training
@@ -73,6 +73,7 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
         Initial values overriding the science function's defaults.
     theta_bounds : dict, optional
         ``name -> (low, high)``, enforced by a smooth reparametrisation.
+
     theta_fixed : list of str or dict, optional
         Parameters kept constant: a list keeps them at their initial value
         (``theta_init`` or the default); a dict ``{"omega": 0.6}`` fixes each
@@ -124,20 +125,17 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
         the pendulum task 1e-2 estimates theta better in 600 iterations than
         1e-3 in 2,000, see ``benchmarks/results/early_stopping.md``).
     lr_theta : float or None, default=None
-        Initial learning rate of theta if it should differ from ``lr``.  Rule:
-        Adam moves theta's raw value by at most about its learning rate per
-        step, so over the cosine schedule by at most ``lr_theta * max_iter /
-        2`` in all; choose ``lr_theta`` so that this exceeds the distance
-        theta may have to go.  Raw is theta itself without bounds; with two
-        finite bounds it is the logit of theta's position between them (from
-        the middle to 90 % of the span is 2.2; theta's own step is at most
-        ``(high - low) / 4`` times the raw one), with one bound the inverse
-        softplus of the distance to it.  Example: ``r`` in (0, 1) from 0.5 at
-        ``lr=1e-3`` for 1,500 iterations can reach at most
-        ``sigmoid(0.75) = 0.68`` (a fit of the science part alone ends at
-        0.66 where the data say 0.83; with ``lr_theta=1e-2``, at 0.83; see
-        ``benchmarks/results/theta_convergence.md``).  ``theta_drift_`` shows
-        a theta that was still on its way when the schedule ended.
+        Initial learning rate of theta if it should differ from ``lr``.
+        theta steps relative to its own size, so the rate means the same in
+        any units: Adam moves theta's raw value by at most about its learning
+        rate per step, and raw is theta over its starting size (without
+        bounds), the softplus-inverse of its distance to a single bound over
+        the starting distance, or with two finite bounds the logit of its
+        position between them.  Over the cosine schedule raw moves by at most
+        ``lr_theta * max_iter / 2`` in all: choose ``lr_theta`` so that this
+        exceeds the relative distance theta may have to go (from its default
+        to three times it is 2).  ``theta_drift_`` shows a theta that was
+        still on its way when the schedule ended.
     max_iter : int, default=1000
         Largest number of optimisation steps (the cosine schedule spans it).
     tol : float or None, default=1e-3
@@ -239,6 +237,19 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
     n_substeps_ : int or None
         ``"ode"``: the RK4 steps per output interval the fit used
         (``n_substeps`` resolved); None for other structures.
+
+    Notes
+    -----
+    Units.  Write the science function in your own units: for ``"ode"`` the fit
+    reads the scales the data carry and trains in them.  The network (the
+    package's MLP) reads each state standardised and writes each rate in units
+    of the rate that state is observed to change at; theta steps relative to
+    its starting size (so give a start of the right order of magnitude, not
+    0, where you can); the gradients are taken in units of ``y``'s variance.
+    ``theta_``, the reports and the intervals stay in your units.  What this
+    cannot fix: states of very different units weigh in the loss by their
+    squared size (standardise ``y`` per component yourself if that matters),
+    and parameters that start 10 orders of magnitude off.
     """
 
     def __init__(self, science=None, *, structure="ode", residual="mlp", method="fsam",
@@ -336,10 +347,10 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
             :class:`~sklearn_hybrid.training.engine.DivergenceError` is raised and an
             earlier fit is left untouched.
         """
-        setup = prepare_fit(self, X, y)
+        setup = prepare_fit(self, X, y, sample_weight)
         with torch_threads(self.n_threads):
             setup.samples_per_pass = check_fit_memory(setup)
-        weight = check_sample_weight(sample_weight, len(setup.y), setup.y.dtype, setup.y.device)
+        weight = setup.sample_weight
         inputs, y_t, validation = split_holdout(setup, weight, self.validation_fraction)
         weight = validation.pop("train_weight")
         science = setup.model.science

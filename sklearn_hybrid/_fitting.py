@@ -23,14 +23,15 @@ from sklearn.utils.validation import check_is_fitted
 
 from . import encoder as _encoder
 from ._device import resolve_device
+from ._extras import check_sample_weight
 from ._fit_report import flat_predictions, theta_uncertainty
 from ._validation import check_dtype_range, check_not_nested, set_feature_info, torch_threads, validate_into_copy
 from .metrics import network_share
 from .residual import build_residual, is_zero_residual
 from .science import ScienceModel
 from .structures import HybridModule, OdeStructure
-from .structures.scales import ode_data_scales
-from .training.schedule import TrainConfig, cosine_lr, theta_drift
+from .structures.scales import ode_data_scales, set_network_scales
+from .training.schedule import THETA_LR_FACTOR, TrainConfig, cosine_lr, theta_drift
 
 #: The ``dtype`` parameter's names.
 DTYPES = {"float32": torch.float32, "float64": torch.float64}
@@ -65,11 +66,13 @@ def _network_share(model, inputs, chunk) -> float | None:
     return network_share(hybrid, science) if hybrid.shape == science.shape else None
 
 
-def prepare_fit(estimator: BaseEstimator, X, y) -> Bunch:
-    """Validate ``X, y`` and build what a fit of ``estimator`` trains (``estimator`` is not changed).
+def prepare_fit(estimator: BaseEstimator, X, y, sample_weight=None) -> Bunch:
+    """Validate ``X, y`` (and ``sample_weight``) and build what a fit of ``estimator`` trains (``estimator`` is
+    not changed).
 
-    Returns the Bunch a fit trains from: ``model`` (with the seeded network), ``method``,
-    ``inputs``, ``y`` (tensor), ``config``, ``seed`` and the data's shapes.
+    Returns the Bunch a fit trains from: ``model`` (with the seeded network, in the data's scales as the weights
+    count the samples), ``method``, ``inputs``, ``y`` (tensor), ``sample_weight`` (tensor or None), ``config``,
+    ``seed`` and the data's shapes.
     """
     method = estimator._check_params()
     if estimator.dt is None and isinstance(estimator.structure, str) and estimator.structure == "ode":
@@ -89,6 +92,7 @@ def prepare_fit(estimator: BaseEstimator, X, y) -> Bunch:
     y = np.ascontiguousarray(y)  # order= reaches X only
     dtype, device = DTYPES[estimator.dtype], resolve_device(estimator.device)
     check_dtype_range(dtype, X, y)
+    weight = check_sample_weight(sample_weight, len(y), dtype)
     try:
         seed = int(check_random_state(estimator.random_state).randint(np.iinfo(np.int32).max))
     except ValueError as error:  # numpy's message names neither the argument nor its value
@@ -118,9 +122,10 @@ def prepare_fit(estimator: BaseEstimator, X, y) -> Bunch:
         with torch_threads(estimator.n_threads):
             structure.choose_substeps(science, inputs[0], torch.as_tensor(y, dtype=dtype))
     scales = None
-    if isinstance(structure, OdeStructure):  # for the advice after a training that went bad
+    if isinstance(structure, OdeStructure):  # the network trains in the data's scales, whatever the units
         with torch_threads(estimator.n_threads):
-            scales = ode_data_scales(structure, science, structure_inputs, torch.as_tensor(y, dtype=dtype))
+            scales = ode_data_scales(structure, science, structure_inputs, torch.as_tensor(y, dtype=dtype), weight)
+        set_network_scales(residual, scales)
     model = HybridModule(science, residual, structure, reduction, encoder).to(device)
     inputs = tuple(t.to(device) for t in inputs)
     if encoder is not None:
@@ -129,9 +134,12 @@ def prepare_fit(estimator: BaseEstimator, X, y) -> Bunch:
                          batch_size=estimator.batch_size,
                          weight_decay=estimator.weight_decay, perturb=estimator.perturb,
                          verbose=estimator.verbose, tol=estimator.tol,
-                         n_iter_no_change=estimator.n_iter_no_change)
+                         n_iter_no_change=estimator.n_iter_no_change,
+                         # an encoder's weights are a network's, not theta's relative raw values
+                         theta_lr_factor=1.0 if encoder is not None else THETA_LR_FACTOR)
     setup = Bunch(model=model, method=method, inputs=inputs,
                   y=torch.tensor(y, dtype=dtype, device=device),
+                  sample_weight=None if weight is None else weight.to(device),
                   config=config, seed=seed, y_shape=y_shape, x_shape=X.shape[1:],
                   features=features, scales=scales)
     return setup
@@ -179,7 +187,7 @@ def store_fit(estimator: BaseEstimator, setup: Bunch, history: dict, data=None, 
     estimator.stopped_early_ = estimator.n_iter_ < estimator.max_iter
     config = setup.config
     rates = history["lr_theta"] if "lr_theta" in history else \
-        cosine_lr(config.lr_theta or config.lr, estimator.n_iter_, config)  # a sweep member's history
+        cosine_lr(config.theta_lr, estimator.n_iter_, config)  # a sweep member's history
     estimator.theta_drift_ = theta_drift(history["theta"], rates)
     if history.get("lr_halved_at"):
         warnings.warn(

@@ -53,6 +53,14 @@ class MLP(nn.Module):
         force that blows the trajectories up before any training step, and a
         network that starts at zero has nothing to trade with theta at the
         start.  False keeps PyTorch's random last layer.
+
+    Notes
+    -----
+    The network reads its inputs standardised and writes its output in units
+    of the data (see :meth:`set_scales`, which ``fit`` calls with the scales
+    the data carry): its weights stay of order one whatever units the
+    science function is written in, so that the learning rate and the SAM
+    radius mean the same in seconds or milliseconds.
     """
 
     def __init__(self, in_shapes: Sequence[tuple], out_shape: tuple,
@@ -66,15 +74,38 @@ class MLP(nn.Module):
             if i < len(widths) - 2:
                 layers.append(make_activation(activation))
         self.net = nn.Sequential(*layers)
+        self.register_buffer("in_shift", torch.zeros(widths[0]))
+        self.register_buffer("in_scale", torch.ones(widths[0]))
+        self.register_buffer("out_scale", torch.ones(widths[-1]))
         if zero_init:  # after the random initialisation: the seeded draws of the other layers stay the same
             with torch.no_grad():
                 self.net[-1].weight.zero_()
                 self.net[-1].bias.zero_()
 
+    def __setstate__(self, state):  # a network pickled before it read scaled inputs: the identity
+        super().__setstate__(state)
+        linears = [m for m in self.net if isinstance(m, nn.Linear)]
+        for name, size, value in (("in_shift", linears[0].in_features, 0.0),
+                                  ("in_scale", linears[0].in_features, 1.0),
+                                  ("out_scale", linears[-1].out_features, 1.0)):
+            if name not in self._buffers:
+                self.register_buffer(name, torch.full((size,), value, dtype=linears[0].weight.dtype))
+
+    def set_scales(self, in_shift, in_scale, out_scale) -> None:
+        """Read inputs as ``(x - in_shift) / in_scale`` and scale the output by ``out_scale``.
+
+        Each is a number or one value per flattened input (output) entry.
+        """
+        with torch.no_grad():
+            for buffer, value in ((self.in_shift, in_shift), (self.in_scale, in_scale),
+                                  (self.out_scale, out_scale)):
+                buffer.copy_(torch.as_tensor(value, dtype=buffer.dtype).expand_as(buffer))
+
     def forward(self, *inputs: torch.Tensor) -> torch.Tensor:
         batch = inputs[0].shape[0]
         flat = torch.cat([x.reshape(batch, -1) for x in inputs], dim=-1)
-        return self.net(flat).reshape(batch, *self.out_shape)
+        out = self.net((flat - self.in_shift) / self.in_scale) * self.out_scale
+        return out.reshape(batch, *self.out_shape)
 
 
 class MaskedMLP(nn.Module):

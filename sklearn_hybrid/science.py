@@ -84,39 +84,74 @@ def read_signature(func: Callable) -> tuple[list[str], dict[str, np.ndarray]]:
 
 
 class _Bounded(nn.Module):
-    """Map an unconstrained raw tensor to a value inside ``(low, high)``.
+    """Map an unconstrained raw tensor to a value inside ``(low, high)``, in steps relative to its scale.
 
-    Two finite bounds use a scaled sigmoid, one bound a shifted softplus, no
-    bound the identity.  All maps are smooth and invertible on the open set.
+    Two finite bounds use a scaled sigmoid (a raw step moves theta by a
+    fraction of the span), one bound a softplus times the starting distance
+    to it, no bound a multiple of ``scale`` (theta's size at its start).  So
+    an optimiser step of a given size in raw moves theta by the same
+    *fraction* of its size whatever its units: Adam moves every raw value by
+    about its learning rate per step, which would throw a theta of 1e-6 away
+    in one step and leave one of 1e4 in place for a thousand.  All maps are
+    smooth and invertible on the open set.
     """
 
-    def __init__(self, low: np.ndarray, high: np.ndarray):
+    def __init__(self, low: np.ndarray, high: np.ndarray, scale: np.ndarray | float = 1.0):
         super().__init__()
         self.register_buffer("low", torch.as_tensor(low, dtype=torch.float64))
         self.register_buffer("high", torch.as_tensor(high, dtype=torch.float64))
+        self.register_buffer("scale", torch.as_tensor(np.broadcast_to(scale, np.shape(low)).copy(),
+                                                      dtype=torch.float64))
         self.has_low = bool(np.all(np.isfinite(low)))
         self.has_high = bool(np.all(np.isfinite(high)))
 
+    def __setstate__(self, state):  # a fit pickled before theta stepped relative to its scale: scale 1
+        super().__setstate__(state)
+        if "scale" not in self._buffers:
+            self.register_buffer("scale", torch.ones_like(self.low))
+
     def forward(self, raw: torch.Tensor) -> torch.Tensor:
-        low, high = self.low.to(raw.dtype), self.high.to(raw.dtype)
+        return self.map(raw, self.low, self.high, self.scale)
+
+    def map(self, raw: torch.Tensor, low: torch.Tensor, high: torch.Tensor, scale: torch.Tensor) -> torch.Tensor:
+        """:meth:`forward` with the bounds and scale given (stacked members carry their own, on a leading axis)."""
+        low, high, scale = (t.to(raw.dtype) for t in (low, high, scale))
         if self.has_low and self.has_high:
             return low + (high - low) * torch.sigmoid(raw)
         if self.has_low:
-            return low + nn.functional.softplus(raw)
+            return low + scale * nn.functional.softplus(raw)
         if self.has_high:
-            return high - nn.functional.softplus(raw)
-        return raw
+            return high - scale * nn.functional.softplus(raw)
+        return scale * raw
 
     def inverse(self, value: np.ndarray) -> np.ndarray:
-        low, high = self.low.cpu().numpy(), self.high.cpu().numpy()
+        low, high, scale = self.low.cpu().numpy(), self.high.cpu().numpy(), self.scale.cpu().numpy()
         if self.has_low and self.has_high:
             p = (value - low) / (high - low)
             return np.log(p) - np.log1p(-p)
         if self.has_low:
-            return _inverse_softplus(value - low)
+            return _inverse_softplus((value - low) / scale)
         if self.has_high:
-            return _inverse_softplus(high - value)
-        return value
+            return _inverse_softplus((high - value) / scale)
+        return value / scale
+
+
+def theta_scale(value: np.ndarray, low: np.ndarray, high: np.ndarray) -> np.ndarray:
+    """The size a parameter's steps are relative to: its distance from its one bound, else its size.
+
+    A parameter that starts at 0 (a coefficient with no prior size) has no size
+    of its own: it takes the largest size among the other entries of the
+    same parameter, else 1 (the units of its science function).
+    """
+    value = np.asarray(value, dtype=float)
+    if np.all(np.isfinite(low)) and not np.all(np.isfinite(high)):
+        size = np.abs(value - low)
+    elif np.all(np.isfinite(high)) and not np.all(np.isfinite(low)):
+        size = np.abs(high - value)
+    else:
+        size = np.abs(value)
+    fallback = float(size.max()) if size.size and size.max() > 0 else 1.0
+    return np.where(size > 0, size, fallback)
 
 
 def _inverse_softplus(x: np.ndarray) -> np.ndarray:
@@ -197,7 +232,7 @@ class ScienceModel(nn.Module):
             if not np.all(np.isfinite(value)):
                 raise ValueError(f"{source}[{name!r}] = {value} is not finite.")
             low, high = self._bounds(name, theta_bounds.get(name), value)
-            transform = _Bounded(low, high)
+            transform = _Bounded(low, high, theta_scale(value, low, high))
             raw = torch.as_tensor(transform.inverse(value), dtype=dtype)
             self.shapes[name] = value.shape
             self.transforms[name] = transform

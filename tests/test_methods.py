@@ -9,7 +9,7 @@ import torch
 from torch import nn
 
 from sklearn_hybrid.training.engine import train
-from sklearn_hybrid.training.schedule import TrainConfig
+from sklearn_hybrid.training.schedule import THETA_LR_FACTOR, TrainConfig
 from sklearn_hybrid.methods import (METHODS, Method, asam_perturbation, fsam_perturbation, make_method,
                                     sam_perturbation)
 from sklearn_hybrid.science import ScienceModel
@@ -117,7 +117,8 @@ def test_one_sam_step_matches_hand_computation(name, perturb):
     phi = list(reference.residual.parameters())
     perturbed = phi + theta if perturb == "all" else phi
     loss = ((reference(x)[0] - y) ** 2).mean()
-    grads = torch.autograd.grad(loss, perturbed)
+    var = float(y.var(unbiased=False))  # the gradients are taken in units of the data's spread (run_steps)
+    grads = [g / var for g in torch.autograd.grad(loss, perturbed)]
     is_weight = ["weight" in n for n, _ in reference.residual.named_parameters()] + [False]
     eps = method.perturbation(perturbed, list(grads), is_weight[: len(perturbed)])
 
@@ -143,9 +144,9 @@ def test_one_sam_step_matches_hand_computation(name, perturb):
             p.copy_(s)
     g_start = torch.autograd.grad(((reference(x)[0] - y) ** 2).mean(), all_params)
     assert any(not torch.allclose(a, b) for a, b in zip(g_pert, g_start))  # the rule matters
-    opt = torch.optim.Adam(all_params, lr=1e-2)
+    opt = torch.optim.Adam([{"params": theta, "lr": THETA_LR_FACTOR * 1e-2}, {"params": phi}], lr=1e-2)
     for p, g in zip(all_params, g_pert):
-        p.grad = g
+        p.grad = g / var
     opt.step()
     for got, want in zip(model.parameters(), reference.parameters()):
         torch.testing.assert_close(got, want, rtol=0, atol=1e-12)

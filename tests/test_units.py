@@ -1,5 +1,12 @@
-"""When units are the problem, the errors say so: a theta that diverged is named (not the science function, which
-a NaN theta makes return NaN), and the advice after a training that went bad prints the data's scales."""
+"""The same physics in any units gives the same fit, and when units are the problem the errors say so.
+
+theta steps relative to its size, the network trains in the data's scales, and the gradients are taken in units
+of the data's spread: each invariance test writes one small system in its order-one units and in others a
+scientist would pick (time in milliseconds, states as fractions or in thousands), fits both, and compares theta
+converted back (few iterations: what is tested is that the optimisation is the same, not that it converged).
+A theta that diverged is named (not the science function, which a NaN theta makes return NaN), and the advice
+after a training that went bad prints the data's scales.
+"""
 
 import warnings
 
@@ -30,6 +37,49 @@ def _data(T=1.0, S=1.0, n=12, n_steps=10, dt=0.3):
         y = integrate(rhs, torch.as_tensor(X), n_steps, dt, n_substeps=8).numpy()
     y = y + 0.01 * rng.standard_normal(y.shape)
     return (X * S).astype(np.float32), (y * S).astype(np.float32), dt * T
+
+
+def _science_in(T, S):
+    """decay_f as a user writes it in those units: the code unchanged, k per new time unit."""
+    def decay_in_units(v, k=0.3 / T):
+        return decay_f(v, k=k)
+
+    return decay_in_units
+
+
+@pytest.mark.parametrize("T, S", [(1e3, 1.0), (1e-3, 1.0), (1.0, 1e-3), (1.0, 1e4), (1e3, 1e-2)])
+def test_an_ode_fit_in_other_units_is_the_order_one_fit(T, S):
+    settings = dict(random_state=0, max_iter=60, tol=None, n_substeps=2)
+    X, y, dt = _data()
+    reference = HybridRegressor(science=decay_f, dt=dt, **settings).fit(X, y)
+    Xs, ys, dts = _data(T, S)
+    scaled = HybridRegressor(science=_science_in(T, S), dt=dts, **settings).fit(Xs, ys)
+    assert scaled.theta_["k"] * T == pytest.approx(reference.theta_["k"], rel=1e-3)
+    assert reference.theta_["k"] != pytest.approx(0.3, rel=0.05)  # it moved: the comparison means something
+    np.testing.assert_allclose(scaled.predict(Xs[:3]) / S, reference.predict(X[:3]), rtol=1e-3, atol=1e-4)
+    np.testing.assert_allclose(scaled.history_["loss"] / S ** 2, reference.history_["loss"], rtol=1e-2)
+
+
+def test_a_small_theta_steps_relative_to_its_size():
+    """A rate of 2e-6 per ms (2 per s) is not thrown away by the first step (it moved by the learning rate)."""
+    T = 1e6  # microseconds
+    X, y, dt = _data(T)
+    est = HybridRegressor(science=_science_in(T, 1.0), dt=dt, random_state=0, max_iter=30, tol=None).fit(X, y)
+    path = est.history_["theta"]["k"]
+    assert np.all(path > 0) and np.max(np.abs(np.diff(path))) < 0.1 * 0.3 / T
+
+
+def test_bounded_theta_in_other_units():
+    """One bound: the softplus steps relative to the start's distance from it; two: relative to the span."""
+    settings = dict(random_state=0, max_iter=40, tol=None, n_substeps=2)
+    X, y, dt = _data()
+    Xs, ys, dts = _data(1e3)
+    for bounds in ((0.0, None), (0.0, 2.0)):
+        ref = HybridRegressor(science=decay_f, dt=dt, theta_bounds={"k": bounds}, **settings).fit(X, y)
+        scaled_bounds = tuple(None if b is None else b / 1e3 for b in bounds)
+        est = HybridRegressor(science=_science_in(1e3, 1.0), dt=dts, theta_bounds={"k": scaled_bounds},
+                              **settings).fit(Xs, ys)
+        assert est.theta_["k"] * 1e3 == pytest.approx(ref.theta_["k"], rel=1e-3)
 
 
 def test_a_theta_that_diverges_is_named_not_the_science():

@@ -42,7 +42,7 @@ from . import kernels
 from .solve import integrate
 from ..residual import MLP, MaskedMLP
 
-__all__ = ["supports", "mlp_parts", "ode_states", "disabled", "row_by_row"]
+__all__ = ["supports", "mlp_parts", "mlp_scales", "full_output", "ode_states", "disabled", "row_by_row"]
 
 #: Largest state size served (the Jacobians cost ``MAX_STATE`` forward passes).
 MAX_STATE = 8
@@ -78,12 +78,28 @@ def mlp_parts(module: nn.Module):
     return [m.weight for m in linears], [m.bias for m in linears], acts
 
 
-def full_output(residual: nn.Module, weights: list, biases: list) -> tuple[list, list]:
-    """A :class:`MaskedMLP`'s last layer widened to the whole output, zero rows elsewhere.
+def mlp_scales(module: nn.Module) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    """The input shift and scale and the output scale of an :class:`MLP` (or the one in a :class:`MaskedMLP`)."""
+    mlp = module.mlp if type(module) is MaskedMLP else module
+    return mlp.in_shift, mlp.in_scale, mlp.out_scale
 
-    Differentiable (``index_copy``), so the exact components get no output and their rows no
-    gradient; works with a leading member axis. Other networks are returned unchanged.
+
+def full_output(residual: nn.Module, weights: list, biases: list, scales: tuple | None = None
+                ) -> tuple[list, list]:
+    """The layers the kernels compute with: the network's scales folded in, a :class:`MaskedMLP`'s last
+    layer widened to the whole output (zero rows elsewhere).
+
+    ``(W x - ...)`` over standardised inputs is ``W / s`` over raw ones with the bias shifted, and an output
+    scale multiplies the last layer's rows: folded here differentiably, so the gradients reach the network's
+    own weights.  ``scales`` are :func:`mlp_scales` with a leading member axis (stacked members, each its
+    own), default the network's own.  Widening is differentiable (``index_copy``), so the exact components
+    get no output and their rows no gradient; works with a leading member axis.
     """
+    shift, scale, out = mlp_scales(residual) if scales is None else scales
+    first_W = weights[0] / scale.unsqueeze(-2)
+    first_b = biases[0] - (first_W @ shift.unsqueeze(-1)).squeeze(-1)
+    weights, biases = [first_W, *weights[1:]], [first_b, *biases[1:]]
+    weights[-1], biases[-1] = weights[-1] * out.unsqueeze(-1), biases[-1] * out
     if type(residual) is not MaskedMLP:
         return weights, biases
     W, b, index = weights[-1], biases[-1], residual.index

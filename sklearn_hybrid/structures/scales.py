@@ -1,9 +1,10 @@
-"""The scales a hybrid ODE's data carry: each state's spread, the rate it is observed to change at, the horizon.
+"""The scales a hybrid ODE's data carry, which the network trains in and the advice prints.
 
 A science function is written in the user's units: states as fractions or counts, time in days or milliseconds.
-The defaults of a fit (the learning rate, the SAM radius, the network's first steps) are sized for data of order
-one; when a fit goes bad, the advice prints these scales, so that a user sees at once whether units far from one
-are the cause.
+The network need not be: it reads each state standardised (minus its mean, over its spread) and writes each
+rate in units of the rate that state is observed to change at, so that its weights, the learning rate and the
+SAM radius mean the same in any units.  theta steps relative to its own size (see
+:class:`~sklearn_hybrid.science.ScienceModel`).  When a fit goes bad, the advice prints these scales.
 """
 
 from __future__ import annotations
@@ -15,17 +16,22 @@ from sklearn.utils import Bunch
 __all__ = ["ode_data_scales", "describe_scales", "set_network_scales"]
 
 
-def _spread(values: torch.Tensor) -> np.ndarray:
-    """Per column: the standard deviation, else the mean magnitude, else 1 (a column that never varies)."""
+def _moments(values: torch.Tensor, weight: torch.Tensor | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Per column of ``values`` (m, c): the weighted mean, and the weighted standard deviation, else the mean
+    magnitude, else NaN (a column that is zero throughout says nothing of its scale)."""
     values = values.detach().to(torch.float64)
-    std = values.std(0, unbiased=False).cpu().numpy() if len(values) > 1 else np.zeros(values.shape[1:])
-    size = values.abs().mean(0).cpu().numpy()
-    finite = np.isfinite(std) & np.isfinite(size)
-    return np.where(finite & (std > 0), std, np.where(finite & (size > 0), size, 1.0))
+    w = torch.ones(len(values), dtype=torch.float64, device=values.device) if weight is None else weight
+    w = w / w.sum()
+    mean = w @ values
+    std = (w @ (values - mean).pow(2)).sqrt().cpu().numpy()
+    size = (w @ values.abs()).cpu().numpy()
+    spread = np.where(np.isfinite(std) & (std > 0), std, np.where(np.isfinite(size) & (size > 0), size, np.nan))
+    return mean.cpu().numpy(), spread
 
 
-def ode_data_scales(structure, science, inputs: tuple, y: torch.Tensor) -> Bunch | None:
-    """Per state: its mean and spread over the data, and the rate it changes at, for a hybrid ODE.
+def ode_data_scales(structure, science, inputs: tuple, y: torch.Tensor,
+                    sample_weight: torch.Tensor | None = None) -> Bunch | None:
+    """The network's input shift and scale and its output scale for a hybrid ODE, read from the data.
 
     Parameters
     ----------
@@ -37,48 +43,56 @@ def ode_data_scales(structure, science, inputs: tuple, y: torch.Tensor) -> Bunch
         The structure's tensors: initial states, and the inputs on the fine grid of a forced system.
     y : Tensor
         The targets, ``(n, n_steps, n_observed)`` or flattened per sample.
+    sample_weight : Tensor of shape (n,), optional
+        Each sample's weight, as the data loss weighs it (a weight of 2 reads as a duplicated sample).
 
     Returns
     -------
     Bunch or None
         ``in_shift``, ``in_scale`` (one per flattened state entry, then per input channel),
-        ``out_scale`` (the rate, one per state entry), ``state_spread``, ``rate`` and ``horizon``;
-        None for a state that is not a vector.
+        ``out_scale`` (one per state entry) and ``state_spread``, ``rate`` and ``horizon`` (for
+        messages); None for a state that is not a vector.
     """
     if len(structure.state_shape) != 1:
         return None
     x0 = inputs[0].reshape(len(inputs[0]), -1)
-    d = x0.shape[1]
+    n, d = x0.shape
+    w = None if sample_weight is None else torch.as_tensor(sample_weight, dtype=torch.float64, device=x0.device)
     observed = list(range(d)) if structure.observed is None else list(structure.observed)
-    y = y.reshape(len(y), structure.n_steps, len(observed))
-    shift, scale = np.empty(d), np.empty(d)
-    rate = np.full(d, np.nan)
+    y = y.reshape(n, structure.n_steps, len(observed))
+    shift, scale, rate = np.zeros(d), np.full(d, np.nan), np.full(d, np.nan)
     for j in range(d):
-        if j in observed:
-            path = torch.cat([x0[:, j:j + 1], y[..., observed.index(j)]], dim=1)  # (n, n_steps + 1)
-            values = path.reshape(-1, 1)
-            rate[j] = _spread((path.diff(dim=1) / structure.dt).reshape(-1, 1))[0]
+        if j in observed:  # over the whole observed path, and its steps for the rate
+            path = torch.cat([x0[:, j:j + 1], y[..., observed.index(j)]], dim=1).to(torch.float64)
+            shift[j], scale[j] = (v[0] for v in _moments(path.reshape(-1, 1), _repeat(w, path.shape[1])))
+            steps = path.diff(dim=1) / structure.dt
+            rate[j] = _moments(steps.reshape(-1, 1), _repeat(w, steps.shape[1]))[1][0]
         else:
-            values = x0[:, j:j + 1]
-        shift[j] = float(values.to(torch.float64).mean())
-        scale[j] = _spread(values)[0]
+            shift[j], scale[j] = (v[0] for v in _moments(x0[:, j:j + 1], w))
+    scale = np.where(np.isnan(scale), 1.0, scale)  # a state that is zero throughout: its own unit
     missing = np.isnan(rate)
     if missing.any():  # a state y does not observe changes at the science's own rate at the start
         with torch.no_grad():
             u0 = None if len(inputs) < 2 else inputs[1][:, 0]
-            f0 = science(x0.reshape(len(x0), *structure.state_shape), *(() if u0 is None else (u0,)))
-        spread = _spread(f0.reshape(len(x0), -1))
+            f0 = science(x0.reshape(n, *structure.state_shape), *(() if u0 is None else (u0,)))
+        rate = np.where(missing, _moments(f0.reshape(n, -1), w)[1], rate)
+    missing = np.isnan(rate)
+    if missing.any():  # nothing known of its rate: the others' typical rate, else its spread per output step
         seen = rate[~missing]
-        # a science rate of 0 (nothing known of that state): the others' typical rate, else its own spread per step
-        fallback = np.where(np.asarray(spread) == 1.0, np.median(seen) if seen.size else scale / structure.dt, spread)
-        rate[missing] = fallback[missing]
+        rate = np.where(missing, np.median(seen) if seen.size else scale / structure.dt, rate)
     in_shift, in_scale = [shift], [scale]
     if len(inputs) > 1:  # a forced system: its input channels, over the fine grid
         u = inputs[1].reshape(-1, inputs[1].shape[-1])
-        in_shift.append(u.to(torch.float64).mean(0).cpu().numpy())
-        in_scale.append(_spread(u))
+        u_shift, u_scale = _moments(u, _repeat(w, inputs[1].shape[1]))
+        in_shift.append(u_shift)
+        in_scale.append(np.where(np.isnan(u_scale), 1.0, u_scale))
     return Bunch(in_shift=np.concatenate(in_shift), in_scale=np.concatenate(in_scale), out_scale=rate,
                  state_spread=scale, rate=rate, horizon=structure.n_steps * structure.dt)
+
+
+def _repeat(weight: torch.Tensor | None, times: int) -> torch.Tensor | None:
+    """Each sample's weight for each of its ``times`` values, flattened sample by sample."""
+    return None if weight is None else weight.repeat_interleave(times)
 
 
 def describe_scales(scales: Bunch | None) -> str:
@@ -89,3 +103,17 @@ def describe_scales(scales: Bunch | None) -> str:
     times = scales.horizon * scales.rate / np.maximum(scales.state_spread, np.finfo(float).tiny)
     return (f"The data's scales: state spread {spread}; horizon {scales.horizon:.3g} time units, over which the "
             f"fastest state moves {float(np.max(times)):.3g} times its spread at its observed rate.")
+
+
+def set_network_scales(residual, scales: Bunch | None) -> bool:
+    """Give the package's MLP the data's scales (see :func:`ode_data_scales`); False for another network,
+    which reads the user's units as it is."""
+    target = getattr(residual, "mlp", residual)  # a MaskedMLP's own MLP writes the components it changes
+    if scales is None or not hasattr(target, "set_scales"):
+        return False
+    index = getattr(residual, "index", None)
+    out_scale = scales.out_scale if index is None else scales.out_scale[index.cpu().numpy()]
+    if target.in_shift.numel() != len(scales.in_shift) or target.out_scale.numel() != len(out_scale):
+        return False
+    target.set_scales(scales.in_shift, scales.in_scale, out_scale)
+    return True

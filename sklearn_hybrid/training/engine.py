@@ -16,9 +16,10 @@ import torch
 from torch import nn
 
 from ..integrate import fast
+from ..methods import per_member
 from .progress import progress_bar
 from .schedule import TrainConfig, make_optimizer
-from .stopping import EarlyStopping, SpikeGuard, target_variance
+from .stopping import EarlyStopping, SpikeGuard, target_variance, theta_floor, weighted_variance
 
 __all__ = ["train", "run_steps", "STEP", "SKIP", "STOP", "DivergenceError", "data_loss", "step_gradients",
            "gradients_at_perturbed", "MiniBatches", "explain_nonfinite"]
@@ -204,7 +205,7 @@ STEP, SKIP, STOP = "step", "skip", "stop"
 
 def run_steps(method, config: TrainConfig, optimizer, scheduler, params: list, perturbed: list, is_weight: list,
               next_batch, loss_and_grads, watch, n_batch_dims: int = 0, desc: str | None = None,
-              at_perturbed=None) -> int:
+              at_perturbed=None, loss_scale=1.0) -> int:
     """The loop body of every training: a single fit and the stacked members of sweeps, profiles and the
     bootstrap.
 
@@ -217,11 +218,20 @@ def run_steps(method, config: TrainConfig, optimizer, scheduler, params: list, p
     step).  The watcher keeps the records, the guards and the stopping rules; ``watch.bar`` is the
     progress bar.
 
+    Every gradient is divided by ``loss_scale`` (the variance of ``y``, one per stacked member:
+    :func:`~sklearn_hybrid.training.stopping.weighted_variance`) before the
+    method and the optimiser see it, as if the loss were in units of the data's own spread: Adam's ``eps``, the
+    network's weight decay and Fisher SAM's damping then weigh the same in any units of ``y``.  The losses
+    recorded stay in the user's units.
+
     Returns
     -------
     int
         The iterations run.
     """
+    if not np.all(np.asarray(loss_scale) == 1.0):
+        loss_and_grads = _scaled_gradients(loss_and_grads, loss_scale)
+        at_perturbed = None if at_perturbed is None else _scaled_gradients(at_perturbed, loss_scale)
     if at_perturbed is None:
         def at_perturbed(batch):
             return loss_and_grads(batch, params)
@@ -254,6 +264,16 @@ def run_steps(method, config: TrainConfig, optimizer, scheduler, params: list, p
     finally:
         bar.close()
     return n_iter
+
+
+def _scaled_gradients(loss_and_grads, scale):
+    """``loss_and_grads`` whose gradients are divided by ``scale`` (a number, or one per stacked member);
+    the loss as it was."""
+    def scaled(*args):
+        loss, grads = loss_and_grads(*args)
+        return loss, [g / per_member(scale, g) for g in grads]
+
+    return scaled
 
 
 class _FitWatch:
@@ -399,7 +419,8 @@ def train(model: nn.Module, method, inputs: tuple[torch.Tensor, ...], y: torch.T
 
     model.train()
     n_iter = run_steps(method, config, optimizer, scheduler, params, perturbed, is_weight, next_batch,
-                       loss_and_grads, watch, at_perturbed=at_perturbed)
+                       loss_and_grads, watch, at_perturbed=at_perturbed,
+                       loss_scale=weighted_variance(y, sample_weight))
     if not all(torch.isfinite(p).all() for p in params):
         raise DivergenceError(f"A parameter became NaN or infinite at iteration {n_iter - 1}.")
     history = {"loss": watch.losses[:n_iter], "theta": {n: v[:n_iter] for n, v in watch.thetas.items()},
@@ -414,9 +435,9 @@ def _make_stopper(model, config, y, validation):
     """The early-stopping rule of ``config`` (None when ``tol`` is None)."""
     if config.tol is None:
         return None
-    scale = target_variance(y)
+    scale, floor = target_variance(y), theta_floor(model.science)
     if validation is None:
-        return EarlyStopping(config.tol, config.n_iter_no_change, scale)
+        return EarlyStopping(config.tol, config.n_iter_no_change, scale, theta_floor=floor)
     inputs, y, weight = validation
 
     def validation_loss():
@@ -429,4 +450,4 @@ def _make_stopper(model, config, y, validation):
         finally:
             model.train(was_training)
 
-    return EarlyStopping(config.tol, config.n_iter_no_change, scale, validation_loss)
+    return EarlyStopping(config.tol, config.n_iter_no_change, scale, validation_loss, theta_floor=floor)

@@ -8,7 +8,11 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
-__all__ = ["TrainConfig", "make_optimizer", "cosine_lr", "theta_drift"]
+__all__ = ["TrainConfig", "make_optimizer", "cosine_lr", "theta_drift", "THETA_LR_FACTOR"]
+
+#: theta's default learning rate over the network's.  theta steps relative to its size (a raw step of 0.02 is 2 %
+#: of it), which for a parameter of order 0.5 is the absolute step of ``lr`` it took before it was relative.
+THETA_LR_FACTOR = 2.0
 
 
 @dataclass
@@ -25,6 +29,12 @@ class TrainConfig:
     verbose: bool | str = False  # "auto": a bar once the fit has run ``progress.AUTO_DELAY`` seconds
     tol: float | None = None
     n_iter_no_change: int = 100
+    theta_lr_factor: float = THETA_LR_FACTOR  # for theta's raw values; 1 for a theta encoder's weights
+
+    @property
+    def theta_lr(self) -> float:
+        """theta's initial learning rate: ``lr_theta``, else ``theta_lr_factor * lr``."""
+        return self.lr_theta or self.theta_lr_factor * self.lr
 
 
 def make_optimizer(theta: list, phi: list, config: TrainConfig):
@@ -35,7 +45,7 @@ def make_optimizer(theta: list, phi: list, config: TrainConfig):
     ``weight_decay``.  Parameter tensors may carry a leading member axis.
     """
     optimizer = torch.optim.Adam(
-        [{"params": theta, "weight_decay": 0.0, "lr": config.lr_theta or config.lr},
+        [{"params": theta, "weight_decay": 0.0, "lr": config.theta_lr},
          {"params": phi, "weight_decay": config.weight_decay}], lr=config.lr)
     scheduler = torch.optim.lr_scheduler.CosineAnnealingLR(
         optimizer, T_max=config.max_iter, eta_min=min(config.min_lr, config.lr))

@@ -29,9 +29,10 @@ from joblib import Parallel, delayed
 from ..integrate import fast
 from ..integrate.kernels import reusing_buffers
 from .._validation import torch_threads
+from ..methods import per_member
 from .engine import MiniBatches, STEP, STOP, gradients_at_perturbed, run_steps
 from .schedule import TrainConfig, make_optimizer
-from .stopping import EarlyStopping, target_variance
+from .stopping import EarlyStopping, target_variance, theta_floor, weighted_variance
 from .verdict import DIVERGED_FACTOR
 
 __all__ = ["train_batched", "train_members", "evaluate_members"]
@@ -49,7 +50,14 @@ class _StackedModel:
             members = [dict(m.named_parameters())[name] for m in models]
             stacked = torch.stack([p.detach() for p in members]).clone()
             self.params[name] = stacked.requires_grad_(members[0].requires_grad)
-        self.buffers = {n: b for n, b in self.base.named_buffers()}
+        # floating buffers (theta's bounds and scale, the network's data scales) per member: a member built on
+        # other data or from another start has its own, as it would alone
+        self.shared, self.buffers = {}, {}
+        for name, buffer in self.base.named_buffers():
+            if buffer.is_floating_point():
+                self.buffers[name] = torch.stack([dict(m.named_buffers())[name] for m in models])
+            else:
+                self.shared[name] = buffer
         structure = self.base.structure
         self.fast = (getattr(structure, "solver", None) is not None
                      and fast.supports(self.base.residual, tuple(structure.state_shape),
@@ -69,14 +77,25 @@ class _StackedModel:
     def group(self, prefix):
         return [self.params[n] for n in self.names if n.startswith(prefix) and self.params[n].requires_grad]
 
+    def theta_values(self) -> dict:
+        """Every member's theta, ``name -> (K, ...)``, each through its own bounds and scale."""
+        science = self.base.science
+        return {n: science.transforms[n].map(self.params[f"science.raw.{n}"],
+                                             *(self.buffers[f"science.transforms.{n}.{b}"]
+                                               for b in ("low", "high", "scale")))
+                for n in science.names}
+
     def _fast_predictions(self, inputs):
         science, structure = self.base.science, self.base.structure
-        thetas = [science.transforms[n](self.params[f"science.raw.{n}"]) for n in science.names]
+        values = self.theta_values()
+        thetas = [values[n] for n in science.names]
         layers = [n for n in self.names if n.startswith("residual.")]
         weights = [self.params[n] for n in layers if n.endswith("weight")]
         biases = [self.params[n] for n in layers if n.endswith("bias")]
         _, _, acts = fast.mlp_parts(self.base.residual)
-        weights, biases = fast.full_output(self.base.residual, weights, biases)
+        scales = tuple(self.buffers[n] for n in self.buffers if n.startswith("residual.")
+                       and n.rsplit(".", 1)[-1] in ("in_shift", "in_scale", "out_scale"))
+        weights, biases = fast.full_output(self.base.residual, weights, biases, scales)
         x0, u_fine = inputs[0], (inputs[1] if len(inputs) > 1 else None)
         states = fast.ode_states(science.func, science.names, thetas, weights, biases, acts,
                                   x0, u_fine, structure.n_steps, structure.dt, structure.n_substeps)
@@ -87,16 +106,17 @@ class _StackedModel:
         if self.fast:
             return self._fast_predictions(inputs)
 
-        def member(params, *member_inputs):
-            pred, _ = torch.func.functional_call(self.base, (params, self.buffers), member_inputs)
+        def member(params, buffers, *member_inputs):
+            pred, _ = torch.func.functional_call(self.base, (params, buffers, self.shared), member_inputs)
             return pred
 
         if self.convolutional:  # vmap turns convolutions into slow grouped ones: one by one
             K = len(inputs[0])
             return torch.stack([member({n: p[k] for n, p in self.params.items()},
+                                       {n: b[k] for n, b in self.buffers.items()},
                                        *(t[k] for t in inputs)) for k in range(K)])
         with fast.disabled():  # the custom autograd function does not run under vmap
-            return torch.func.vmap(member)(self.params, *inputs)
+            return torch.func.vmap(member)(self.params, self.buffers, *inputs)
 
 
 def _member_loss(pred, y, weight=None):
@@ -200,7 +220,8 @@ def train_batched(models: list, method, inputs: tuple, y: torch.Tensor, config: 
         return loss.detach(), [torch.zeros_like(p) if g is None else g for p, g in zip(wrt, grads)]
 
     n_iter = run_steps(method, config, optimizer, scheduler, params, perturbed, is_weight, next_batch,
-                       loss_and_grads, watch, n_batch_dims=1, desc=f"{K} members")
+                       loss_and_grads, watch, n_batch_dims=1, desc=f"{K} members",
+                       loss_scale=weighted_variance(y, weight))
     watch.judge_end(n_iter)
 
     with torch.no_grad():  # hand each member its slice
@@ -233,7 +254,8 @@ class _MembersWatch:
         self.diverged = np.full(K, -1)
         self.scale = target_variance(y)
         self.stoppers = None if config.tol is None else [
-            EarlyStopping(config.tol, config.n_iter_no_change, self.scale) for _ in range(K)]
+            EarlyStopping(config.tol, config.n_iter_no_change, self.scale, theta_floor=theta_floor(science))
+            for _ in range(K)]
         self.bar = None
 
     def check(self, it, loss, batch):
@@ -263,8 +285,8 @@ class _MembersWatch:
     def stepped(self, it, loss, rate) -> bool:
         self.losses[it] = self.values
         with torch.no_grad():
-            for n in self.science.names:
-                self.thetas[n][it] = self.science.transforms[n](self.stacked.params[f"science.raw.{n}"]).cpu().numpy()
+            for n, value in self.stacked.theta_values().items():
+                self.thetas[n][it] = value.cpu().numpy()
         return self.stoppers is not None and _all_settled(self.stoppers, it, self.losses, self.thetas,
                                                            self.diverged)
 
@@ -303,7 +325,8 @@ def evaluate_members(models: list, method, inputs: tuple, y: torch.Tensor, confi
     objective = data + method.parameter_penalty(phi, n_batch_dims=1)
     if method.perturbs:
         grads = torch.autograd.grad(objective.sum(), perturbed, allow_unused=True)
-        grads = [torch.zeros_like(p) if g is None else g for p, g in zip(perturbed, grads)]
+        scale = weighted_variance(y, wb)  # the gradients the training's rule saw (see engine.run_steps)
+        grads = [torch.zeros_like(p) if g is None else g / per_member(scale, g) for p, g in zip(perturbed, grads)]
         with torch.no_grad():
             eps = method.perturbation(perturbed, grads, is_weight, n_batch_dims=1)
             objective = gradients_at_perturbed(perturbed, eps, lambda: _member_loss(stacked.predictions(xb), yb, wb))

@@ -10,8 +10,9 @@ import copy
 from collections import deque
 
 import numpy as np
+import torch
 
-__all__ = ["EarlyStopping", "SpikeGuard", "target_variance"]
+__all__ = ["EarlyStopping", "SpikeGuard", "target_variance", "weighted_variance", "theta_floor"]
 
 
 def target_variance(y) -> float:
@@ -20,6 +21,30 @@ def target_variance(y) -> float:
     The scale of the stopping tests and of the divergence tests of every training.
     """
     return float(y.reshape(len(y), -1).var(0, unbiased=False).mean()) if len(y) > 1 else 1.0
+
+
+def weighted_variance(y, sample_weight=None):
+    """:func:`target_variance` with each sample weighted as the data loss weighs it (a weight of 2 equals a
+    duplicated sample); with weights of shape ``(K, n)`` (the stacked members' resamples), one per member.
+
+    The unit the training's gradients are taken in (see :func:`~sklearn_hybrid.training.engine.run_steps`).
+    """
+    if sample_weight is None:
+        return target_variance(y) or 1.0  # constant targets: the loss in its own units
+    flat = y.reshape(len(y), -1).to(torch.float64)
+    w = torch.as_tensor(sample_weight, dtype=torch.float64, device=flat.device)
+    w = w / w.sum(-1, keepdim=True)
+    mean = w @ flat
+    var = ((w @ flat.pow(2)) - mean.pow(2)).clamp_min(0).mean(-1)
+    var = torch.where(var > 0, var, torch.ones_like(var))
+    return float(var) if var.dim() == 0 else var.cpu().numpy()
+
+
+def theta_floor(science) -> np.ndarray:
+    """A thousandth of each theta entry's own scale (its size at the start), flattened in the order of
+    ``science.names``: the floor of :class:`EarlyStopping`'s relative test of theta."""
+    return np.concatenate([1e-3 * np.broadcast_to(science.transforms[n].scale.cpu().numpy(),
+                                                  science.shapes[n]).ravel() for n in science.names])
 
 
 class EarlyStopping:
@@ -34,7 +59,8 @@ class EarlyStopping:
       the variance of the targets, so that the test reads "R^2 improved by
       less than tol"), and
     - no component of theta moved by more than ``tol`` relative to
-      ``max(|theta|, 1e-3)``.
+      ``max(|theta|, floor)`` (``floor``: a thousandth of theta's own scale,
+      so that a theta that is small in its units is not called settled).
 
     Both must hold: a flat loss with a drifting theta (the network and the
     science trading the same effect) is not converged for the purpose of
@@ -50,10 +76,14 @@ class EarlyStopping:
         Loss of predicting the mean target (mean variance of the outputs).
     validation_loss : callable or None
         ``validation_loss() -> float``, evaluated at the end of each window.
+    theta_floor : float or ndarray, default=1e-3
+        The smallest size theta's moves are relative to, per flattened entry.
     """
 
-    def __init__(self, tol: float, n_iter_no_change: int, scale: float = 1.0, validation_loss=None):
+    def __init__(self, tol: float, n_iter_no_change: int, scale: float = 1.0, validation_loss=None,
+                 theta_floor=1e-3):
         self.tol, self.window = float(tol), int(n_iter_no_change)
+        self.theta_floor = theta_floor
         self.scale = float(scale) if scale > 0 else 1.0
         self.validation_loss = validation_loss
         self.previous = None
@@ -73,7 +103,7 @@ class EarlyStopping:
         if previous is None:
             return False
         improved = monitored < previous[0] - self.tol * self.scale
-        scale = np.maximum(np.abs(current[1]), 1e-3)
+        scale = np.maximum(np.abs(current[1]), self.theta_floor)
         moved = bool(np.any(np.abs(current[1] - previous[1]) > self.tol * scale))
         return not improved and not moved
 
