@@ -83,3 +83,25 @@ def test_the_watch_sees_the_selected_model_and_may_stop_the_loop_there():
     assert [t[1] for t in getattr(science, "terms", [])] == [t["term"] for t in result.added]
     assert theta == pytest.approx(result.science_theta, rel=1e-9)
     assert [(s["step"], s["term"]) for s in steps] == [(s["step"], s["term"]) for s in result.steps]
+
+
+@pytest.mark.parametrize("bad", [5, "stop"])
+def test_a_watch_whose_callback_cannot_be_called_is_refused_at_once(bad):
+    # it once failed only after the whole selection, with "'int' object is not callable"
+    with pytest.raises(TypeError, match=r"on_selection must be a callable or None, got "):
+        LoopWatch(on_selection=bad)
+
+
+def test_a_watch_whose_gate_is_not_a_bool_is_refused():
+    # "no" would have read as True: every candidate still gated
+    with pytest.raises(TypeError, match=r"second_look_gate must be True or False"):
+        LoopWatch(second_look_gate="no")
+
+
+@pytest.mark.parametrize("bad", [None, print])
+def test_watching_needs_a_watch(bad):
+    # None once gave an AttributeError inside the loop, far from the with statement
+    with pytest.raises(TypeError, match=r"watching\(\) needs a LoopWatch.*LoopWatch\(\)"):
+        with watching(bad):
+            pass
+    assert current_watch() == LoopWatch()

@@ -40,6 +40,18 @@ class LoopWatch:
     on_selection: Callable | None = None
     second_look_gate: bool = True
 
+    def __post_init__(self) -> None:
+        # checked here, not when the loop calls it: a wrong callback would otherwise fail only after the
+        # whole selection has run, as "'int' object is not callable"
+        if self.on_selection is not None and not callable(self.on_selection):
+            raise TypeError(f"LoopWatch: on_selection must be a callable or None, got "
+                            f"{type(self.on_selection).__name__} {self.on_selection!r}; it is called as "
+                            "on_selection(science, theta, steps)")
+        # a string such as "no" would read as True and leave the gate on without a word
+        if not isinstance(self.second_look_gate, bool):
+            raise TypeError(f"LoopWatch: second_look_gate must be True or False, got "
+                            f"{type(self.second_look_gate).__name__} {self.second_look_gate!r}")
+
     def selected(self, science: Callable, theta: dict, steps: list) -> None:
         """Hand the selected model to ``on_selection``, if any (called by ``close_the_loop``)."""
         if self.on_selection is not None:
@@ -57,13 +69,25 @@ def watching(watch: LoopWatch) -> Iterator[LoopWatch]:
     Parameters
     ----------
     watch : LoopWatch
-        What the loop reports and how it judges while the block runs.
+        What the loop reports and how it judges while the block runs. ``LoopWatch()`` watches nothing: the
+        loop runs inside the block as it does without this module, even within another ``watching`` block.
 
     Yields
     ------
     LoopWatch
         ``watch`` itself.
+
+    Raises
+    ------
+    TypeError
+        If ``watch`` is not a :class:`LoopWatch`. None is refused rather than read as "no watch": it could
+        as well mean "keep the outer block's watch", and ``LoopWatch()`` says which without doubt.
     """
+    # refused here: the loop would otherwise fail far from this line, on an attribute None lacks
+    if not isinstance(watch, LoopWatch):
+        raise TypeError(f"watching() needs a LoopWatch, got {type(watch).__name__} {watch!r}; pass "
+                        "LoopWatch(on_selection=..., second_look_gate=...), or LoopWatch() to run the loop "
+                        "unwatched inside the block")
     token = _WATCH.set(watch)
     try:
         yield watch
