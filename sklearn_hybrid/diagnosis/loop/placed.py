@@ -16,6 +16,7 @@ What leaves the loop stays a dict: :meth:`PlacedTerm.record` is an accepted term
 from __future__ import annotations
 
 import math
+import numbers
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from typing import Any, Union
@@ -67,6 +68,15 @@ class PlacedTerm:
     shape_params: Mapping[str, str] | None = None
     second_look: bool = False
 
+    def __post_init__(self) -> None:
+        # checked here: a name or an index in place of the Term failed only where ``.name`` was first read
+        if not isinstance(self.term, Term):
+            raise TypeError(f"PlacedTerm needs a Term (from physics_terms, named_terms or Term(...)) as its "
+                            f"first argument, got {type(self.term).__name__} {self.term!r}")
+        if isinstance(self.component, bool) or not isinstance(self.component, numbers.Integral):
+            raise TypeError(f"PlacedTerm: component must be an int (the output the term is added to), got "
+                            f"{type(self.component).__name__} {self.component!r}")
+
     @property
     def name(self) -> str:
         return self.term.name
@@ -109,7 +119,23 @@ class PlacedTerm:
 
     def with_values(self, theta: Mapping[str, Any]) -> PlacedTerm:
         """A fitted term with its coefficient and shape read from ``theta`` by its parameter names (another
-        fit of the same model)."""
+        fit of the same model).
+
+        Raises
+        ------
+        ValueError
+            If the term was never fitted (it has no parameter names: see :meth:`with_fitted`).
+        KeyError
+            If ``theta`` lacks one of its parameters; the message names those it needs.
+        """
+        if self.param is None or self.shape_params is None:
+            raise ValueError(f"with_values needs a fitted term (one made by with_fitted, which names its "
+                             f"parameters); {self.name!r} on {self.where()} has no parameter names")
+        needed = [self.param, *self.shape_params.values()]
+        missing = [g for g in needed if g not in theta]
+        if missing:
+            raise KeyError(f"theta lacks {', '.join(missing)} of term {self.name!r} on {self.where()}; it needs "
+                           f"{', '.join(needed)}")
         return replace(self, coef=float(theta[self.param]),
                        shape={loc: float(theta[g]) for loc, g in self.shape_params.items()})
 
@@ -153,6 +179,17 @@ class PlacedGroup:
     members: tuple[PlacedTerm, ...]
     joint: bool = False
     gain: float = math.nan
+
+    def __post_init__(self) -> None:
+        # a list is kept as a tuple, as the package builds its groups (a frozen group holds no mutable list)
+        object.__setattr__(self, "members", tuple(self.members))
+        # checked here: an empty group failed only where its first member was read (IndexError)
+        if not self.members:
+            raise ValueError("PlacedGroup needs at least one member (a PlacedTerm); got none")
+        for i, m in enumerate(self.members):
+            if not isinstance(m, PlacedTerm):
+                raise TypeError(f"PlacedGroup members must be PlacedTerm objects; member {i} is "
+                                f"{type(m).__name__} {m!r}")
 
     @property
     def name(self) -> str:
