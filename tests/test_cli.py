@@ -20,6 +20,17 @@ def test_version_and_help_do_not_import_torch():
     assert out.strip().splitlines()[-1] == "False"
 
 
+
+def test_python_m_sklearn_hybrid_runs_the_command_line():
+    # ``python -m sklearn_hybrid`` once said the package had no __main__
+    done = subprocess.run([sys.executable, "-m", "sklearn_hybrid", "--help"], capture_output=True, text=True,
+                          timeout=60)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.startswith("usage: ") and "{loop,demo}" in done.stdout
+    bad = subprocess.run([sys.executable, "-m", "sklearn_hybrid", "loop", "nowhere"], capture_output=True,
+                         text=True, timeout=60)
+    assert bad.returncode == 2 and "invalid choice: 'nowhere'" in bad.stderr
+
 def test_missing_data_says_where_to_put_it_and_get_it(tmp_path, capsys, monkeypatch):
     """No traceback, but the answer kept: the reason, then where the file goes and where it comes from."""
     import sklearn_hybrid.recipes as recipes
