@@ -44,10 +44,19 @@ from identification.systems import SYSTEMS, simulate  # noqa: E402
 
 from sklearn_hybrid.science import read_signature  # noqa: E402
 
-import pysindy as ps  # noqa: E402  (the [sindy] extra)
-
 RUNS = runs_folder("anchors")
 N_SUBSTEPS = 4
+
+
+def _pysindy():
+    """pysindy (the [sindy] extra), imported where a case runs rather than at the top: ``--help`` and ``--render``
+    need none, and where it is missing the error says how to get it."""
+    try:
+        import pysindy
+    except ImportError as error:
+        raise SystemExit("bench_anchors_loop.py needs pysindy to run a case: pip install 'sklearn_hybrid[sindy]' "
+                         "(--render needs none)") from error
+    return pysindy
 
 
 def sbr():
@@ -59,6 +68,7 @@ def sbr():
 
 
 def polynomial_powers(n_vars: int) -> np.ndarray:
+    ps = _pysindy()
     lib = ps.PolynomialLibrary(degree=3).fit(np.zeros((2, n_vars)))
     return lib.powers_
 
@@ -77,6 +87,8 @@ def sparse_fit(Theta: np.ndarray, r: np.ndarray, optimizer) -> np.ndarray:
     if rms == 0:
         return np.zeros(Theta.shape[1])
     if optimizer == "stlsq":
+        ps = _pysindy()
+
         def make(t):
             return ps.STLSQ(threshold=t, unbias=True)
         threshold = cv_choice(make, Xs, r, GRID * rms, one_se=True)
@@ -195,6 +207,7 @@ def run_case(name, noise, seed=0):
     hybrid, reused = first_fit(system, noise, seed, data)
     out["first_fit_s"], out["first_fit_reused"] = time.perf_counter() - start, reused
     trace = hybrid.residual_trace(data["X"])
+    ps = _pysindy()
     Z = trace["points"] if trace["inputs"] is None else np.hstack([trace["points"], trace["inputs"]])
     Theta = np.asarray(ps.PolynomialLibrary(degree=3).fit(Z).transform(Z))
     g = trace["residual"].reshape(len(Z), -1)
@@ -219,6 +232,7 @@ def run_case(name, noise, seed=0):
 
 
 def _terms(support, xi, n_vars, system):
+    ps = _pysindy()
     names = ps.PolynomialLibrary(degree=3).fit(np.zeros((2, n_vars))).get_feature_names(
         list(system.state_names) + (["u"] if system.forced else []))
     return [f"{xi[i, j]:+.3g} {names[i]} [{system.state_names[j]}]" for i, j in zip(*np.nonzero(support))]
@@ -230,6 +244,7 @@ def sindy_on_data(system, data, u_train, powers) -> dict:
     d = len(system.state_names)
     states = np.concatenate([np.asarray(data["X"])[:, None, :d], data["y"]], axis=1)
     t = system.dt * np.arange(states.shape[1])
+    ps = _pysindy()
     diff = ps.SmoothedFiniteDifference()
     xdot = np.concatenate([np.asarray(diff(s, t)) for s in states])
     x = states.reshape(-1, d)
