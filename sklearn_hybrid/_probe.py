@@ -7,9 +7,10 @@ that names it.
 
 from __future__ import annotations
 
+import numpy as np
 import torch
 
-__all__ = ["probe_batch", "call_science"]
+__all__ = ["probe_batch", "call_science", "check_finite_model"]
 
 
 def probe_batch(inputs, avoid) -> tuple:
@@ -114,3 +115,24 @@ def call_science(science, args, expected_shape, what, differentiable=False):
             "them constant with theta_fixed."
         )
     return out
+
+
+def check_finite_model(values, science, what: str = "predictions") -> None:
+    """Refuse a model whose own ``values`` (predictions, or their derivatives by theta; samples first) are
+    not finite at its theta on the data.
+
+    Without this a NaN prediction turns every residual, standard error and verdict that follows into NaN,
+    which reads as the data's failure ("not identified by these data"); the error names the function, its
+    parameters and the samples instead.
+    """
+    values = np.asarray(values)
+    bad = ~np.isfinite(values.reshape(len(values), -1)).all(axis=1)
+    if bad.any():
+        rows = np.flatnonzero(bad)
+        raise ValueError(
+            f"The science model's {what} are not finite: the science function {science.name!r} gives NaN or "
+            f"infinite values on {len(rows)} of {len(values)} samples (first: sample {int(rows[0])}) at theta "
+            f"{science.as_dict()}. This is the model's failure, not the data's: make the function finite on the "
+            "data's range (bound theta with theta_bounds or guard its domain), or leave out the samples where "
+            "it is not defined."
+        )

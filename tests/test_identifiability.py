@@ -369,3 +369,43 @@ def test_the_interval_spans_every_value_under_the_threshold():
     open_low = profile_theta(est, X, y, params="a", grid={"a": [-2.0, -1.4, 0.0, 1.4, 2.6]}, refine=False,
                              verbose=False)
     assert open_low.verdicts["a"] == PRACTICAL and open_low.intervals["a"][0] == -np.inf
+
+
+def _line_m(x, a=1.0, b=0.0):
+    return a * x + b
+
+
+@pytest.mark.parametrize("n", [1, 3])
+def test_science_intervals_with_too_few_samples_give_no_cluster_robust_interval(n):
+    """Issue 63: one trajectory is one cluster; at the least-squares fit its score is zero, so the
+    cluster-robust error was zero too (omega 0.657334 +/- 1.12e-07, the truth 2/3 far outside). Fewer than
+    p + 2 samples (two parameters here: 4) give no interval, and the report says why."""
+    rng = np.random.default_rng(0)
+    x = rng.uniform(-1, 1, (n, 8))
+    y = 2.0 * x + 0.5 + 0.3 * rng.normal(size=(n, 1)) + 0.05 * rng.normal(size=(n, 8))
+    est = HybridRegressor(science=_line_m, structure="additive", residual=ZeroResidual(), method="erm", lr=5e-2,
+                          max_iter=300, tol=None, dtype="float64", random_state=0, verbose=False).fit(x, y)
+    ci = science_intervals(est, x, y)
+    assert set(ci.verdicts.values()) == {"not available"}
+    assert all(ci.intervals[k] == (-np.inf, np.inf) for k in ("a", "b"))
+    report = ci.report()
+    assert "NO INTERVAL" in report and f"{n} sample(s)" in report and "at least 4" in report
+    assert "+/-" not in report
+
+
+def _root_m(x, a=1.0):
+    return a * torch.sqrt(x)
+
+
+def test_science_intervals_blame_a_model_that_is_not_finite_not_the_data():
+    """Issue 63: a science function that returns NaN at the fitted theta on the data made every standard error
+    NaN and the verdict 'NOT IDENTIFIED by these data': the data were blamed for the model's failure."""
+    rng = np.random.default_rng(0)
+    x = rng.uniform(0.1, 1, (20, 4))
+    y = 2.0 * np.sqrt(x) + 0.05 * rng.normal(size=(20, 4))
+    est = HybridRegressor(science=_root_m, structure="additive", residual=ZeroResidual(), method="erm", lr=5e-2,
+                          max_iter=200, tol=None, dtype="float64", random_state=0, verbose=False).fit(x, y)
+    x_bad = x.copy()
+    x_bad[3, 1] = -0.5
+    with pytest.raises(ValueError, match=r"predictions are not finite.*'_root_m'.*sample 3.*'a'"):
+        science_intervals(est, x_bad, y)

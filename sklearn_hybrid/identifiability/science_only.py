@@ -31,6 +31,7 @@ from sklearn.utils.validation import check_is_fitted
 from .._fitting import fitted_data, fitted_settings, ode_structure
 from .._validation import check_target_layout, torch_threads
 from .._fit_report import theta_jacobian
+from .._probe import check_finite_model
 from ..residual import ZeroResidual
 from ._members import check_level
 
@@ -49,6 +50,8 @@ class ScienceIntervals:
 
     A parameter whose direction the data do not inform (``A`` singular there,
     or a standard error beyond its estimate's magnitude) is ``"not identified"``.
+    With fewer samples than the parameters plus two every verdict is ``"not
+    available"`` and ``unavailable`` says why: no cluster-robust interval is given.
     One that is identified only given the form of a term the closed loop chose
     (it trades with the term's part in its own direction, or a term of another
     form that fits as well moves it) is ``"conditional"``: ``conditional`` says
@@ -65,6 +68,8 @@ class ScienceIntervals:
     conditional: dict = field(default_factory=dict)
     #: the parameters whose interval was widened to their values under other forms (by ``widen``)
     spans_forms: set = field(default_factory=set)
+    #: why no interval could be given (too few samples for a cluster-robust covariance), or None
+    unavailable: str | None = None
 
     def widen(self, label: str, values: Sequence[float]) -> None:
         """Widen ``label``'s interval to hold ``values``: its estimates under other forms of a chosen
@@ -98,6 +103,8 @@ class ScienceIntervals:
                         "with it, the data cannot say)")
                 lines.append(f"    {label}: {self.estimate[label]:.6g}  CONDITIONAL on the form of the term added "
                              f"({self.conditional[label]}); [{low:.6g}, {high:.6g}] {span}")
+            elif verdict == "not available":
+                lines.append(f"    {label}: {self.estimate[label]:.6g}  NO INTERVAL: {self.unavailable}")
             elif self.incomplete:
                 lines.append(f"    {label}: {self.estimate[label]:.6g}  NOT IDENTIFIED: the model may be incomplete")
             else:
@@ -173,19 +180,23 @@ def science_intervals(estimator, X, y, level=0.95, incomplete: str | None = None
             return out.reshape(len(out), len(X), -1).cpu().numpy()
 
         base = predict()
+        check_finite_model(base, science, "predictions")
         entries = [(name, k) for name in science.names for k in range(science.raw[name].numel())]
         labels = [(name, k, name if science.shapes[name] == () else f"{name}[{k}]") for name, k in entries]
         J = theta_jacobian(science, predict, entries, predict_many, base)  # (n, m, p)
         if states:
             K = _state_derivatives(predict, inputs, states)  # (n, m, q)
+    check_finite_model(J, science, "derivatives of the predictions by theta")
     if states:  # theta's derivatives orthogonal to what each sample's own states can do
         J = np.stack([J[i] - K[i] @ np.linalg.lstsq(K[i], J[i], rcond=None)[0] for i in range(len(J))])
     r = y - base
     n, p = len(X), J.shape[-1]
+    if n < p + 2:
+        return _unavailable(science, labels, n, p, level, incomplete)
     A = np.einsum("nmp,nmq->pq", J, J)
     score = np.einsum("nmp,nm->np", J, r)
     B = score.T @ score
-    dof = max(n - p, 1)
+    dof = n - p
     t = stats.t.ppf(0.5 + level / 2, dof)
     try:
         cond_ok = np.linalg.cond(A) < 1e12
@@ -204,6 +215,30 @@ def science_intervals(estimator, X, y, level=0.95, incomplete: str | None = None
         out.verdicts[label] = "identified" if identified else "not identified"
     for label, why in _confounded(A, [lab for _, _, lab in labels], [name for name, _, _ in labels], terms).items():
         out.make_conditional(label, why)
+    return out
+
+
+def _unavailable(science, labels, n: int, p: int, level: float, incomplete) -> ScienceIntervals:
+    """No intervals from ``n`` samples for ``p`` parameters (``n < p + 2``), and why.
+
+    Each sample is one cluster.  At the least-squares fit the samples' scores ``J_i^T r_i`` sum to zero, so
+    ``B`` has rank at most ``n - 1``: with one sample it is zero and so is every standard error (a single
+    trajectory gave omega 0.657334 +/- 1.12e-07, the truth 2/3 far outside), and below ``p + 1`` samples
+    ``B`` is singular in some direction of theta.  With ``p + 1`` the t interval would rest on one degree
+    of freedom, its variance infinite; ``p + 2`` is the least that leaves two.  The Gauss-Newton error that
+    counts every output value is no fallback: it is the one the errors shared along a trajectory make too
+    narrow (see the module's docstring).
+    """
+    why = (f"{n} sample(s) for {p} parameter(s): a cluster-robust interval needs at least {p + 2} (each sample "
+           "is one cluster, whose scores sum to zero at the fit; with fewer its standard errors are zero or rest "
+           "on under two degrees of freedom). Fit on more samples (trajectories), or fix parameters known from "
+           "elsewhere")
+    values = science.as_dict()
+    out = ScienceIntervals(estimate={}, std={}, intervals={}, verdicts={}, level=level, n_samples=n,
+                           incomplete=incomplete, unavailable=why)
+    for name, k, label in labels:
+        out.estimate[label] = float(np.ravel(np.asarray(values[name], dtype=float))[k])
+        out.std[label], out.intervals[label], out.verdicts[label] = float("nan"), (-np.inf, np.inf), "not available"
     return out
 
 
