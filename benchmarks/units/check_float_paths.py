@@ -65,8 +65,28 @@ def run_setting(name: str) -> dict:
     return {"setting": name, "blocks": out}
 
 
+def shape(line: str) -> str:
+    """A printed line without its numbers: what must not move at all (the words, a verdict)."""
+    return NUMBER.sub("#", line.strip())
+
+
+def other_shapes(runs: list[dict]) -> list[dict]:
+    """Each documented line that a setting printed in another shape (other words, another verdict)."""
+    out = []
+    for k, (_, documented) in enumerate(snippets()):
+        want = numbered_lines(documented)
+        for run in runs:
+            got = run["blocks"][k]["lines"]
+            for i, line in enumerate(want):
+                if i >= len(got) or shape(got[i]) != shape(line):
+                    out.append({"block": k, "line": i, "setting": run["setting"],
+                                "printed": got[i].strip() if i < len(got) else ""})
+    return out
+
+
 def spreads(runs: list[dict]) -> list[dict]:
-    """Per README block, line and number: the documented value, each setting's, and the relative spread."""
+    """Per README block, line and number: the documented value, each setting's (where it printed the line in
+    the documented shape), and the spread."""
     table = []
     for k, (_, documented) in enumerate(snippets()):
         for i, line in enumerate(numbered_lines(documented)):
@@ -74,11 +94,9 @@ def spreads(runs: list[dict]) -> list[dict]:
             for j, value in enumerate(shown):
                 got = {}
                 for run in runs:
-                    lines = run["blocks"][str(k)]["lines"] if str(k) in run["blocks"] else run["blocks"][k]["lines"]
-                    if i < len(lines):
-                        numbers = [float(x) for x in NUMBER.findall(lines[i])]
-                        if j < len(numbers):
-                            got[run["setting"]] = numbers[j]
+                    lines = run["blocks"][k]["lines"]
+                    if i < len(lines) and shape(lines[i]) == shape(line):
+                        got[run["setting"]] = float(NUMBER.findall(lines[i])[j])
                 values = list(got.values())
                 spread = (max(values) - min(values)) if values else float("nan")
                 table.append({"block": k, "line": i, "index": j, "text": line.strip()[:90], "documented": value,
@@ -97,11 +115,16 @@ def main() -> None:
     failed = [f"{r['setting']} block {k + 1}: {b['stderr']}" for r in runs for k, b in r["blocks"].items()
               if b["returncode"]]
     table = spreads(runs)
+    shapes = other_shapes(runs)
     lines = ["# The README's numbers under other float paths", "",
              "Each README snippet run in a fresh process under each setting (another CPU's vector width, MKL's "
              "CPU-independent path, oneDNN off, more threads); per documented number, the values and their spread. "
              f"Settings: {', '.join(args.settings)}.", ""]
     lines += [f"Failed: {f}" for f in failed] + ([""] if failed else [])
+    lines += ["Lines printed in another shape than the README's (other words or verdict; their numbers are left "
+              "out of the spreads below):", ""] + [
+        f"- block {d['block'] + 1}, line {d['line']}, {d['setting']}: `{d['printed'][:200]}`" for d in shapes
+    ] + ["" if shapes else "- none", ""]
     lines += ["| block | line | number | documented | min | max | relative spread |", "|---" * 7 + "|"]
     for row in table:
         values = list(row["values"].values())
@@ -109,7 +132,7 @@ def main() -> None:
                      f"{min(values) if values else float('nan'):g} | {max(values) if values else float('nan'):g} | "
                      f"{row['relative_spread']:.2%} |")
     write_results("float_paths", {"settings": args.settings, "readme": README.read_text(), "numbers": table,
-                                  "failed": failed}, "\n".join(lines))
+                                  "other_shapes": shapes, "failed": failed, "runs": runs}, "\n".join(lines))
     print("\n".join(lines))
 
 
