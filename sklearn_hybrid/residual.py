@@ -57,7 +57,7 @@ class MLP(nn.Module):
     Notes
     -----
     The network reads its inputs standardised and writes its output in units
-    of the data (see :meth:`set_scales`, which ``fit`` calls with the scales
+    of the data (see ``set_scales``, which ``fit`` calls with the scales
     the data carry): its weights stay of order one whatever units the
     science function is written in, so that the learning rate and the SAM
     radius mean the same in seconds or milliseconds.
