@@ -108,3 +108,38 @@ def test_a_fit_that_is_not_usable_prints_the_data_scales():
         HybridRegressor(science=decay_f, dt=dt, random_state=0, lr=1e-12, max_iter=30, tol=None).fit(X, y)
     messages = [str(w.message) for w in caught if issubclass(w.category, ConvergenceWarning)]
     assert messages and "The data's scales: state spread" in messages[0], messages
+
+
+def _driven(v, u, k=1.0, g=0.5):
+    """A mass on a spring driven by a force u (position, velocity)."""
+    return torch.stack([v[:, 1], -k * v[:, 0] + g * u[:, 0]], dim=-1)
+
+
+@pytest.mark.parametrize("T, S", [(1e3, 1.0), (1.0, 1e-3), (1e-2, 1e2)])
+def test_a_forced_partially_observed_ode_in_other_units_is_the_order_one_fit(T, S):
+    """Inputs u (in their own unit, unchanged) and a velocity nobody observes: x in units x S, time x T, so the
+    velocity is in S / T, k per T^2 and g in S / T^2 per unit of u."""
+    from sklearn_hybrid import pack_inputs
+
+    rng = np.random.default_rng(0)
+    n, m, dt = 10, 12, 0.2
+    t = np.arange(m + 1) * dt
+    u = np.sin(2 * np.pi * rng.uniform(0.3, 0.8, (n, 1)) * t)[:, :, None]
+    x0 = rng.uniform(-1, 1, size=(n, 2))
+    with torch.no_grad():
+        def rhs(v, u_):
+            return _driven(v, u_, k=1.6, g=0.8) - 0.3 * torch.stack([0 * v[:, 1], v[:, 1]], dim=-1)
+
+        y = integrate(rhs, torch.as_tensor(x0), m, dt, n_substeps=8,
+                      u_fine=torch.as_tensor(np.repeat(u, 16, axis=1)[:, : 16 * m + 1])).numpy()[..., :1]
+    settings = dict(random_state=0, max_iter=60, tol=None, n_inputs=1, observed=[0])
+    ref = HybridRegressor(science=_driven, dt=dt, **settings).fit(pack_inputs(x0, u), y.astype(np.float32))
+
+    def driven_in_units(v, u, k=1.0 / T ** 2, g=0.5 * S / T ** 2):
+        return _driven(v, u, k=k, g=g)
+
+    X = pack_inputs(x0 * np.array([S, S / T]), u)
+    est = HybridRegressor(science=driven_in_units, dt=dt * T, **settings).fit(X, (y * S).astype(np.float32))
+    assert est.theta_["k"] * T ** 2 == pytest.approx(ref.theta_["k"], rel=1e-3)
+    assert est.theta_["g"] * T ** 2 / S == pytest.approx(ref.theta_["g"], rel=1e-3)
+    assert ref.theta_["k"] != pytest.approx(1.0, rel=0.02)  # it moved
