@@ -143,3 +143,21 @@ def test_a_forced_partially_observed_ode_in_other_units_is_the_order_one_fit(T, 
     assert est.theta_["k"] * T ** 2 == pytest.approx(ref.theta_["k"], rel=1e-3)
     assert est.theta_["g"] * T ** 2 / S == pytest.approx(ref.theta_["g"], rel=1e-3)
     assert ref.theta_["k"] != pytest.approx(1.0, rel=0.02)  # it moved
+
+
+def test_a_bootstrap_member_of_an_ode_trains_in_its_resample_s_scales():
+    """The stacked bootstrap's member takes the steps a separate fit on its resample takes: its network in the
+    scales of the resample (weights counting samples), its gradients in units of the resample's variance."""
+    from sklearn.base import clone
+
+    from sklearn_hybrid.identifiability import bootstrap_theta
+
+    X, y, dt = _data(n=8, n_steps=5)
+    est = HybridRegressor(science=decay_f, dt=dt, n_substeps=1, residual={"hidden": (8,)}, max_iter=15, tol=None,
+                          dtype="float64", random_state=0).fit(X, y)
+    boot = bootstrap_theta(est, X, y, n_resamples=3, random_state=7)
+    rng = np.random.default_rng(7)
+    seeds = [int(s) for s in rng.integers(0, 2**31 - 1, 3)]
+    weights = rng.multinomial(len(y), np.full(len(y), 1 / len(y)), size=3).astype(float)
+    alone = clone(est).set_params(random_state=seeds[1]).fit(X, y, sample_weight=weights[1])
+    assert boot.samples["k"][1] == pytest.approx(alone.theta_["k"], rel=1e-9)

@@ -104,7 +104,8 @@ def bootstrap_theta(estimator, X, y, params=None, *, n_resamples=20, level=0.95,
     weights = rng.multinomial(n, np.full(n, 1 / n), size=n_resamples).astype(float)
     template = clone(estimator).set_params(**{k: v for k, v in problem.fit.items() if k != "random_state"})
     X_arr, y_arr = np.asarray(X), np.asarray(y)
-    setups = [prepare_fit(clone(template).set_params(random_state=s), X_arr, y_arr) for s in seeds]
+    # each member in the scales of its own resample, as a fit of it alone would be
+    setups = [prepare_fit(clone(template).set_params(random_state=s), X_arr, y_arr, w) for s, w in zip(seeds, weights)]
     n_threads = estimator.n_threads if n_jobs == 1 else 1
     with torch_threads(n_threads):
         history, models = train_members([s.model for s in setups], problem.method, setups[0].inputs, setups[0].y,
