@@ -73,7 +73,6 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
         Initial values overriding the science function's defaults.
     theta_bounds : dict, optional
         ``name -> (low, high)``, enforced by a smooth reparametrisation.
-
     theta_fixed : list of str or dict, optional
         Parameters kept constant: a list keeps them at their initial value
         (``theta_init`` or the default); a dict ``{"omega": 0.6}`` fixes each

@@ -93,8 +93,8 @@ class _StackedModel:
         weights = [self.params[n] for n in layers if n.endswith("weight")]
         biases = [self.params[n] for n in layers if n.endswith("bias")]
         _, _, acts = fast.mlp_parts(self.base.residual)
-        scales = tuple(self.buffers[n] for n in self.buffers if n.startswith("residual.")
-                       and n.rsplit(".", 1)[-1] in ("in_shift", "in_scale", "out_scale"))
+        mlp = "residual.mlp." if hasattr(self.base.residual, "mlp") else "residual."  # a MaskedMLP's own MLP
+        scales = tuple(self.buffers[mlp + b] for b in ("in_shift", "in_scale", "out_scale"))
         weights, biases = fast.full_output(self.base.residual, weights, biases, scales)
         x0, u_fine = inputs[0], (inputs[1] if len(inputs) > 1 else None)
         states = fast.ode_states(science.func, science.names, thetas, weights, biases, acts,
@@ -253,9 +253,9 @@ class _MembersWatch:
         self.thetas = {n: np.empty((config.max_iter, K, *science.shapes[n])) for n in science.names}
         self.diverged = np.full(K, -1)
         self.scale = target_variance(y)
+        floor = theta_floor(science)
         self.stoppers = None if config.tol is None else [
-            EarlyStopping(config.tol, config.n_iter_no_change, self.scale, theta_floor=theta_floor(science))
-            for _ in range(K)]
+            EarlyStopping(config.tol, config.n_iter_no_change, self.scale, theta_floor=floor) for _ in range(K)]
         self.bar = None
 
     def check(self, it, loss, batch):
