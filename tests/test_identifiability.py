@@ -59,7 +59,7 @@ def test_a_parameter_the_network_absorbs_exactly_is_not_identified(offset_profil
     prof = offset_profile
     assert prof.verdicts["b"] == STRUCTURAL
     assert prof.intervals["b"] == (-np.inf, np.inf)
-    assert np.ptp(prof.loss["b"]) < 1e-3 * prof.best_loss
+    assert np.ptp(prof.loss["b"]) < prof.threshold - prof.best_loss
     assert prof.verdicts["a"] == IDENTIFIED
     low, high = prof.intervals["a"]
     assert low < offset_fit.theta_["a"] < high
@@ -409,3 +409,37 @@ def test_science_intervals_blame_a_model_that_is_not_finite_not_the_data():
     x_bad[3, 1] = -0.5
     with pytest.raises(ValueError, match=r"predictions are not finite.*'_root_m'.*sample 3.*'a'"):
         science_intervals(est, x_bad, y)
+
+
+def _product_f(x, a=1.5, b=1.0):
+    """a and b enter only as their product: the data pin a * b, never a or b."""
+    return a * b * x[:, 0]
+
+
+@pytest.mark.parametrize("max_iter", [10, 40])
+def test_parameters_that_enter_only_as_a_product_are_never_called_identified(max_iter):
+    """Issue 63: each member holds one factor and must move the other a long way to compensate. Within a
+    short budget it cannot, and its loss, still falling, read as a crossing: both came out identified
+    (a: [1.63, 2.19], b: [1.12, 1.40] at 10 iterations, while a * b = 2 fits as well at a = 1). A crossing
+    backed by a member that had not settled is no crossing: the verdict is not settled, never identified."""
+    rng = np.random.default_rng(0)
+    X = rng.uniform(-1, 1, (40, 1))
+    y = 2.0 * X[:, 0] + 0.1 * rng.normal(size=40)
+    est = HybridRegressor(science=_product_f, structure="additive", residual=ZeroResidual(), method="erm", lr=5e-2,
+                          max_iter=300, dtype="float64", random_state=0, verbose=False).fit(X, y)
+    profile = profile_theta(est, X, y, max_iter=max_iter, verbose=False)
+    for label in ("a", "b"):
+        low, high = profile.intervals[label]
+        assert low <= high
+        assert profile.verdicts[label] != IDENTIFIED
+    assert "still falling when their training ended" in profile.report()
+
+
+def test_a_profile_whose_members_all_lie_over_the_threshold_gives_no_reversed_interval():
+    """Issue 63: the threshold comes from the best member of any profile; one whose own members all lie over
+    it was extrapolated backwards on both sides, e.g. a: (1.21725, 0.96132)."""
+    from sklearn_hybrid.identifiability._interval import read_interval
+
+    values = np.array([0.8, 1.0, 1.2, 1.4])
+    (low, high), verdict, _ = read_interval(values, np.array([3.0, 1.5, 1.2, 2.0]), threshold=1.0)
+    assert low <= high and verdict != IDENTIFIED

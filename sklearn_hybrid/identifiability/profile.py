@@ -22,7 +22,7 @@ profiled range; *structurally non-identifiable* (flat) at both ends.
 from __future__ import annotations
 
 import copy
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy import stats
@@ -31,6 +31,8 @@ from ..training.engine import DivergenceError
 from ..training.stacked import evaluate_members, train_members
 from ..methods import ERM
 from .._validation import check_n_jobs, torch_threads
+from ..training.stopping import loss_trend
+from ._interval import IDENTIFIED, PRACTICAL, STRUCTURAL, UNSETTLED, read_interval, refinement
 from ._members import (bounds_of, check_level, entry_values, fitted_problem, member_config,
                        parameter_entries, set_entry)
 
@@ -43,12 +45,6 @@ ADVICE = ("a parameter the data do not identify is the regulariser's choice, not
           "intervals); or fix a parameter known from elsewhere (theta_fixed), declare exact equations, or "
           "collect data that vary what the parameter does")
 
-IDENTIFIED = "identified"
-PRACTICAL = "practically non-identifiable"
-STRUCTURAL = "structurally non-identifiable"
-#: An interval that leaves out the fit's own estimate: the members, trained from the fit with its budget, moved
-#: theta on, so the fit had not converged and neither had the profile: no interval is backed.
-UNSETTLED = "not settled"
 
 
 @dataclass
@@ -62,7 +58,9 @@ class ThetaProfile:
     values, loss : dict of str to ndarray
         The profile of each entry: its values (sorted) and the data loss (mean
         squared error) of members that minimised the plain loss (erm) there:
-        what the data alone allow once the network may compensate.
+        what the data alone allow once the network may compensate.  Members
+        that held another entry (or none) are points too where their loss is
+        under the threshold: the profile there is at most their loss.
     objective : dict of str to ndarray
         With ``objective=True``: the fit's own objective (the loss plus p-reg's
         penalty, or the sharpness-aware loss of the SAM family) at the same
@@ -79,7 +77,9 @@ class ThetaProfile:
         ``"structurally non-identifiable"``, or ``"not settled"`` where the
         profile crosses the threshold on both sides of an interval that leaves
         out the fit's own estimate (more training moved theta: the fit had not
-        converged, and the members, trained with its budget, neither).
+        converged, and the members, trained with its budget, neither), or
+        where a crossing was made by a member that had not settled
+        (``unsettled``).
     objective_minimum : dict of str to float
         Where the method's objective is lowest along the profile: the value of
         theta the regulariser prefers (with ``objective=True``).
@@ -94,6 +94,12 @@ class ThetaProfile:
         Which fit of the estimator was profiled: ``fit_report(profile=...)``
         refuses a profile of another fit, or of this estimator before a refit,
         whose intervals would not be this fit's.
+    unsettled : dict of str to list of float
+        Values beyond an interval whose members crossed the threshold while
+        still moving (their training ended before it met the fit's stopping
+        rule): such a crossing backs no bound, and the verdict is ``"not
+        settled"`` (parameters that enter only as a product with another
+        look identified so, each member unable to move the other far enough).
     """
 
     estimate: dict
@@ -111,6 +117,7 @@ class ThetaProfile:
     objective_minimum: dict = field(default_factory=dict)
     dropped: dict = field(default_factory=dict)
     fit_token: str | None = None
+    unsettled: dict = field(default_factory=dict)
 
     def verdict_text(self, label: str) -> str:
         """What the profile says of one entry, in words, with its interval where identified."""
@@ -118,6 +125,13 @@ class ThetaProfile:
         span = f"[{_fmt(self.values[label][0])}, {_fmt(self.values[label][-1])}]"
         if self.verdicts[label] == IDENTIFIED:
             return f"identified, {100 * self.level:.0f} % interval [{_fmt(low)}, {_fmt(high)}] (profile)"
+        if self.verdicts[label] == UNSETTLED and self.unsettled.get(label):
+            return (f"NOT SETTLED: the profile crosses the threshold at "
+                    f"{[float(_fmt(v)) for v in self.unsettled[label]]} only through members whose loss was "
+                    "still falling when their training ended: their loss is an upper bound of the profile "
+                    "there, not the profile, so no bound is backed (the network or another parameter may "
+                    f"take over this one further on); profile with a larger max_iter (these members trained "
+                    f"{self.n_iter})")
         if self.verdicts[label] == UNSETTLED:
             return (f"NOT SETTLED: the profile's interval [{_fmt(low)}, {_fmt(high)}] leaves out the estimate: "
                     "training on from the fit moved theta, so the fit had not converged and the profile is not "
@@ -215,12 +229,12 @@ def profile_theta(estimator, X, y, params=None, *, grid=None, span=0.5, n_points
     level : float, default=0.95
         Confidence level of the intervals.
     max_iter : int, optional
-        Most iterations of every member from the fit (default: as many as the
-        fit took, ``n_iter_``: no point of the profile gets more training
-        than the estimate got).  The members of a round stop together once
-        every one meets the fit's stopping rule (``tol`` over
-        ``n_iter_no_change`` iterations, on its loss and theta): warm-started
-        from the fit, they settle sooner than the fit did.
+        Iterations of every member from the fit (default: as many as the fit
+        took, ``n_iter_``: no point of the profile gets more training than the
+        estimate got).  A crossing of the threshold made by a member whose
+        loss was still falling at the end (by more than a tenth of the
+        threshold's margin over its last window) backs no bound: the verdict
+        is then "not settled", and a larger ``max_iter`` settles it.
     lr : float, optional
         Learning rate of the members (default: the fit's ``lr`` and ``lr_theta``).
     refine : bool, default=True
@@ -257,8 +271,10 @@ def profile_theta(estimator, X, y, params=None, *, grid=None, span=0.5, n_points
     problem = fitted_problem(estimator, X, y)
     science = problem.model.science
     entries = parameter_entries(science, params)
-    config = member_config(problem.fit, estimator.n_iter_ if max_iter is None else max_iter, lr, verbose,
-                           stop_early=True)
+    # every member trains its whole budget: the fit's stopping rule compares losses to a thousandth of the
+    # variance of y, far coarser than the threshold's margin once the network fits well, and members it
+    # stopped were still falling where they crossed (crossings that moved with training noise)
+    config = member_config(problem.fit, estimator.n_iter_ if max_iter is None else max_iter, lr, verbose)
     grids = _grids(science, entries, grid, span, n_points)
     n_free = sum(int(np.prod(science.shapes[n])) for n in science.names if science.raw[n].requires_grad)
     dof = problem.n_samples - n_free
@@ -268,58 +284,62 @@ def profile_theta(estimator, X, y, params=None, *, grid=None, span=0.5, n_points
     n_threads = estimator.n_threads if n_jobs == 1 else 1
     plain = ERM()  # what the data alone allow: every member minimises the plain loss
     points = [(label, name, k, v) for name, k, label in entries for v in grids[label]]
-    found, free = _train_points(problem, plain, points, config, n_jobs, n_threads, with_free=True)
-    if np.isfinite(free["loss"]):
-        for name, k, label in entries:  # the free member is a point of every profile, at its own theta
-            found[label].append((free["theta"][name][k], free["loss"]))
-    n_iter = free["n_iter"]
+    found, members, n_iter = _train_points(problem, plain, points, config, n_jobs, n_threads, entries,
+                                           with_free=True)
     threshold_of = lambda best: best * (1 + stats.f.ppf(level, 1, dof) / dof)  # noqa: E731
     if refine:
-        best = min(p[1] for rows in found.values() for p in rows)
+        first = _with_members(found, members, threshold_of(_best(members)))
         extra = [(label, name, k, v) for name, k, label in entries
-                 for v in _refinement(found[label], threshold_of(best))]
+                 for v in refinement(first[label], threshold_of(_best(members)))]
         if extra:
-            more, second = _train_points(problem, plain, extra, config, n_jobs, n_threads)
-            n_iter = max(n_iter, second["n_iter"])
+            more, more_members, second = _train_points(problem, plain, extra, config, n_jobs, n_threads, entries)
+            n_iter, members = max(n_iter, second), members + more_members
             for label, rows in more.items():
                 found[label] += rows
-    dropped = {label: sorted(v for v, loss in rows if not np.isfinite(loss)) for label, rows in found.items()}
-    found = {label: [(v, loss) for v, loss in rows if np.isfinite(loss)] for label, rows in found.items()}
-    short = [label for label, rows in found.items() if len(rows) < 3]
+    dropped = {label: sorted(row[0] for row in rows if not np.isfinite(row[1])) for label, rows in found.items()}
+    found = {label: [row for row in rows if np.isfinite(row[1])] for label, rows in found.items()}
+    free = np.isfinite(members[0]["loss"])  # the free member is a point of every profile
+    short = [label for label, rows in found.items() if len(rows) + free < 3]
     if short:
         raise DivergenceError(
             f"The profile of {short} has fewer than 3 values whose training did not diverge (left out: "
             f"{ {k: dropped[k] for k in short} }): no interval can be read from it. Profile with a lower lr "
             "(profile_theta(..., lr=...)) or a narrower span.")
-    best = float(min(p[1] for rows in found.values() for p in rows))
+    best = _best(members)
     out = ThetaProfile(estimate={}, values={}, loss={}, objective={}, threshold=threshold_of(best), best_loss=best,
                        level=level, n_samples=problem.n_samples, n_iter=int(n_iter), method=problem.method.name,
                        dropped={k: v for k, v in dropped.items() if v}, fit_token=getattr(estimator, "_fit_token", None))
+    rows = _with_members(found, members, out.threshold)
     for name, k, label in entries:
-        values, loss = (np.array(c) for c in zip(*sorted(found[label])))
+        values, loss, fall, carried = (np.array(c) for c in zip(*sorted(rows[label])))
         out.estimate[label] = float(entry_values(science, name)[k])
         out.values[label], out.loss[label] = values, loss
-        out.intervals[label], out.verdicts[label] = _interval(values, loss, out.threshold)
+        out.intervals[label], out.verdicts[label], unsettled = read_interval(values, loss, out.threshold, fall,
+                                                                                    carried)
+        if unsettled:
+            out.unsettled[label] = unsettled
         low, high = out.intervals[label]
         if out.verdicts[label] == IDENTIFIED and not low <= out.estimate[label] <= high:
             out.verdicts[label] = UNSETTLED
     if objective:  # the method's own objective, each member trained on it, at the plain profile's values
         at = [(label, name, k, v) for name, k, label in entries for v in out.values[label]]
-        regularised, _ = _train_points(problem, problem.method, at, config, n_jobs, n_threads, objective=True)
+        regularised, _, _ = _train_points(problem, problem.method, at, config, n_jobs, n_threads, objective=True)
         for label, rows in regularised.items():
             out.objective[label] = np.array([row[1] for row in sorted(rows)])
             out.objective_minimum[label] = float(out.values[label][np.argmin(out.objective[label])])
     return out
 
 
-def _train_points(problem, method, points, config, n_jobs, n_threads, with_free=False, objective=False):
+def _train_points(problem, method, points, config, n_jobs, n_threads, entries=(), with_free=False,
+                  objective=False):
     """Train one member per ``(label, name, k, value)`` point with ``method``, entry ``k`` of ``name``
     held at ``value``, warm-started from the fit (and, ``with_free``, one member that holds nothing).
 
-    Returns ``{label: [(value, loss), ...]}`` (the data loss, or with ``objective`` the method's
-    objective) and a dict: the free member's ``theta`` (name -> flat values) and ``loss`` (None
-    without it), and ``n_iter``, the iterations the round trained.  A member whose training diverged
-    has an infinite loss.
+    Returns ``{label: [(value, loss, fall, carried), ...]}`` (the data loss, or with ``objective`` the
+    method's objective; ``fall``, ``carried``: how fast the member's loss was still falling, see
+    :func:`_trends`), the members as dicts (``held``: the label held, None for the free member; ``at``: the
+    value of every one of ``entries``; ``loss``; ``trend``: its ``(fall, carried)``) and the iterations the round trained.  A member whose training
+    diverged has an infinite loss.
     """
     science = problem.model.science
     models = [copy.deepcopy(problem.model)] if with_free else []
@@ -338,42 +358,48 @@ def _train_points(problem, method, points, config, n_jobs, n_threads, with_free=
         scores = evaluate_members(models, method, problem.inputs, problem.y, config)
     value = scores["objective" if objective else "loss"]
     loss = np.where(np.isfinite(value) & (history["diverged_at"] < 0), value, np.inf)
+    trends = _trends(history, config)
     found = {}
     for i, (label, name, k, v) in enumerate(points):
-        found.setdefault(label, []).append((float(v), float(loss[offset + i])))
-    free = {"theta": None, "loss": None, "n_iter": int(history["n_iter"])}
-    if with_free:
-        free.update(theta={n: entry_values(models[0].science, n) for n in science.names}, loss=float(loss[0]))
-    return found, free
+        found.setdefault(label, []).append((float(v), float(loss[offset + i]), *trends[offset + i]))
+    labels = [None] * offset + [label for label, _, _, _ in points]
+    members = [{"held": labels[i], "loss": float(loss[i]), "trend": trends[i],
+                "at": {label: float(entry_values(models[i].science, name)[k]) for name, k, label in entries}}
+               for i in range(len(models))]
+    return found, members, int(history["n_iter"])
 
 
-def _refinement(rows, threshold):
-    """Values that pin the profile's crossings of ``threshold`` between two coarse points.
+def _trends(history, config) -> list[tuple[float, float]]:
+    """Each member's fall of loss over its last window and that fall carried on
+    (:func:`~sklearn_hybrid.training.stopping.loss_trend`): a member still falling ended wherever its
+    budget ran out, and its loss is only an upper bound of the profile there."""
+    return [loss_trend(history["loss"][:, k], config.n_iter_no_change) for k in range(history["loss"].shape[1])]
 
-    Near its minimum a profile is a parabola; through the minimum and the first
-    point beyond the threshold on a side it puts the crossing at ``c``; the
-    points ``c`` and ``c +/- 10 %`` of its distance from the minimum (inside
-    the bracket) are trained next, so that the crossing is interpolated
-    between near points rather than across a coarse grid step.
+
+def _best(members) -> float:
+    """The lowest data loss of any member: the profiles' common minimum, from which the threshold is read."""
+    return float(min(m["loss"] for m in members))
+
+
+def _with_members(found, members, threshold) -> dict:
+    """Each profile's rows with the other members' values of its entry added.
+
+    A profile is a minimum over everything but its entry, so a member that held another entry, or none,
+    shows that the profile at its own value of this entry is at most its loss.  The free member is a
+    point of every profile (as it always was); another member is added where its loss is under the
+    threshold, where it proves its value inside the confidence set: a parameter that another compensates
+    (one that enters only as a product with it) is found so over the values the compensation reached, and
+    the member whose loss set the threshold lies under it in every profile, so none has nothing under it.
+    A member over the threshold is not added: it is only an upper bound, no crossing.
     """
-    values, loss = (np.array(c) for c in zip(*sorted(rows)))
-    m = int(np.argmin(loss))
-    out = []
-    for step in (-1, 1):
-        i = m
-        while 0 <= i + step < len(values) and loss[i + step] <= threshold:
-            i += step
-        if not 0 <= i + step < len(values) or not np.isfinite(loss[i + step]):
-            continue  # open on this side, or a diverged member beyond: nothing to pin
-        inside, outside = values[i], values[i + step]
-        curvature = (loss[i + step] - loss[m]) / (outside - values[m]) ** 2
-        if curvature <= 0:
+    rows = {label: list(r) for label, r in found.items()}
+    for member in members:
+        if not np.isfinite(member["loss"]) or (member["held"] is not None and member["loss"] > threshold):
             continue
-        c = values[m] + step * np.sqrt(max(threshold - loss[m], 0.0) / curvature)
-        lo, hi = sorted((inside, outside))
-        delta = 0.1 * abs(c - values[m])
-        out += [v for v in (c - delta, c, c + delta) if lo < v < hi]
-    return out
+        for label, value in member["at"].items():
+            if label != member["held"]:
+                rows[label].append((value, member["loss"], *member["trend"]))
+    return rows
 
 
 def _grids(science, entries, grid, span, n_points):
@@ -403,29 +429,3 @@ def _grids(science, entries, grid, span, n_points):
         grids[label] = values
     return grids
 
-
-def _interval(values, loss, threshold):
-    """The interval spanning every value of sorted ``values`` whose profile ``loss`` is under ``threshold``
-    (linear interpolation at the outermost crossings), and the verdict.
-
-    The confidence set is every value the data allow, not only those next to the minimum: a profile that
-    rises over the threshold and falls back under it further out (members that settled unevenly, or a
-    second region that fits as well) is not cut at its first crossing, and where it is back under the
-    threshold at the end of the profiled range that side is open.
-    """
-    under = np.flatnonzero(loss <= threshold)
-    if not under.size:  # no value under the threshold of the best one: an interval around the least bad
-        under = np.array([int(np.argmin(loss))])
-    sides = []
-    for i, step, end in ((under[0], -1, -1), (under[-1], 1, len(values))):
-        if i + step == end:
-            sides.append(None)  # under the threshold at the end of the range
-            continue
-        a, b = loss[i], loss[i + step]
-        t = 1.0 if not np.isfinite(b) else (threshold - a) / (b - a)
-        sides.append(values[i] + t * (values[i + step] - values[i]))
-    low = -np.inf if sides[0] is None else float(sides[0])
-    high = np.inf if sides[1] is None else float(sides[1])
-    open_sides = (sides[0] is None) + (sides[1] is None)
-    verdict = IDENTIFIED if open_sides == 0 else STRUCTURAL if open_sides == 2 else PRACTICAL
-    return (low, high), verdict

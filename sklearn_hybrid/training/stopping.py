@@ -12,7 +12,7 @@ from collections import deque
 import numpy as np
 import torch
 
-__all__ = ["EarlyStopping", "SpikeGuard", "target_variance", "weighted_variance", "theta_floor"]
+__all__ = ["EarlyStopping", "SpikeGuard", "target_variance", "weighted_variance", "theta_floor", "loss_trend"]
 
 
 def target_variance(y) -> float:
@@ -106,6 +106,30 @@ class EarlyStopping:
         scale = np.maximum(np.abs(current[1]), self.theta_floor)
         moved = bool(np.any(np.abs(current[1] - previous[1]) > self.tol * scale))
         return not improved and not moved
+
+
+def loss_trend(losses: np.ndarray, n_iter_no_change: int) -> tuple[float, float]:
+    """How fast a training that has ended was still improving: the fall of its mean loss over the last
+    window, and that fall carried on for as many iterations as were trained.
+
+    A training that ran out of iterations ends wherever it is: its last loss is then only an upper bound of
+    the minimum it was heading for (a profile member that must move another parameter a long way to
+    compensate the one it holds is still falling when its budget ends).  The windows are those of
+    :class:`EarlyStopping`, at most a quarter of the iterations each, so that the first half, where a
+    warm-started member recovers from the value it was moved to, is left out.  Only the loss is read, not
+    theta: a parameter drifting along a flat direction (traded with the network) leaves the loss where it is.
+
+    Returns
+    -------
+    fall, carried : float
+        Both at least 0; ``inf`` where fewer than four iterations were trained (nothing to compare).
+    """
+    n = len(losses)
+    window = min(int(n_iter_no_change), n // 4)
+    if window < 1:
+        return np.inf, np.inf
+    fall = max(float(np.mean(losses[n - 2 * window:n - window]) - np.mean(losses[n - window:])), 0.0)
+    return fall, fall * n / window
 
 
 class SpikeGuard:
