@@ -72,5 +72,6 @@ def member_row(system, method, label, true, got):
                coverage_identified=float(covered[ident].mean()) if ident.any() else None,
                miss_identified=float((ident & ~covered).mean()),
                width_over_rms=float(np.mean((high - low)[ident]) / rms) if ident.any() and rms > 0 else None,
-               expected_not_identified=label in system.not_identifiable and method != "loop")
+               expected_not_identified=(label in system.not_identifiable and method != "loop")
+               or label in system.product_pair)
     return row

@@ -37,6 +37,7 @@ class System:
     state_names: list
     units: dict
     not_identifiable: tuple = ()  # parameters a network can absorb exactly (hybrid fits)
+    product_pair: tuple = ()  # parameters that enter only as a product: no data identify them (every method)
     complete: bool = False
     extra: dict = field(default_factory=dict)
 
@@ -117,6 +118,19 @@ def _damped_spring(repeat):  # mechanics: the science is complete
     return X, y, 0.2
 
 
+def cooled_plate_f(v, h=0.35, A=1.5):
+    """Newton cooling of a plate towards 1 (100 K) through its area A with transfer coefficient h: only h * A
+    enters, so no data identify h or A alone."""
+    return -h * A * (v - 1.0)
+
+
+def _cooled_plate(repeat):  # heat: h and A enter only as a product; a radiative-like loss -0.1 T^2 missing
+    rng = np.random.default_rng(7000 + repeat)
+    x0 = rng.uniform(0.5, 3.0, (N_TRAIN, 1))
+    X, y = _noisy(_simulate(lambda v: -0.5 * 1.0 * (v - 1.0) - 0.1 * v ** 2, x0, 0.5, 10), 0.01, rng)
+    return X, y, 0.5
+
+
 SYSTEMS = {s.name: s for s in [
     System("pendulum", "mechanics (paper)", "damping -0.5 v_dot", pendulum_f, {"omega": 2 / 3}, {"omega": 0.5},
            _pendulum, ["v", "v_dot"], {"v": "rad", "v_dot": "rad/s"}),
@@ -132,6 +146,10 @@ SYSTEMS = {s.name: s for s in [
            not_identifiable=("q",)),
     System("damped_spring", "mechanics", "nothing (complete science)", spring_f, {"k": 2.0, "c": 0.3},
            {"k": 1.5, "c": 0.2}, _damped_spring, ["x", "x_dot"], {"x": "m", "x_dot": "m/s"}, complete=True),
+    # issue 63: a structurally non-identifiable pair, added after the profile had called one identified
+    System("cooled_plate", "heat", "loss -0.1 T^2; h and A enter only as h * A (structurally non-identifiable)",
+           cooled_plate_f, {"h": 0.5, "A": 1.0}, {"h": 0.35, "A": 1.5}, _cooled_plate, ["T"], {"T": "100 K"},
+           product_pair=("h", "A")),
 ]}
 
 
