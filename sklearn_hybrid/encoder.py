@@ -38,7 +38,7 @@ from typing import Sequence
 import torch
 from torch import nn
 
-from .residual import make_activation, from_registry, new_module
+from .residual import from_registry, make_activation, new_module, refuse_instance
 
 __all__ = ["ThetaEncoder", "PerSampleScience", "build_encoder", "make_theta_encoder", "ENCODERS",
            "MLPEncoder", "ConvEncoder"]
@@ -153,14 +153,8 @@ def build_encoder(spec, in_shape: tuple, n_out: int,
     -------
     torch.nn.Module
     """
-    if isinstance(spec, nn.Module):
-        name = type(spec).__name__
-        raise TypeError(
-            f"theta_encoder is a {name} instance. Pass a factory rather than a module instance "
-            f"(e.g. `theta_encoder=lambda in_shape, n_out: {name}(...)`, a new encoder each "
-            "call), so that every fit starts from a fresh encoder and the estimator stays "
-            "clonable."
-        )
+    refuse_instance("theta_encoder", spec, "`theta_encoder=lambda in_shape, n_out: {name}(...)` (a new encoder "
+                    "each call)")
     if callable(spec):
         return new_module(spec(tuple(in_shape), int(n_out)), "theta_encoder").to(dtype)
     module = from_registry("theta_encoder", spec, ENCODERS, (tuple(in_shape), int(n_out)), dtype)

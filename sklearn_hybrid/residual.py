@@ -15,7 +15,7 @@ import torch
 from torch import nn
 
 __all__ = ["MLP", "MaskedMLP", "ConvNet", "MLPOn", "ZeroResidual", "build_residual", "RESIDUALS", "new_module",
-           "from_registry", "is_zero_residual"]
+           "from_registry", "refuse_instance", "is_zero_residual"]
 
 _ACTIVATIONS = {"relu": nn.ReLU, "tanh": nn.Tanh, "elu": nn.ELU, "gelu": nn.GELU,
                 "silu": nn.SiLU, "leaky_relu": nn.LeakyReLU, "softplus": nn.Softplus}
@@ -268,6 +268,19 @@ def new_module(module, what: str) -> nn.Module:
     return module
 
 
+def refuse_instance(what: str, spec, example: str) -> None:
+    """Raise a TypeError when ``spec`` is a module instance rather than a factory: a fit must start from a
+    fresh network, and a clone must not share one.  ``example`` shows the factory's call, ``{name}`` standing
+    for the instance's class.  Shared by the residual and theta-encoder specifications."""
+    if isinstance(spec, nn.Module):
+        name = type(spec).__name__
+        raise TypeError(
+            f"{what} is a {name} instance. Pass a factory rather than a module instance, "
+            f"e.g. {example.format(name=name)}, so that every fit starts from a fresh network and "
+            "the estimator stays clonable."
+        )
+
+
 def from_registry(what: str, spec, registry: dict, args: tuple, dtype: torch.dtype) -> nn.Module:
     """Build ``registry[kind](*args, **options)`` from a name or a dict ``{"kind": ..., **options}``.
 
@@ -322,14 +335,8 @@ def build_residual(spec, in_shapes: Sequence[tuple] | None, out_shape: tuple | N
     -------
     torch.nn.Module
     """
-    if isinstance(spec, nn.Module):
-        name = type(spec).__name__
-        raise TypeError(
-            f"residual is a {name} instance. Pass a factory rather than a module instance, "
-            f"e.g. `residual=lambda: {name}(...)` (a new network each call) or "
-            "`residual=lambda in_shapes, out_shape: ...`, so that every fit starts from a "
-            "fresh network and the estimator stays clonable."
-        )
+    refuse_instance("residual", spec, "`residual=lambda: {name}(...)` (a new network each call) or "
+                    "`residual=lambda in_shapes, out_shape: ...`")
     if callable(spec):
         wants_shapes = in_shapes is not None and _takes_arguments(spec)
         module = spec(tuple(in_shapes), tuple(out_shape)) if wants_shapes else spec()
