@@ -68,6 +68,25 @@ def test_gridsearch_theta_scorer(pendulum):
     assert valid.shape == (2, 2)
 
 
+def test_gridsearch_over_a_setting_of_the_method_object(pendulum):
+    """Issue 64: ``method=SAM()`` with a grid over ``method__rho`` searches the same fits as the flat ``rho``
+    grid of ``method="sam"``, and leaves the user's method object as it was."""
+    from sklearn_hybrid.methods import SAM
+
+    scorer = make_theta_scorer({"omega": 2 / 3})
+    method = SAM(rho=0.05)
+    nested = GridSearchCV(HybridRegressor(science=pendulum_f, dt=0.2, method=method, **{**FAST, "max_iter": 10}),
+                          {"method__rho": [0.01, 0.1]}, scoring=scorer, cv=2).fit(pendulum.X_train,
+                                                                                   pendulum.y_train)
+    flat = GridSearchCV(HybridRegressor(science=pendulum_f, dt=0.2, method="sam", **{**FAST, "max_iter": 10}),
+                        {"rho": [0.01, 0.1]}, scoring=scorer, cv=2).fit(pendulum.X_train, pendulum.y_train)
+    np.testing.assert_allclose(nested.cv_results_["mean_test_score"], flat.cv_results_["mean_test_score"])
+    assert nested.best_params_["method__rho"] == flat.best_params_["rho"]
+    assert nested.best_estimator_.method.rho == flat.best_params_["rho"] and method.rho == 0.05
+    with pytest.raises(ValueError, match="Invalid parameter 'rh' for method SAM; its settings are"):
+        HybridRegressor(science=pendulum_f, method=SAM()).set_params(method__rh=0.1)
+
+
 def test_gridsearch_parallel(pendulum):
     est = HybridRegressor(science=pendulum_f, dt=0.2, **{**FAST, "max_iter": 5})
     search = GridSearchCV(est, {"rho": [0.01, 0.1]}, cv=2, n_jobs=2,

@@ -91,6 +91,24 @@ class Method:
         ``n_batch_dims=1`` norms are taken per member."""
         raise NotImplementedError
 
+    def get_params(self, deep: bool = True) -> dict:
+        """The method's settings (its dataclass fields), as scikit-learn reads an estimator's: so that
+        ``GridSearchCV(HybridRegressor(method=SAM()), {"method__rho": [...]})`` searches a setting of the
+        method object and ``clone`` copies it."""
+        return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+
+    def set_params(self, **params) -> "Method":
+        """Set settings by name, as scikit-learn's ``set_params``; an unknown name is an error that lists
+        the method's settings."""
+        fields = {f.name for f in dataclasses.fields(self)}
+        unknown = sorted(set(params) - fields)
+        if unknown:
+            raise ValueError(f"Invalid parameter {unknown[0]!r} for method {type(self).__name__}; its "
+                             f"settings are {sorted(fields)}.")
+        for name, value in params.items():
+            setattr(self, name, value)
+        return self
+
     def for_members(self, **values) -> "Method":
         """A copy with per-member hyperparameters, e.g. ``for_members(rho=[0.01, 0.1])``
         (a single number sets it for all).
