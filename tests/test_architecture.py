@@ -2,6 +2,7 @@
 import circle joins the package's modules."""
 
 import ast
+import re
 from pathlib import Path
 
 import pytest
@@ -213,3 +214,19 @@ def test_no_import_circle_in_the_package():
 
 def test_no_module_reaches_into_a_fitted_estimator():
     assert _estimator_private_uses() == []
+
+
+def test_every_module_and_benchmark_file_is_on_the_architecture_map():
+    """doc/architecture.rst draws the package and the benchmarks as they are: every module of the package
+    (a package by its folder's name) and every Python file of benchmarks/ is named on it."""
+    text = (ROOT / "doc" / "architecture.rst").read_text()
+    words = set(re.findall(r"[A-Za-z_][A-Za-z0-9_]*", text))
+    missing = []
+    for folder in ("sklearn_hybrid", "benchmarks"):
+        for path in sorted((ROOT / folder).rglob("*.py")):
+            if "results" in path.parts:
+                continue
+            name = path.parent.name if path.name == "__init__.py" else path.stem
+            if name not in words:
+                missing.append(str(path.relative_to(ROOT)))
+    assert not missing, f"not on doc/architecture.rst's map: {missing}"
