@@ -1258,3 +1258,17 @@ def test_a_stiffer_chosen_model_is_refitted_with_the_steps_it_needs():
     fixed = HybridRegressor(science=_slow_oscillator_f, dt=0.2, n_substeps=1, method="erm", max_iter=2,
                             residual={"hidden": (8,)}, random_state=0).fit(X, y)
     assert accurate_substeps(ScienceFit(fixed, X, y), _with_dry_friction, {"k": 0.5, "mu": 0.3}) is None
+
+
+def test_the_selection_log_says_not_chosen_for_a_candidate_that_passed_the_test_but_lost():
+    """Issue 63: candidates with z = 7-8 printed "no" in the accepted column, which reads as rejected by the
+    data; one that passed the evidence test and lost to a better one of its step is "not chosen"."""
+    from sklearn_hybrid.diagnosis import format_table
+
+    rows = [{"stage": "before", "rmse": 0.1, "theta": {"a": 1.0}}]
+    step = {"step": 1, "output": "x", "kind": "power", "mse_before": 1.0}
+    steps = [{**step, "term": "x^2", "mse_after": 0.5, "gain": 0.5, "z": 8.0, "accepted": True},
+             {**step, "term": "x^3", "mse_after": 0.6, "gain": 0.4, "z": 7.0, "accepted": False},
+             {**step, "term": "x^4", "mse_after": 0.99, "gain": 0.01, "z": 0.3, "accepted": False}]
+    log = [line for line in format_table(rows, steps=steps, n_validation=40).splitlines() if line.startswith("| 1")]
+    assert [line.rsplit("|", 2)[-2].strip() for line in log] == ["yes", "not chosen", "no"]

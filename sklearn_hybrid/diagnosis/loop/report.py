@@ -258,6 +258,7 @@ def format_table(rows: list[dict], added: Sequence[dict] = (), steps: Sequence[d
                   + _joint_words(steps) + ":", "",
                   "| step | output | term | kind | validation MSE before | after | gain | z | accepted |",
                   "|---|---|---|---|---|---|---|---|---|"]
+        bar = critical_value(z, n_validation or 0)
         for s in steps:
             s = {**s, "term": s["term"].replace("|", "\\|")}  # a bar inside a cell would split it
             if "failed" in s:
@@ -265,7 +266,7 @@ def format_table(rows: list[dict], added: Sequence[dict] = (), steps: Sequence[d
                 continue
             lines.append(f"| {s['step']} | {s['output']} | {s['term']} | {s['kind']} | {s['mse_before']:.4g} | "
                          f"{s['mse_after']:.4g} | {format_gain(s['gain'])} | {s['z']:.1f} | "
-                         f"{'dropped' if s.get('dropped') else 'yes' if s['accepted'] else 'no'} |")
+                         f"{_verdict_word(s, min_gain, bar)} |")
     lines.append("")
     if added:
         for t in added:
@@ -286,6 +287,16 @@ def format_table(rows: list[dict], added: Sequence[dict] = (), steps: Sequence[d
                            if k in unexplained["components"])
         lines.append(f"Not explained by the final science model (RMS share of what the hybrid learned): {shares}.")
     return "\n".join(lines)
+
+
+def _verdict_word(step: dict, min_gain: float, bar: float) -> str:
+    """The selection log's last column: a candidate that passed the evidence test but lost to a better one
+    of its step is "not chosen", not "no" (which reads as rejected by the data)."""
+    if step.get("dropped"):
+        return "dropped"
+    if step["accepted"]:
+        return "yes"
+    return "not chosen" if step["gain"] >= min_gain and step["z"] > bar else "no"
 
 
 class LoopResult(Bunch):
