@@ -1272,3 +1272,20 @@ def test_the_selection_log_says_not_chosen_for_a_candidate_that_passed_the_test_
              {**step, "term": "x^4", "mse_after": 0.99, "gain": 0.01, "z": 0.3, "accepted": False}]
     log = [line for line in format_table(rows, steps=steps, n_validation=40).splitlines() if line.startswith("| 1")]
     assert [line.rsplit("|", 2)[-2].strip() for line in log] == ["yes", "not chosen", "no"]
+
+
+def test_the_report_opens_with_a_poor_hybrid_fit_and_its_numbers():
+    """Issue 63: a first hybrid whose test error was 0.31 against 0.086 for the final network-free model
+    went unmentioned. The report's first line now says so, with both numbers; a hybrid as good as the
+    network-free model (or without test errors) adds nothing."""
+    from sklearn_hybrid.diagnosis import format_table
+
+    def rows(before):
+        return [{"stage": "before", "rmse": before, "theta": {"a": 1.0}},
+                {"stage": "science only", "rmse": 0.086, "theta": {"a": 1.1}}]
+
+    first = format_table(rows(0.31)).splitlines()[0]
+    assert first.startswith("POOR HYBRID FIT") and "0.31" in first and "0.086" in first and "3.6 times" in first
+    assert "POOR" not in format_table(rows(0.09))
+    assert "POOR" not in format_table([{"stage": "before", "theta": {"a": 1.0}},
+                                       {"stage": "science only", "theta": {"a": 1.1}}], tested=False)

@@ -230,7 +230,7 @@ def format_table(rows: list[dict], added: Sequence[dict] = (), steps: Sequence[d
     metrics = list(dict.fromkeys(k for r in rows for k in r if k not in skip))
     names = list(dict.fromkeys(k for r in rows for k in r["theta"]))
     head = ["stage", *metrics, *names]
-    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    lines = _poor_fit_lines(rows) + ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for r in rows:
         cells = [r["stage"]] + [f"{r.get(m, float('nan')):.4g}" for m in metrics]
         for n in names:
@@ -287,6 +287,29 @@ def format_table(rows: list[dict], added: Sequence[dict] = (), steps: Sequence[d
                            if k in unexplained["components"])
         lines.append(f"Not explained by the final science model (RMS share of what the hybrid learned): {shares}.")
     return "\n".join(lines)
+
+
+#: The first hybrid's test error over the final network-free model's beyond which the hybrid is called poor: a
+#: hybrid holds the network-free model's terms' worth of freedom in its network, so a well-trained one is not
+#: worse by more than its overfitting of the noise.
+POOR_FIT_RATIO = 1.5
+
+
+def _poor_fit_lines(rows: list[dict]) -> list[str]:
+    """The report's first lines when the first hybrid fit predicts the test data clearly worse than the final
+    network-free model: its theta, and the residual the selection read from it, come from a network that
+    did not learn what the science misses."""
+    first = next((r for r in rows if r["stage"] == "before"), {})
+    final = next((r for r in rows if r["stage"] == "science only"), {})
+    hybrid, alone = first.get("rmse"), final.get("rmse")
+    if hybrid is None or alone is None or not np.isfinite(hybrid) or not alone > 0 \
+            or hybrid <= POOR_FIT_RATIO * alone:
+        return []
+    return [f"POOR HYBRID FIT: the first hybrid's test error (rmse {hybrid:.4g}) is {hybrid / alone:.1f} times "
+            f"the final network-free model's ({alone:.4g}). Its network did not learn what the science misses "
+            "(too few iterations, a learning rate too high or too low, a network too small), so its theta "
+            "('before') is not to be read; the network-free model is the answer, its intervals from its own "
+            "refit. A better first fit (est.fit_report() says how it ended) may let the loop find more.", ""]
 
 
 def _verdict_word(step: dict, min_gain: float, bar: float) -> str:
