@@ -70,6 +70,17 @@ class ScienceIntervals:
     spans_forms: set = field(default_factory=set)
     #: why no interval could be given (too few samples for a cluster-robust covariance), or None
     unavailable: str | None = None
+    #: how far each estimate can be from an exact integration's (set by ``widen_for_step``), per label
+    step_error: dict = field(default_factory=dict)
+
+    def widen_for_step(self, error: Mapping[str, float]) -> None:
+        """Widen each interval by how far its estimate can be off through the integration's finite step
+        (``error``: per label, e.g. from halving the step), which the noise-only interval does not see."""
+        self.step_error = dict(error)
+        for label, e in self.step_error.items():
+            if self.verdicts.get(label) in ("identified", "conditional") and e > 0:
+                low, high = self.intervals[label]
+                self.intervals[label] = (low - e, high + e)
 
     def widen(self, label: str, values: Sequence[float]) -> None:
         """Widen ``label``'s interval to hold ``values``: its estimates under other forms of a chosen
@@ -109,6 +120,11 @@ class ScienceIntervals:
                 lines.append(f"    {label}: {self.estimate[label]:.6g}  NOT IDENTIFIED: the model may be incomplete")
             else:
                 lines.append(f"    {label}: {self.estimate[label]:.6g}  NOT IDENTIFIED by these data")
+        material = {k: e for k, e in self.step_error.items() if self.verdicts.get(k) in ("identified", "conditional")
+                    and e > 0.1 * (self.intervals[k][1] - self.intervals[k][0]) / 2}
+        if material:
+            lines.append("    (the integration's step moves " + ", ".join(f"{k} by {e:.3g}" for k, e in material.items())
+                         + ": each interval is widened by it; a finer step (n_substeps) narrows it)")
         if self.incomplete:
             lines.append(f"    ({self.incomplete}; its intervals would assume a complete model)")
         elif any(v == "conditional" for v in self.verdicts.values()):

@@ -34,7 +34,7 @@ from .caveats import left_unexplained, mirror_trades, open_question, weigh_rival
 from .report import LoopResult, Scoring, format_table, residual_profile
 from ..sensitivity import state_labels, science_output
 from ..science_fit import ScienceFit
-from .refit import accurate_substeps, cut_windows, fixed_science, inside_bounds, windowable
+from .refit import accurate_substeps, cut_windows, fixed_science, inside_bounds, step_error, windowable
 from .stepwise import forward_selection
 from .watch import current_watch
 
@@ -289,6 +289,8 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         if substeps is not None:  # the model chosen needs a finer integration than the science did
             fit = ScienceFit(before, X, y, fit_initial_states, n_substeps=substeps)
         science_theta = fit.fit(final, sel["theta"], bounds)  # every sample, now that the terms are chosen
+        integration = step_error(before, X, y, fit, final, science_theta, bounds, fit_initial_states)
+        lap("integration step check")
         final_terms = [t.with_values(science_theta) for t in sel["added"]]
 
         def outputs_of(component, kind):  # a sensor offset stands on a measured state, not on an equation
@@ -322,6 +324,7 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
                   for t in added if t["kind"] != "offset"}
         intervals = science_intervals(alone, X, y, incomplete=incomplete, fitted_states=fit.latent or None,
                                        terms=chosen)
+        intervals.widen_for_step(integration)
         rivals = weigh_rivals(intervals, sel["rivals"], science, final_terms, science_theta, fit, variables,
                               n_states, param_names, log)
         mirror_trades(intervals, science, science_theta, final_terms, args, variables, components, outputs)
