@@ -15,11 +15,11 @@ __version__ = "0.1.0"
 _LAZY = {"HybridRegressor": "._estimator", "HybridRegressorCV": "._cv",
          "DivergenceError": ".training", "make_theta_scorer": ".metrics",
          "make_per_sample_theta_scorer": ".metrics", "make_flat_scorer": ".metrics",
-         "theta_error": ".metrics", "network_share": ".metrics", "pack_inputs": ".structures", "OdeStructure": ".structures",
+         "theta_error": ".metrics", "network_share": ".metrics", "rate_share": ".metrics", "pack_inputs": ".structures", "OdeStructure": ".structures",
          "plot_fit": ".plotting"}
 
 __all__ = ["HybridRegressor", "HybridRegressorCV", "DivergenceError", "make_theta_scorer",
-           "make_per_sample_theta_scorer", "make_flat_scorer", "theta_error", "network_share", "pack_inputs", "OdeStructure",
+           "make_per_sample_theta_scorer", "make_flat_scorer", "theta_error", "network_share", "rate_share", "pack_inputs", "OdeStructure",
            "plot_fit"]
 
 

@@ -10,7 +10,7 @@ from sklearn.metrics import get_scorer
 
 from ._validation import check_target_layout
 
-__all__ = ["network_share", "theta_error", "make_theta_scorer", "ThetaScorer", "make_flat_scorer", "FlatScorer",
+__all__ = ["network_share", "rate_share", "theta_error", "make_theta_scorer", "ThetaScorer", "make_flat_scorer", "FlatScorer",
            "make_per_sample_theta_scorer", "PerSampleThetaScorer"]
 
 _METRICS = ("rmse", "cosine")
@@ -35,6 +35,31 @@ def network_share(y_hybrid, y_science) -> float:
     if y_hybrid.shape != y_science.shape:
         raise ValueError(f"y_hybrid has shape {y_hybrid.shape} and y_science {y_science.shape}; they must match.")
     return float(np.sqrt(np.mean((y_hybrid - y_science) ** 2) / max(np.mean(y_hybrid ** 2), 1e-300)))
+
+
+def rate_share(g, f) -> np.ndarray:
+    """The network's share of a hybrid ODE's right-hand side ``f + g``, per component:
+    ``RMS(g) / (RMS(f) + RMS(g))`` over the rows (visited states), between 0 and 1.
+
+    Not ``RMS(g) / RMS(f + g)``, which exceeds 1 where the network cancels part of the science (a
+    "share" of 261 %); this reads 0.5 where the network is as large as the science, whichever way it
+    points, and NaN where both are zero.
+
+    Parameters
+    ----------
+    g, f : array-like of shape (n_points, n_components)
+        The network's and the science's rates at the same states.
+
+    Returns
+    -------
+    ndarray of shape (n_components,)
+    """
+    g, f = np.asarray(g, dtype=float), np.asarray(f, dtype=float)
+    if g.shape != f.shape:
+        raise ValueError(f"g has shape {g.shape} and f {f.shape}; they must match.")
+    g_size, f_size = np.sqrt(np.mean(g ** 2, axis=0)), np.sqrt(np.mean(f ** 2, axis=0))
+    total = g_size + f_size
+    return g_size / np.where(total > 0, total, np.nan)
 
 
 def _stack(theta: Mapping, names, what: str) -> np.ndarray:

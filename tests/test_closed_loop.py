@@ -1312,3 +1312,17 @@ def test_the_network_free_intervals_hold_the_integration_steps_error():
     assert low <= 4.0 <= high
     assert out.intervals.step_error["k"] > 0.005
     assert "the integration's step moves k by" in out.intervals.report()
+
+
+def test_the_networks_share_of_the_rates_stays_between_0_and_1():
+    """Issue 63: network_share_rhs printed 2.609, a "share" of 261 %, where the network cancelled part of the
+    science (RMS(g) / RMS(f + g)). The share is RMS(g) / (RMS(f) + RMS(g)): 0.5 where the network is as large
+    as the science, whichever way it points."""
+    from sklearn_hybrid import rate_share
+
+    f = np.array([[1.0, 2.0], [-1.0, 0.5], [0.5, -1.0]])
+    np.testing.assert_allclose(rate_share(-0.9 * f, f), 0.9 / 1.9)
+    np.testing.assert_allclose(rate_share(np.zeros_like(f), f), 0.0)
+    assert np.all(rate_share(np.ones_like(f) * 5, f) <= 1)
+    with pytest.raises(ValueError, match="must match"):
+        rate_share(f[:, :1], f)

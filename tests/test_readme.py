@@ -90,7 +90,7 @@ def tolerances(line):
 
 def verdicts(text):
     """The identifiability verdicts of a report, in order (a line's words must match, not only its numbers)."""
-    return re.findall(r"NOT IDENTIFIED|(?<![a-z-])identified", text)
+    return re.findall(r"NOT IDENTIFIED|NOT SETTLED|(?<![a-z-])identified", text)
 
 
 def lines_with_numbers(text):

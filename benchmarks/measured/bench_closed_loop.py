@@ -50,7 +50,7 @@ def _markdown(results: dict, baselines: dict, method: str, n_jobs: int) -> str:
           "the diagnosis added; *science only* = the augmented science model refitted without a network. "
           "`*_science_only_*` columns simulate the science part of each row alone; `network_share` = "
           "RMS(hybrid - science-only prediction) / RMS(hybrid prediction) on the test record; "
-          "`network_share_rhs` = max over components of RMS(g) / RMS(f + g) on the training states. "
+          "`network_share_rhs` = max over components of RMS(g) / (RMS(f) + RMS(g)) on the training states (RMS(g) / RMS(f + g) before issue 63). "
           f"Timings are wall-clock with n_jobs={n_jobs} (with 2, a second process scores the models on the "
           "test records while the first selects terms and refits); command: "
           f"`python benchmarks/measured/bench_closed_loop.py --n-jobs {n_jobs}`.", ""]

@@ -13,7 +13,7 @@ from joblib.externals.loky import ProcessPoolExecutor
 from sklearn.utils import Bunch
 from threadpoolctl import threadpool_limits
 
-from ...metrics import network_share
+from ...metrics import network_share, rate_share
 from ..evidence import critical_value
 from ..sensitivity import root_mean_square, science_sensitivities
 
@@ -60,15 +60,15 @@ def prediction_metrics(y: np.ndarray, y_hybrid: np.ndarray, y_science: np.ndarra
 
 
 def _rhs_share(estimator: Any, X: Any) -> float:
-    """Largest per-component RMS(g) / RMS(f + g) along the visited points (NaN if not defined)."""
+    """The network's largest share of a component of the learned right-hand side along the visited points
+    (:func:`~sklearn_hybrid.metrics.rate_share`; NaN if not defined)."""
     trace = estimator.residual_trace(X)
     args = [trace["points"]] + ([] if trace["inputs"] is None else [trace["inputs"]])
     g = trace["residual"].reshape(len(args[0]), -1)
     f = science_sensitivities(estimator, args, jacobian=False)[0]
     if f.shape != g.shape:
         return float("nan")
-    total = np.sqrt(np.mean((f + g) ** 2, axis=0))
-    return float(np.nanmax(np.sqrt(np.mean(g**2, axis=0)) / np.where(total > 0, total, np.nan)))
+    return float(np.nanmax(rate_share(g, f)))
 
 
 def evaluate(est, X, X_test, y_test, test_scorer, theta_true) -> dict:
