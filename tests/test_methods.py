@@ -285,7 +285,6 @@ def test_a_perturbation_that_blows_the_loss_up_is_halved_for_that_step(n_batch_d
     blows a long integration up), the perturbation is halved for that step, member by member, instead of
     handing NaN gradients to theta."""
     from sklearn_hybrid.methods import SAM
-    from sklearn_hybrid.training.engine import step_gradients
 
     shape = (2, 3) if n_batch_dims else (3,)
     p = torch.nn.Parameter(torch.zeros(shape))
@@ -300,7 +299,7 @@ def test_a_perturbation_that_blows_the_loss_up_is_halved_for_that_step(n_batch_d
                                   torch.ones_like(p), torch.full_like(p, float("nan")))]
 
     rho = torch.tensor([1.0, 0.2]) if n_batch_dims else 1.0
-    out = step_gradients(SAM(rho=rho), [p], grads, [True], recompute, n_batch_dims=n_batch_dims)
+    out = SAM(rho=rho).descent([p], [p], grads, [True], recompute, n_batch_dims=n_batch_dims)
     assert torch.isfinite(out[0]).all()
     assert torch.equal(p.detach(), torch.zeros(shape))  # restored exactly after every pass
     expected = torch.tensor([0.25, 0.2]) if n_batch_dims else torch.tensor(0.25)  # 1 -> 0.5 -> 0.25
@@ -416,3 +415,47 @@ def test_no_module_of_the_package_names_the_new_method():
                 found.append((path.name, node.lineno))
     assert found == []
     assert ReachSAM.name not in METHODS  # the fixture took it out again
+
+
+def test_gsam_is_one_class_whose_step_combines_both_gradients():
+    """Issue 64: a method whose step combines the gradient at w with the one at w + eps is one class
+    (GSAM overrides Method.descent). Its step is SAM's less alpha times the part of the gradient at w
+    orthogonal to the one at w + eps, by hand here; at alpha = 0 it is SAM's step."""
+    from sklearn_hybrid.methods import GSAM, SAM
+
+    w = torch.nn.Parameter(torch.tensor([1.0, 2.0]))
+    theta = torch.nn.Parameter(torch.tensor([0.5]))
+
+    def loss_fn():
+        return (w[0] ** 2 + 3 * w[1] ** 2 + theta[0] * w[0]).sum()
+
+    def recompute():
+        loss = loss_fn()
+        return loss, list(torch.autograd.grad(loss, [theta, w]))
+
+    g = torch.autograd.grad(loss_fn(), [w])
+    sam = SAM(rho=0.1).descent([theta, w], [w], list(g), [True], recompute)
+    np.testing.assert_allclose(GSAM(rho=0.1, alpha=0.0).descent([theta, w], [w], list(g), [True], recompute)[1],
+                               sam[1])
+    step = GSAM(rho=0.1, alpha=0.3).descent([theta, w], [w], list(g), [True], recompute)
+    h = sam[1]
+    orthogonal = g[0] - (g[0] @ h) / (h @ h) * h
+    torch.testing.assert_close(step[1], h - 0.3 * orthogonal)
+    torch.testing.assert_close(step[0], sam[0])  # theta steps as SAM's
+    assert torch.equal(w.detach(), torch.tensor([1.0, 2.0]))  # restored after the perturbed pass
+
+
+def test_gsam_trains_a_stacked_member_as_a_single_fit():
+    """The rule at one site: a sweep member (stacked training) takes the single fit's steps with GSAM."""
+    from sklearn.base import clone
+
+    from sklearn_hybrid import HybridRegressorCV
+    from sklearn_hybrid.methods import GSAM
+
+    X, y = _pendulum_data()
+    base = _reach_fit(GSAM(rho=0.5, alpha=0.5))
+    cv = HybridRegressorCV(base, seeds=[3, 4], validation_fraction=None).fit(X, y)
+    for params, member in zip(cv.cv_results_["params"], cv.estimators_):
+        alone = clone(base).set_params(random_state=params["random_state"]).fit(X, y)
+        np.testing.assert_allclose(member.history_["loss"], alone.history_["loss"], rtol=1e-12)
+    assert base.fit(X, y).theta_ != _reach_fit("sam", rho=0.5).fit(X, y).theta_  # its own rule

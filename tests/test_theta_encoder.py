@@ -222,17 +222,17 @@ def test_sam_family(decay, perturb):
 
 
 def test_sam_perturbs_the_encoder_only_with_perturb_all(decay, monkeypatch):
-    from sklearn_hybrid.training import engine
+    from sklearn_hybrid.methods import FisherSAM
 
     X, y, _ = decay
     seen = {}
-    original = engine.gradients_at_perturbed
+    original = FisherSAM.perturbation
 
-    def spy(perturbed, eps, fn):
+    def spy(self, perturbed, grads, is_weight, n_batch_dims=0):
         seen.setdefault("n", len(perturbed))
-        return original(perturbed, eps, fn)
+        return original(self, perturbed, grads, is_weight, n_batch_dims=n_batch_dims)
 
-    monkeypatch.setattr(engine, "gradients_at_perturbed", spy)
+    monkeypatch.setattr(FisherSAM, "perturbation", spy)
     counts = {}
     for perturb in ("residual", "all"):
         seen.clear()

@@ -17,11 +17,11 @@ import math
 from .._validation import check_positive
 from ._base import Method, per_member
 from .regularized import ERM, FunctionalRegularization, ParameterRegularization
-from .sharpness import (ASAM, SAM, FisherSAM, asam_perturbation, fsam_perturbation,
+from .sharpness import (ASAM, GSAM, SAM, FisherSAM, asam_perturbation, fsam_perturbation,
                         sam_perturbation)
 
 __all__ = ["METHODS", "make_method", "stackable_methods", "Method", "ERM",
-           "ParameterRegularization", "FunctionalRegularization", "SAM", "ASAM", "FisherSAM",
+           "ParameterRegularization", "FunctionalRegularization", "SAM", "ASAM", "FisherSAM", "GSAM",
            "per_member", "sam_perturbation", "asam_perturbation", "fsam_perturbation"]
 
 METHODS: dict[str, type[Method]] = {

@@ -8,7 +8,10 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
-__all__ = ["Method", "per_member"]
+__all__ = ["Method", "per_member", "gradients_at_perturbed", "RADIUS_HALVINGS"]
+
+#: Halvings of a perturbation at which the loss is not finite (see :meth:`Method.descent`).
+RADIUS_HALVINGS = 5
 
 
 def per_member(value, like: torch.Tensor) -> torch.Tensor:
@@ -16,6 +19,24 @@ def per_member(value, like: torch.Tensor) -> torch.Tensor:
     against ``like``, whose leading axes are the member axes."""
     value = torch.as_tensor(value, dtype=like.dtype, device=like.device)
     return value.reshape(value.shape + (1,) * (like.dim() - value.dim()))
+
+
+def gradients_at_perturbed(perturbed: list, eps: list, loss_and_grads):
+    """``loss_and_grads()`` at ``perturbed + eps``; the parameters are then restored exactly from a copy.
+
+    Restoring by copy rather than by subtracting ``eps`` keeps the parameters
+    bit-identical (``p + e - e`` can round), also if the second pass raises.
+    """
+    with torch.no_grad():
+        saved = [p.detach().clone() for p in perturbed]
+        for p, e in zip(perturbed, eps):
+            p.add_(e)
+    try:
+        return loss_and_grads()
+    finally:
+        with torch.no_grad():
+            for p, s in zip(perturbed, saved):
+                p.copy_(s)
 
 
 @dataclass
@@ -84,6 +105,40 @@ class Method:
         if scope == "all":
             return phi + theta, phi_is_weight + theta_is_weight
         return list(phi), list(phi_is_weight)
+
+    def descent(self, params: list[torch.Tensor], perturbed: list[torch.Tensor], grads: list[torch.Tensor],
+                is_weight: list[bool], recompute, n_batch_dims: int = 0) -> list[torch.Tensor]:
+        """The gradients a training step takes, one per tensor of ``params``: the one place a method's rule
+        is applied, for a single fit and stacked members alike (``n_batch_dims=1``, one norm per member).
+
+        For a method that does not perturb, ``grads`` are those of ``params`` and are returned as they
+        are.  For the sharpness-aware family ``grads`` are the gradients of the ``perturbed`` tensors
+        alone; they give the ascent step ``eps`` (:meth:`perturbation`), and the gradients of every
+        tensor are taken at ``perturbed + eps`` by ``recompute()`` (which returns ``(loss, grads)``), the
+        tensors then being restored exactly.  A method whose step combines the gradients at both points
+        (GSAM) overrides this.
+
+        A perturbation at which the loss is not finite (the radius is absolute in the network's
+        parameters: over a long integration of slow dynamics a network moved by ``rho`` can blow the
+        trajectories up) is outside the model's domain, not a measure of sharpness: it is halved, member by
+        member, up to :data:`RADIUS_HALVINGS` times, for this step only.  Otherwise its NaN gradients would
+        reach theta, and the spike guard's halving of the learning rates could not help.
+        """
+        if not self.perturbs:
+            return grads
+        with torch.no_grad():
+            eps = self.perturbation(perturbed, grads, is_weight, n_batch_dims=n_batch_dims)
+        for _ in range(RADIUS_HALVINGS):
+            loss, out = gradients_at_perturbed(perturbed, eps, recompute)
+            bad = ~torch.isfinite(loss.reshape(-1)[0] if n_batch_dims == 0 else loss)
+            if n_batch_dims == 0:
+                bad = bad | ~torch.stack([torch.isfinite(g).all() for g in out]).all()
+            if not bad.any():
+                return out
+            with torch.no_grad():  # halve the radius of the members (or the fit) that blew up
+                half = torch.where(bad, 0.5, 1.0).to(eps[0].dtype)
+                eps = [e * (half if n_batch_dims == 0 else half.reshape(-1, *(1,) * (e.dim() - 1))) for e in eps]
+        return gradients_at_perturbed(perturbed, eps, recompute)[1]
 
     def perturbation(self, params: list[torch.Tensor], grads: list[torch.Tensor],
                      is_weight: list[bool], n_batch_dims: int = 0) -> list[torch.Tensor]:

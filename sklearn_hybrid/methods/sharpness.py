@@ -14,7 +14,7 @@ import torch
 
 from ._base import Method, per_member
 
-__all__ = ["SAM", "ASAM", "FisherSAM", "sam_perturbation", "asam_perturbation",
+__all__ = ["SAM", "ASAM", "FisherSAM", "GSAM", "sam_perturbation", "asam_perturbation",
            "fsam_perturbation"]
 
 _XI = 1e-12  # added to the norm, as in the reference implementations
@@ -93,3 +93,35 @@ class FisherSAM(Method):
 
     def perturbation(self, params, grads, is_weight, n_batch_dims=0):
         return fsam_perturbation(grads, self.rho, self.eta, n_batch_dims=n_batch_dims)
+
+
+@dataclass
+class GSAM(SAM):
+    """Surrogate-gap guided SAM (Zhuang et al. 2022): SAM's step less ``alpha`` times the part of the
+    gradient at the unperturbed point that is orthogonal to the gradient at the perturbed one.
+
+    Descending along that orthogonal part lowers the surrogate gap (the loss at the perturbed point less
+    the loss at the point) without undoing the descent of the perturbed loss.  A method whose step
+    combines two gradients is this one class: it overrides ``Method.descent``, the one place a
+    method's rule is applied, so single fits and stacked members take the same step.  Only the network's
+    tensors (the perturbed ones) are decomposed; theta steps along its gradient at the perturbed point,
+    as with SAM.  Give it as an object, ``method=GSAM(rho=0.05, alpha=0.1)``.
+    """
+
+    rho: float = 0.05
+    alpha: float = 0.1
+    name = "gsam"
+    hyperparameters = ("rho", "alpha")
+
+    def descent(self, params, perturbed, grads, is_weight, recompute, n_batch_dims=0):
+        out = list(super().descent(params, perturbed, grads, is_weight, recompute, n_batch_dims))
+        where = {id(p): i for i, p in enumerate(params)}
+        at = [where[id(p)] for p in perturbed]
+        there = [out[i] for i in at]  # the gradients at the perturbed point
+        coef = (_member_sum([g * h for g, h in zip(grads, there)], n_batch_dims)
+                / (_member_sum([h * h for h in there], n_batch_dims) + _XI))
+        alpha = _radius(self.alpha, coef)
+        for i, g, h in zip(at, grads, there):
+            orthogonal = g - per_member(coef, h) * h
+            out[i] = h - per_member(alpha, h) * orthogonal
+        return out

@@ -1,11 +1,11 @@
 """Training a hybrid model: the loop, its watchers and the verdict on what it produced.
 
-- ``engine.py``: the training loop (full or mini-batch); ``step_gradients`` is
-  the one place a method's rule (``sklearn_hybrid.methods``) is called;
+- ``engine.py``: the training loop (full or mini-batch), whose step asks the method for its
+  gradients (``Method.descent``, the one place a method's rule is applied);
 - ``schedule.py``: its settings, Adam with cosine annealing, theta's drift at the end;
 - ``progress.py``: the progress bar of a training that runs long;
 - ``stacked.py``: K configurations trained as one stacked model (sweeps, profiles, bootstrap),
-  through the same ``step_gradients``;
+  through the same loop body and ``Method.descent``;
 - ``stopping.py``: early stopping and the loss-spike guard;
 - ``memory.py``: the memory a fit will need, checked before training;
 - ``verdict.py``: a training that diverged or never trained is refused, not handed back.

@@ -21,71 +21,12 @@ from .progress import progress_bar
 from .schedule import TrainConfig, make_optimizer
 from .stopping import EarlyStopping, SpikeGuard, target_variance, theta_floor, weighted_variance
 
-__all__ = ["train", "run_steps", "STEP", "SKIP", "STOP", "DivergenceError", "data_loss", "step_gradients",
-           "gradients_at_perturbed", "MiniBatches", "explain_nonfinite"]
-
-
-#: Halvings of a SAM perturbation at which the loss is not finite (see :func:`step_gradients`).
-RADIUS_HALVINGS = 5
+__all__ = ["train", "run_steps", "STEP", "SKIP", "STOP", "DivergenceError", "data_loss", "MiniBatches",
+           "explain_nonfinite"]
 
 
 class DivergenceError(FloatingPointError):
     """The training loss became NaN or infinite."""
-
-
-def gradients_at_perturbed(perturbed: list, eps: list, loss_and_grads):
-    """Gradients at ``perturbed + eps``; the parameters are then restored exactly from a copy.
-
-    Restoring by copy rather than by subtracting ``eps`` keeps the parameters
-    bit-identical (``p + e - e`` can round), also if the second pass raises.
-    """
-    with torch.no_grad():
-        saved = [p.detach().clone() for p in perturbed]
-        for p, e in zip(perturbed, eps):
-            p.add_(e)
-    try:
-        return loss_and_grads()
-    finally:
-        with torch.no_grad():
-            for p, s in zip(perturbed, saved):
-                p.copy_(s)
-
-
-def step_gradients(method, perturbed: list, grads: list, is_weight: list, recompute,
-                   n_batch_dims: int = 0) -> list:
-    """The gradients a training step takes: the one place a method's perturbation is applied.
-
-    For erm and the penalty methods these are ``grads`` themselves (of every
-    trained parameter).  For the SAM family ``grads`` are the gradients of the
-    perturbed parameters alone; they give the ascent step ``eps``, and the
-    gradients of every trained parameter are taken at ``perturbed + eps`` by
-    ``recompute()`` (which returns ``(loss, grads)``), the parameters then being
-    restored exactly.  A single fit (:func:`train`) and the stacked members of
-    a sweep or profile (``n_batch_dims=1``, one norm per member) both step here.
-
-    A perturbation at which the loss is not finite (the radius is absolute in
-    the network's parameters: over a long integration of slow dynamics a
-    network moved by ``rho`` can blow the trajectories up) is outside the
-    model's domain, not a measure of sharpness: it is halved, member by
-    member, up to ``RADIUS_HALVINGS`` times, for this step only.  Otherwise its
-    NaN gradients would reach theta, and the spike guard's halving of the
-    learning rates could not help.
-    """
-    if not method.perturbs:
-        return grads
-    with torch.no_grad():
-        eps = method.perturbation(perturbed, grads, is_weight, n_batch_dims=n_batch_dims)
-    for _ in range(RADIUS_HALVINGS):
-        loss, out = gradients_at_perturbed(perturbed, eps, recompute)
-        bad = ~torch.isfinite(loss.reshape(-1)[0] if n_batch_dims == 0 else loss)
-        if n_batch_dims == 0:
-            bad = bad | ~torch.stack([torch.isfinite(g).all() for g in out]).all()
-        if not bad.any():
-            return out
-        with torch.no_grad():  # halve the radius of the members (or the fit) that blew up
-            half = torch.where(bad, 0.5, 1.0).to(eps[0].dtype)
-            eps = [e * (half if n_batch_dims == 0 else half.reshape(-1, *(1,) * (e.dim() - 1))) for e in eps]
-    return gradients_at_perturbed(perturbed, eps, recompute)[1]
 
 
 def data_loss(pred: torch.Tensor, y: torch.Tensor, sample_weight: torch.Tensor | None = None
@@ -212,7 +153,8 @@ def run_steps(method, config: TrainConfig, optimizer, scheduler, params: list, p
     Each iteration takes a batch (``next_batch()``), the loss and the gradients at the current point
     (``loss_and_grads(batch, wrt)``, of the perturbed tensors alone for the SAM family), asks the
     watcher (``watch.check(it, loss, batch)``: :data:`STEP`, :data:`SKIP` or :data:`STOP`), takes the
-    method's gradients (:func:`step_gradients`; the second pass by ``at_perturbed(batch)``), lets the
+    method's gradients (:meth:`~sklearn_hybrid.methods.Method.descent`; the second pass by
+    ``at_perturbed(batch)``), lets the
     watcher mask them (``watch.masked(grads)``), steps the optimiser and the schedule, and asks the
     watcher whether to stop (``watch.stepped(it, loss, rate)``, ``rate`` theta's learning rate of the
     step).  The watcher keeps the records, the guards and the stopping rules; ``watch.bar`` is the
@@ -251,7 +193,7 @@ def run_steps(method, config: TrainConfig, optimizer, scheduler, params: list, p
             if action == STOP:
                 n_iter = it + 1
                 break
-            grads = step_gradients(method, perturbed, grads, is_weight, lambda: at_perturbed(batch),
+            grads = method.descent(params, perturbed, grads, is_weight, lambda: at_perturbed(batch),
                                    n_batch_dims=n_batch_dims)
             grads = watch.masked(grads)
             for p, g in zip(params, grads):

@@ -30,7 +30,7 @@ from ..integrate import fast
 from ..integrate.kernels import reusing_buffers
 from .._validation import torch_threads
 from ..methods import per_member
-from .engine import MiniBatches, STEP, STOP, gradients_at_perturbed, run_steps
+from .engine import MiniBatches, STEP, STOP, run_steps
 from .schedule import TrainConfig, make_optimizer
 from .stopping import EarlyStopping, target_variance, theta_floor, weighted_variance
 from .verdict import DIVERGED_FACTOR
@@ -327,9 +327,15 @@ def evaluate_members(models: list, method, inputs: tuple, y: torch.Tensor, confi
         grads = torch.autograd.grad(objective.sum(), perturbed, allow_unused=True)
         scale = weighted_variance(y, wb)  # the gradients the training's rule saw (see engine.run_steps)
         grads = [torch.zeros_like(p) if g is None else g / per_member(scale, g) for p, g in zip(perturbed, grads)]
-        with torch.no_grad():
-            eps = method.perturbation(perturbed, grads, is_weight, n_batch_dims=1)
-            objective = gradients_at_perturbed(perturbed, eps, lambda: _member_loss(stacked.predictions(xb), yb, wb))
+        at = {}
+
+        def loss_there():  # the loss where the method's step would take its gradients; those are not needed
+            with torch.no_grad():
+                at["loss"] = _member_loss(stacked.predictions(xb), yb, wb)
+            return at["loss"], [torch.zeros_like(p) for p in perturbed]
+
+        method.descent(perturbed, perturbed, grads, is_weight, loss_there, n_batch_dims=1)
+        objective = at["loss"]
     return {"loss": data.detach().cpu().numpy().astype(float),
             "objective": objective.detach().cpu().numpy().astype(float)}
 
