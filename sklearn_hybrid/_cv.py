@@ -11,20 +11,18 @@ import warnings
 
 import numpy as np
 import torch
-from joblib import Parallel, delayed
 from sklearn.base import BaseEstimator, RegressorMixin, clone
 from sklearn.metrics import check_scoring
 from sklearn.utils.validation import check_is_fitted, validate_data
 
-from .training.stacked import train_members
+from .training.stacked import train_members, train_one_by_one
 from ._estimator import HybridRegressor
 from ._fitting import prepare_fit, store_fit
 from .methods import Method, make_method, stackable_methods
 from ._validation import check_n_jobs, set_feature_info, torch_threads, validate_into_copy
-from .integrate.kernels import reusing_buffers
 from .training.memory import check_fit_memory
 from .metrics import make_flat_scorer
-from .training.engine import DivergenceError, train
+from .training.engine import DivergenceError
 
 __all__ = ["HybridRegressorCV"]
 
@@ -57,23 +55,6 @@ def member_estimator(estimator, params: dict):
 def _configuration(params: dict) -> dict:
     """A member's swept keywords without its seed: members that share them differ by the seed only."""
     return {k: v for k, v in params.items() if k != "random_state"}
-
-
-def _train_member(model, method, inputs, y, config, seed, n_threads):
-    """Train one member as a separate fit would (members with a theta encoder).
-
-    Returns its history in the stacked format (a diverged member: NaN, and
-    ``diverged_at`` 0 since a single fit does not report where it diverged).
-    """
-    with torch_threads(n_threads), reusing_buffers():
-        try:
-            history = train(model, method, inputs, y, config, torch.Generator().manual_seed(seed))
-            history["diverged_at"] = -1
-        except DivergenceError:
-            shapes = model.science.shapes
-            history = {"loss": np.full(config.max_iter, np.nan), "diverged_at": 0,
-                       "theta": {n: np.full((config.max_iter, *shapes[n]), np.nan) for n in shapes}}
-    return history, model
 
 
 class HybridRegressorCV(RegressorMixin, BaseEstimator):
@@ -290,17 +271,12 @@ class HybridRegressorCV(RegressorMixin, BaseEstimator):
         n_jobs = self._n_groups()
         threads = self.estimator.n_threads if min(n_jobs, len(setups)) == 1 else 1
         if self.estimator.theta_encoder is not None:  # member by member (see Notes)
-            parts = Parallel(n_jobs=min(n_jobs, len(setups)))(
-                delayed(_train_member)(s.model, s.method, s.inputs, s.y, s.config, s.seed,
-                                       self.estimator.n_threads if n_jobs == 1 else 1)
-                for s in setups)
-            for setup, (_, model) in zip(setups, parts):
+            history, models = train_one_by_one(
+                [(s.model, s.method, s.inputs, s.y, s.config, s.seed) for s in setups], n_jobs=n_jobs,
+                n_threads=self.estimator.n_threads if n_jobs == 1 else 1)
+            for setup, model in zip(setups, models):
                 setup.model = model
-            histories = [h for h, _ in parts]
-            return {"loss": np.stack([h["loss"] for h in histories], axis=1),
-                    "theta": {n: np.stack([h["theta"][n] for h in histories], axis=1)
-                              for n in histories[0]["theta"]},
-                    "diverged_at": np.array([h["diverged_at"] for h in histories])}
+            return history
         # one value per member of each swept keyword; the method takes those it has fields for
         method = first.method.for_members(**{k: np.array([p[k] for p in params])
                                              for k in _configuration(params[0])})

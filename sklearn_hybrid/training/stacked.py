@@ -30,12 +30,12 @@ from ..integrate import fast
 from ..integrate.kernels import reusing_buffers
 from .._validation import torch_threads
 from ..methods import per_member
-from .engine import MiniBatches, STEP, STOP, run_steps
+from .engine import DivergenceError, MiniBatches, STEP, STOP, run_steps, train
 from .schedule import TrainConfig, make_optimizer
 from .stopping import EarlyStopping, target_variance, theta_floor, weighted_variance
 from .verdict import DIVERGED_FACTOR
 
-__all__ = ["train_batched", "train_members", "evaluate_members"]
+__all__ = ["train_batched", "train_members", "train_one_by_one", "evaluate_members"]
 
 
 class _StackedModel:
@@ -398,3 +398,33 @@ def train_members(models: list, method, inputs: tuple, y: torch.Tensor, config: 
                          for n in parts[0][0]["theta"]},
                "diverged_at": np.concatenate([h["diverged_at"] for h, _ in parts]), "n_iter": n_iter}
     return history, [m for _, group_models in parts for m in group_models]
+
+
+def _train_alone(model, method, inputs, y, config, seed, n_threads):
+    """Train one member as a separate fit would; its history in the stacked format (a diverged member:
+    NaN, and ``diverged_at`` 0, since a single fit does not report where it diverged)."""
+    with torch_threads(n_threads), reusing_buffers():
+        try:
+            history = train(model, method, inputs, y, config, torch.Generator().manual_seed(seed))
+            history["diverged_at"] = -1
+        except DivergenceError:
+            shapes = model.science.shapes
+            history = {"loss": np.full(config.max_iter, np.nan), "diverged_at": 0,
+                       "theta": {n: np.full((config.max_iter, *shapes[n]), np.nan) for n in shapes}}
+    return history, model
+
+
+def train_one_by_one(members: list, *, n_jobs: int = 1, n_threads: int | None = 1) -> tuple[dict, list]:
+    """Train members that do not stack (a theta encoder's) one by one, as separate fits, through joblib.
+
+    ``members`` are ``(model, method, inputs, y, config, seed)`` tuples.  Returns the history in
+    :func:`train_members`' format (``loss`` of shape ``(max_iter, K)``, ``theta``, ``diverged_at``) and the
+    trained models (copies when they come from a worker).
+    """
+    parts = Parallel(n_jobs=min(n_jobs, len(members)))(
+        delayed(_train_alone)(*member, n_threads) for member in members)
+    histories = [h for h, _ in parts]
+    history = {"loss": np.stack([h["loss"] for h in histories], axis=1),
+               "theta": {n: np.stack([h["theta"][n] for h in histories], axis=1) for n in histories[0]["theta"]},
+               "diverged_at": np.array([h["diverged_at"] for h in histories])}
+    return history, [m for _, m in parts]
