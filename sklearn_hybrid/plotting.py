@@ -22,8 +22,10 @@ def plot_profile(profile, ax=None):
     """Plot each profile: the data loss (and the method's objective, if profiled) against the parameter.
 
     The threshold of the interval is drawn as a horizontal line, the fit's
-    estimate and the interval as vertical ones.  Needs matplotlib (the
-    ``plot`` extra).
+    estimate and the interval as vertical ones; values whose members diverged
+    as dashed red lines (their loss is unknown, so the curve has a gap there)
+    and crossings made by members still falling as triangles, each counted in
+    the title beside the verdict.  Needs matplotlib (the ``plot`` extra).
 
     Parameters
     ----------
@@ -53,8 +55,18 @@ def plot_profile(profile, ax=None):
         for side in profile.intervals[label]:
             if np.isfinite(side):
                 a.axvline(side, color="C2", lw=1)
+        # what the profile leaves out is drawn, not dropped silently: values whose members diverged (their
+        # loss is unknown, not high) and crossings made by members still falling (no bound backed there)
+        dropped = list(getattr(profile, "dropped", {}).get(label, []))
+        for k, v in enumerate(dropped):
+            a.axvline(v, color="C3", lw=1, ls="--", label="member diverged (no loss)" if k == 0 else None)
+        unsettled = list(getattr(profile, "unsettled", {}).get(label, []))
+        if unsettled:
+            at = np.interp(unsettled, values, profile.loss[label])
+            a.plot(unsettled, at, "^", color="C1", ms=8, label="member still falling")
+        notes = ([f"{len(dropped)} value(s) diverged"] if dropped else []) + (["no bound backed"] if unsettled else [])
         a.set_xlabel(label)
-        a.set_title(profile.verdicts[label], fontsize=9)
+        a.set_title(profile.verdicts[label] + (f" ({'; '.join(notes)})" if notes else ""), fontsize=9)
     axes[0].set_ylabel("mean squared error")
     axes[0].legend(fontsize=7)
     return axes

@@ -443,3 +443,22 @@ def test_a_profile_whose_members_all_lie_over_the_threshold_gives_no_reversed_in
     values = np.array([0.8, 1.0, 1.2, 1.4])
     (low, high), verdict, _ = read_interval(values, np.array([3.0, 1.5, 1.2, 2.0]), threshold=1.0)
     assert low <= high and verdict != IDENTIFIED
+
+
+def test_the_profile_plot_draws_what_it_leaves_out(offset_profile):
+    """Issue 63: the plot silently left out the values whose members diverged (near the truth, in a new
+    user's SIRS), and its title gave a verdict over a curve with gaps. Diverged values are drawn as dashed
+    lines and crossings by members still falling as triangles, each counted in the title."""
+    import copy
+
+    label = next(iter(offset_profile.verdicts))
+    values = offset_profile.values[label]
+    profile = copy.deepcopy(offset_profile)
+    profile.dropped = {label: [float(values[1])]}
+    profile.unsettled = {label: [float(values[-1])]}
+    ax = plot_profile(profile)[list(profile.verdicts).index(label)]
+    assert "1 value(s) diverged" in ax.get_title() and "no bound backed" in ax.get_title()
+    assert any(line.get_label() == "member diverged (no loss)" for line in ax.get_lines())
+    assert any(line.get_label() == "member still falling" for line in ax.get_lines())
+    plain = plot_profile(offset_profile)[0]
+    assert "(" not in plain.get_title()
