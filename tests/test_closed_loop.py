@@ -128,7 +128,13 @@ def test_close_the_loop_pendulum(pendulum):
     assert out.intervals.estimate["omega"] == pytest.approx(out.science_theta["omega"], rel=1e-6)  # float32
     # the result prints its report with those intervals, and plots what is left unexplained
     assert str(out).startswith(out.report) and "[[Parameters of the network-free model]]" in str(out)
-    assert out.plot().shape == (1, 2)
+    axes = out.plot()
+    assert axes.shape == (1, 2)
+    # issue 63: the figure says what it shows, with the network's share per output and the units given
+    assert "still misses" in axes[0, 0].figure._suptitle.get_text()
+    assert "of what the network learned for g[v_dot]" in axes[0, 0].get_title()
+    out.units = {"v": "rad", "v_dot": "rad/s"}
+    assert [a.get_xlabel() for a in out.plot()[0]] == ["v [rad]", "v_dot [rad/s]"]
     before, after, alone = out.table
     assert after["theta"]["c_damping"] == pytest.approx(-0.5, rel=0.1)
     assert after["theta_error"]["omega"] < 0.03

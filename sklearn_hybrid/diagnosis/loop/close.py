@@ -367,6 +367,7 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
                  added=added, steps=sel["steps"], rivals=rivals, exact=[] if uncertain is None else
                  [j for j in range(base.shape[1]) if j not in uncertain],
                  unexplained=unexplained, table=rows, report=report, seconds=time.perf_counter() - start,
+                 units=dict(units or {}),
                  timings=timings)
 
 

@@ -177,7 +177,9 @@ def plot_unexplained(result: Any, axes: Any = None) -> np.ndarray:
     values, remaining, variables = info["_data"]
     outputs = info["components"]
     names = list(info["share"])
-    if axes is None:
+    units = result.get("units") or {}
+    new_figure = axes is None
+    if new_figure:
         _, axes = plt.subplots(len(outputs), len(variables), figsize=(3.5 * len(variables), 3 * len(outputs)),
                                squeeze=False)
     axes = np.asarray(axes, dtype=object).reshape(len(outputs), len(variables))
@@ -189,8 +191,16 @@ def plot_unexplained(result: Any, axes: Any = None) -> np.ndarray:
             centre, mean = info["profiles"].get((out, var), ([], []))
             ax.plot(centre, mean, "r.-", lw=1.5)
             ax.axhline(0, color="k", lw=0.5)
-            ax.set_xlabel(var)
-            ax.set_ylabel(f"{out} not explained")
+            ax.set_xlabel(f"{var} [{units[var]}]" if units.get(var) else var)
+            if c == 0:
+                ax.set_ylabel(f"{out} not explained")
+            if c == 0:
+                ax.set_title(f"{info['share'][out]:.1%} of what the network learned for {out}", fontsize=9)
+    if new_figure:
+        fig = axes[0, 0].figure
+        fig.suptitle("What the final science model still misses (dots: visited states; red: binned mean)",
+                     fontsize=10)
+        fig.tight_layout()
     return axes
 
 
