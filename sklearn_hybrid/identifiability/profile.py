@@ -126,11 +126,11 @@ class ThetaProfile:
         if self.verdicts[label] == IDENTIFIED:
             return f"identified, {100 * self.level:.0f} % interval [{_fmt(low)}, {_fmt(high)}] (profile)"
         if self.verdicts[label] == UNSETTLED and self.unsettled.get(label):
-            return (f"NOT SETTLED: the profile crosses the threshold at "
-                    f"{[float(_fmt(v)) for v in self.unsettled[label]]} only through members whose loss was "
-                    "still falling when their training ended: their loss is an upper bound of the profile "
-                    "there, not the profile, so no bound is backed (the network or another parameter may "
-                    f"take over this one further on); profile with a larger max_iter (these members trained "
+            # the values are left to .unsettled: how many crossings are unsettled moves with rounding
+            return ("NOT SETTLED: where the profile crosses the threshold, its members' loss was still falling "
+                    "when their training ended: their loss is an upper bound of the profile there, not the "
+                    "profile, so no bound is backed (the network or another parameter may take over this one "
+                    "further on; the values: .unsettled); profile with a larger max_iter (these members trained "
                     f"{self.n_iter})")
         if self.verdicts[label] == UNSETTLED:
             return (f"NOT SETTLED: the profile's interval [{_fmt(low)}, {_fmt(high)}] leaves out the estimate: "
