@@ -432,6 +432,36 @@ CHECKS_SECTION = [
     "controls (`results/more_validation.md`)"]
 
 
+# Issue "Your units, your machine": training in the data's scales (theta stepped relative to its size, the
+# network's inputs and outputs scaled, gradients in units of var(y)) changes every first hybrid fit; a rerun
+# from 816bb34 (--rerun --refit --resume --noise 0.01, run order interleaving domains and controls), cut short,
+# set against each case's record before it (at 0eafee3).
+UNITS_SINCE, BEFORE_UNITS = "816bb34", "0eafee3"
+
+
+def _units_section(records: list[dict]) -> list[str]:
+    """The cases rerun since the training in the data's scales, each beside its record before."""
+    pairs = [(r, _record_at(BEFORE_UNITS, r)) for r in records if r.get("package_commit") == UNITS_SINCE]
+    pairs = [(new, old) for new, old in pairs if old is not None]
+    if not pairs:
+        return []
+    effects = [(n, o) for n, o in pairs if "rel_err" in o]
+    controls = [(n, o) for n, o in pairs if "rel_err" not in o]
+    within = lambda r: r.get("rel_err") is not None and r["rel_err"] <= 0.10  # noqa: E731
+    cpu = lambda rs: float(np.median([r["cpu_seconds"] for r in rs if r.get("cpu_seconds")]))  # noqa: E731
+    return ["", "## Rerun after training in the data's scales", "",
+            f"Issue \"Your units, your machine\" changed every first hybrid fit (theta stepped relative to its own "
+            f"size, the network's inputs standardised and its outputs sized to the observed rates, gradients in "
+            f"units of the variance of y). `--rerun --refit --resume --noise 0.01` at package commit {UNITS_SINCE}, "
+            f"cut short after {len(pairs)} cases of the run order (domains and controls interleaved, so a cross-"
+            f"section): effects within 10 % {sum(within(n) for n, _ in effects)} of {len(effects)} (before: "
+            f"{sum(within(o) for _, o in effects)}); controls with nothing added "
+            f"{sum(n.get('n_added', 0) == 0 for n, _ in controls)} of {len(controls)} (before: "
+            f"{sum(o.get('n_added', 0) == 0 for _, o in controls)}); median CPU seconds of a case {cpu([n for n, _ in pairs]):.0f} "
+            f"(before {cpu([o for _, o in pairs]):.0f}; this rerun shared the two cores with other work).", ""] \
+        + _before_after(pairs)
+
+
 def _before_after(pairs: list[tuple[dict, dict]]) -> list[str]:
     """The table of records run again: each (record, its record before) as rel_err and terms, before and after
     (nothing where a later rerun has made every such record again)."""
@@ -605,7 +635,8 @@ def render(records: list[dict]) -> str:
     md += ["", "Theta: the science's own parameters (scalar, true value not 0; the coefficients of added terms are "
                "scored in function space above) at the hybrid fit and after the loop (`science_theta`, the "
                "network-free refit)."] + _theta_lines(effects, "missing effects") + _theta_lines(controls, "controls")
-    md += _rerun_section(pairs, n_earlier) + _second_look_section(records) + _periodic_section(records)
+    md += (_rerun_section(pairs, n_earlier) + _second_look_section(records) + _periodic_section(records)
+           + _units_section(records))
     for batch, (heading, preface) in BATCHES.items():
         if batches[batch]:
             md += ["", heading, ""] + ([preface, ""] if preface else []) + _tables(batches[batch])
