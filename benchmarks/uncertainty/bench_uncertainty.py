@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import subprocess
 import sys
 import time
 from pathlib import Path
@@ -35,7 +36,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the helpers, the studies' modules
-from helpers import PACKAGE_COMMIT, write_results  # noqa: E402
+from helpers import PACKAGE_COMMIT, ROOT, write_results  # noqa: E402
 from uncertainty.protocol import HYBRID_METHODS, RUNS, SETTINGS, member_row  # noqa: E402
 from uncertainty.systems import SYSTEMS  # noqa: E402
 
@@ -195,14 +196,7 @@ def render():
              f"{', '.join(sorted(loop_commits))}; seconds are wall-clock on a "
              "machine shared with other work)", "", head,
              "|" + "---|" * 11]
-    for r in rows:
-        flag = (" (a product)" if r["param"] in SYSTEMS[r["system"]].product_pair
-                else " (absorbable)" if r.get("expected_not_identified") else "")
-        lines.append(f"| {r['system']} | {r['method']} | {r['param']}{flag} | {r['n']} | "
-                     f"{_fmt(r.get('verdict_identified'))} / {_fmt(r.get('verdict_not'))} | "
-                     f"{_fmt(r['coverage_identified'], True)} | {_fmt(r['miss_identified'], True)} | "
-                     f"{_fmt(r['coverage_all'], True)} | {_fmt(r['width_over_rms'])} | "
-                     f"{_fmt(r['mean_rel_error'])} | {r['seconds']:.0f} |")
+    lines += _row_lines(rows)
     conditional = [r for r in rows if r.get("verdict_conditional")]
     if conditional:
         n_cond = sum(r["verdict_conditional"] for r in conditional)
@@ -211,7 +205,7 @@ def render():
                       f"(counted above under 'not'); their intervals over the rival forms held the truth in {held:.0f} "
                       "of them: " + ", ".join(f"{r['system']}/{r['param']} {r['verdict_conditional']}"
                                               for r in conditional) + "."]
-    lines += ["", _targets(rows)]
+    lines += ["", _targets(rows)] + _rerun_section(head)
     compared = _side_by_side(sum(counts.values()))
     if compared:
         lines += ["", compared]
@@ -220,6 +214,51 @@ def render():
                       f"median {np.median(ratios):.2f}, range {min(ratios):.2f}-{max(ratios):.2f}; "
                       f"{sum(r <= 1 for r in ratios)} of them cost at most their fit."]
     write_results("uncertainty", {"rows": rows, "repeats": counts}, "\n".join(lines))
+
+
+def _row_lines(rows):
+    out = []
+    for r in rows:
+        flag = (" (a product)" if r["param"] in SYSTEMS[r["system"]].product_pair
+                else " (absorbable)" if r.get("expected_not_identified") else "")
+        out.append(f"| {r['system']} | {r['method']} | {r['param']}{flag} | {r['n']} | "
+                   f"{_fmt(r.get('verdict_identified'))} / {_fmt(r.get('verdict_not'))} | "
+                   f"{_fmt(r['coverage_identified'], True)} | {_fmt(r['miss_identified'], True)} | "
+                   f"{_fmt(r['coverage_all'], True)} | {_fmt(r['width_over_rms'])} | "
+                   f"{_fmt(r['mean_rel_error'])} | {r['seconds']:.0f} |")
+    return out
+
+
+# The rerun after training in the data's scales (issue "Your units, your machine") and profiles whose members
+# train their whole budget and back no bound by a member still falling (issue "No silent wrong answer"),
+# set against the records the same repeats had at RERUN_AGAINST (a git revision of this repository).
+RERUN_AT, RERUN_AGAINST = "fec8b69", "e0dac98"
+
+
+def _rerun_section(head):
+    """The repeats made at RERUN_AT, alone, and the targets over them before (their records at RERUN_AGAINST)."""
+    now, before, n = [], [], 0
+    for name, system in SYSTEMS.items():
+        new = [json.loads(p.read_text()) for p in sorted((RUNS / name).glob("*.json"))]
+        new = [r for r in new if r["package_commit"] == RERUN_AT]
+        old = []
+        for r in new:
+            shown = subprocess.run(["git", "show", f"{RERUN_AGAINST}:{(RUNS / name).relative_to(ROOT).as_posix()}/"
+                                    f"{r['repeat']:02d}.json"], cwd=ROOT, capture_output=True, text=True)
+            if shown.returncode == 0:
+                old.append(json.loads(shown.stdout))
+        n += len(new)
+        now += summarise(new, system) if new else []
+        before += summarise(old, system) if old else []
+    if not now:
+        return []
+    return ["", f"## The rerun at {RERUN_AT}, as far as it has come ({n} repeats)", "",
+            "Training in the data's scales, and profiles whose members train the fit's whole budget (the fit's "
+            "stopping rule is far coarser than the threshold's margin) and back no bound by a member still "
+            "falling ('not settled'). The repeats rerun so far, alone:", "", head, "|" + "---|" * 11,
+            *_row_lines(now), "", _targets(now), "",
+            f"The same repeats as recorded at {RERUN_AGAINST} (before this rerun; cooled_plate is new):", "",
+            _targets(before)]
 
 
 def _side_by_side(n_records):
