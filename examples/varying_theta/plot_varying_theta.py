@@ -26,6 +26,10 @@ example: below are the committed full-run numbers
 .. include:: /_generated/snippets/varying_theta.rst
 """
 
+# The gallery's thumbnail: a figure of this example's committed full run (the documentation build
+# does not run it; see doc/conf.py), copied beside the snippets when the build starts.
+# sphinx_gallery_thumbnail_path = "_generated/snippets/varying_theta.png"
+
 # %%
 # Data
 # ----

@@ -31,6 +31,10 @@ example: below are the committed full-run numbers and figures
 .. include:: /_generated/snippets/task_wind_tunnel.rst
 """
 
+# The gallery's thumbnail: a figure of this example's committed full run (the documentation build
+# does not run it; see doc/conf.py), copied beside the snippets when the build starts.
+# sphinx_gallery_thumbnail_path = "_generated/snippets/wind_tunnel_1.png"
+
 # %%
 # Data
 # ----
