@@ -19,7 +19,8 @@ FILES = sorted(p for p in BENCHMARKS.rglob("*.py") if "results" not in p.relativ
 GUARD = 'if __name__ == "__main__":'
 # the scripts: what runs by its path; every other file is a module the scripts import
 SCRIPTS = {p for p in FILES
-           if p.name.startswith(("bench_", "check_", "why_")) or p.stem in {"table1", "gallery_figures", "choice_figure", "guide_figures"}}
+           if p.name.startswith(("bench_", "check_", "why_"))
+           or p.stem in {"table1", "gallery_figures", "choice_figure", "guide_figures", "results_figure"}}
 # the top-level names the benchmarks import each other by, once benchmarks/ is on sys.path
 OWN = {"helpers"} | {p.name for p in BENCHMARKS.iterdir() if (p / "__init__.py").exists()}
 # optional dependencies of single benchmarks (the [bench] and [sindy] extras), not of the test environment
