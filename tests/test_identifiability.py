@@ -148,10 +148,9 @@ def test_bootstrap_member_is_a_weighted_fit_with_its_seed(line_data):
     est = HybridRegressor(science=line_f, structure="additive", residual={"hidden": (8,)}, method="fsam",
                           max_iter=20, tol=None, dtype="float64", random_state=0).fit(X, y)
     boot = bootstrap_theta(est, X, y, n_resamples=3, random_state=7)
-    rng = np.random.default_rng(7)
-    seeds = [int(s) for s in rng.integers(0, 2**31 - 1, 3)]
-    weights = rng.multinomial(len(y), np.full(len(y), 1 / len(y)), size=3).astype(float)
-    alone = clone(est).set_params(random_state=seeds[1]).fit(X, y, sample_weight=weights[1])
+    # the draw the bootstrap reports is the one it made: 3 resamples of len(y) samples, integer counts
+    assert len(boot.seeds) == 3 and boot.weights.shape == (3, len(y)) and np.all(boot.weights.sum(1) == len(y))
+    alone = clone(est).set_params(random_state=boot.seeds[1]).fit(X, y, sample_weight=boot.weights[1])
     assert boot.samples["a"][1] == pytest.approx(alone.theta_["a"], rel=1e-9)
     assert np.ptp(boot.samples["a"]) > 0
     low, high = boot.intervals["a"]

@@ -156,8 +156,7 @@ def test_a_bootstrap_member_of_an_ode_trains_in_its_resample_s_scales():
     est = HybridRegressor(science=decay_f, dt=dt, n_substeps=1, residual={"hidden": (8,)}, max_iter=15, tol=None,
                           dtype="float64", random_state=0).fit(X, y)
     boot = bootstrap_theta(est, X, y, n_resamples=3, random_state=7)
-    rng = np.random.default_rng(7)
-    seeds = [int(s) for s in rng.integers(0, 2**31 - 1, 3)]
-    weights = rng.multinomial(len(y), np.full(len(y), 1 / len(y)), size=3).astype(float)
-    alone = clone(est).set_params(random_state=seeds[1]).fit(X, y, sample_weight=weights[1])
+    # the draw the bootstrap reports is the one it made: 3 resamples of len(y) samples, integer counts
+    assert len(boot.seeds) == 3 and boot.weights.shape == (3, len(y)) and np.all(boot.weights.sum(1) == len(y))
+    alone = clone(est).set_params(random_state=boot.seeds[1]).fit(X, y, sample_weight=boot.weights[1])
     assert boot.samples["k"][1] == pytest.approx(alone.theta_["k"], rel=1e-9)

@@ -12,7 +12,7 @@ pin theta at all.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy import stats
@@ -40,6 +40,11 @@ class ThetaBootstrap:
         Standard deviation across the members.
     intervals : dict of str to tuple
         ``estimate +/- t * std`` (Student's t at ``level`` with members - 1 degrees of freedom).
+    seeds : list of int
+        Each member's ``random_state``.
+    weights : ndarray of shape (n_resamples, n_samples)
+        Each member's resample, as sample weights (how often each sample was drawn): member ``i`` is
+        the fit ``clone(estimator).set_params(random_state=seeds[i]).fit(X, y, sample_weight=weights[i])``.
     """
 
     estimate: dict
@@ -48,6 +53,8 @@ class ThetaBootstrap:
     intervals: dict
     level: float
     n_iter: int
+    seeds: list = field(default_factory=list)
+    weights: np.ndarray | None = None
 
     def report(self) -> str:
         n = len(next(iter(self.samples.values())))
@@ -112,7 +119,8 @@ def bootstrap_theta(estimator, X, y, params=None, *, n_resamples=20, level=0.95,
                                         config, seeds, sample_weight=weights, n_jobs=n_jobs, n_threads=n_threads)
     ok = history["diverged_at"] < 0
     t = stats.t.ppf(0.5 + level / 2, max(int(ok.sum()) - 1, 1))
-    out = ThetaBootstrap(estimate={}, samples={}, std={}, intervals={}, level=level, n_iter=config.max_iter)
+    out = ThetaBootstrap(estimate={}, samples={}, std={}, intervals={}, level=level, n_iter=config.max_iter,
+                         seeds=seeds, weights=weights)
     for name, k, label in entries:
         values = np.array([entry_values(m.science, name)[k] for m in models])
         values[~ok] = np.nan

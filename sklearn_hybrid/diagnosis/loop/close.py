@@ -306,15 +306,17 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
             s["output"] = ", ".join(outputs_of(j, s["kind"]) for j in np.atleast_1d(s["component"]))
         remaining = learned - science_output(final, science_theta, args)
         unexplained = residual_profile(remaining, learned, values, variables, outputs, components)
-        # fitted unmeasured starts: the hybrid's are other ones, so their errors do not compare
-        errors = None if fit.latent else (fit.errors(final, science_theta), _sample_errors(before, X, y))
-        # what the network learned beyond the final model is a missing effect only where the hybrid fits the
-        # data better: one that fits worse (trained short, its network carrying its theta's error) leaves a
-        # remainder of its own, which the data do not support (a complete model's intervals were withheld)
-        supported = errors is None or np.mean(errors[1]) < np.mean(errors[0])
-        incomplete = (open_question(sel["steps"], evidence.min_gain)
-                      or (left_unexplained(unexplained, residual, learned, outputs) if supported else None)
-                      or (None if errors is None else worse_than_hybrid(*errors, evidence, codes)))
+        incomplete = open_question(sel["steps"], evidence.min_gain)
+        if incomplete is None:  # the errors below are simulated only when the answer still depends on them
+            # fitted unmeasured starts: the hybrid's are other ones, so their errors do not compare
+            errors = None if fit.latent else (fit.errors(final, science_theta), _sample_errors(before, X, y))
+            # what the network learned beyond the final model is a missing effect only where the hybrid fits
+            # the data better: one that fits worse (trained short, its network carrying its theta's error)
+            # leaves a remainder of its own, which the data do not support (a complete model's intervals were
+            # withheld)
+            supported = errors is None or np.mean(errors[1]) < np.mean(errors[0])
+            incomplete = ((left_unexplained(unexplained, residual, learned, outputs) if supported else None)
+                          or (None if errors is None else worse_than_hybrid(*errors, evidence, codes)))
 
         if fit_initial_states:  # the hybrid refit starts every sample from the states fitted with the final model
             X = np.array(X, dtype=float)
