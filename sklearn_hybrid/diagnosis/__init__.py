@@ -1,7 +1,8 @@
 """From the residual a hybrid model learned to the physics its science model lacks.
 
 Two wings over a shared floor. The closed loop (``loop/``) and the exploratory sparse reading
-(``sparse/``) share the vocabulary of terms (``terms.py``, ``augment.py``), the network-free refits
+(``sparse/``) share the vocabulary of terms (``terms.py``, ``augment.py``, and the families that offer them,
+``families/``), the network-free refits
 (``science_fit.py``), the held-out test (``evidence.py``, ``judge.py``), the science helpers
 (``sensitivity.py``), and the support selection (``supports.py``).
 
@@ -26,10 +27,12 @@ from .loop import Candidates, LoopResult, close_the_loop, format_table, plot_une
 from .science_fit import ScienceFit
 from .sensitivity import science_sensitivities
 from .sparse import CandidateLibrary, ResidualDiagnosis, SparseTermRegression
-from .terms import SCIENCE_OUTPUT, TERM_KINDS, Term, named_terms, physics_terms
+from .families import TERM_FAMILIES, SymbolicDiscovery, TermContext, TermFamily, VariableFamily, physics_terms
+from .terms import SCIENCE_OUTPUT, TERM_KINDS, Term, named_terms
 
 __all__ = ["CandidateLibrary", "SparseTermRegression", "ResidualDiagnosis", "science_sensitivities",
            "augment_science", "AugmentedScience", "parameter_name", "close_the_loop", "free_run",
            "fit_initial_state", "MLPOn", "ZeroResidual", "LoopResult", "prediction_metrics", "format_table",
            "plot_unexplained", "Term", "physics_terms", "named_terms", "TERM_KINDS", "SCIENCE_OUTPUT", "ScienceFit",
-           "Candidates", "Evidence", "evidence", "critical_value", "holm"]
+           "Candidates", "Evidence", "evidence", "critical_value", "holm", "SymbolicDiscovery", "TermFamily",
+           "VariableFamily", "TermContext", "TERM_FAMILIES"]

@@ -24,7 +24,8 @@ import torch
 from ..augment import augment_science
 from ..science_fit import ScienceFit
 from ..sensitivity import finite_differences, free_columns
-from ..terms import Term, physics_terms
+from ..families import SymbolicDiscovery, TermContext, physics_terms
+from ..terms import Term
 from .placed import PlacedGroup, PlacedTerm, offset_term
 
 
@@ -49,6 +50,13 @@ class Candidates:
         At most this many terms added.
     n_candidates : int, default=4
         Candidates taken from each ranking per step (up to twice as many refitted).
+    discovery : SymbolicDiscovery or bool, optional
+        Also search closed forms for what the network learned (:class:`~sklearn_hybrid.diagnosis.SymbolicDiscovery`,
+        symbolic regression; ``True`` for its defaults), on each equation where no single term of the list
+        explains at least ``explained`` of it beyond the science's own parameters. Each form is one more
+        candidate, judged like every term. Default off.
+    explained : float, default=0.95
+        The share of an equation's residual a single listed term must explain for the search to skip it.
     """
 
     terms: Sequence[Term] | None = None
@@ -57,6 +65,8 @@ class Candidates:
     positive: Sequence[str] = ()
     max_terms: int = 4
     n_candidates: int = 4
+    discovery: Any = None
+    explained: float = 0.95
 
     def check(self) -> None:
         """Raise ``ValueError`` naming the setting that is out of range (the names and the terms
@@ -65,6 +75,10 @@ class Candidates:
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
                 raise ValueError(f"{name} must be a positive integer, got {value!r}.")
+        if not (self.discovery in (None, False, True) or callable(getattr(self.discovery, "terms", None))):
+            raise TypeError(f"discovery must be True, False or a SymbolicDiscovery, got {self.discovery!r}.")
+        if not 0 < self.explained <= 1:
+            raise ValueError(f"explained must be in (0, 1], got {self.explained!r}.")
         if self.terms is not None:  # a name or a plain function would fail deep inside the ranking
             terms = self.terms
             how = ("a term by its name: named_terms(state_names)['v_dot'] (sklearn_hybrid.diagnosis.named_terms); "
@@ -103,6 +117,42 @@ def term_columns(terms: Sequence[Term], variables: dict[str, torch.Tensor]) -> l
             if np.all(np.isfinite(col)) and np.any(col):
                 out.append((term, shape, col))
     return out
+
+
+def discovered_terms(candidates: Candidates, columns: list[tuple], remaining: np.ndarray, jac: np.ndarray,
+                     values: np.ndarray, science_values: np.ndarray, variables: Sequence[str], n_states: int,
+                     components: Sequence[int], log: Callable[[str], None]) -> list[Term]:
+    """The discovery family's forms (``candidates.discovery``) for the equations the listed terms leave unexplained.
+
+    An equation is searched where the part of ``remaining`` (what the network learned) that no parameter of
+    the science can take is material (over a twentieth of it) and no single listed term explains
+    ``candidates.explained`` of it.
+    """
+    family = SymbolicDiscovery() if candidates.discovery is True else candidates.discovery
+    if not family:
+        return []
+    wanted = []
+    for j in components:
+        total = float(np.sum(remaining[:, j] ** 2))
+        S = jac[:, j, :]
+        S = S[:, np.any(np.abs(S) > 0, axis=0)]
+        Q = np.linalg.qr(S)[0] if S.shape[1] else np.zeros((len(S), 0))
+        free = remaining[:, j] - Q @ (Q.T @ remaining[:, j])
+        if total == 0 or float(free @ free) < 0.05 * total:
+            continue
+        best = max((t.gain for t in rank_by_residual(columns, remaining, jac, [j], set())), default=0.0)
+        share = best * total / float(free @ free)
+        log(f"  the best listed term explains {share:.0%} of equation {j}'s residual beyond the parameters"
+            + (": searching closed forms" if share < candidates.explained else ""))
+        if share < candidates.explained:
+            wanted.append(j)
+    if not wanted:
+        return []
+    context = TermContext(tuple(variables), values, {}, n_states, learned=remaining, science_output=science_values,
+                          directions=jac, components=tuple(wanted))
+    found = family.terms(context, log=log)
+    log(f"  discovery offered {len(found)} form(s): {', '.join(t.name for t in found)}")
+    return found
 
 
 def rank_by_residual(columns: list[tuple], remaining: np.ndarray, jac: np.ndarray, components: Sequence[int],

@@ -243,9 +243,9 @@ def mirror_trades(intervals: Any, science: Callable, theta: Mapping[str, Any], a
     n = len(args[0])
     mirrors, where = [], []
     for t in added:
-        # an offset has no form; a scaled term is its own equation's; a vector field's component has its
-        # partners on the other equations (the field's other components), not its own form
-        if t.kind in ("offset", "scaled") or t.term.field is not None:
+        # an offset has no form; a term made for its own equation (a scaled or a discovered one) stays there; a
+        # vector field's component has its partners on the other equations (the field's other components)
+        if t.kind == "offset" or t.term.component is not None or t.term.field is not None:
             continue
         with torch.no_grad():
             col = np.broadcast_to(t.term(values, **{k: torch.tensor(v, dtype=torch.float64)

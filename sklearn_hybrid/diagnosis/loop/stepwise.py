@@ -32,7 +32,7 @@ import torch
 
 from ...science import read_signature
 from ..judge import FIT_FAILURES, Judge, training_folds
-from .candidates import (Candidates, augment_with, candidate_groups, field_groups, initial_values, interleave,
+from .candidates import (Candidates, augment_with, candidate_groups, discovered_terms, field_groups, initial_values, interleave,
                          merge_rankings, offset_candidate, rank_by_residual, rank_by_fit, shape_bounds, term_columns)
 from .collapse import replace_stand_ins
 from ..evidence import Evidence, holm
@@ -129,6 +129,12 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
                for name, col in zip(variables, np.hstack([np.asarray(a).reshape(len(a), -1) for a in args]).T)}
     tensors[SCIENCE_OUTPUT] = torch.as_tensor(science_output(science, theta, args), dtype=torch.float64)
     columns = term_columns(candidates.terms, tensors)
+    if candidates.discovery:  # closed forms for what the network learned, at the hybrid's own theta
+        values = np.hstack([np.asarray(a).reshape(len(a), -1) for a in args])
+        found = discovered_terms(candidates, columns, np.asarray(learned) - tensors[SCIENCE_OUTPUT].numpy(),
+                                 free_columns(*parameter_jacobian(science, theta, args), fit.fixed), values,
+                                 tensors[SCIENCE_OUTPUT].numpy(), variables, n_states, components, log)
+        columns += term_columns(found, tensors)
     judge = Judge(fit, splits, groups)
     recheck = training_folds(fit, splits, groups, evidence.second_look)
     current, theta_now = science, judge.fit(science, theta)

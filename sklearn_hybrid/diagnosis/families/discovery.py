@@ -1,0 +1,178 @@
+"""Symbolic regression on what the network learned: the family that offers a law the term list does not know.
+
+:class:`SymbolicDiscovery` runs Operon (``pyoperon``, a C++ genetic-programming engine with a
+scikit-learn interface) per equation on the states the network visited, the equation's science output
+among the variables (``f``), against what the network learned there. Its Pareto front of length against
+error holds the candidate forms, short to long; each becomes a term (``kind="discovered"``, see
+:func:`~sklearn_hybrid.diagnosis.families.symbolic.form_term`) that goes through the same evidence test
+and the same network-free refit as every other term, its constants fitted jointly with theta. The samples
+only propose: which form is the law is judged in the ODE, on held-out trajectories.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+
+import numpy as np
+
+from ..terms import Term
+from .symbolic import form_term
+
+__all__ = ["SymbolicDiscovery"]
+
+SCIENCE_SYMBOL = "f"  # the science output of the equation, a variable of the search
+
+
+class SymbolicDiscovery:
+    """Propose closed forms for what the network learned, by symbolic regression (Operon).
+
+    Parameters
+    ----------
+    operators : tuple of str, default=("add,sub,mul,div,square", "add,sub,mul,div,square,sqrt", "add,sub,mul,div,exp,log")
+        The grammars searched in turn, each a set of operators by Operon's names (``constant`` and
+        ``variable`` are always allowed): rational functions first (saturations, Hill functions,
+        polynomials), then with roots, then with exponentials and logarithms. Each grammar has its own
+        front and offers its own forms: with every operator at once, the search fills the front with
+        exponentials that mimic a rational law.
+    max_length : int, default=20
+        The longest form, in nodes of its expression tree.
+    population_size : int, default=300
+        Forms per generation.
+    generations : int, default=25
+        Generations per round; rounds go on until the front settles or ``max_rounds``.
+    max_rounds : int, default=8
+        At most this many rounds per equation.
+    tol : float, default=0.01
+        The front has settled when a round lowers no length's error by more than this share.
+    max_forms : int, default=2
+        Forms offered per equation and grammar: the front's shortest among those within reach.
+    slack : float, default=0.5
+        A form is within reach when its error is at most ``1 + slack`` times the front's lowest, or when it
+        explains at least ``r2`` of what the network learned.
+    r2 : float, default=0.99
+        See ``slack``: the longer forms of a front mostly fit the network's own errors.
+    max_points : int, default=400
+        Visited states the search reads (evenly spaced among those given).
+    random_state : int, default=0
+        Seed of the search.
+    use_science : bool, default=False
+        Offer the equation's science output as a variable ``f`` (a parameter that varies with the state:
+        ``f * x``).
+
+    Attributes
+    ----------
+    fronts_ : dict of int to dict of str to list of dict
+        After :meth:`terms`: per equation and grammar, the front's forms (``formula``, ``length``, ``mse``)
+        as Operon wrote them, before simplification.
+    seconds_ : float
+        CPU seconds of the last search.
+    """
+
+    name = "discovered"
+
+    def __init__(self, operators: tuple[str, ...] = ("add,sub,mul,div,square", "add,sub,mul,div,square,sqrt",
+                                                     "add,sub,mul,div,exp,log"), max_length: int = 20,
+                 population_size: int = 300, generations: int = 25, max_rounds: int = 8, tol: float = 0.01,
+                 max_forms: int = 2, slack: float = 0.5, r2: float = 0.99, max_points: int = 400,
+                 random_state: int = 0, use_science: bool = False) -> None:
+        self.operators, self.max_length, self.population_size = operators, max_length, population_size
+        self.generations, self.max_rounds, self.tol = generations, max_rounds, tol
+        self.max_forms, self.slack, self.r2, self.max_points = max_forms, slack, r2, max_points
+        self.random_state, self.use_science = random_state, use_science
+
+    def __repr__(self) -> str:
+        return (f"SymbolicDiscovery(max_length={self.max_length}, population_size={self.population_size}, "
+                f"max_rounds={self.max_rounds})")
+
+    def terms(self, context, log: Callable[[str], None] = lambda message: None) -> list[Term]:
+        """Forms for each of ``context.components`` from ``context.learned``, as terms on their equation.
+
+        Raises
+        ------
+        ImportError
+            If ``pyoperon`` is not installed (``pip install pyoperon``).
+        ValueError
+            If the context holds no ``learned`` residual.
+        """
+        if context.learned is None:
+            raise ValueError("SymbolicDiscovery reads what the network learned (TermContext.learned); the "
+                             "context holds none.")
+        start = time.process_time()
+        self.fronts_ = {}
+        rows = np.unique(np.linspace(0, len(context.values) - 1, min(self.max_points, len(context.values))).astype(int))
+        out: list[Term] = []
+        for j in context.components:
+            names = list(context.variables)
+            X = context.values[rows]
+            science = context.science_output
+            if self.use_science and science is not None and np.ptp(science[rows, j]) > 0:
+                names.append(SCIENCE_SYMBOL)
+                X = np.column_stack([X, science[rows, j]])
+            target = np.asarray(context.learned[rows, j], dtype=float)
+            if not np.any(target):
+                continue
+            directions = None if context.directions is None else context.directions[rows, j, :]
+            self.fronts_[j] = {}
+            for grammar in ((self.operators,) if isinstance(self.operators, str) else self.operators):
+                front = self._search(X, target, grammar, log, f"equation {j} ({grammar})")
+                self.fronts_[j][grammar] = front
+                out += [t for t in self._offered(front, names, j, X, directions, float(np.var(target)))
+                        if t.name not in {o.name for o in out}]
+        self.seconds_ = time.process_time() - start
+        return out
+
+    def _search(self, X: np.ndarray, y: np.ndarray, grammar: str, log: Callable[[str], None],
+                where: str) -> list[dict]:
+        """Operon's front, rounds of ``generations`` until no length's error falls by ``tol`` in a round."""
+        try:
+            from pyoperon.sklearn import SymbolicRegressor
+        except ImportError as exc:
+            raise ImportError("SymbolicDiscovery needs pyoperon, the symbolic regression engine: "
+                              "pip install pyoperon") from exc
+        best: dict[int, float] = {}
+        front: list[dict] = []
+        for r in range(self.max_rounds):
+            reg = SymbolicRegressor(
+                allowed_symbols=f"{grammar},constant,variable", objectives=["r2", "length"],
+                max_length=self.max_length, population_size=self.population_size, pool_size=self.population_size,
+                generations=self.generations, max_evaluations=10 ** 9, n_threads=1, optimizer_iterations=10,
+                random_state=self.random_state + r, epsilon=1e-6)
+            reg.fit(X, y)
+            found = [{"formula": m["model"], "length": int(m["length"]), "mse": float(m["mean_squared_error"])}
+                     for m in reg.pareto_front_]
+            front = _pareto(front + found)
+            now = {m["length"]: m["mse"] for m in front}
+            moved = any(length not in best or mse < (1 - self.tol) * best[length] for length, mse in now.items())
+            best = now
+            log(f"  discovery on {where}: round {r + 1}, front of {len(front)} forms, lowest error "
+                f"{min(now.values()):.3g}")
+            if not moved and r > 0:
+                break
+        return front
+
+    def _offered(self, front: list[dict], names: list[str], component: int, X: np.ndarray,
+                 directions: np.ndarray | None, variance: float) -> list[Term]:
+        """The shortest forms within reach (see ``slack`` and ``r2``), as terms (simplified, deduplicated)."""
+        if not front:
+            return []
+        reach = max((1 + self.slack) * min(m["mse"] for m in front), (1 - self.r2) * variance)
+        near = [m for m in sorted(front, key=lambda m: m["length"]) if m["mse"] <= reach]
+        out: dict[str, Term] = {}
+        for m in near:  # shortest first; on a front a longer form has a lower error
+            made = form_term(m["formula"], names, component, values=X, directions=directions,
+                             science=SCIENCE_SYMBOL if SCIENCE_SYMBOL in names else None)
+            if made is None:
+                continue
+            if made[0].name in out or len(out) < self.max_forms:  # one form written twice: its better constants
+                out[made[0].name] = made[0]
+        return list(out.values())
+
+
+def _pareto(forms: list[dict]) -> list[dict]:
+    """The forms no shorter-or-equal form beats in error, shortest first."""
+    out: list[dict] = []
+    for m in sorted(forms, key=lambda m: (m["length"], m["mse"])):
+        if np.isfinite(m["mse"]) and (not out or m["mse"] < out[-1]["mse"]):
+            out.append(m)
+    return out

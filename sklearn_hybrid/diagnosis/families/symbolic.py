@@ -1,0 +1,194 @@
+"""A formula found by symbolic regression, as a term: a canonical form, named constants, a torch function.
+
+:func:`form_term` reads a formula in the variables' names (as a symbolic regressor writes it), drops an
+added constant (the library's own term ``"1"`` stands for it), moves the overall factor to the term's
+coefficient, simplifies with sympy to a canonical form, and names every other number a constant
+``K1, K2, ...``: shape parameters that the network-free refit fits together with theta, as it fits a
+hinge's knot. The term's function is :class:`SymbolicForm`, a picklable torch function of the formula.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+
+import numpy as np
+import sympy
+import torch
+
+from ..terms import SCIENCE_OUTPUT, Term
+
+__all__ = ["SymbolicForm", "form_term", "canonical_form"]
+
+# sympy's functions as torch computes them (a formula of the operators a physicist writes)
+_TORCH = {"exp": torch.exp, "log": torch.log, "sqrt": torch.sqrt, "Abs": torch.abs, "sin": torch.sin,
+          "cos": torch.cos, "tanh": torch.tanh, "sign": torch.sign}
+
+
+class SymbolicForm:
+    """``formula(d, **constants)``: a sympy formula of the named variables as a term's torch function.
+
+    Parameters
+    ----------
+    formula : str
+        The formula in sympy's syntax, over ``variables`` and ``constants`` (as ``srepr`` writes it).
+    variables : dict of str to str
+        The formula's symbols by the variable each stands for (``"f"`` the science output of ``component``).
+    constants : tuple of str
+        Its constants, passed by name at each call.
+    component : int, optional
+        The output whose science output the symbol ``science`` (if any) reads.
+    """
+
+    def __init__(self, formula: str, variables: Mapping[str, str], constants: Sequence[str],
+                 component: int | None = None, science: str | None = None) -> None:
+        self.formula, self.variables, self.constants = formula, dict(variables), tuple(constants)
+        self.component, self.science = component, science
+        self._compiled = None
+
+    def __getstate__(self) -> dict:  # the compiled function is generated code: compiled again after a load
+        return {**self.__dict__, "_compiled": None}
+
+    def __call__(self, d: Mapping[str, torch.Tensor], **constants: torch.Tensor) -> torch.Tensor:
+        if self._compiled is None:
+            expr = sympy.sympify(self.formula, locals=_symbols(self))
+            symbols = [sympy.Symbol(s) for s in (*self.variables, *self.constants)]
+            self._compiled = sympy.lambdify(symbols, expr, modules=[_TORCH, "math"])
+        args = [d[SCIENCE_OUTPUT][..., self.component] if s == self.science else d[v]
+                for s, v in self.variables.items()]
+        one = args[0] if args else next(iter(d.values()))
+        values = [torch.as_tensor(constants[c], dtype=one.dtype) for c in self.constants]
+        out = self._compiled(*args, *values)
+        return out if torch.is_tensor(out) else torch.full_like(one, float(out))
+
+
+def _symbols(form: SymbolicForm) -> dict:
+    return {s: sympy.Symbol(s) for s in (*form.variables, *form.constants)}
+
+
+def canonical_form(expr: sympy.Expr, digits: int = 12) -> tuple[float, sympy.Expr, dict[str, float]]:
+    """``(factor, form, constants)`` with ``expr`` equal to ``factor * form`` less an added constant.
+
+    The form is simplified, its numbers replaced by symbols ``K1, K2, ...`` (``constants`` their values);
+    an exponent within 1e-6 of a whole or half number is taken as that number (a square, a square root).
+    """
+    expr = sympy.sympify(expr)
+    expr = expr.replace(lambda e: e.is_Pow and e.exp.is_Float and abs(2 * e.exp - round(2 * e.exp)) < 2e-6,
+                        lambda e: sympy.Pow(e.base, sympy.Rational(round(2 * e.exp), 2)))
+    if expr.is_Add:  # the added constant is the library's own term
+        expr = expr.as_independent(*expr.free_symbols, as_Add=True)[1]
+    if any(p.exp.is_negative for p in expr.atoms(sympy.Pow)):  # a ratio: one numerator over one denominator
+        expr = sympy.cancel(sympy.together(expr))
+    expr = sympy.factor_terms(expr)
+    factor, form = _monic(expr)
+    constants: dict[str, float] = {}
+
+    def name(number: sympy.Float) -> sympy.Symbol:
+        value = float(number)
+        for k, v in constants.items():  # one constant written twice is one constant
+            if math.isclose(v, value, rel_tol=1e-9):
+                return sympy.Symbol(k)
+        key = f"K{len(constants) + 1}"
+        constants[key] = value
+        return sympy.Symbol(key)
+
+    form = form.replace(lambda e: e.is_Float and not _is_unit(e), name)
+    form = form.replace(lambda e: e.is_Float, lambda e: sympy.Integer(round(float(e))))
+    return float(factor), form, constants
+
+
+def _is_unit(number: sympy.Float) -> bool:
+    return abs(abs(float(number)) - 1.0) < 1e-12
+
+
+def _monic(expr: sympy.Expr) -> tuple[sympy.Expr, sympy.Expr]:
+    """``(factor, form)`` with ``expr = factor * form`` and each sum of ``form``'s product (numerator or
+    denominator) with a variable term of coefficient one (``S/(K + S)``, as a textbook writes it): the form's constants are then its own."""
+    factor, form = expr.as_coeff_Mul()
+    parts = []
+    for part in sympy.Mul.make_args(form):
+        base, power = part.as_base_exp()
+        if base.is_Add and power.is_Integer:
+            lead = [a for a in sympy.Add.make_args(base) if a.free_symbols][0].as_coeff_Mul()[0]
+            if lead != 0:
+                factor, base = factor * lead ** power, sympy.expand(base / lead)
+        parts.append(base ** power)
+    return factor, sympy.Mul(*parts)
+
+
+def form_term(formula: str, variables: Sequence[str], component: int, *, science: str | None = None,
+              values: np.ndarray | None = None, directions: np.ndarray | None = None,
+              spread: float = 1e3) -> tuple[Term, float] | None:
+    """The term of a formula over ``variables`` (``science`` names the symbol that stands for the science
+    output of ``component``), and its coefficient; None for a formula with nothing left.
+
+    With ``values`` (the variables at the visited states, one column each) and ``directions`` (the science's
+    parameter sensitivities there, one column each), the formula's additive parts that a parameter of the
+    science already provides are dropped (a rational function of one variable is split into partial
+    fractions first): a form found on what the network learned also carries theta's error, and the part
+    theta can take is theta's. Each remaining constant starts at the value the formula gives it and may move
+    within a factor ``spread`` either way, keeping its sign (a constant through zero turns a saturation into
+    a pole).
+    """
+    symbols = {f"X{i + 1}": sympy.Symbol(v) for i, v in enumerate(variables)}
+    expr = sympy.sympify(formula, locals=symbols)
+    if values is not None and directions is not None:
+        expr = drop_parameter_parts(expr, [symbols[f"X{i + 1}"] for i in range(len(variables))], values, directions)
+    factor, form, constants = canonical_form(expr)
+    used = sorted((s.name for s in form.free_symbols if s.name not in constants), key=list(variables).index)
+    if not used or factor == 0 or not math.isfinite(factor):
+        return None
+    shape = {k: ([v], (v / spread, v * spread) if v > 0 else (v * spread, v / spread)) for k, v in constants.items()}
+    func = SymbolicForm(sympy.srepr(form), {v: v for v in used}, list(constants), component, science)
+    name = sympy.sstr(form).replace("**", "^")
+    return Term(name, func, "discovered", shape, component=component), factor
+
+
+def drop_parameter_parts(expr: sympy.Expr, symbols: Sequence[sympy.Symbol], values: np.ndarray,
+                         directions: np.ndarray, tol: float = 1e-8) -> sympy.Expr:
+    """``expr`` less its additive parts that lie in the span of ``directions`` (columns at the points
+    ``values``) to within ``tol`` of their squared size: a constant, or a multiple of a state the science already
+    scales by a parameter. Numbers that change ``expr`` at no point (rounding left by the search) go first,
+    and again at the end (a sum the search wrote in two parts may cancel once collected)."""
+    expr = _without_negligible_numbers(expr, symbols, values)
+    basis = directions[:, np.any(np.abs(directions) > 0, axis=0)]
+    Q = np.linalg.qr(np.column_stack([np.ones(len(values)), basis]))[0]
+    kept = []
+    for part in sympy.Add.make_args(sympy.expand(expr, deep=False)):
+        col = _evaluate(part, symbols, values)
+        if col is None:
+            kept.append(part)
+            continue
+        size = float(col @ col)
+        rest = col - Q @ (Q.T @ col)
+        if size > 0 and float(rest @ rest) >= tol * size:
+            kept.append(part)
+    out = sympy.Add(*kept)
+    if any(p.exp.is_negative for p in out.atoms(sympy.Pow)):
+        out = sympy.cancel(sympy.together(out))
+    return _without_negligible_numbers(out, symbols, values, tol=1e-5)
+
+
+def _without_negligible_numbers(expr: sympy.Expr, symbols: Sequence[sympy.Symbol], values: np.ndarray,
+                                tol: float = 1e-6) -> sympy.Expr:
+    """``expr`` with every number set to zero that moves its values by less than ``tol`` of their size."""
+    base = _evaluate(expr, symbols, values)
+    if base is None or not np.any(base):
+        return expr
+    size = float(np.sqrt(np.mean(base ** 2)))
+    for number in sorted(expr.atoms(sympy.Float), key=lambda f: abs(float(f))):
+        trial = expr.subs(number, 0)
+        col = _evaluate(trial, symbols, values)
+        if col is not None and float(np.sqrt(np.mean((col - base) ** 2))) < tol * size:
+            expr = trial
+    return expr
+
+
+def _evaluate(part: sympy.Expr, symbols: Sequence[sympy.Symbol], values: np.ndarray) -> np.ndarray | None:
+    """The part's value at each point, or None where it is not finite."""
+    if part.has(sympy.zoo, sympy.nan, sympy.oo, -sympy.oo):
+        return None
+    with np.errstate(all="ignore"):
+        out = sympy.lambdify(list(symbols), part, modules="numpy")(*values.T)
+    out = np.broadcast_to(np.asarray(out, dtype=float), (len(values),))
+    return out if np.all(np.isfinite(out)) else None

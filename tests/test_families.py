@@ -1,0 +1,125 @@
+"""Term families (diagnosis/families/): the registry behind physics_terms, a found formula as a term, and the
+discovery family inside the closed loop's selection."""
+
+import pickle
+import sys
+
+import numpy as np
+import pytest
+import torch
+from scipy.integrate import solve_ivp
+
+from sklearn_hybrid import HybridRegressor
+from sklearn_hybrid.diagnosis import (TERM_FAMILIES, TERM_KINDS, Candidates, Evidence, ScienceFit, SymbolicDiscovery,
+                                      TermContext, physics_terms)
+from sklearn_hybrid.diagnosis.families.symbolic import form_term
+from sklearn_hybrid.diagnosis.loop import stepwise
+
+
+def test_every_kind_but_the_users_is_one_family_and_a_kind_asks_for_its_family_alone():
+    assert set(TERM_FAMILIES) == set(TERM_KINDS) - {"user"}
+    values = np.random.default_rng(0).uniform(-1, 2, (30, 3))
+    setting = {"units": {"a": "rad", "x": "m", "y": "m"}, "scaled": {1: "x"}}  # an angle, a position in the plane
+    everything = physics_terms(["a", "x", "y"], values, **setting)
+    for kind in TERM_FAMILIES:
+        alone = physics_terms(["a", "x", "y"], values, kinds=[kind], **setting)
+        assert alone and {t.kind for t in alone} <= {kind, "dry_friction", "drag"}  # sign(x) is dry friction's
+        names = [t.name for t in alone]
+        assert names == [t.name for t in everything if t.name in set(names)]  # the library's own order
+
+
+def test_a_formula_becomes_a_textbook_term_with_named_constants_and_its_coefficient():
+    # Operon's writing of 1.3 S I / (0.7 + S) with an intercept and the constants spread over the tree
+    found = "(0.001853 + (1.002335 * (((0.108849 * X2) / ((0.825395 * X1) - (-0.579630))) * (9.834289 * X1))))"
+    term, coef = form_term(found, ["S", "I"], component=1)
+    assert term.name == "I*S/(K1 + S)" and term.kind == "discovered" and term.component == 1
+    (start,), (low, high) = term.shape["K1"]
+    assert start == pytest.approx(0.7022, abs=1e-4) and low < start < high and low > 0  # the sign is kept
+    d = {"S": torch.tensor([0.5, 2.0], dtype=torch.float64), "I": torch.tensor([1.0, 0.3], dtype=torch.float64)}
+    expected = 1.002335 * 0.108849 * 9.834289 * d["S"] * d["I"] * d["S"] / (0.825395 * d["S"] + 0.579630) / d["S"]
+    got = coef * term(d, K1=torch.tensor(start, dtype=torch.float64))
+    torch.testing.assert_close(got, expected * d["S"] / d["S"])
+    again = pickle.loads(pickle.dumps(term))  # an augmented science with it pickles (joblib.dump of a fit)
+    torch.testing.assert_close(again(d, K1=torch.tensor(start, dtype=torch.float64)), got / coef)
+
+
+def test_the_part_a_parameter_of_the_science_provides_is_dropped_from_a_formula():
+    x = np.linspace(0.05, 4, 50)[:, None]
+    directions = np.column_stack([np.ones(50), -x[:, 0]])  # the science a - b x
+    # 1.2 / (1 + x^2) - 0.74 + 0.19 x, as Operon wrote it: the constant and the multiple of x are theta's
+    found = "(1.064359 / (((((-0.941789) * X1) - (-0.941789)) ** 2) - ((-1.773932) * X1))) + (-0.74 + 0.19 * X1)"
+    term, coef = form_term(found, ["x"], 0, values=x, directions=directions)
+    assert term.name == "1/(x^2 + 1)" and term.shape == {} and coef == pytest.approx(1.2, rel=1e-5)
+    assert form_term("(0.5 - 0.2 * X1)", ["x"], 0, values=x, directions=directions) is None  # nothing left
+
+
+def _saturation_context():
+    x = np.linspace(0.05, 3.0, 200)[:, None]
+    learned = 1.3 * x / (0.7 + x) + 0.2 - 0.1 * x  # the law plus what the science's parameters take
+    directions = np.stack([np.ones_like(x), -x], axis=-1)  # (points, outputs, parameters)
+    return TermContext(("x",), x, n_states=1, learned=learned, directions=directions, components=(0,))
+
+
+def test_symbolic_discovery_offers_the_law_on_what_the_network_learned():
+    family = SymbolicDiscovery(operators="add,sub,mul,div", max_rounds=2, random_state=0)
+    terms = family.terms(_saturation_context())
+    assert terms and all(t.kind == "discovered" and t.component == 0 for t in terms)
+    assert "x/(K1 + x)" in [t.name for t in terms]
+    found = next(t for t in terms if t.name == "x/(K1 + x)")
+    assert found.shape["K1"][0][0] == pytest.approx(0.7, rel=0.05)
+    assert family.fronts_[0]["add,sub,mul,div"] and family.seconds_ > 0
+
+
+def test_symbolic_discovery_says_how_to_install_its_engine(monkeypatch):
+    monkeypatch.setitem(sys.modules, "pyoperon", None)
+    monkeypatch.setitem(sys.modules, "pyoperon.sklearn", None)
+    with pytest.raises(ImportError, match="pip install pyoperon"):
+        SymbolicDiscovery(max_rounds=1).terms(_saturation_context())
+
+
+def test_discovery_needs_what_the_network_learned_and_a_valid_setting():
+    with pytest.raises(ValueError, match="learned"):
+        SymbolicDiscovery().terms(TermContext(("x",), np.ones((3, 1)), n_states=1, components=(0,)))
+    with pytest.raises(TypeError, match="discovery"):
+        Candidates(discovery="yes").check()
+    with pytest.raises(ValueError, match="explained"):
+        Candidates(explained=0.0).check()
+
+
+def decay_f(v, k=0.5):
+    return -k * v
+
+
+def test_the_loop_names_a_law_outside_the_term_list_with_discovery_and_only_with_it():
+    """dA/dt = -0.3 A - 1.0 A^2 / (0.25 + A^2): the selection reads the exact rates as what the network learned
+    (no training: a quick test of the wiring), the term list holds no Hill function."""
+    rng = np.random.default_rng(0)
+    dt, n_steps, n = 0.3, 12, 30
+    x0 = rng.uniform(0.2, 2.5, (n, 1))
+
+    def truth(t, a):
+        return -0.3 * a - a ** 2 / (0.25 + a ** 2)
+    x = np.stack([solve_ivp(truth, (0, dt * n_steps), s, t_eval=dt * np.arange(n_steps + 1), rtol=1e-10,
+                            atol=1e-12).y.T for s in x0])
+    y = x[:, 1:] + 0.002 * rng.standard_normal(x[:, 1:].shape)
+    est = HybridRegressor(science=decay_f, dt=dt, max_iter=2, random_state=0).fit(x0, y)
+    states = x.reshape(-1, 1)
+    learned = truth(0, states)
+    splits = [(np.arange(24), np.arange(24, 30))]
+    terms = [t for t in physics_terms(["A"], states) if t.kind in ("polynomial", "saturation")]
+    family = SymbolicDiscovery(operators="add,sub,mul,div,square", max_rounds=2, random_state=0)
+
+    def select(discovery):
+        return stepwise.forward_selection(decay_f, {"k": 0.5}, ScienceFit(est, x0, y), splits, ["A"], 1, [states],
+                                          learned, [0], candidates=Candidates(terms=terms, discovery=discovery,
+                                                                              max_terms=2), evidence=Evidence())
+    found = select(family)
+    assert [t.kind for t in found["added"]] == ["discovered"]
+    added = found["added"][0]
+    augmented = found["science"]
+    rates = augmented(torch.as_tensor(states), **{k: torch.tensor(v) for k, v in found["theta"].items()})
+    np.testing.assert_allclose(rates.numpy(), truth(0, states), rtol=0, atol=0.01 * np.abs(truth(0, states)).max())
+    assert abs(found["theta"]["k"] - 0.3) < 0.015  # theta right, the law's
+    assert "A" in added.name and added.term.component == 0
+    without = select(False)
+    assert all(t.kind != "discovered" for t in without["added"])
