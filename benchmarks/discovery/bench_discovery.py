@@ -1,0 +1,255 @@
+"""Name the law: the closed loop with and without symbolic-regression discovery, and three anchors, on the laws batch.
+
+Issue "Name the law, not a stand-in", item 5. On every system of ``laws.py`` (17 effects outside the term list, 4
+complete controls; the identification benchmark's protocol: 50 training and 20 test trajectories, noise as a share
+of each state's spread, seed 0), the same data through:
+
+- **loop**: ``close_the_loop`` on the first hybrid fit (erm, the network started at zero on every equation, as the
+  identification benchmark fits it), the term list only;
+- **loop + discovery**: the same first fit, ``Candidates(discovery=True)``;
+- **UDE + SINDy**: the first fit's network output on the visited states, STLSQ on pysindy's cubic polynomial
+  library per equation (threshold by 5-fold CV, one-standard-error rule), terms and theta refitted without the
+  network (``identification/anchors.py``, the recipe of ``bench_anchors_loop.py``);
+- **SR alone**: Operon on smoothed finite-difference derivatives of the noisy trajectories, per equation, the whole
+  right-hand side (no science), the front's model by Operon's minimum description length;
+- **SINDy on the data**: ``anchors.sindy_on_data`` (the science's parameter directions beside the cubic
+  polynomials, on the same derivatives).
+
+Scores (``identification/protocol.py``): ``rel_err`` is the RMS distance between the final right-hand side and
+the truth over the test states, over the RMS of the missing effect (a control: ``control_err`` over the truth's
+RMS); theta error the mean relative error of the science's parameters. The law is **named** when ``rel_err`` is
+at most 0.01 and theta within 5 %; the **field** within 10 % when ``rel_err`` is at most 0.10. A control is
+**clean** when the loop adds nothing (UDE + SINDy: no term), and, for the two anchors that replace the whole
+model, when ``control_err`` is at most 0.05. Every arm of a case is cached in
+``results/runs/discovery/<case>.json`` as it ends (the first fits in ``fits/``, not committed); a rerun resumes.
+
+    python benchmarks/discovery/bench_discovery.py                      # every case, resuming
+    python benchmarks/discovery/bench_discovery.py --cases holling_iii --arms loop loop_discovery
+    python benchmarks/discovery/bench_discovery.py --render
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import pickle
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import torch
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the helpers, the studies' modules
+from helpers import PACKAGE_COMMIT, cpu_seconds, runs_folder, write_results  # noqa: E402
+from discovery.laws import BY_NAME, LAWS  # noqa: E402
+from identification import anchors  # noqa: E402
+from identification.protocol import PROTOCOL, loop_arguments, make_data, score  # noqa: E402
+from identification.systems import simulate  # noqa: E402
+
+RUNS = runs_folder("discovery")
+NOISE, SEED = 0.01, 0
+ARMS = [("loop", "closed loop (term list)"), ("loop_discovery", "closed loop + discovery"),
+        ("ude_sindy", "UDE + SINDy (cubic library)"), ("sr_alone", "SR alone on derivatives"),
+        ("sindy_data", "SINDy on the data")]
+WHOLE_MODEL = ("sr_alone", "sindy_data")  # they replace the science: no theta, clean by control_err
+
+
+def first_fit(system, data):
+    from sklearn_hybrid import HybridRegressor
+    from sklearn_hybrid.diagnosis import MLPOn
+
+    path = RUNS / "fits" / f"{system.name}.pkl"
+    if path.exists():
+        return pickle.loads(path.read_bytes()), True
+    est = HybridRegressor(science=system.science, dt=system.dt, method="erm", n_inputs=int(system.forced),
+                          theta_init=dict(system.theta_guess) or None, random_state=SEED,
+                          residual=MLPOn(list(range(len(system.state_names)))))
+    est.fit(data["X"], data["y"])
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_bytes(pickle.dumps(est))
+    return est, False
+
+
+def _loop(system, data, hybrid, discovery: bool) -> dict:
+    from sklearn_hybrid.diagnosis import Candidates, close_the_loop
+
+    res = close_the_loop(hybrid, data["X"], data["y"], candidates=Candidates(discovery=discovery), verbose=False,
+                         **loop_arguments(system))
+    theta = {k: float(np.asarray(v)) for k, v in res.science_theta.items() if np.ndim(v) == 0}
+    scores = score(system, res.science, res.science_theta, hybrid.theta_, data["x_test"], data["u_test"])
+    return {**scores, "n_added": len(res.added), "theta_error": anchors.theta_error(system, theta),
+            "terms": [f"{t['coef']:+.4g} * {t['term']} [{t['output']}]" +
+                      (" with " + ", ".join(f"{k} = {v:.4g}" for k, v in t["shape"].items()) if t["shape"] else "")
+                      for t in res.added],
+            "kinds": [t["kind"] for t in res.added], "theta": theta,
+            "verdicts": {k: v for k, v in res.intervals.verdicts.items()} if res.intervals is not None else {}}
+
+
+def _ude_sindy(system, data, hybrid) -> dict:
+    d = len(system.state_names)
+    u_train = simulate(system, PROTOCOL["n_train"], SEED, stream=0)[1]
+    powers = anchors.polynomial_powers(d + int(system.forced))
+    ps = anchors.pysindy_module()
+    trace = hybrid.residual_trace(data["X"])
+    Z = trace["points"] if trace["inputs"] is None else np.hstack([trace["points"], trace["inputs"]])
+    Theta = np.asarray(ps.PolynomialLibrary(degree=3).fit(Z).transform(Z))
+    g = trace["residual"].reshape(len(Z), -1)
+    theta0 = {k: float(v) for k, v in hybrid.theta_.items()}
+    xi = np.stack([anchors.sparse_fit(Theta, g[:, j], "stlsq") for j in range(d)], axis=1)
+    support = xi != 0
+    f = anchors.combined_science(system, powers)
+    theta, xi_fit, how = anchors.refit(system, f, theta0, xi, support, data, u_train)
+    scores = score(system, f, {**theta, "_xi": xi_fit}, theta0, data["x_test"], data["u_test"])
+    return {**scores, "n_terms": int(support.sum()), "refit": how, "theta_error": anchors.theta_error(system, theta),
+            "terms": anchors.term_labels(support, xi_fit, d + int(system.forced), system)}
+
+
+def _derivatives(system, data):
+    d = len(system.state_names)
+    states = np.concatenate([np.asarray(data["X"])[:, None, :d], data["y"]], axis=1)
+    t = system.dt * np.arange(states.shape[1])
+    diff = anchors.pysindy_module().SmoothedFiniteDifference()
+    xdot = np.concatenate([np.asarray(diff(s, t)) for s in states])
+    u = simulate(system, PROTOCOL["n_train"], SEED, stream=0)[1]
+    Z = states.reshape(-1, d) if u is None else np.hstack([states.reshape(-1, d), u.reshape(-1, 1)])
+    return Z, xdot
+
+
+def _sr_alone(system, data) -> dict:
+    from pyoperon.sklearn import SymbolicRegressor
+
+    Z, xdot = _derivatives(system, data)
+    rows = np.unique(np.linspace(0, len(Z) - 1, min(400, len(Z))).astype(int))
+    models = []
+    for j in range(xdot.shape[1]):
+        reg = SymbolicRegressor(allowed_symbols="add,sub,mul,div,exp,log,sqrt,square,constant,variable",
+                                objectives=["r2", "length"], max_length=30, population_size=500, pool_size=500,
+                                generations=100, max_evaluations=10 ** 9, n_threads=1, optimizer_iterations=10,
+                                random_state=SEED, epsilon=1e-6)
+        reg.fit(Z[rows], xdot[rows, j])
+        models.append(reg)
+
+    def model(v, *u, **_):
+        V = v.numpy() if not u else np.hstack([v.numpy(), u[0].numpy()])
+        return torch.as_tensor(np.stack([m.predict(V) for m in models], axis=1))
+    scores = score(system, model, {}, {}, data["x_test"], data["u_test"])
+    names = list(system.state_names) + (["u"] if system.forced else [])
+    return {**scores, "models": [m.get_model_string(m.model_, 4, names=names) for m in models]}
+
+
+def _sindy_data(system, data) -> dict:
+    u_train = simulate(system, PROTOCOL["n_train"], SEED, stream=0)[1]
+    return anchors.sindy_on_data(system, data, u_train,
+                                 anchors.polynomial_powers(len(system.state_names) + int(system.forced)))
+
+
+def run_case(name: str, arms: list[str]) -> dict:
+    torch.set_num_threads(1)
+    system = BY_NAME[name]
+    path = RUNS / f"{name}.json"
+    out = json.loads(path.read_text()) if path.exists() else {"system": name, "noise": NOISE, "seed": SEED}
+    data = make_data(system, NOISE, SEED)
+    hybrid = None
+    for arm in arms:
+        if arm in out and "error" not in out[arm]:
+            continue
+        start, cpu = time.perf_counter(), cpu_seconds()
+        try:
+            if arm in ("loop", "loop_discovery", "ude_sindy") and hybrid is None:
+                hybrid, reused = first_fit(system, data)
+                out["first_fit_reused"] = reused
+            if arm == "loop":
+                got = _loop(system, data, hybrid, False)
+            elif arm == "loop_discovery":
+                got = _loop(system, data, hybrid, True)
+            elif arm == "ude_sindy":
+                got = _ude_sindy(system, data, hybrid)
+            elif arm == "sr_alone":
+                got = _sr_alone(system, data)
+            else:
+                got = _sindy_data(system, data)
+        except Exception as error:  # a failed arm is a result: it is recorded, not hidden
+            got = {"error": f"{type(error).__name__}: {error}"}
+        got.update(seconds=time.perf_counter() - start, cpu_seconds=cpu_seconds() - cpu, package_commit=PACKAGE_COMMIT)
+        out[arm] = got
+        RUNS.mkdir(parents=True, exist_ok=True)
+        path.write_text(json.dumps(out, indent=1, default=float) + "\n")
+        print(f"{name} {arm}: {_cell(system, got)} ({got['cpu_seconds']:.0f} CPU s)", flush=True)
+    return out
+
+
+def _named(system, arm: str, r: dict) -> bool:
+    return (r.get("rel_err") is not None and r["rel_err"] <= 0.01 and arm not in WHOLE_MODEL
+            and r.get("theta_error") is not None and r["theta_error"] <= 0.05)
+
+
+def _clean(arm: str, r: dict) -> bool:
+    if arm in WHOLE_MODEL:
+        return r.get("control_err") is not None and r["control_err"] <= 0.05
+    return (r.get("n_added") if arm.startswith("loop") else r.get("n_terms")) == 0
+
+
+def _cell(system, r: dict) -> str:
+    if "error" in r:
+        return "failed: " + r["error"][:60]
+    if system.is_control:
+        return f"control_err {r['control_err']:.3f}" + (f", {r['n_added']} added" if "n_added" in r else "")
+    theta = "" if r.get("theta_error") is None else f", theta {r['theta_error']:.3f}"
+    return f"rel_err {r['rel_err']:.3f}{theta}"
+
+
+def render() -> None:
+    recs = [json.loads((RUNS / f"{s.name}.json").read_text()) for s in LAWS if (RUNS / f"{s.name}.json").exists()]
+    effects = [r for r in recs if not BY_NAME[r["system"]].is_control]
+    controls = [r for r in recs if BY_NAME[r["system"]].is_control]
+    lines = ["# Name the law: the laws batch", "",
+             "`benchmarks/discovery/bench_discovery.py` (its docstring has the protocol, the arms and the scores). "
+             f"{len(effects)} of 17 effects and {len(controls)} of 4 controls run so far.", "",
+             "| recipe | law named (rel_err <= 0.01, theta within 5 %) | field within 10 % | median rel_err | "
+             "controls clean | median CPU s |", "|---|---|---|---|---|---|"]
+    for arm, label in ARMS:
+        got = [r[arm] for r in effects if arm in r and "error" not in r[arm]]
+        ctl = [r[arm] for r in controls if arm in r and "error" not in r[arm]]
+        failed = sum(arm in r and "error" in r[arm] for r in recs)
+        if not got and not ctl:
+            lines.append(f"| {label} | not run | | | | |")
+            continue
+        named = "n/a (no theta)" if arm in WHOLE_MODEL else f"{sum(_named(None, arm, g) for g in got)} of {len(got)}"
+        field = sum(g["rel_err"] <= 0.10 for g in got)
+        secs = [g["cpu_seconds"] for g in got + ctl]
+        lines.append(f"| {label} | {named} | {field} of {len(got)} | "
+                     f"{np.median([g['rel_err'] for g in got]) if got else float('nan'):.3f} | "
+                     f"{sum(_clean(arm, c) for c in ctl)} of {len(ctl)} | {np.median(secs):.0f} |"
+                     + (f" ({failed} failed)" if failed else ""))
+    lines += ["", "## Per case", "", "| system | effect | " + " | ".join(label for _, label in ARMS) + " |",
+              "|---|---|" + "---|" * len(ARMS)]
+    for r in recs:
+        s = BY_NAME[r["system"]]
+        cells = [_cell(s, r[a]) if a in r else "" for a, _ in ARMS]
+        lines.append(f"| {s.name} | {s.effect} | " + " | ".join(cells) + " |")
+    lines += ["", "## What the loop added", ""]
+    for r in recs:
+        for arm in ("loop", "loop_discovery"):
+            if arm in r and "terms" in r[arm]:
+                lines.append(f"- {r['system']}, {arm}: " + ("; ".join(r[arm]["terms"]) or "nothing"))
+    write_results("discovery", {"records": recs}, "\n".join(lines))
+
+
+def main(argv=None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--cases", nargs="*", default=[s.name for s in LAWS])
+    parser.add_argument("--arms", nargs="*", default=[a for a, _ in ARMS])
+    parser.add_argument("--render", action="store_true", help="only write results/discovery.md from the records")
+    args = parser.parse_args(argv)
+    if not args.render:
+        unknown = sorted(set(args.cases) - set(BY_NAME)) + sorted(set(args.arms) - {a for a, _ in ARMS})
+        if unknown:
+            raise SystemExit(f"unknown cases or arms: {unknown}")
+        for name in args.cases:
+            run_case(name, args.arms)
+    render()
+
+
+if __name__ == "__main__":
+    main()
