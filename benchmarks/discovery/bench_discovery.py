@@ -77,7 +77,8 @@ def _loop(system, data, hybrid, discovery: bool) -> dict:
     res = close_the_loop(hybrid, data["X"], data["y"], candidates=Candidates(discovery=discovery), verbose=False,
                          **loop_arguments(system))
     theta = {k: float(np.asarray(v)) for k, v in res.science_theta.items() if np.ndim(v) == 0}
-    scores = score(system, res.science, res.science_theta, hybrid.theta_, data["x_test"], data["u_test"])
+    science = res.science if res.science is not None else system.science  # None: nothing was added
+    scores = score(system, science, res.science_theta, hybrid.theta_, data["x_test"], data["u_test"])
     return {**scores, "n_added": len(res.added), "theta_error": anchors.theta_error(system, theta),
             "terms": [f"{t['coef']:+.4g} * {t['term']} [{t['output']}]" +
                       (" with " + ", ".join(f"{k} = {v:.4g}" for k, v in t["shape"].items()) if t["shape"] else "")
