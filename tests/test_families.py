@@ -46,10 +46,11 @@ def test_a_formula_becomes_a_textbook_term_with_named_constants_and_its_coeffici
 def test_the_part_a_parameter_of_the_science_provides_is_dropped_from_a_formula():
     x = np.linspace(0.05, 4, 50)[:, None]
     directions = np.column_stack([np.ones(50), -x[:, 0]])  # the science a - b x
-    # 1.2 / (1 + x^2) - 0.74 + 0.19 x, as Operon wrote it: the constant and the multiple of x are theta's
+    # 1.2 / (1 + x^2) - 0.74 + 0.19 x, as Operon wrote it: the constant and the multiple of x are theta's, and
+    # of the forms equal up to a constant the one that vanishes at rest is written: -1.2 x^2 / (1 + x^2)
     found = "(1.064359 / (((((-0.941789) * X1) - (-0.941789)) ** 2) - ((-1.773932) * X1))) + (-0.74 + 0.19 * X1)"
     term, coef = form_term(found, ["x"], 0, values=x, directions=directions)
-    assert term.name == "1/(x^2 + 1)" and term.shape == {} and coef == pytest.approx(1.2, rel=1e-5)
+    assert term.name == "x^2/(x^2 + 1)" and term.shape == {} and coef == pytest.approx(-1.2, rel=1e-5)
     assert form_term("(0.5 - 0.2 * X1)", ["x"], 0, values=x, directions=directions) is None  # nothing left
 
 
@@ -61,13 +62,25 @@ def _saturation_context():
 
 
 def test_symbolic_discovery_offers_the_law_on_what_the_network_learned():
+    context = _saturation_context()
     family = SymbolicDiscovery(operators="add,sub,mul,div", max_rounds=2, random_state=0)
-    terms = family.terms(_saturation_context())
+    terms = family.terms(context)
     assert terms and all(t.kind == "discovered" and t.component == 0 for t in terms)
-    assert "x/(K1 + x)" in [t.name for t in terms]
-    found = next(t for t in terms if t.name == "x/(K1 + x)")
-    assert found.shape["K1"][0][0] == pytest.approx(0.7, rel=0.05)
     assert family.fronts_[0]["add,sub,mul,div"] and family.seconds_ > 0
+    # the law, up to what the science's parameters take (here a constant and a multiple of x): one offered
+    # form, at its starting constants, with its coefficient and the directions explains the residual exactly
+    d = {"x": torch.as_tensor(context.values[:, 0])}
+    basis = context.directions[:, 0, :]
+    misfits = []
+    for t in terms:
+        col = t(d, **{k: torch.tensor(v[0][0], dtype=torch.float64) for k, v in t.shape.items()}).numpy()
+        A = np.column_stack([col, basis])
+        rest = context.learned[:, 0] - A @ np.linalg.lstsq(A, context.learned[:, 0], rcond=None)[0]
+        misfits.append(np.sqrt(np.mean(rest ** 2)) / np.std(context.learned[:, 0]))
+    best = terms[int(np.argmin(misfits))]
+    assert min(misfits) < 1e-4 and "/(K1 + x)" in best.name
+    assert next(v[0][0] for k, v in best.shape.items() if k == "K1") == pytest.approx(0.7, rel=1e-3)
+    assert not any("dtheta" in t.name for t in terms)  # the directions the search read are theta's
 
 
 def test_symbolic_discovery_says_how_to_install_its_engine(monkeypatch):

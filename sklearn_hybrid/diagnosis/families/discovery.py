@@ -22,6 +22,7 @@ from .symbolic import form_term
 __all__ = ["SymbolicDiscovery"]
 
 SCIENCE_SYMBOL = "f"  # the science output of the equation, a variable of the search
+DIRECTION = "dtheta"  # the science's parameter directions, variables of the search that no offered form keeps
 
 
 class SymbolicDiscovery:
@@ -46,7 +47,8 @@ class SymbolicDiscovery:
     tol : float, default=0.01
         The front has settled when a round lowers no length's error by more than this share.
     max_forms : int, default=2
-        Forms offered per equation and grammar: the front's shortest among those within reach.
+        Forms offered per equation and grammar: the front's knee (the form whose error falls most below the
+        next shorter one's), then the shortest among those within reach.
     slack : float, default=0.5
         A form is within reach when its error is at most ``1 + slack`` times the front's lowest, or when it
         explains at least ``r2`` of what the network learned.
@@ -56,6 +58,11 @@ class SymbolicDiscovery:
         Visited states the search reads (evenly spaced among those given).
     random_state : int, default=0
         Seed of the search.
+    use_directions : bool, default=True
+        Give the search the science's parameter directions on the equation as variables too (``dtheta1``, ...):
+        what the network learned also carries theta's error, and a form may then write the law plus a
+        multiple of each direction. Those parts are theta's and are dropped; a form that uses a direction
+        otherwise is not offered.
     use_science : bool, default=False
         Offer the equation's science output as a variable ``f`` (a parameter that varies with the state:
         ``f * x``).
@@ -75,11 +82,11 @@ class SymbolicDiscovery:
                                                      "add,sub,mul,div,exp,log"), max_length: int = 20,
                  population_size: int = 300, generations: int = 25, max_rounds: int = 8, tol: float = 0.01,
                  max_forms: int = 2, slack: float = 0.5, r2: float = 0.99, max_points: int = 400,
-                 random_state: int = 0, use_science: bool = False) -> None:
+                 random_state: int = 0, use_directions: bool = True, use_science: bool = False) -> None:
         self.operators, self.max_length, self.population_size = operators, max_length, population_size
         self.generations, self.max_rounds, self.tol = generations, max_rounds, tol
         self.max_forms, self.slack, self.r2, self.max_points = max_forms, slack, r2, max_points
-        self.random_state, self.use_science = random_state, use_science
+        self.random_state, self.use_directions, self.use_science = random_state, use_directions, use_science
 
     def __repr__(self) -> str:
         return (f"SymbolicDiscovery(max_length={self.max_length}, population_size={self.population_size}, "
@@ -113,6 +120,10 @@ class SymbolicDiscovery:
             if not np.any(target):
                 continue
             directions = None if context.directions is None else context.directions[rows, j, :]
+            if self.use_directions and directions is not None:
+                new = _new_directions(directions, X)
+                names += [f"{DIRECTION}{k + 1}" for k in range(new.shape[1])]
+                X = np.column_stack([X, new])
             self.fronts_[j] = {}
             for grammar in ((self.operators,) if isinstance(self.operators, str) else self.operators):
                 front = self._search(X, target, grammar, log, f"equation {j} ({grammar})")
@@ -156,17 +167,41 @@ class SymbolicDiscovery:
         """The shortest forms within reach (see ``slack`` and ``r2``), as terms (simplified, deduplicated)."""
         if not front:
             return []
-        reach = max((1 + self.slack) * min(m["mse"] for m in front), (1 - self.r2) * variance)
-        near = [m for m in sorted(front, key=lambda m: m["length"]) if m["mse"] <= reach]
+        bound = max((1 + self.slack) * min(m["mse"] for m in front), (1 - self.r2) * variance)
+        near = [m for m in sorted(front, key=lambda m: m["length"]) if m["mse"] <= bound]
+        # the knee first: the form whose error falls most below the next shorter one's (the law caught, what
+        # the longer forms add is the network's own error)
+        steps = [(front[i - 1]["mse"] / max(front[i]["mse"], 1e-300), i) for i in range(1, len(front))]
+        knee = front[max(steps)[1]] if steps else front[0]
+        near = [knee] + [m for m in near if m is not knee]
         out: dict[str, Term] = {}
-        for m in near:  # shortest first; on a front a longer form has a lower error
+        for m in near:
             made = form_term(m["formula"], names, component, values=X, directions=directions,
+                             theta_parts=[v for v in names if v.startswith(DIRECTION)],
                              science=SCIENCE_SYMBOL if SCIENCE_SYMBOL in names else None)
             if made is None:
                 continue
-            if made[0].name in out or len(out) < self.max_forms:  # one form written twice: its better constants
+            if made[0].name not in out and len(out) < self.max_forms:  # one form written twice: the first
                 out[made[0].name] = made[0]
         return list(out.values())
+
+
+def _new_directions(directions: np.ndarray, X: np.ndarray, tol: float = 1e-9) -> np.ndarray:
+    """The directions a variable does not already give: one that is a constant plus a multiple of a variable
+    (``k x`` of a science's ``-k x``) would only let the search write that variable twice."""
+    keep = []
+    for d in directions.T:
+        size = float(np.sum((d - d.mean()) ** 2))
+        if size == 0:
+            continue
+        gives = False
+        for x in X.T:
+            A = np.column_stack([np.ones(len(x)), x])
+            rest = d - A @ np.linalg.lstsq(A, d, rcond=None)[0]
+            gives = gives or float(rest @ rest) < tol * size
+        if not gives:
+            keep.append(d)
+    return np.column_stack(keep) if keep else np.zeros((len(directions), 0))
 
 
 def _pareto(forms: list[dict]) -> list[dict]:

@@ -117,23 +117,32 @@ def _monic(expr: sympy.Expr) -> tuple[sympy.Expr, sympy.Expr]:
 
 
 def form_term(formula: str, variables: Sequence[str], component: int, *, science: str | None = None,
-              values: np.ndarray | None = None, directions: np.ndarray | None = None,
+              values: np.ndarray | None = None, directions: np.ndarray | None = None, theta_parts: Sequence[str] = (),
               spread: float = 1e3) -> tuple[Term, float] | None:
     """The term of a formula over ``variables`` (``science`` names the symbol that stands for the science
     output of ``component``), and its coefficient; None for a formula with nothing left.
 
     With ``values`` (the variables at the visited states, one column each) and ``directions`` (the science's
     parameter sensitivities there, one column each), the formula's additive parts that a parameter of the
-    science already provides are dropped (a rational function of one variable is split into partial
-    fractions first): a form found on what the network learned also carries theta's error, and the part
-    theta can take is theta's. Each remaining constant starts at the value the formula gives it and may move
-    within a factor ``spread`` either way, keeping its sign (a constant through zero turns a saturation into
-    a pole).
+    science already provides are dropped: a form found on what the network learned also carries theta's
+    error, and the part theta can take is theta's. The variables named in ``theta_parts`` (the directions
+    themselves, given to the search as variables) are dropped where the formula is linear in them with a
+    constant coefficient; a formula that uses one otherwise gives None. Of the forms equal up to a constant,
+    the one that vanishes where the variables do is written. Each remaining constant starts at the value the
+    formula gives it and may move within a factor ``spread`` either way, keeping its sign (a constant through
+    zero turns a saturation into a pole).
     """
     symbols = {f"X{i + 1}": sympy.Symbol(v) for i, v in enumerate(variables)}
     expr = sympy.sympify(formula, locals=symbols)
+    for name in theta_parts:
+        part = sympy.Symbol(name)
+        if part in expr.free_symbols:
+            if not sympy.diff(expr, part).is_number:  # a direction inside the law: not a form of the variables
+                return None
+            expr = expr.subs(part, 0)
     if values is not None and directions is not None:
         expr = drop_parameter_parts(expr, [symbols[f"X{i + 1}"] for i in range(len(variables))], values, directions)
+    expr = _zero_at_rest(expr, list(symbols.values()))
     factor, form, constants = canonical_form(expr)
     used = sorted((s.name for s in form.free_symbols if s.name not in constants), key=list(variables).index)
     if not used or factor == 0 or not math.isfinite(factor):
@@ -142,6 +151,18 @@ def form_term(formula: str, variables: Sequence[str], component: int, *, science
     func = SymbolicForm(sympy.srepr(form), {v: v for v in used}, list(constants), component, science)
     name = sympy.sstr(form).replace("**", "^")
     return Term(name, func, "discovered", shape, component=component), factor
+
+
+def _zero_at_rest(expr: sympy.Expr, symbols: Sequence[sympy.Symbol]) -> sympy.Expr:
+    """``expr`` less its value where every variable is zero, where that value is finite: the search writes a
+    law up to a constant (its intercept is the library's term ``"1"``), and of the forms equal up to a constant
+    the textbook's vanishes at rest (``x^2/(K + x^2)``, not ``-K/(K + x^2)``)."""
+    at_rest = expr.subs({s: 0 for s in symbols})
+    if not at_rest.is_number or at_rest.has(sympy.zoo, sympy.nan, sympy.oo, -sympy.oo) or not at_rest.is_real \
+            or at_rest == 0:
+        return expr
+    out = expr - at_rest
+    return sympy.cancel(sympy.together(out)) if any(p.exp.is_negative for p in out.atoms(sympy.Pow)) else out
 
 
 def drop_parameter_parts(expr: sympy.Expr, symbols: Sequence[sympy.Symbol], values: np.ndarray,
