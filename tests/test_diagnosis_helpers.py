@@ -101,6 +101,17 @@ def test_augmented_science_names_bad_terms():
         too_many(torch.zeros(4, 2))
 
 
+def test_a_flow_enters_one_component_as_it_leaves_the_other_with_one_coefficient():
+    flow = augment_science(oscillator, [{"component": 0, "term": "v", "coef": 0.2, "opposite": 1}], ["v", "v_dot"])
+    assert "c_v" in flow.__signature__.parameters and len(flow.terms) == 1
+    out = flow(torch.tensor([[0.5, 0.1]]), c_v=0.4)[0].numpy()
+    np.testing.assert_allclose(out, [0.1 + 0.4 * 0.5, -0.5 - 0.4 * 0.5])
+    assert "- c_v*v [component 1]" in flow.equation
+    for bad in (0, -1, True, "1"):
+        with pytest.raises(ValueError, match="'opposite' must be another output component"):
+            augment_science(oscillator, [{"component": 0, "term": "v", "coef": 0.2, "opposite": bad}], ["v", "v_dot"])
+
+
 def test_physics_terms_checks_its_values_and_names():
     values = np.random.default_rng(0).normal(size=(50, 2))
     with pytest.raises(ValueError, match="NaN or infinite"):

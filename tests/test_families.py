@@ -50,8 +50,25 @@ def test_the_part_a_parameter_of_the_science_provides_is_dropped_from_a_formula(
     # of the forms equal up to a constant the one that vanishes at rest is written: -1.2 x^2 / (1 + x^2)
     found = "(1.064359 / (((((-0.941789) * X1) - (-0.941789)) ** 2) - ((-1.773932) * X1))) + (-0.74 + 0.19 * X1)"
     term, coef = form_term(found, ["x"], 0, values=x, directions=directions)
-    assert term.name == "x^2/(x^2 + 1)" and term.shape == {} and coef == pytest.approx(-1.2, rel=1e-5)
+    assert term.name == "x^2/(K1 + x^2)" and coef == pytest.approx(-1.2, rel=1e-5)
+    assert term.shape["K1"][0][0] == pytest.approx(1.0)  # a constant that happens to be 1 is still fitted
     assert form_term("(0.5 - 0.2 * X1)", ["x"], 0, values=x, directions=directions) is None  # nothing left
+
+
+def test_a_form_is_marked_where_it_adds_quantities_of_different_units():
+    import sympy
+
+    from sklearn_hybrid.diagnosis.families.symbolic import consistent_units
+
+    x, v, K = sympy.symbols("x v K1")
+    units = {"x": "m", "v": "m/s"}
+    assert consistent_units(x * v / (K + x), units, {"K1"}) is True  # K1 carries metres
+    assert consistent_units(x + v, units, set()) is False
+    assert consistent_units(sympy.exp(x), units, set()) is False  # the exponent of a length
+    assert consistent_units(sympy.exp(K * x) * v, units, {"K1"}) is True
+    assert consistent_units(x + v, {"x": "m"}, set()) is None  # v's unit not given: not known
+    term, _ = form_term("(0.3 * (X1 + X2))", ["x", "v"], 0, units=units)
+    assert term.consistent is False
 
 
 def _saturation_context():
@@ -136,3 +153,50 @@ def test_the_loop_names_a_law_outside_the_term_list_with_discovery_and_only_with
     assert "A" in added.name and added.term.component == 0
     without = select(False)
     assert all(t.kind != "discovered" for t in without["added"])
+
+
+def sirs_f(v, beta=1.5, gamma=0.4):
+    """SIR without the waning of immunity: nothing flows back from R to S."""
+    s, i = v[:, 0], v[:, 1]
+    inc = beta * s * i
+    return torch.stack([-inc, inc - gamma * i, gamma * i], dim=-1)
+
+
+def test_a_flow_between_two_compartments_is_one_term_with_one_coefficient():
+    """Waning immunity moves 0.3 R from R back to S: with the flows the loop adds R once, +c on dS and -c on dR
+    (one parameter), where without them it needs a coefficient on each equation."""
+    from sklearn_hybrid.diagnosis.loop.close import flow_pairs
+
+    rng = np.random.default_rng(1)
+    dt, n_steps, n = 0.4, 12, 30
+    x0 = np.column_stack([rng.uniform(0.4, 0.9, n), rng.uniform(0.05, 0.3, n), rng.uniform(0.0, 0.4, n)])
+
+    def truth(t, v):
+        s, i, r = v
+        return [-1.5 * s * i + 0.3 * r, 1.5 * s * i - 0.4 * i, 0.4 * i - 0.3 * r]
+    x = np.stack([solve_ivp(truth, (0, dt * n_steps), s, t_eval=dt * np.arange(n_steps + 1), rtol=1e-10,
+                            atol=1e-12).y.T for s in x0])
+    y = x[:, 1:] + 0.002 * rng.standard_normal(x[:, 1:].shape)
+    est = HybridRegressor(science=sirs_f, dt=dt, max_iter=2, random_state=0).fit(x0, y)
+    states = x.reshape(-1, 3)
+    learned = np.array([truth(0, v) for v in states])
+    terms = [t for t in physics_terms(["S", "I", "R"], states) if t.kind == "polynomial"]
+    pairs = flow_pairs([0, 1, 2], ["S", "I", "R"], {"S": "1", "I": "1", "R": "1"})
+    assert (0, 2) in pairs and (2, 0) in pairs
+    assert flow_pairs([0, 1], ["x", "v"], {"x": "m", "v": "m/s"}) == []  # a position and a speed exchange nothing
+
+    def select(pairs):
+        return stepwise.forward_selection(sirs_f, {"beta": 1.2, "gamma": 0.5}, ScienceFit(est, x0, y),
+                                          [(np.arange(24), np.arange(24, 30))], ["S", "I", "R"], 3, [states],
+                                          learned, [0, 1, 2], candidates=Candidates(terms=terms),
+                                          evidence=Evidence(), flow_pairs=pairs)
+    found = select(pairs)
+    (flow,) = found["added"]
+    assert flow.name == "R" and {flow.component, flow.opposite} == {0, 2} and flow.ranked_by == "flow"
+    coef = found["theta"][flow.param]
+    assert abs(abs(coef) - 0.3) < 0.01 and np.sign(coef) == (1 if flow.component == 0 else -1)
+    assert abs(found["theta"]["beta"] - 1.5) < 0.03 and abs(found["theta"]["gamma"] - 0.4) < 0.01
+    record = flow.record()
+    assert record["opposite"] == flow.opposite and record["component"] == flow.component
+    without = select(())
+    assert all(t.opposite is None for t in without["added"]) and len(without["added"]) >= 2

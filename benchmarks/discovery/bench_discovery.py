@@ -6,7 +6,9 @@ of each state's spread, seed 0), the same data through:
 
 - **loop**: ``close_the_loop`` on the first hybrid fit (erm, the network started at zero on every equation, as the
   identification benchmark fits it), the term list only;
-- **loop + discovery**: the same first fit, ``Candidates(discovery=True)``;
+- **loop + discovery**: the same first fit, ``Candidates(discovery=True)``; ``loop_discovery_2`` is the same arm
+  run again after discovery was revised on what the first run showed (the records keep each arm's package
+  commit), so not a fresh test of the revision;
 - **UDE + SINDy**: the first fit's network output on the visited states, STLSQ on pysindy's cubic polynomial
   library per equation (threshold by 5-fold CV, one-standard-error rule), terms and theta refitted without the
   network (``identification/anchors.py``, the recipe of ``bench_anchors_loop.py``);
@@ -49,9 +51,12 @@ from identification.systems import simulate  # noqa: E402
 
 RUNS = runs_folder("discovery")
 NOISE, SEED = 0.01, 0
-ARMS = [("loop", "closed loop (term list)"), ("loop_discovery", "closed loop + discovery"),
+ARMS = [("loop", "closed loop (term list)"), ("loop_discovery", "closed loop + discovery (first run)"),
+        ("loop_discovery_2", "closed loop + discovery (revised)"),
         ("ude_sindy", "UDE + SINDy (cubic library)"), ("sr_alone", "SR alone on derivatives"),
         ("sindy_data", "SINDy on the data")]
+# loop_discovery_2: the same arm run again after discovery was revised on what the first run showed (the record
+# keeps the package commit each arm ran at); it is not a fresh test of the revision, the batch has been seen
 WHOLE_MODEL = ("sr_alone", "sindy_data")  # they replace the science: no theta, clean by control_err
 
 
@@ -157,12 +162,12 @@ def run_case(name: str, arms: list[str]) -> dict:
             continue
         start, cpu = time.perf_counter(), cpu_seconds()
         try:
-            if arm in ("loop", "loop_discovery", "ude_sindy") and hybrid is None:
+            if arm in ("loop", "loop_discovery", "loop_discovery_2", "ude_sindy") and hybrid is None:
                 hybrid, reused = first_fit(system, data)
                 out["first_fit_reused"] = reused
             if arm == "loop":
                 got = _loop(system, data, hybrid, False)
-            elif arm == "loop_discovery":
+            elif arm in ("loop_discovery", "loop_discovery_2"):
                 got = _loop(system, data, hybrid, True)
             elif arm == "ude_sindy":
                 got = _ude_sindy(system, data, hybrid)
@@ -231,16 +236,17 @@ def render() -> None:
         lines.append(f"| {s.name} | {s.effect} | " + " | ".join(cells) + " |")
     lines += ["", "## What the loop added", ""]
     for r in recs:
-        for arm in ("loop", "loop_discovery"):
+        for arm in ("loop", "loop_discovery", "loop_discovery_2"):
             if arm in r and "terms" in r[arm]:
-                lines.append(f"- {r['system']}, {arm}: " + ("; ".join(r[arm]["terms"]) or "nothing"))
+                lines.append(f"- {r['system']}, {arm} (package {r[arm]['package_commit']}): "
+                             + ("; ".join(r[arm]["terms"]) or "nothing"))
     write_results("discovery", {"records": recs}, "\n".join(lines))
 
 
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--cases", nargs="*", default=[s.name for s in LAWS])
-    parser.add_argument("--arms", nargs="*", default=[a for a, _ in ARMS])
+    parser.add_argument("--arms", nargs="*", default=[a for a, _ in ARMS if a != "loop_discovery_2"])
     parser.add_argument("--render", action="store_true", help="only write results/discovery.md from the records")
     args = parser.parse_args(argv)
     if not args.render:

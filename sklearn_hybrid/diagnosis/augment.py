@@ -104,7 +104,7 @@ def augment_science(science: Callable, terms: Sequence[Mapping[str, Any]], varia
     values = {k: theta.get(k, v) for k, v in defaults.items()}
     values = {k: float(v) if np.ndim(v) == 0 else np.asarray(v, float).tolist() for k, v in values.items()}
 
-    added, taken, catalogue = [], list(values) + list(inputs), None
+    added, taken, catalogue, opposites = [], list(values) + list(inputs), None, {}
     for t in terms:
         lacking = [key for key in ("component", "term", "coef") if key not in t]
         if lacking:
@@ -142,10 +142,17 @@ def augment_science(science: Callable, terms: Sequence[Mapping[str, Any]], varia
             shape[local] = parameter_name(t.get("label") or term, taken, prefix=local)
             taken.append(shape[local])
             values[shape[local]] = float(value)
+        opposite = t.get("opposite")
+        if opposite is not None:
+            if is_offset or isinstance(opposite, bool) or not isinstance(opposite, (int, np.integer)) \
+                    or opposite < 0 or opposite == component:
+                raise ValueError(f"Term {term!r}: 'opposite' must be another output component (an index) for a flow "
+                                 f"out of component {component}, got {opposite!r}.")
+            opposites[len(added)] = int(opposite)
         added.append((component, term, param, func, shape))
 
     name = name or f"{getattr(science, '__name__', 'science')}_augmented"
-    return AugmentedScience(science, inputs, list(defaults), values, added, variable_names, n_states, name)
+    return AugmentedScience(science, inputs, list(defaults), values, added, variable_names, n_states, name, opposites)
 
 
 class AugmentedScience:
@@ -154,13 +161,18 @@ class AugmentedScience:
     Called like the original, ``f(*inputs, **theta)``, on a batch or on one state (a 1-D first input,
     as ``solve_ivp`` hands it over); ``inspect.signature`` lists the inputs, then
     every parameter with its initial value. ``terms`` lists ``(component, term, parameter)``,
-    ``shape_names`` each term's shape parameters, ``equation`` reads what was added.
+    ``shape_names`` each term's shape parameters, ``opposites`` the component a flow enters by the index of
+    its term, ``equation`` reads what was added.
     """
 
-    def __init__(self, science, inputs, original, values, added, variable_names, n_states, name):
+    opposites: dict = {}  # (an AugmentedScience pickled before flows existed has none)
+
+    def __init__(self, science, inputs, original, values, added, variable_names, n_states, name, opposites=None):
         self.science, self.original, self.initial = science, list(original), dict(values)
         self.added, self.variable_names, self.n_states = list(added), list(variable_names), n_states
-        self.touched = sorted({component for component, _, _, func, _ in added if func is not None})
+        self.opposites = dict(opposites or {})
+        self.touched = sorted({component for component, _, _, func, _ in added if func is not None}
+                              | set(self.opposites.values()))
         self.offsets = {component: param for component, _, param, func, _ in added if func is None}
         # called at every RK4 stage of every simulation (hundreds of thousands of times in a
         # selection, per step of a free run), where each tensor operation costs its overhead: one
@@ -174,7 +186,9 @@ class AugmentedScience:
         self.__name__ = self.__qualname__ = name
         self.terms = [(c, term, p) for c, term, p, _, _ in added]
         self.shape_names = [dict(shape) for *_, shape in added]  # per term: shape -> parameter name
-        equation = " ".join(f"+ {p}*{term} [component {c}]" for c, term, p, func, _ in added if func is not None)
+        equation = " ".join(f"+ {p}*{term} [component {c}]" + (f" - {p}*{term} [component {self.opposites[i]}]"
+                                                                if i in self.opposites else "")
+                            for i, (c, term, p, func, _) in enumerate(added) if func is not None)
         equation += "".join(f" [{variable_names[c]} measured as {variable_names[c]} + {p}]"
                             for c, p in self.offsets.items())
         self.equation = equation.strip()
@@ -215,11 +229,14 @@ class AugmentedScience:
         d = dict(zip(self.variable_names, columns))
         d[SCIENCE_OUTPUT] = flat  # a "scaled" term reads the science output
         extra = {}
-        for component, _, param, func, shape in self.added:
+        for i, (component, _, param, func, shape) in enumerate(self.added):
             if func is None:
                 continue
             value = params[param] * func(d, **{local: params[name] for local, name in shape.items()})
             extra[component] = value if component not in extra else extra[component] + value
+            if i in self.opposites:  # a flow: what leaves one component enters the other
+                j = self.opposites[i]
+                extra[j] = -value if j not in extra else extra[j] - value
         for j, row in self._rows(flat, self.touched).items():
             value = extra[j]
             flat = torch.addcmul(flat, value.unsqueeze(-1), row) if torch.is_tensor(value) else flat + value * row

@@ -68,6 +68,8 @@ class Term:
     """
 
     field: str | None = None  # (a Term pickled before fields existed has none)
+    # a discovered form: whether it is dimensionally consistent in the units given (None: not known)
+    consistent: bool | None = None
 
     def __init__(self, name: str, func: Callable, kind: str,
                  shape: Mapping[str, tuple[Sequence[float], tuple[float, float]]] | None = None,

@@ -48,10 +48,14 @@ class SymbolicDiscovery:
         The front has settled when a round lowers no length's error by more than this share.
     max_forms : int, default=2
         Forms offered per equation and grammar: the front's knee (the form whose error falls most below the
-        next shorter one's), then the shortest among those within reach.
+        next shorter one's), then the shortest among those within reach; a form dimensionally inconsistent in
+        the variables' units (``Term.consistent`` False) only where too few consistent ones are.
     slack : float, default=0.5
         A form is within reach when its error is at most ``1 + slack`` times the front's lowest, or when it
         explains at least ``r2`` of what the network learned.
+    max_constants : int, default=3
+        A form with more named constants is not offered: each is a parameter of every refit that screens the
+        form (the cost grows with them), and a textbook law has few.
     r2 : float, default=0.99
         See ``slack``: the longer forms of a front mostly fit the network's own errors.
     max_points : int, default=400
@@ -81,11 +85,13 @@ class SymbolicDiscovery:
     def __init__(self, operators: tuple[str, ...] = ("add,sub,mul,div,square", "add,sub,mul,div,square,sqrt",
                                                      "add,sub,mul,div,exp,log"), max_length: int = 20,
                  population_size: int = 300, generations: int = 25, max_rounds: int = 8, tol: float = 0.01,
-                 max_forms: int = 2, slack: float = 0.5, r2: float = 0.99, max_points: int = 400,
+                 max_forms: int = 2, slack: float = 0.5, max_constants: int = 3, r2: float = 0.99,
+                 max_points: int = 400,
                  random_state: int = 0, use_directions: bool = True, use_science: bool = False) -> None:
         self.operators, self.max_length, self.population_size = operators, max_length, population_size
         self.generations, self.max_rounds, self.tol = generations, max_rounds, tol
         self.max_forms, self.slack, self.r2, self.max_points = max_forms, slack, r2, max_points
+        self.max_constants = max_constants
         self.random_state, self.use_directions, self.use_science = random_state, use_directions, use_science
 
     def __repr__(self) -> str:
@@ -128,7 +134,8 @@ class SymbolicDiscovery:
             for grammar in ((self.operators,) if isinstance(self.operators, str) else self.operators):
                 front = self._search(X, target, grammar, log, f"equation {j} ({grammar})")
                 self.fronts_[j][grammar] = front
-                out += [t for t in self._offered(front, names, j, X, directions, float(np.var(target)))
+                out += [t for t in self._offered(front, names, j, X, directions, float(np.var(target)),
+                                                 dict(context.units))
                         if t.name not in {o.name for o in out}]
         self.seconds_ = time.process_time() - start
         return out
@@ -163,7 +170,7 @@ class SymbolicDiscovery:
         return front
 
     def _offered(self, front: list[dict], names: list[str], component: int, X: np.ndarray,
-                 directions: np.ndarray | None, variance: float) -> list[Term]:
+                 directions: np.ndarray | None, variance: float, units: dict) -> list[Term]:
         """The shortest forms within reach (see ``slack`` and ``r2``), as terms (simplified, deduplicated)."""
         if not front:
             return []
@@ -175,14 +182,21 @@ class SymbolicDiscovery:
         knee = front[max(steps)[1]] if steps else front[0]
         near = [knee] + [m for m in near if m is not knee]
         out: dict[str, Term] = {}
+        aside: list[Term] = []
         for m in near:
             made = form_term(m["formula"], names, component, values=X, directions=directions,
-                             theta_parts=[v for v in names if v.startswith(DIRECTION)],
+                             theta_parts=[v for v in names if v.startswith(DIRECTION)], units=units,
                              science=SCIENCE_SYMBOL if SCIENCE_SYMBOL in names else None)
-            if made is None:
+            if made is None or len(made[0].shape) > self.max_constants:
+                continue
+            if made[0].consistent is False:  # kept aside: offered only where no consistent form is
+                aside.append(made[0])
                 continue
             if made[0].name not in out and len(out) < self.max_forms:  # one form written twice: the first
                 out[made[0].name] = made[0]
+        for term in aside:
+            if term.name not in out and len(out) < self.max_forms:
+                out[term.name] = term
         return list(out.values())
 
 

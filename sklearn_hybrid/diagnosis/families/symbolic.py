@@ -18,7 +18,7 @@ import torch
 
 from ..terms import SCIENCE_OUTPUT, Term
 
-__all__ = ["SymbolicForm", "form_term", "canonical_form"]
+__all__ = ["SymbolicForm", "form_term", "canonical_form", "consistent_units", "drop_parameter_parts"]
 
 # sympy's functions as torch computes them (a formula of the operators a physicist writes)
 _TORCH = {"exp": torch.exp, "log": torch.log, "sqrt": torch.sqrt, "Abs": torch.abs, "sin": torch.sin,
@@ -92,13 +92,12 @@ def canonical_form(expr: sympy.Expr, digits: int = 12) -> tuple[float, sympy.Exp
         constants[key] = value
         return sympy.Symbol(key)
 
-    form = form.replace(lambda e: e.is_Float and not _is_unit(e), name)
-    form = form.replace(lambda e: e.is_Float, lambda e: sympy.Integer(round(float(e))))
+    # a whole number added to a quantity (the 1 of x^2 + 1, made exact by the simplification) is a fitted
+    # constant that happened to be whole: it carries the quantity's unit and is fitted like the others
+    form = form.replace(lambda e: e.is_Add and e.free_symbols,
+                        lambda e: sympy.Add(*[sympy.Float(a) if a.is_Integer else a for a in e.args]))
+    form = form.replace(lambda e: e.is_Float, name)
     return float(factor), form, constants
-
-
-def _is_unit(number: sympy.Float) -> bool:
-    return abs(abs(float(number)) - 1.0) < 1e-12
 
 
 def _monic(expr: sympy.Expr) -> tuple[sympy.Expr, sympy.Expr]:
@@ -109,16 +108,18 @@ def _monic(expr: sympy.Expr) -> tuple[sympy.Expr, sympy.Expr]:
     for part in sympy.Mul.make_args(form):
         base, power = part.as_base_exp()
         if base.is_Add and power.is_Integer:
-            lead = [a for a in sympy.Add.make_args(base) if a.free_symbols][0].as_coeff_Mul()[0]
-            if lead != 0:
-                factor, base = factor * lead ** power, sympy.expand(base / lead)
+            first = [a for a in sympy.Add.make_args(base) if a.free_symbols][0]
+            lead, variable_part = first.as_coeff_Mul()
+            if lead != 0:  # the lead written exactly: a 1.0 left elsewhere is a fitted number that happens to be 1
+                factor = factor * lead ** power
+                base = variable_part + sympy.expand((base - first) / lead)
         parts.append(base ** power)
     return factor, sympy.Mul(*parts)
 
 
 def form_term(formula: str, variables: Sequence[str], component: int, *, science: str | None = None,
               values: np.ndarray | None = None, directions: np.ndarray | None = None, theta_parts: Sequence[str] = (),
-              spread: float = 1e3) -> tuple[Term, float] | None:
+              units: Mapping[str, str] | None = None, spread: float = 1e3) -> tuple[Term, float] | None:
     """The term of a formula over ``variables`` (``science`` names the symbol that stands for the science
     output of ``component``), and its coefficient; None for a formula with nothing left.
 
@@ -130,7 +131,8 @@ def form_term(formula: str, variables: Sequence[str], component: int, *, science
     constant coefficient; a formula that uses one otherwise gives None. Of the forms equal up to a constant,
     the one that vanishes where the variables do is written. Each remaining constant starts at the value the
     formula gives it and may move within a factor ``spread`` either way, keeping its sign (a constant through
-    zero turns a saturation into a pole).
+    zero turns a saturation into a pole). With ``units``, a form that adds or compares quantities of different
+    units with no constant between them is marked (``Term.consistent`` False, see :func:`consistent_units`).
     """
     symbols = {f"X{i + 1}": sympy.Symbol(v) for i, v in enumerate(variables)}
     expr = sympy.sympify(formula, locals=symbols)
@@ -150,7 +152,62 @@ def form_term(formula: str, variables: Sequence[str], component: int, *, science
     shape = {k: ([v], (v / spread, v * spread) if v > 0 else (v * spread, v / spread)) for k, v in constants.items()}
     func = SymbolicForm(sympy.srepr(form), {v: v for v in used}, list(constants), component, science)
     name = sympy.sstr(form).replace("**", "^")
-    return Term(name, func, "discovered", shape, component=component), factor
+    term = Term(name, func, "discovered", shape, component=component)
+    term.consistent = consistent_units(form, units or {}, set(constants))
+    return term, factor
+
+
+def consistent_units(form: sympy.Expr, units: Mapping[str, str], constants: set[str]) -> bool | None:
+    """Whether ``form`` is dimensionally consistent in ``units``: the parts of each sum in one unit, and the
+    argument of each exponential, logarithm or other function without one, where a named constant may carry
+    whatever unit makes its part fit. None where a variable of the form has no unit given.
+
+    Units are read as labels: two variables are in one unit when their unit strings are equal, ``""`` and
+    ``"1"`` are no unit; the coefficient of the term carries the unit of its equation.
+    """
+    def unit_of(e):  # a dict {unit: power}, or None where a constant makes it anything ("free")
+        if e.is_Symbol:
+            if e.name in constants:
+                return None
+            label = units.get(e.name)
+            if label is None:
+                raise LookupError(e.name)
+            return {} if label in ("", "1") else {label: 1}
+        if e.is_Number:
+            return {}
+        if e.is_Mul:
+            parts = [unit_of(a) for a in e.args]
+            if any(p is None for p in parts):
+                return None
+            out: dict = {}
+            for p in parts:
+                for k, v in p.items():
+                    out[k] = out.get(k, 0) + v
+            return {k: v for k, v in out.items() if v != 0}
+        if e.is_Pow:
+            base = unit_of(e.base)
+            if e.exp.is_Number:
+                return None if base is None else {k: v * e.exp for k, v in base.items()}
+            if base not in (None, {}) or unit_of(e.exp) not in (None, {}):
+                raise ValueError("a power of a quantity in units by another")
+            return {}
+        if e.is_Add:
+            parts = [p for p in (unit_of(a) for a in e.args) if p is not None]
+            if any(p != parts[0] for p in parts[1:]):
+                raise ValueError("a sum of quantities in different units")
+            return parts[0] if len(parts) == len(e.args) else None
+        if e.is_Function:
+            if any(unit_of(a) not in (None, {}) for a in e.args):
+                raise ValueError("a function of a quantity in units")
+            return {}
+        return {}
+    try:
+        unit_of(form)
+    except LookupError:
+        return None
+    except ValueError:
+        return False
+    return True
 
 
 def _zero_at_rest(expr: sympy.Expr, symbols: Sequence[sympy.Symbol]) -> sympy.Expr:

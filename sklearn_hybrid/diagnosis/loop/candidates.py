@@ -121,7 +121,8 @@ def term_columns(terms: Sequence[Term], variables: dict[str, torch.Tensor]) -> l
 
 def discovered_terms(candidates: Candidates, columns: list[tuple], remaining: np.ndarray, jac: np.ndarray,
                      values: np.ndarray, science_values: np.ndarray, variables: Sequence[str], n_states: int,
-                     components: Sequence[int], log: Callable[[str], None]) -> list[Term]:
+                     components: Sequence[int], log: Callable[[str], None],
+                     units: Mapping[str, str] | None = None) -> list[Term]:
     """The discovery family's forms (``candidates.discovery``) for the equations the listed terms leave unexplained.
 
     An equation is searched where the part of ``remaining`` (what the network learned) that no parameter of
@@ -148,8 +149,8 @@ def discovered_terms(candidates: Candidates, columns: list[tuple], remaining: np
             wanted.append(j)
     if not wanted:
         return []
-    context = TermContext(tuple(variables), values, {}, n_states, learned=remaining, science_output=science_values,
-                          directions=jac, components=tuple(wanted))
+    context = TermContext(tuple(variables), values, dict(units or {}), n_states, learned=remaining,
+                          science_output=science_values, directions=jac, components=tuple(wanted))
     found = family.terms(context, log=log)
     log(f"  discovery offered {len(found)} form(s): {', '.join(t.name for t in found)}")
     return found
@@ -272,6 +273,28 @@ def candidate_groups(ranked: list[PlacedTerm]) -> list[PlacedGroup]:
     return [PlacedGroup(tuple(entries), gain=entries[0].gain) for entries in by_term.values() if len(entries) > 1]
 
 
+def flow_candidates(scored: list[PlacedTerm], pairs: Sequence[tuple[int, int]], n: int) -> list[PlacedTerm]:
+    """The ``n`` best flows: a term that ``scored`` (:func:`rank_by_residual`'s whole ranking) places on both
+    components of a pair with coefficients of opposite signs, as one term with one coefficient, ``+c`` on the
+    first and ``-c`` on the second.
+
+    A waning immunity moves ``w R`` from the recovered to the susceptible; two free coefficients (``+0.35 R``
+    on dS, ``-0.35 R`` on dR) say nothing of their agreeing, and cost a parameter more. ``pairs`` are the
+    components whose states may exchange (states in one unit).
+    """
+    best: dict[tuple[int, str], PlacedTerm] = {}
+    for cand in scored:
+        best.setdefault((cand.component, cand.name), cand)
+    out = []
+    for i, j in pairs:
+        for (component, name), a in best.items():
+            b = best.get((j, name))
+            if component != i or b is None or a.term.component is not None or a.coef * b.coef >= 0:
+                continue
+            out.append(replace(a, gain=a.gain + b.gain, ranked_by="flow", opposite=j))
+    return sorted(out, key=lambda t: -t.gain)[:n]
+
+
 def field_groups(ranked: list[PlacedTerm], scored: list[PlacedTerm]) -> list[PlacedGroup]:
     """One candidate per vector field with a term among ``ranked``: every term of the field at once, each
     on the equation where it explains most of the residual (``scored``, :func:`rank_by_residual`'s whole
@@ -316,7 +339,7 @@ def augment_with(science: Callable, placed: Sequence[PlacedTerm], variables: Seq
     """``science`` with the ``placed`` terms, in that order (:func:`~sklearn_hybrid.diagnosis.augment_science`,
     whose public input is a list of dicts: each term is handed over as one)."""
     terms = [{"component": t.component, "term": t.name, "kind": t.kind, "coef": t.coef, "function": t.term.func,
-              "shape": t.shape, "param": (param_names or {}).get(t.name)} for t in placed]
+              "shape": t.shape, "param": (param_names or {}).get(t.name), "opposite": t.opposite} for t in placed]
     return augment_science(science, terms, variables, n_states=n_states)
 
 

@@ -281,7 +281,9 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
             f"{n_val} validation {unit}{blocks}) ...")
         sel = forward_selection(science, before.theta_, select, select_splits, variables, n_states, args, learned,
                                 components, candidates=candidates, evidence=evidence,
-                                param_names=param_names, groups=select_codes, offsets=offsets, log=log)
+                                param_names=param_names, groups=select_codes, offsets=offsets,
+                                flow_pairs=flow_pairs(components, states, units) if ode is not None else (),
+                                units=units, log=log)
         final = sel["science"]
         lap("selection")
         bounds = {g: b for t in sel["added"] for g, b in t.parameter_bounds().items()}
@@ -300,6 +302,8 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         added = [t.record() for t in final_terms]
         for record in added:
             record["output"] = outputs_of(record["component"], record["kind"])
+            if "opposite" in record:
+                record["opposite_output"] = outputs[record["opposite"]]
             if record["kind"] == "offset":
                 record["unit"] = (units or {}).get(states[record["component"]], "")
         for s in sel["steps"]:  # a group's step stands on several components
@@ -384,6 +388,14 @@ def _sample_errors(estimator, X, y) -> np.ndarray:
 
 
 _MAX_POINTS = 5000  # visited states used to rank candidates: plenty for a handful of columns
+
+
+def flow_pairs(components: Sequence[int], states: Sequence[str], units: Mapping[str, str] | None) -> list:
+    """Ordered pairs of uncertain equations whose states may exchange a flow: states in one unit (or both
+    without one); a flow between a position and a speed is no physics."""
+    units = units or {}
+    return [(i, j) for i in components for j in components
+            if i != j and i < len(states) and j < len(states) and units.get(states[i], "") == units.get(states[j], "")]
 
 
 def _is_default_network(residual) -> bool:

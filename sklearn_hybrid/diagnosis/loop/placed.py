@@ -56,6 +56,9 @@ class PlacedTerm:
         Once fitted: the names of its shape parameters there, by the term's own names.
     second_look : bool, default=False
         Accepted on a second look (judged by folds of the training samples).
+    opposite : int, optional
+        A flow: the term also enters this component with the opposite sign and the same coefficient (what
+        leaves one compartment enters the other; ``ranked_by`` ``"flow"``).
     """
 
     term: Term
@@ -67,6 +70,7 @@ class PlacedTerm:
     param: str | None = None
     shape_params: Mapping[str, str] | None = None
     second_look: bool = False
+    opposite: int | None = None
 
     def __post_init__(self) -> None:
         # checked here: a name or an index in place of the Term failed only where ``.name`` was first read
@@ -90,6 +94,11 @@ class PlacedTerm:
         """``(component, term name)``: at most one of each in a model."""
         return self.component, self.term.name
 
+    @property
+    def covers(self) -> set[tuple[int, str]]:
+        """``(component, term name)`` of every equation it changes: a flow's two."""
+        return {self.key} | ({(self.opposite, self.term.name)} if self.opposite is not None else set())
+
     def entries(self) -> list[PlacedTerm]:
         """The single terms this candidate places: itself."""
         return [self]
@@ -102,11 +111,14 @@ class PlacedTerm:
         """Where it acts, in words for the log."""
         if self.kind == "offset":
             return f"the sensor of state {self.component}"
+        if self.opposite is not None:
+            return f"components {self.component} and {self.opposite} (a flow, one coefficient)"
         return f"component {self.component}"
 
     def row(self) -> dict[str, Any]:
         """Its fields in a row of the selection's steps."""
-        return {"ranked_by": self.ranked_by, "component": self.component, "term": self.name, "kind": self.kind,
+        where = self.component if self.opposite is None else [self.component, self.opposite]
+        return {"ranked_by": self.ranked_by, "component": where, "term": self.name, "kind": self.kind,
                 "gain": self.gain, "shape": self.shape}
 
     def with_fitted(self, augmented: Any, theta: Mapping[str, Any], i: int) -> PlacedTerm:
@@ -155,6 +167,10 @@ class PlacedTerm:
         if self.ranked_by != "residual":
             out["ranked_by"] = self.ranked_by
         out.update(param=self.param, shape_params=dict(self.shape_params or {}), second_look=self.second_look)
+        if self.opposite is not None:  # a flow: the same term, with the opposite sign, on this component
+            out["opposite"] = self.opposite
+        if self.term.consistent is not None:  # a discovered form: dimensionally consistent in the units given
+            out["consistent"] = self.term.consistent
         return out
 
 

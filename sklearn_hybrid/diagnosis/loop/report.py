@@ -25,7 +25,8 @@ KIND_WORDS = {"polynomial": "polynomial", "drag": "drag (v|v|, |v|)", "dry_frict
               "exponential": "exponential", "saturation": "saturation (Michaelis-Menten)",
               "periodic": "periodic in an angle (a harmonic)", "norm": "norm of several states (a speed, a distance)",
               "scaled": "its equation times a state or input (a parameter that varies with it)", "user": "user term",
-              "offset": "sensor offset", "joint": "terms that enter together"}
+              "offset": "sensor offset", "joint": "terms that enter together",
+              "discovered": "discovered by symbolic regression"}
 
 
 def format_gain(gain: float) -> str:
@@ -286,10 +287,14 @@ def format_table(rows: list[dict], added: Sequence[dict] = (), steps: Sequence[d
                              f"{t['coef']:+.4g}{unit} (the equations see the reading less it; parameter {t['param']})")
                 continue
             shape = ", ".join(f"{k} = {v:.4g}" for k, v in t["shape"].items())
-            lines.append(f"Added to {t['output']}: {t['coef']:+.4g} * {t['term']}"
+            where = t["output"] if "opposite_output" not in t else (
+                f"{t['output']} and, with the opposite sign, to {t['opposite_output']} (a flow, one coefficient)")
+            lines.append(f"Added to {where}: {t['coef']:+.4g} * {t['term']}"
                          + (f" with {shape}" if shape else "") + f" ({KIND_WORDS.get(t['kind'], t['kind'])}"
                          + (f", term in {t['unit']}" if t.get("unit") else "") + f"; parameter {t['param']}"
-                         + ("; accepted on a second look" if t.get("second_look") else "") + ")")
+                         + ("; accepted on a second look" if t.get("second_look") else "")
+                         + ("; dimensionally inconsistent in the units given" if t.get("consistent") is False else "")
+                         + ")")
     else:
         lines.append("Nothing added: no candidate improved the held-out error by more than the noise explains.")
     if unexplained is not None:

@@ -32,8 +32,9 @@ import torch
 
 from ...science import read_signature
 from ..judge import FIT_FAILURES, Judge, training_folds
-from .candidates import (Candidates, augment_with, candidate_groups, discovered_terms, field_groups, initial_values, interleave,
-                         merge_rankings, offset_candidate, rank_by_residual, rank_by_fit, shape_bounds, term_columns)
+from .candidates import (Candidates, augment_with, candidate_groups, discovered_terms, field_groups, flow_candidates,
+                         initial_values, interleave, merge_rankings, offset_candidate, rank_by_residual, rank_by_fit,
+                         shape_bounds, term_columns)
 from .collapse import replace_stand_ins
 from ..evidence import Evidence, holm
 from .joint import joint_candidates
@@ -70,7 +71,8 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
                       args: Sequence[np.ndarray], learned: np.ndarray, components: Sequence[int], *,
                       candidates: Candidates, evidence: Evidence,
                       param_names: Mapping[str, str] | None = None, groups: np.ndarray | None = None,
-                      offsets: Sequence[int] = (), log: Callable[[str], None] = lambda s: None) -> dict:
+                      offsets: Sequence[int] = (), flow_pairs: Sequence[tuple[int, int]] = (),
+                      units: Mapping[str, str] | None = None, log: Callable[[str], None] = lambda s: None) -> dict:
     """Add terms one at a time while a network-free refit validates better by more than the noise.
 
     With one split, when no candidate passes but some lowered the validation error by ``min_gain``
@@ -112,6 +114,12 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
         States whose sensor may read with a constant offset: each is a candidate at every step until
         accepted (an offset changes every equation that reads the state, so no ranking of
         right-hand-side columns can rank it), judged like a term.
+    flow_pairs : list of (int, int), optional
+        Components whose states may exchange (one unit): a term ranked on both with opposite signs is also a
+        candidate as a flow, one coefficient for both
+        (:func:`~sklearn_hybrid.diagnosis.loop.candidates.flow_candidates`).
+    units : dict of str to str, optional
+        The variables' units: a discovered form that adds quantities of different units is marked.
 
     Returns
     -------
@@ -133,7 +141,7 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
         values = np.hstack([np.asarray(a).reshape(len(a), -1) for a in args])
         found = discovered_terms(candidates, columns, np.asarray(learned) - tensors[SCIENCE_OUTPUT].numpy(),
                                  free_columns(*parameter_jacobian(science, theta, args), fit.fixed), values,
-                                 tensors[SCIENCE_OUTPUT].numpy(), variables, n_states, components, log)
+                                 tensors[SCIENCE_OUTPUT].numpy(), variables, n_states, components, log, units)
         columns += term_columns(found, tensors)
     judge = Judge(fit, splits, groups)
     recheck = training_folds(fit, splits, groups, evidence.second_look)
@@ -157,7 +165,7 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
         step += 1
         remaining = learned - science_output(current, theta_now, args)
         jac = free_columns(*parameter_jacobian(current, theta_now, args), fit.fixed)
-        taken = {t.key for t in added} | rejected
+        taken = {k for t in added for k in t.covers} | rejected
         scored = rank_by_residual(columns, remaining, jac, components, taken)
         by_residual = interleave(scored, candidates.n_candidates)
         by_fit = rank_by_fit(columns, science, current, added, theta_now, judge.screen, scale, components, taken,
@@ -171,7 +179,9 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
         together = [g for g in candidate_groups(ranked) + field_groups(ranked, scored) if len(g.members) <= room]
         joint = [g for g in joint_candidates(columns, remaining, jac, components, taken, n=candidates.n_candidates)
                  if len(g.members) <= room]
-        for cand in ranked + together + joint:
+        flows = [f for f in flow_candidates(scored, flow_pairs, candidates.n_candidates)
+                 if not f.covers & taken]
+        for cand in ranked + flows + together + joint:
             placed = [*added, *cand.entries()]
             candidate_science = augment_with(science, placed, variables, n_states, param_names)
             start = {**theta_now, **initial_values(candidate_science, placed, len(cand.entries()))}
