@@ -96,7 +96,17 @@ def _loop(system, data, hybrid, discovery: bool) -> dict:
                       (" with " + ", ".join(f"{k} = {v:.4g}" for k, v in t["shape"].items()) if t["shape"] else "")
                       for t in res.added],
             "kinds": [t["kind"] for t in res.added], "theta": theta,
-            "verdicts": {k: v for k, v in res.intervals.verdicts.items()} if res.intervals is not None else {}}
+            "verdicts": {k: v for k, v in res.intervals.verdicts.items()} if res.intervals is not None else {},
+            "intervals": _held(system, res.intervals)}
+
+
+def _held(system, intervals) -> dict:
+    """The science's own parameters the loop called identified, and those whose interval missed the truth."""
+    if intervals is None:
+        return {}
+    called = [k for k in system.theta_true if intervals.verdicts.get(k) == "identified"]
+    missed = [k for k in called if not intervals.intervals[k][0] <= system.theta_true[k] <= intervals.intervals[k][1]]
+    return {"identified": called, "missed": missed}
 
 
 def _ude_sindy(system, data, hybrid) -> dict:
@@ -252,6 +262,13 @@ def render() -> None:
                      f"{np.median([g['rel_err'] for g in got]) if got else float('nan'):.3f} | "
                      f"{sum(_clean(arm, c) for c in ctl)} of {len(ctl)} | {np.median(secs):.0f} |"
                      + (f" ({failed} failed)" if failed else ""))
+    held = [(r["system"], a, r[a]["intervals"]) for r in recs for a in ("loop", "loop_discovery", "loop_discovery_2")
+            if a in r and r[a].get("intervals")]
+    if held:
+        called = sum(len(h["identified"]) for _, _, h in held)
+        missed = [f"{name} ({arm}): {', '.join(h['missed'])}" for name, arm, h in held if h["missed"]]
+        lines += ["", f"Intervals (the arms that recorded them): {called} parameters called identified, "
+                  f"{len(missed)} arm(s) with a miss" + (": " + "; ".join(missed) if missed else "") + "."]
     lines += ["", "## Per case", "", "| system | effect | " + " | ".join(label for _, label in ARMS) + " |",
               "|---|---|" + "---|" * len(ARMS)]
     for r in recs:
