@@ -57,6 +57,9 @@ class Candidates:
         candidate, judged like every term. Default off.
     explained : float, default=0.95
         The share of an equation's residual a single listed term must explain for the search to skip it.
+    flows : bool, default=True
+        Also offer a term ranked on two equations of states in one unit, with opposite signs, as a flow
+        between them: one coefficient, ``+c`` on one and ``-c`` on the other (:func:`flow_candidates`).
     """
 
     terms: Sequence[Term] | None = None
@@ -67,6 +70,7 @@ class Candidates:
     n_candidates: int = 4
     discovery: Any = None
     explained: float = 0.95
+    flows: bool = True
 
     def check(self) -> None:
         """Raise ``ValueError`` naming the setting that is out of range (the names and the terms

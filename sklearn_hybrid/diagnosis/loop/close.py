@@ -282,7 +282,8 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         sel = forward_selection(science, before.theta_, select, select_splits, variables, n_states, args, learned,
                                 components, candidates=candidates, evidence=evidence,
                                 param_names=param_names, groups=select_codes, offsets=offsets,
-                                flow_pairs=flow_pairs(components, states, units) if ode is not None else (),
+                                flow_pairs=flow_pairs(components, states, units) if ode is not None and candidates.flows
+                                else (),
                                 units=units, log=log)
         final = sel["science"]
         lap("selection")
