@@ -63,8 +63,13 @@ PREFACE = ("The batch (`benchmarks/discovery/laws.py`) was written and committed
            "the first run is the package at a9909c2 (discovery as first written). Discovery was then revised on "
            "what the first cases showed (7803ced, f44dac9: the parameter directions read by the search, forms that "
            "vanish at rest, the front's knee first, units, at most 3 constants a form); the row 'revised' is that "
-           "version on the same cases, so it is not a fresh test. A failed arm (an error, or stopped by hand for "
-           "its cost) is counted apart and named in its row.")  # they replace the science: no theta, clean by control_err
+           "version on the same cases, so it is not a fresh test. A failed arm (an error, or stopped for its cost) "
+           "is counted apart and named in its row. In butler_volmer, arrhenius_reactor and thermistor the law "
+           "replaces a term of the science (g eta, k C, p u^2) instead of adding to it: that parameter has no "
+           "counterpart in the truth, the data cannot tell it from the law's own linear part, and its theta error "
+           "reads it against the number the replaced term had. Where a law shares a direction with a science "
+           "parameter (a predator's death rate and a predation that tends to a constant per predator), theta "
+           "is right only if the law's form is found exactly.")  # they replace the science: no theta, clean by control_err
 
 
 def first_fit(system, data):
@@ -269,6 +274,10 @@ def render() -> None:
         missed = [f"{name} ({arm}): {', '.join(h['missed'])}" for name, arm, h in held if h["missed"]]
         lines += ["", f"Intervals (the arms that recorded them): {called} parameters called identified, "
                   f"{len(missed)} arm(s) with a miss" + (": " + "; ".join(missed) if missed else "") + "."]
+    restored = [f"{r['system']} ({a})" for r in recs for a, _ in ARMS if a in r and "restored_from_log" in r[a]]
+    if restored:
+        lines += ["", "Restored from the run's log line (the record was overwritten by mistake while the run went on; "
+                  "rel_err, theta error and CPU seconds as printed, terms not kept): " + ", ".join(restored) + "."]
     lines += ["", "## Per case", "", "| system | effect | " + " | ".join(label for _, label in ARMS) + " |",
               "|---|---|" + "---|" * len(ARMS)]
     for r in recs:
