@@ -34,7 +34,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import pickle
 import signal
 import sys
 import time
@@ -47,7 +46,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the
 from helpers import PACKAGE_COMMIT, cpu_seconds, runs_folder, write_results  # noqa: E402
 from discovery.laws import BY_NAME, LAWS  # noqa: E402
 from identification import anchors  # noqa: E402
-from identification.protocol import PROTOCOL, loop_arguments, make_data, score  # noqa: E402
+from identification.protocol import PROTOCOL, first_hybrid_fit, loop_arguments, make_data, score  # noqa: E402
 from identification.systems import simulate  # noqa: E402
 
 RUNS = runs_folder("discovery")
@@ -73,19 +72,7 @@ PREFACE = ("The batch (`benchmarks/discovery/laws.py`) was written and committed
 
 
 def first_fit(system, data):
-    from sklearn_hybrid import HybridRegressor
-    from sklearn_hybrid.diagnosis import MLPOn
-
-    path = RUNS / "fits" / f"{system.name}.pkl"
-    if path.exists():
-        return pickle.loads(path.read_bytes()), True
-    est = HybridRegressor(science=system.science, dt=system.dt, method="erm", n_inputs=int(system.forced),
-                          theta_init=dict(system.theta_guess) or None, random_state=SEED,
-                          residual=MLPOn(list(range(len(system.state_names)))))
-    est.fit(data["X"], data["y"])
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_bytes(pickle.dumps(est))
-    return est, False
+    return first_hybrid_fit(system, data, SEED, RUNS / "fits" / f"{system.name}.pkl")
 
 
 def _loop(system, data, hybrid, discovery: bool) -> dict:

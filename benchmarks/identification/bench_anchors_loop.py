@@ -28,7 +28,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import pickle
 import sys
 import time
 from pathlib import Path
@@ -38,7 +37,8 @@ import torch
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the helpers, the studies' modules
 from helpers import PACKAGE_COMMIT, runs_folder, write_results  # noqa: E402
-from identification.protocol import PROTOCOL, cache_dir, case_name, load_fit, make_data, score  # noqa: E402
+from identification.protocol import (PROTOCOL, cache_dir, case_name, first_hybrid_fit,  # noqa: E402
+                                     make_data, score)
 from identification.anchors import (combined_science, polynomial_powers, pysindy_module, refit, sbr,  # noqa: E402
                                     sindy_on_data, sparse_fit, term_labels, theta_error)
 from identification.systems import SYSTEMS, simulate  # noqa: E402
@@ -48,20 +48,7 @@ RUNS = runs_folder("anchors")
 
 
 def first_fit(system, noise, seed, data):
-    from sklearn_hybrid import HybridRegressor
-
-    path = cache_dir(False) / "fits" / f"{case_name(system.name, noise, seed)}.pkl"
-    if path.exists():
-        return load_fit(path), True
-    from sklearn_hybrid.diagnosis import MLPOn  # the loop starts its network at zero over the uncertain equations
-
-    est = HybridRegressor(science=system.science, dt=system.dt, method="erm", n_inputs=int(system.forced),
-                          theta_init=dict(system.theta_guess) or None, random_state=seed,
-                          residual=MLPOn(list(range(len(system.state_names)))))
-    est.fit(data["X"], data["y"])
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_bytes(pickle.dumps(est))
-    return est, False
+    return first_hybrid_fit(system, data, seed, cache_dir(False) / "fits" / f"{case_name(system.name, noise, seed)}.pkl")
 
 
 def run_case(name, noise, seed=0):

@@ -24,7 +24,7 @@ import torch
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the helpers, the studies' modules
 from helpers import PACKAGE_COMMIT, runs_folder, write_results  # noqa: E402
-from identification.protocol import loop_arguments, make_data, score  # noqa: E402
+from identification.protocol import first_hybrid_fit, loop_arguments, make_data, score  # noqa: E402
 from identification.systems import SYSTEMS  # noqa: E402
 
 RUNS = runs_folder("flows")
@@ -33,16 +33,12 @@ CASES = ["waning_immunity", "waning_sir", "conducting_bodies", "enzymatic_conver
 
 
 def run_case(name: str, noise: float = 0.01) -> dict:
-    from sklearn_hybrid import HybridRegressor
-    from sklearn_hybrid.diagnosis import Candidates, MLPOn, close_the_loop
+    from sklearn_hybrid.diagnosis import Candidates, close_the_loop
 
     torch.set_num_threads(1)
     system = SYSTEMS[name]
     data = make_data(system, noise, 0)
-    est = HybridRegressor(science=system.science, dt=system.dt, method="erm", n_inputs=int(system.forced),
-                          theta_init=dict(system.theta_guess) or None, random_state=0,
-                          residual=MLPOn(list(range(len(system.state_names)))))
-    est.fit(data["X"], data["y"])
+    est, _ = first_hybrid_fit(system, data)
     out = {"system": name, "noise": noise, "package_commit": PACKAGE_COMMIT}
     for flows in (True, False):
         start = time.process_time()

@@ -104,6 +104,25 @@ def loop_arguments(system: System) -> dict:
             "offsets": system.declared_offsets}
 
 
+def first_hybrid_fit(system: System, data: dict, seed: int = 0, path: Path | None = None):
+    """The case's first hybrid fit as the benchmark makes it (erm, the network started at zero on every equation,
+    as the loop starts it): loaded from ``path`` where it is stored, else made and stored there. Returns the
+    estimator and whether it was loaded."""
+    if path is not None and path.exists():
+        return load_fit(path), True
+    from sklearn_hybrid import HybridRegressor
+    from sklearn_hybrid.diagnosis import MLPOn
+
+    est = HybridRegressor(science=system.science, dt=system.dt, method="erm", n_inputs=int(system.forced),
+                          theta_init=dict(system.theta_guess) or None, random_state=seed,
+                          residual=MLPOn(list(range(len(system.state_names)))))
+    est.fit(data["X"], data["y"])
+    if path is not None:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_bytes(pickle.dumps(est))
+    return est, False
+
+
 def load(fast: bool) -> list[dict]:
     """Every cached case of the main (or the fast) protocol."""
     return [json.loads(p.read_text()) for p in sorted(cache_dir(fast).glob("*.json"))]
