@@ -17,7 +17,6 @@ from collections.abc import Callable
 import numpy as np
 
 from ..terms import Term
-from .symbolic import form_term
 
 __all__ = ["SymbolicDiscovery"]
 
@@ -172,6 +171,7 @@ class SymbolicDiscovery:
     def _offered(self, front: list[dict], names: list[str], component: int, X: np.ndarray,
                  directions: np.ndarray | None, variance: float, units: dict) -> list[Term]:
         """The shortest forms within reach (see ``slack`` and ``r2``), as terms (simplified, deduplicated)."""
+        from .symbolic import form_term  # sympy is imported where a search has run, not with the package
         if not front:
             return []
         bound = max((1 + self.slack) * min(m["mse"] for m in front), (1 - self.r2) * variance)
