@@ -58,7 +58,8 @@ def render() -> None:
     recs = [json.loads(p.read_text()) for p in sorted(RUNS.glob("*.json"))]
     lines = ["# Flows between compartments: the loop with and without them", "",
              "`benchmarks/identification/check_flows.py` (its docstring says what it runs). Score: the identification "
-             "benchmark's `rel_err` (a control: `control_err`).", "",
+             "benchmark's `rel_err` (a control: `control_err`). Records made at package commit(s) "
+             + ", ".join(sorted({r["package_commit"] for r in recs})) + ".", "",
              "| system | effect | with flows: terms | score | without: terms | score |", "|---|---|---|---|---|---|"]
     for r in recs:
         s = SYSTEMS[r["system"]]
@@ -66,7 +67,7 @@ def render() -> None:
         cells = []
         for arm in ("flows", "no_flows"):
             a = r[arm]
-            cells += ["; ".join(a["terms"]) or "nothing", f"{a[key]:.3f}"]
+            cells += [("; ".join(a["terms"]) or "nothing").replace("|", "\\|"), f"{a[key]:.3f}"]
         lines.append(f"| {s.name} | {s.effect} | " + " | ".join(cells) + " |")
     write_results("flows", {"records": recs}, "\n".join(lines))
 
