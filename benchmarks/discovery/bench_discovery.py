@@ -250,10 +250,10 @@ def render() -> None:
         theta = ("n/a" if arm in WHOLE_MODEL else
                  f"{sum(g.get('theta_error') is not None and g['theta_error'] <= 0.05 for g in got)} of {len(got)}")
         secs = [g["cpu_seconds"] for g in got + ctl]
-        lines.append(f"| {label} | {named} | {field} of {len(got)} | {theta} | "
+        lines.append(f"| {label}" + (f" ({failed} failed or stopped)" if failed else "") + f" | {named} | "
+                     f"{field} of {len(got)} | {theta} | "
                      f"{np.median([g['rel_err'] for g in got]) if got else float('nan'):.3f} | "
-                     f"{sum(_clean(arm, c) for c in ctl)} of {len(ctl)} | {np.median(secs):.0f} |"
-                     + (f" ({failed} failed)" if failed else ""))
+                     f"{sum(_clean(arm, c) for c in ctl)} of {len(ctl)} | {np.median(secs):.0f} |")
     held = [(r["system"], a, r[a]["intervals"]) for r in recs for a in ("loop", "loop_discovery", "loop_discovery_2")
             if a in r and r[a].get("intervals")]
     if held:
