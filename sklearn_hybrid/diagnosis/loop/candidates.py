@@ -59,7 +59,7 @@ class Candidates:
         The share of an equation's residual a single listed term must explain for the search to skip it.
     flows : bool, default=True
         Also offer a term ranked on two equations of states in one unit, with opposite signs, as a flow
-        between them: one coefficient, ``+c`` on one and ``-c`` on the other (:func:`flow_candidates`).
+        between them: one coefficient, ``+c`` on one and ``-c`` on the other.
     """
 
     terms: Sequence[Term] | None = None
