@@ -200,3 +200,11 @@ def test_a_flow_between_two_compartments_is_one_term_with_one_coefficient():
     assert record["opposite"] == flow.opposite and record["component"] == flow.component
     without = select(())
     assert all(t.opposite is None for t in without["added"]) and len(without["added"]) >= 2
+
+
+def test_a_term_function_pickled_before_the_families_still_loads():
+    """A fitted model saved before the kinds became families names their functions by their old private names."""
+    from sklearn_hybrid.diagnosis import terms
+
+    old = pickle.dumps(terms.saturation_term, protocol=0).replace(b"saturation_term", b"_saturation")
+    assert pickle.loads(old) is terms.saturation_term

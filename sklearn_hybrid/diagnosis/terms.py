@@ -156,6 +156,58 @@ def norm_term(d, over, factor=None):
 _ANGLE_UNIT = re.compile(r"^\s*(?P<scale>[0-9]*\.?[0-9]+(?:[eE][-+]?[0-9]+)?)?\s*\*?\s*(?P<unit>rad|deg|°)\s*$")
 
 
+def scaled_term(d, component, factors):
+    """The science output of ``component`` times ``monomial(d, factors)``."""
+    return d[SCIENCE_OUTPUT][..., component] * monomial(d, factors)
+
+
+def dry_friction_term(d, x, w):
+    return torch.tanh(d[x] / w)
+
+
+def power_abs_term(d, x, p):
+    """``|x|^p``; the tiny floor keeps the gradient in ``p`` (``log|x|``) finite where ``x`` is zero."""
+    return (d[x].abs() + 1e-12) ** p
+
+
+def power_signed_term(d, x, p):
+    """``x |x|^(p-1)``: odd in ``x``, so a flow or a force keeps the sign of what drives it."""
+    return d[x] * (d[x].abs() + 1e-12) ** (p - 1)
+
+
+def hinge_above_term(d, x, knot):
+    return torch.relu(d[x] - knot)
+
+
+def hinge_below_term(d, x, knot):
+    return torch.relu(knot - d[x])
+
+
+def exponential_term(d, x, k):
+    return torch.exp(torch.clamp(k * d[x], max=50.0))
+
+
+def saturation_term(d, x, K):
+    return d[x] / (K + d[x].abs())
+
+
+def harmonic_term(d, x, frequency, phase):
+    """``sin(n a + phase)`` of the angle ``a`` in radians: ``frequency`` is n times the radians per unit of ``d[x]``."""
+    return torch.sin(frequency * d[x] + phase)
+
+
+# The names these had before the kinds became families: a science model augmented and pickled then names them.
+_scaled = scaled_term
+_dry_friction = dry_friction_term
+_power_abs = power_abs_term
+_power_signed = power_signed_term
+_hinge_above = hinge_above_term
+_hinge_below = hinge_below_term
+_exponential = exponential_term
+_saturation = saturation_term
+_harmonic = harmonic_term
+
+
 def angle_factor(unit: str) -> float | None:
     """Radians per unit of a variable whose unit is an angle (``"rad"``, ``"deg"``, ``"0.1 rad"``), else None."""
     if not isinstance(unit, str):  # a unit given as something else only labels the report, as before

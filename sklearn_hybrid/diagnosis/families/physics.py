@@ -14,58 +14,16 @@ import re
 
 import numpy as np
 
-import torch
 
-from ..terms import (SCIENCE_OUTPUT, Term, angle_factor, constant_term, monomial, monomial_term, nonsmooth_terms,
-                     norm_term, power_unit, sqrt_term)
+from ..terms import (Term, angle_factor, constant_term, dry_friction_term, exponential_term, harmonic_term,
+                     hinge_above_term, hinge_below_term, monomial_term, nonsmooth_terms, norm_term, power_abs_term,
+                     power_signed_term, power_unit, saturation_term, scaled_term, sqrt_term)
 from .base import TermContext, TermFamily, VariableFamily
 
 __all__ = ["PHYSICS_FAMILIES"]
 
 #: Units of a length or a speed (m, mm, cm/s, km/h, ...): the components of a position or a velocity.
 _SPATIAL_UNIT = re.compile(r"^(k|c|m|u|µ|n)?m(/((m|u|µ)?s|h|min))?$")
-
-
-# The term functions: module-level, bound to their variables with functools.partial, so that a
-# science model augmented with them can be pickled.
-def _scaled(d, component, factors):
-    """The science output of ``component`` times ``monomial(d, factors)``."""
-    return d[SCIENCE_OUTPUT][..., component] * monomial(d, factors)
-
-
-def _dry_friction(d, x, w):
-    return torch.tanh(d[x] / w)
-
-
-def _power_abs(d, x, p):
-    """``|x|^p``; the tiny floor keeps the gradient in ``p`` (``log|x|``) finite where ``x`` is zero."""
-    return (d[x].abs() + 1e-12) ** p
-
-
-def _power_signed(d, x, p):
-    """``x |x|^(p-1)``: odd in ``x``, so a flow or a force keeps the sign of what drives it."""
-    return d[x] * (d[x].abs() + 1e-12) ** (p - 1)
-
-
-def _hinge_above(d, x, knot):
-    return torch.relu(d[x] - knot)
-
-
-def _hinge_below(d, x, knot):
-    return torch.relu(knot - d[x])
-
-
-def _exponential(d, x, k):
-    return torch.exp(torch.clamp(k * d[x], max=50.0))
-
-
-def _saturation(d, x, K):
-    return d[x] / (K + d[x].abs())
-
-
-def _harmonic(d, x, frequency, phase):
-    """``sin(n a + phase)`` of the angle ``a`` in radians: ``frequency`` is n times the radians per unit of ``d[x]``."""
-    return torch.sin(frequency * d[x] + phase)
 
 
 # Harmonics of an angle in the library: whatever acts on a body turning about an axis repeats with each
@@ -113,7 +71,7 @@ def _scaled_terms(context: TermContext) -> list[Term]:
     parameter of its own equation scales already)."""
     powers = [(x, p) for x in context.states for p in (1, 2)] + [(u, 1) for u in context.inputs]
     return [Term(f"f[{label}]*{x}" + (f"^{p}" if p > 1 else ""),
-                 partial(_scaled, component=int(j), factors=((x, p),)), "scaled", component=int(j))
+                 partial(scaled_term, component=int(j), factors=((x, p),)), "scaled", component=int(j))
             for j, label in context.scaled.items() for x, p in powers]
 
 
@@ -127,7 +85,7 @@ def _friction(x: str, col: np.ndarray, scale: float, unit: str, positive: bool) 
     which a fitted width reaches only where least squares still feels it (tanh(x/w) flattens in w once w
     is below most visited |x|). The latter only for a variable that changes sign: otherwise it is the
     constant."""
-    out = [Term(f"tanh({x}/w)", partial(_dry_friction, x=x), "dry_friction",
+    out = [Term(f"tanh({x}/w)", partial(dry_friction_term, x=x), "dry_friction",
                 {"w": ([0.01 * scale, 0.1 * scale, 0.5 * scale], _wide(scale))})]
     if col.min() < 0 < col.max():
         out.append(nonsmooth_terms(x)[0])
@@ -139,9 +97,9 @@ def _hinge(x: str, col: np.ndarray, scale: float, unit: str, positive: bool) -> 
     coefficient)."""
     knots = np.quantile(col, [0.1, 0.3, 0.5, 0.7, 0.9])
     bounds = (float(col.min()), float(col.max()))
-    out = [Term(f"max(0, {x} - knot)", partial(_hinge_above, x=x), "hinge", {"knot": (knots[1:], bounds)}, unit=unit)]
+    out = [Term(f"max(0, {x} - knot)", partial(hinge_above_term, x=x), "hinge", {"knot": (knots[1:], bounds)}, unit=unit)]
     if not (positive and bounds[0] >= 0 and knots[0] <= 0):
-        out.append(Term(f"max(0, knot - {x})", partial(_hinge_below, x=x), "hinge",
+        out.append(Term(f"max(0, knot - {x})", partial(hinge_below_term, x=x), "hinge",
                         {"knot": (knots[:-1], bounds)}, unit=unit))
     return out
 
@@ -154,21 +112,21 @@ def _power(x: str, col: np.ndarray, scale: float, unit: str, positive: bool) -> 
     """A law outside the listed degrees: radiation, allometric scaling, a fitted Torricelli; for a
     variable of one sign the odd version is the same column."""
     powers = ([0.5, 1.5, 2.5], (0.1, 5.0))  # the exponent p, fitted
-    out = [Term(f"|{x}|^p", partial(_power_abs, x=x), "power", {"p": powers})]
+    out = [Term(f"|{x}|^p", partial(power_abs_term, x=x), "power", {"p": powers})]
     if col.min() < 0 < col.max():
-        out.append(Term(f"{x}|{x}|^(p-1)", partial(_power_signed, x=x), "power", {"p": powers}))
+        out.append(Term(f"{x}|{x}|^(p-1)", partial(power_signed_term, x=x), "power", {"p": powers}))
     return out
 
 
 def _exponential_terms(x: str, col: np.ndarray, scale: float, unit: str, positive: bool) -> list[Term]:
     """Arrhenius-like activation, diode current, decay."""
     k = [s / scale for s in (-3.0, -1.0, 1.0, 3.0)]
-    return [Term(f"exp(k*{x})", partial(_exponential, x=x), "exponential", {"k": (k, (-20.0 / scale, 20.0 / scale))})]
+    return [Term(f"exp(k*{x})", partial(exponential_term, x=x), "exponential", {"k": (k, (-20.0 / scale, 20.0 / scale))})]
 
 
 def _saturation_terms(x: str, col: np.ndarray, scale: float, unit: str, positive: bool) -> list[Term]:
     """Michaelis-Menten, Holling type II, a saturating actuator."""
-    return [Term(f"{x}/(K + |{x}|)", partial(_saturation, x=x), "saturation",
+    return [Term(f"{x}/(K + |{x}|)", partial(saturation_term, x=x), "saturation",
                  {"K": ([0.1 * scale, 0.5 * scale, 2.0 * scale], (1e-3 * scale, 1e3 * scale))})]
 
 
@@ -179,7 +137,7 @@ def _periodic(x: str, col: np.ndarray, scale: float, unit: str, positive: bool) 
         return []
     angle = x if radians == 1 else f"{radians:.6g}*{x}"  # the angle in radians
     return [Term(f"sin({'' if n == 1 else f'{n}*'}{angle} + phase)",
-                 partial(_harmonic, x=x, frequency=n * radians), "periodic",
+                 partial(harmonic_term, x=x, frequency=n * radians), "periodic",
                  {"phase": ([0.0, np.pi / 2], (-np.pi, np.pi))}) for n in _HARMONICS]
 
 
