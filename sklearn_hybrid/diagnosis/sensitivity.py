@@ -15,7 +15,7 @@ import numpy as np
 import torch
 
 __all__ = ["state_labels", "root_mean_square", "science_output", "finite_differences", "parameter_jacobian",
-           "science_sensitivities", "free_columns", "exact_components"]
+           "science_sensitivities", "free_columns", "exact_components", "parameter_basis"]
 
 
 def state_labels(given: Sequence[str] | None, size: int, prefix: str, label: str) -> list[str]:
@@ -103,6 +103,13 @@ def science_sensitivities(estimator: Any, args: list[np.ndarray],
 def free_columns(jac: np.ndarray, names: Sequence[str], fixed: set) -> np.ndarray:
     """The sensitivities of the parameters a refit may move: a fixed one cannot absorb a shift."""
     return jac[..., [i for i, name in enumerate(names) if name.split("[")[0] not in fixed]]
+
+
+def parameter_basis(S: np.ndarray) -> np.ndarray:
+    """An orthonormal basis ``Q`` of the columns of ``S`` (points x parameters) that are not zero throughout:
+    ``r - Q @ (Q.T @ r)`` is the part of ``r`` no parameter shift can take."""
+    S = S[:, np.any(np.abs(S) > 0, axis=0)]
+    return np.linalg.qr(S)[0] if S.shape[1] else np.zeros((len(S), 0))
 
 
 def exact_components(jac: np.ndarray, names: Sequence[str], fixed: set) -> list[int] | None:

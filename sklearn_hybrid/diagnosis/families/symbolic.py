@@ -16,6 +16,7 @@ import numpy as np
 import sympy
 import torch
 
+from ..sensitivity import parameter_basis
 from ..terms import SCIENCE_OUTPUT, Term
 
 __all__ = ["SymbolicForm", "form_term", "canonical_form", "consistent_units", "drop_parameter_parts"]
@@ -66,7 +67,7 @@ def _symbols(form: SymbolicForm) -> dict:
     return {s: sympy.Symbol(s) for s in (*form.variables, *form.constants)}
 
 
-def canonical_form(expr: sympy.Expr, digits: int = 12) -> tuple[float, sympy.Expr, dict[str, float]]:
+def canonical_form(expr: sympy.Expr) -> tuple[float, sympy.Expr, dict[str, float]]:
     """``(factor, form, constants)`` with ``expr`` equal to ``factor * form`` less an added constant.
 
     The form is simplified, its numbers replaced by symbols ``K1, K2, ...`` (``constants`` their values);
@@ -77,9 +78,7 @@ def canonical_form(expr: sympy.Expr, digits: int = 12) -> tuple[float, sympy.Exp
                         lambda e: sympy.Pow(e.base, sympy.Rational(round(2 * e.exp), 2)))
     if expr.is_Add:  # the added constant is the library's own term
         expr = expr.as_independent(*expr.free_symbols, as_Add=True)[1]
-    if any(p.exp.is_negative for p in expr.atoms(sympy.Pow)):  # a ratio: one numerator over one denominator
-        expr = sympy.cancel(sympy.together(expr))
-    expr = sympy.factor_terms(expr)
+    expr = sympy.factor_terms(_one_fraction(expr))
     factor, form = _monic(expr)
     constants: dict[str, float] = {}
 
@@ -100,9 +99,15 @@ def canonical_form(expr: sympy.Expr, digits: int = 12) -> tuple[float, sympy.Exp
     return float(factor), form, constants
 
 
+def _one_fraction(expr: sympy.Expr) -> sympy.Expr:
+    """A ratio as one numerator over one denominator (sums of fractions collected); other forms as they are."""
+    return sympy.cancel(sympy.together(expr)) if any(p.exp.is_negative for p in expr.atoms(sympy.Pow)) else expr
+
+
 def _monic(expr: sympy.Expr) -> tuple[sympy.Expr, sympy.Expr]:
     """``(factor, form)`` with ``expr = factor * form`` and each sum of ``form``'s product (numerator or
-    denominator) with a variable term of coefficient one (``S/(K + S)``, as a textbook writes it): the form's constants are then its own."""
+    denominator) with a variable term of coefficient one (``S/(K + S)``, as a textbook writes it): the form's
+    constants are then its own."""
     factor, form = expr.as_coeff_Mul()
     parts = []
     for part in sympy.Mul.make_args(form):
@@ -218,8 +223,7 @@ def _zero_at_rest(expr: sympy.Expr, symbols: Sequence[sympy.Symbol]) -> sympy.Ex
     if not at_rest.is_number or at_rest.has(sympy.zoo, sympy.nan, sympy.oo, -sympy.oo) or not at_rest.is_real \
             or at_rest == 0:
         return expr
-    out = expr - at_rest
-    return sympy.cancel(sympy.together(out)) if any(p.exp.is_negative for p in out.atoms(sympy.Pow)) else out
+    return _one_fraction(expr - at_rest)
 
 
 def drop_parameter_parts(expr: sympy.Expr, symbols: Sequence[sympy.Symbol], values: np.ndarray,
@@ -229,8 +233,7 @@ def drop_parameter_parts(expr: sympy.Expr, symbols: Sequence[sympy.Symbol], valu
     scales by a parameter. Numbers that change ``expr`` at no point (rounding left by the search) go first,
     and again at the end (a sum the search wrote in two parts may cancel once collected)."""
     expr = _without_negligible_numbers(expr, symbols, values)
-    basis = directions[:, np.any(np.abs(directions) > 0, axis=0)]
-    Q = np.linalg.qr(np.column_stack([np.ones(len(values)), basis]))[0]
+    Q = parameter_basis(np.column_stack([np.ones(len(values)), directions]))  # a constant is theta's too
     kept = []
     for part in sympy.Add.make_args(sympy.expand(expr, deep=False)):
         col = _evaluate(part, symbols, values)
@@ -241,10 +244,7 @@ def drop_parameter_parts(expr: sympy.Expr, symbols: Sequence[sympy.Symbol], valu
         rest = col - Q @ (Q.T @ col)
         if size > 0 and float(rest @ rest) >= tol * size:
             kept.append(part)
-    out = sympy.Add(*kept)
-    if any(p.exp.is_negative for p in out.atoms(sympy.Pow)):
-        out = sympy.cancel(sympy.together(out))
-    return _without_negligible_numbers(out, symbols, values, tol=1e-5)
+    return _without_negligible_numbers(_one_fraction(sympy.Add(*kept)), symbols, values, tol=1e-5)
 
 
 def _without_negligible_numbers(expr: sympy.Expr, symbols: Sequence[sympy.Symbol], values: np.ndarray,

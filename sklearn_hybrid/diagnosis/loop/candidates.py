@@ -23,7 +23,7 @@ import torch
 
 from ..augment import augment_science
 from ..science_fit import ScienceFit
-from ..sensitivity import finite_differences, free_columns
+from ..sensitivity import finite_differences, free_columns, parameter_basis
 from ..families import SymbolicDiscovery, TermContext, physics_terms
 from ..terms import Term
 from .placed import PlacedGroup, PlacedTerm, offset_term
@@ -139,9 +139,7 @@ def discovered_terms(candidates: Candidates, columns: list[tuple], remaining: np
     wanted = []
     for j in components:
         total = float(np.sum(remaining[:, j] ** 2))
-        S = jac[:, j, :]
-        S = S[:, np.any(np.abs(S) > 0, axis=0)]
-        Q = np.linalg.qr(S)[0] if S.shape[1] else np.zeros((len(S), 0))
+        Q = parameter_basis(jac[:, j, :])
         free = remaining[:, j] - Q @ (Q.T @ remaining[:, j])
         if total == 0 or float(free @ free) < 0.05 * total:
             continue
@@ -173,9 +171,7 @@ def rank_by_residual(columns: list[tuple], remaining: np.ndarray, jac: np.ndarra
         by_name.setdefault(term.name, []).append((term, shape, col))
     ranked = []
     for j in components:
-        S = jac[:, j, :]
-        S = S[:, np.any(np.abs(S) > 0, axis=0)]
-        Q = np.linalg.qr(S)[0] if S.shape[1] else np.zeros((len(S), 0))
+        Q = parameter_basis(jac[:, j, :])
         r = remaining[:, j] - Q @ (Q.T @ remaining[:, j])
         for name, options in by_name.items():
             if (j, name) in taken:

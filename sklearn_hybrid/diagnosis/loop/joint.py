@@ -22,6 +22,7 @@ from itertools import combinations
 
 import numpy as np
 
+from ..sensitivity import parameter_basis
 from ..supports import select_support, support_stats
 from .placed import PlacedGroup, PlacedTerm
 
@@ -96,8 +97,7 @@ def _pool(columns: list[tuple], residual: np.ndarray, S: np.ndarray, j: int, tak
 
     Each entry's ``coef`` is the factor from its unit column back to the term's own scale.
     """
-    S = S[:, np.any(np.abs(S) > 0, axis=0)]
-    Q = np.linalg.qr(S)[0] if S.shape[1] else np.zeros((len(S), 0))
+    Q = parameter_basis(S)
     r = residual - Q @ (Q.T @ residual)
     norm = float(np.sqrt(r @ r))
     if norm == 0:

@@ -133,12 +133,11 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
         ``errors`` (validation errors per sample before any term and at the end) and ``seconds``.
     """
     start_time = time.perf_counter()
-    tensors = {name: torch.as_tensor(np.asarray(col, dtype=float))
-               for name, col in zip(variables, np.hstack([np.asarray(a).reshape(len(a), -1) for a in args]).T)}
+    values = np.hstack([np.asarray(a).reshape(len(a), -1) for a in args])
+    tensors = {name: torch.as_tensor(np.asarray(col, dtype=float)) for name, col in zip(variables, values.T)}
     tensors[SCIENCE_OUTPUT] = torch.as_tensor(science_output(science, theta, args), dtype=torch.float64)
     columns = term_columns(candidates.terms, tensors)
     if candidates.discovery:  # closed forms for what the network learned, at the hybrid's own theta
-        values = np.hstack([np.asarray(a).reshape(len(a), -1) for a in args])
         found = discovered_terms(candidates, columns, np.asarray(learned) - tensors[SCIENCE_OUTPUT].numpy(),
                                  free_columns(*parameter_jacobian(science, theta, args), fit.fixed), values,
                                  tensors[SCIENCE_OUTPUT].numpy(), variables, n_states, components, log, units)
