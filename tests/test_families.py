@@ -114,6 +114,11 @@ def test_discovery_needs_what_the_network_learned_and_a_valid_setting():
         Candidates(discovery="yes").check()
     with pytest.raises(ValueError, match="explained"):
         Candidates(explained=0.0).check()
+    with pytest.raises(TypeError, match="flows must be True or False"):
+        Candidates(flows="no").check()
+    for bad in ({"max_rounds": 0}, {"max_forms": 1.5}, {"operators": ()}, {"operators": ("add,sub", 3)}):
+        with pytest.raises(ValueError, match="SymbolicDiscovery"):
+            SymbolicDiscovery(**bad).terms(_saturation_context())
 
 
 def decay_f(v, k=0.5):

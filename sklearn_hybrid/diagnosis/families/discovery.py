@@ -105,11 +105,20 @@ class SymbolicDiscovery:
         ImportError
             If ``pyoperon`` is not installed (``pip install pyoperon``).
         ValueError
-            If the context holds no ``learned`` residual.
+            If the context holds no ``learned`` residual, or a setting is out of range.
         """
         if context.learned is None:
             raise ValueError("SymbolicDiscovery reads what the network learned (TermContext.learned); the "
                              "context holds none.")
+        for name in ("max_length", "population_size", "generations", "max_rounds", "max_forms", "max_constants",
+                     "max_points"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
+                raise ValueError(f"SymbolicDiscovery: {name} must be a positive integer, got {value!r}.")
+        grammars = (self.operators,) if isinstance(self.operators, str) else self.operators
+        if not grammars or not all(isinstance(g, str) and g for g in grammars):
+            raise ValueError("SymbolicDiscovery: operators must be a grammar (Operon's operator names joined by "
+                             f"commas, e.g. 'add,sub,mul,div') or a tuple of them, got {self.operators!r}.")
         start = time.process_time()
         self.fronts_ = {}
         rows = np.unique(np.linspace(0, len(context.values) - 1, min(self.max_points, len(context.values))).astype(int))
@@ -130,7 +139,7 @@ class SymbolicDiscovery:
                 names += [f"{DIRECTION}{k + 1}" for k in range(new.shape[1])]
                 X = np.column_stack([X, new])
             self.fronts_[j] = {}
-            for grammar in ((self.operators,) if isinstance(self.operators, str) else self.operators):
+            for grammar in grammars:
                 front = self._search(X, target, grammar, log, f"equation {j} ({grammar})")
                 self.fronts_[j][grammar] = front
                 out += [t for t in self._offered(front, names, j, X, directions, float(np.var(target)),

@@ -83,6 +83,8 @@ class Candidates:
             raise TypeError(f"discovery must be True, False or a SymbolicDiscovery, got {self.discovery!r}.")
         if not 0 < self.explained <= 1:
             raise ValueError(f"explained must be in (0, 1], got {self.explained!r}.")
+        if not isinstance(self.flows, (bool, np.bool_)):
+            raise TypeError(f"flows must be True or False, got {self.flows!r}.")
         if self.terms is not None:  # a name or a plain function would fail deep inside the ranking
             terms = self.terms
             how = ("a term by its name: named_terms(state_names)['v_dot'] (sklearn_hybrid.diagnosis.named_terms); "
