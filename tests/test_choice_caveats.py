@@ -154,9 +154,9 @@ def test_a_final_model_the_hybrid_fits_far_better_is_incomplete(missing, monkeyp
     """A missing sin(3x) that no candidate expresses: nothing is added, the hybrid fits the data far better
     than the refitted science, and its intervals are withheld; with the science complete they stand. (The
     useless candidate's small held-out gain, an open question of its own, is set aside to test this one.)"""
-    from sklearn_hybrid.diagnosis.loop import close
+    from sklearn_hybrid.diagnosis.loop import stages
 
-    monkeypatch.setattr(close, "open_question", lambda steps, min_gain: None)
+    monkeypatch.setattr(stages, "open_question", lambda steps, min_gain: None)
     X, y = _decay(0, missing)
     useless = Candidates(user_terms={"cos(50 x)": lambda d: torch.cos(50 * d["x"])}, kinds=["user"],
                          max_terms=1)

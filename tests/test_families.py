@@ -170,7 +170,7 @@ def sirs_f(v, beta=1.5, gamma=0.4):
 def test_a_flow_between_two_compartments_is_one_term_with_one_coefficient():
     """Waning immunity moves 0.3 R from R back to S: with the flows the loop adds R once, +c on dS and -c on dR
     (one parameter), where without them it needs a coefficient on each equation."""
-    from sklearn_hybrid.diagnosis.loop.close import flow_pairs
+    from sklearn_hybrid.diagnosis.loop.stages import flow_pairs
 
     rng = np.random.default_rng(1)
     dt, n_steps, n = 0.4, 12, 30

@@ -12,6 +12,7 @@ from sklearn_hybrid.diagnosis import Candidates, Evidence, ScienceFit, Term, phy
 from sklearn_hybrid.diagnosis.loop import stepwise
 from sklearn_hybrid.diagnosis.loop.candidates import term_columns
 from sklearn_hybrid.diagnosis.evidence import critical_value, evidence, holm
+from sklearn_hybrid.diagnosis import Verdict
 from sklearn_hybrid.diagnosis.loop.joint import joint_candidates
 from sklearn_hybrid.diagnosis.loop.placed import PlacedGroup, PlacedTerm
 from sklearn_hybrid.diagnosis.loop.report import format_table
@@ -90,8 +91,11 @@ def test_holm_holds_the_family_rate_of_one_test():
 
 
 def test_holm_steps_down_and_still_asks_for_the_gain():
-    strong, weak, small = ({"z": 12.0, "gain": 0.9}, {"z": 4.0, "gain": 0.5}, {"z": 12.0, "gain": 0.01})
-    out = holm([weak, strong, small, {"z": 0.0, "gain": 0.0}], 12)
+    def judged(z, gain):
+        return Verdict(mse_before=1.0, mse_after=1.0 - gain, gain=gain, z=z, threshold=None, accepted=False)
+
+    strong, weak, small = judged(12.0, 0.9), judged(4.0, 0.5), judged(12.0, 0.01)
+    out = holm([weak, strong, small, judged(0.0, 0.0)], 12)
     # weak passes one test (3.85) but not its level, third of four; small is significant but gains too little
     assert weak["z"] > critical_value(3.0, 12) and [v["accepted"] for v in out] == [False, True, False, False]
     assert out[1]["threshold"] > out[0]["threshold"]  # the smallest p-value meets the strictest level

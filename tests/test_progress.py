@@ -56,6 +56,7 @@ def test_verbose_false_silences_it(capsys, monkeypatch):
 def test_the_profile_and_the_loop_show_their_progress_in_a_terminal(capsys, monkeypatch):
     """The steps after a fit show signs of life by default too: the profile's members a bar, the loop its stages."""
     import sklearn_hybrid.diagnosis.loop.close as close
+    import sklearn_hybrid.diagnosis.loop.stages as stages
     from sklearn_hybrid.diagnosis import Candidates
     from sklearn_hybrid.identifiability import profile_theta
 
@@ -66,7 +67,7 @@ def test_the_profile_and_the_loop_show_their_progress_in_a_terminal(capsys, monk
     assert capsys.readouterr() == ("", "")
     monkeypatch.setattr(progress, "AUTO_DELAY", 0.0)
     monkeypatch.setattr(progress, "is_interactive", lambda stream: True)  # as in a terminal
-    monkeypatch.setattr(close, "is_interactive", lambda stream: True)
+    monkeypatch.setattr(stages, "is_interactive", lambda stream: True)
     profile_theta(est, X, y, n_points=3, refine=False, max_iter=5)
     assert "3 members" in capsys.readouterr().err  # two values of k and the free member
     close.close_the_loop(est, X, y, candidates=Candidates(kinds=["polynomial"], max_terms=1))

@@ -150,7 +150,7 @@ def run_case(system: System, noise: float, seed: int, fast: bool, command: str, 
     if not reused:
         fit_path.parent.mkdir(parents=True, exist_ok=True)
         fit_path.write_bytes(pickle.dumps(res.before))
-    theta, added = res.science_theta, list(res.added)
+    theta, added = res.science_theta, [t.as_dict() for t in res.added]  # stored as the dicts they read as
     science = res.science if res.science is not None else system.science
     scores = score(system, science, theta, res.before.theta_, data["x_test"], data["u_test"])
     return {"system": system.name, "noise": noise, "seed": seed, "fast": fast, **scores,

@@ -9,7 +9,9 @@ Two wings over a shared floor. The closed loop (``loop/``) and the exploratory s
 :func:`close_the_loop` is the one call: fit, rank candidate terms (:func:`physics_terms`, what
 physics usually misses) by the residual the network learned, accept a term only when a
 network-free refit (:class:`ScienceFit`) validates better on held-out samples by more than the
-noise explains (:func:`evidence`), refit and compare. :class:`ResidualDiagnosis` explains a fitted
+noise explains (:func:`evidence`), refit and compare; its results are typed (``results.py``:
+:class:`Verdict`, :class:`Step`, :class:`AddedTerm`, :class:`Selection`) and read as the dicts the
+records keep. :class:`ResidualDiagnosis` explains a fitted
 model's residual by sparse regression on a :class:`CandidateLibrary` (an exploratory reading);
 :func:`augment_science` adds chosen terms to a science function.
 
@@ -24,6 +26,7 @@ from .evidence import Evidence, critical_value, evidence, holm
 from ..records import fit_initial_state, free_run
 from ..residual import MLPOn, ZeroResidual
 from .loop import Candidates, LoopResult, close_the_loop, format_table, plot_unexplained, prediction_metrics
+from .results import AddedTerm, Selection, Step, Verdict
 from .science_fit import ScienceFit
 from .sensitivity import science_sensitivities
 from .sparse import CandidateLibrary, ResidualDiagnosis, SparseTermRegression
@@ -35,4 +38,4 @@ __all__ = ["CandidateLibrary", "SparseTermRegression", "ResidualDiagnosis", "sci
            "fit_initial_state", "MLPOn", "ZeroResidual", "LoopResult", "prediction_metrics", "format_table",
            "plot_unexplained", "Term", "physics_terms", "named_terms", "TERM_KINDS", "SCIENCE_OUTPUT", "ScienceFit",
            "Candidates", "Evidence", "evidence", "critical_value", "holm", "SymbolicDiscovery", "TermFamily",
-           "VariableFamily", "TermContext", "TERM_FAMILIES"]
+           "VariableFamily", "TermContext", "TERM_FAMILIES", "Verdict", "Step", "AddedTerm", "Selection"]

@@ -11,13 +11,15 @@ of one stretch of a record together.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from numbers import Real
 from typing import Any
 
 import numpy as np
 from scipy.stats import norm
 from scipy.stats import t as student_t
+
+from .results import Verdict
 
 __all__ = ["Evidence", "evidence", "critical_value", "holm", "group_means"]
 
@@ -109,7 +111,7 @@ class Evidence:
         """The (training rows, validation rows) pairs and the group codes (``held_out_splits``)."""
         return held_out_splits(n, self.validation_fraction, self.cv, self.groups)
 
-    def verdict(self, errors_before: np.ndarray, errors_after: np.ndarray) -> dict[str, float | bool]:
+    def verdict(self, errors_before: np.ndarray, errors_after: np.ndarray) -> Verdict:
         """:func:`evidence` of these held-out errors, asked with this ``z`` and ``min_gain``."""
         return evidence(errors_before, errors_after, z=self.z, min_gain=self.min_gain)
 
@@ -233,7 +235,7 @@ def group_codes(groups: Any, n: int) -> np.ndarray:
 
 
 def evidence(errors_before: np.ndarray, errors_after: np.ndarray, z: float = 3.0,
-             min_gain: float = 0.05) -> dict[str, float | bool]:
+             min_gain: float = 0.05) -> Verdict:
     """Does a change lower the held-out error by more than the noise explains?
 
     Paired comparison of the per-sample validation errors on a log scale (a sample's error ratio
@@ -245,31 +247,30 @@ def evidence(errors_before: np.ndarray, errors_after: np.ndarray, z: float = 3.0
 
     Returns
     -------
-    dict
+    Verdict
         ``mse_before``, ``mse_after``, ``gain`` (relative drop of the mean squared error), ``z``
         (mean log-ratio in standard errors), ``threshold`` (what ``z`` had to exceed) and
-        ``accepted``.
+        ``accepted``; it reads as a dict of them too.
     """
     before, after = np.asarray(errors_before, float), np.asarray(errors_after, float)
     threshold = critical_value(z, len(before))
     if not np.all(np.isfinite(after)):
-        return {"mse_before": float(before.mean()), "mse_after": float("inf"), "gain": -np.inf,
-                "z": -np.inf, "threshold": threshold, "accepted": False}
+        return Verdict(float(before.mean()), float("inf"), -np.inf, -np.inf, threshold, False)
     if np.any(np.isposinf(before)) and not np.any(np.isnan(before)):
         # the change repairs a sample whose simulation blew up: better however the others scatter (the
         # spread of ratios with an infinite one is NaN, which numpy warns about; said here, not left to it)
-        return {"mse_before": float("inf"), "mse_after": float(after.mean()), "gain": 1.0, "z": np.inf,
-                "threshold": threshold, "accepted": True}
+        return Verdict(float("inf"), float(after.mean()), 1.0, np.inf, threshold, True)
     tiny = 1e-300
     ratio = np.log(np.maximum(before, tiny)) - np.log(np.maximum(after, tiny))
     se = ratio.std(ddof=1) / math.sqrt(len(ratio)) if len(ratio) > 1 else np.inf
     score = float(ratio.mean() / se) if se > 0 else (np.inf if ratio.mean() > 0 else 0.0)
     gain = float(1.0 - after.mean() / before.mean()) if before.mean() > 0 else 0.0
-    return {"mse_before": float(before.mean()), "mse_after": float(after.mean()), "gain": gain, "z": score,
-            "threshold": threshold, "accepted": bool(score > threshold and gain >= min_gain)}
+    return Verdict(float(before.mean()), float(after.mean()), gain, score, threshold,
+                   bool(score > threshold and gain >= min_gain))
 
 
-def holm(verdicts: list[dict], n: int, z: float = 3.0, min_gain: float = 0.05, m: int | None = None) -> list[dict]:
+def holm(verdicts: list[Verdict], n: int, z: float = 3.0, min_gain: float = 0.05,
+         m: int | None = None) -> list[Verdict]:
     """The verdicts of a family of candidates judged on the same samples, corrected by Holm's step-down rule.
 
     Each verdict of :func:`evidence` holds its own test at the tail probability ``alpha`` of the
@@ -281,7 +282,7 @@ def holm(verdicts: list[dict], n: int, z: float = 3.0, min_gain: float = 0.05, m
 
     Parameters
     ----------
-    verdicts : list of dict
+    verdicts : list of Verdict
         Verdicts of :func:`evidence` (``z``, ``gain``), one per candidate.
     n : int
         Number of paired samples each verdict was judged on.
@@ -293,19 +294,19 @@ def holm(verdicts: list[dict], n: int, z: float = 3.0, min_gain: float = 0.05, m
 
     Returns
     -------
-    list of dict
+    list of Verdict
         The verdicts in their order, with ``threshold`` (the z each had to exceed, at its rank) and
         ``accepted`` replaced.
     """
     m = len(verdicts) if m is None else max(m, len(verdicts))
     alpha = float(norm.sf(z))
-    p = [float(student_t.sf(v["z"], df=n - 1)) if n > 1 and np.isfinite(v["z"]) else
-         (0.0 if v["z"] == np.inf else 1.0) for v in verdicts]
-    out = [dict(v) for v in verdicts]
+    p = [float(student_t.sf(v.z, df=n - 1)) if n > 1 and np.isfinite(v.z) else
+         (0.0 if v.z == np.inf else 1.0) for v in verdicts]
+    out = list(verdicts)
     holding = True  # Holm's step-down stops at the first p-value above its level
     for rank, i in enumerate(np.argsort(p, kind="stable")):
         level = alpha / (m - rank)
-        out[i]["threshold"] = float(student_t.isf(level, df=n - 1)) if n > 1 else math.inf
         holding = holding and p[i] <= level
-        out[i]["accepted"] = bool(holding and out[i]["gain"] >= min_gain)
+        out[i] = replace(out[i], threshold=float(student_t.isf(level, df=n - 1)) if n > 1 else math.inf,
+                         accepted=bool(holding and out[i].gain >= min_gain))
     return out

@@ -1,6 +1,7 @@
 """The closed loop: find what the science misses, add it where held-out data support it, refit.
 
-``close.py`` holds :func:`close_the_loop`, the one call; ``stepwise.py`` the forward selection
+``close.py`` holds :func:`close_the_loop`, the one call, which runs the stages of ``stages.py`` (each
+with a typed input and output); ``stepwise.py`` the forward selection
 (screen, refit, judge, drop, second look); ``placed.py`` what a candidate is (a term placed on a
 component, or several judged as one); ``candidates.py`` the candidates and their rankings;
 ``joint.py`` the sets of terms that explain the residual only together; ``collapse.py`` the single

@@ -13,6 +13,7 @@ removes parameters, so it cannot add a term where nothing is missing.
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
+from dataclasses import replace
 
 import numpy as np
 
@@ -21,6 +22,7 @@ from ..evidence import Evidence
 from ..judge import FIT_FAILURES, Judge
 from .candidates import Candidates, augment_with, initial_values, rank_by_residual, shape_bounds
 from .placed import PlacedTerm
+from ..results import Step, Verdict
 from ..sensitivity import free_columns, parameter_jacobian, science_output
 
 __all__ = ["replace_stand_ins"]
@@ -29,7 +31,7 @@ __all__ = ["replace_stand_ins"]
 def replace_stand_ins(science: Callable, current: Callable, added: list[PlacedTerm], theta: dict,
                       errors: np.ndarray, judge: Judge, columns: list[tuple], learned: np.ndarray,
                       args: Sequence[np.ndarray], variables: Sequence[str], n_states: int,
-                      param_names: Mapping[str, str] | None, steps: list[dict], log: Callable[[str], None], *,
+                      param_names: Mapping[str, str] | None, steps: list[Step], log: Callable[[str], None], *,
                       evidence: Evidence, candidates: Candidates = Candidates(),
                       fixed: set = frozenset()) -> tuple:
     """Replace the terms of an equation by one term of another kind that validates as well.
@@ -47,7 +49,7 @@ def replace_stand_ins(science: Callable, current: Callable, added: list[PlacedTe
         As in the selection: the terms' columns on the visited states, what the hybrid learned
         there, the science function's inputs, the variables' names, the number of states, and the
         new coefficients' names.
-    steps : list of dict
+    steps : list of Step
         The selection's rows; each replacement tried adds one (``step`` ``"replace"``).
     evidence : Evidence
         A replacement does as well when its held-out error is within ``min_gain`` of the model's.
@@ -91,9 +93,8 @@ def replace_stand_ins(science: Callable, current: Callable, added: list[PlacedTe
                 continue
             mse, now = float(np.mean(cand_errors)), float(np.mean(errors))
             ok = bool(np.isfinite(mse) and mse <= (1 + min_gain) * now)
-            steps.append({"step": "replace", **cand.row(), "mse_before": now, "mse_after": mse,
-                          "gain": 1 - mse / now if now > 0 else 0.0, "z": float("nan"), "accepted": False,
-                          "replaces": [t.name for t in on_j]})
+            judged = Verdict(now, mse, 1 - mse / now if now > 0 else 0.0, float("nan"), None, ok)
+            steps.append(Step.of("replace", cand.row(), verdict=judged, replaces=[t.name for t in on_j]))
             log(f"  replace {', '.join(t.name for t in on_j)} on component {j} by {cand.name}: validation "
                 f"MSE {mse:.4g} against {now:.4g}{' (as well)' if ok else ''}")
             if ok and (best is None or mse < best[0]):
@@ -101,7 +102,7 @@ def replace_stand_ins(science: Callable, current: Callable, added: list[PlacedTe
         if best is None:
             continue
         _, cand, current, theta, errors, index = best
-        steps[index]["accepted"] = True
+        steps[index] = replace(steps[index], accepted=True)
         added = [t.with_fitted(current, theta, k) for k, t in enumerate([*rest, cand])]  # the new one: no second look
         log(f"  replaced {', '.join(t.name for t in on_j)} on component {j} by {cand.name}")
     return current, added, theta, errors

@@ -40,6 +40,7 @@ from ..evidence import Evidence, holm
 from .joint import joint_candidates
 from .placed import Candidate, PlacedTerm
 from .report import format_gain
+from ..results import Selection, Step, Verdict
 from ..sensitivity import free_columns, parameter_jacobian, science_output
 from ..science_fit import ScienceFit
 from ..terms import SCIENCE_OUTPUT
@@ -59,7 +60,7 @@ class Screened(NamedTuple):
 
     cand: Candidate
     theta: dict  # the screening fit of the model with the candidate
-    verdict: dict  # evidence's verdict on its held-out errors
+    verdict: Verdict  # evidence's verdict on its held-out errors
     errors: np.ndarray  # its held-out errors, one per judged sample (or group)
     science: Any  # the augmented science function with the candidate
     index: int  # its row in the selection's steps
@@ -123,10 +124,11 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
 
     Returns
     -------
-    dict
+    Selection
         ``science`` (augmented function, or the original), ``theta`` (fitted on the training
-        samples), ``added`` (the accepted terms, fitted: :class:`PlacedTerm`), ``steps`` (a dict per
-        candidate tried, with its validation error and verdict), ``rivals`` (candidates the held-out
+        samples), ``added`` (the accepted terms, fitted: :class:`PlacedTerm`), ``steps`` (a
+        :class:`~sklearn_hybrid.diagnosis.results.Step` per candidate tried, with its validation error
+        and verdict), ``rivals`` (candidates the held-out
         data could not tell from the choice: ``role`` ``"instead"`` of the accepted terms ``of`` (their
         keys) or ``"add"``-ed to the final model, with ``cand``, its screening fit ``theta`` and
         validation ``mse``), ``base_errors`` /
@@ -155,7 +157,7 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
     rejected: set[tuple] = set()
     visited: set[frozenset] = {frozenset()}
     known: dict[tuple, dict] = {}  # each model the path settled on (its terms in order) and its fit
-    steps: list[dict] = []
+    steps: list[Step] = []
     # candidates the held-out data could not tell from the choice: instead of an accepted term (within
     # min_gain of its error) or, at the last step, added to the final model (lowering its error a little)
     rivals: list[dict] = []
@@ -189,10 +191,10 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
                 fitted = _screen(judge, candidate_science, start, bounds, len(added))
                 cand_errors = judge.errors(candidate_science, fitted, bounds, screening=True)
             except FIT_FAILURES as exc:  # a term that breaks the simulation
-                steps.append({"step": step, **cand.row(), "failed": repr(exc), "accepted": False})
+                steps.append(Step.of(step, cand.row(), failed=repr(exc)))
                 continue
             verdict = evidence.verdict(errors, cand_errors)
-            steps.append({"step": step, **cand.row(), **verdict, "accepted": False})
+            steps.append(Step.of(step, cand.row(), verdict=verdict))
             log(f"  step {step}: {cand.name} on {cand.where()}: validation MSE "
                 f"{verdict['mse_after']:.4g} (gain {format_gain(verdict['gain'])}, z {verdict['z']:.1f})")
             tried.append(Screened(cand, fitted, verdict, cand_errors, candidate_science, len(steps) - 1))
@@ -213,7 +215,7 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
         bounds = shape_bounds(current, [*added, *cand.entries()])
         theta_now = judge.fit(current, theta_now, bounds)
         errors = judge.errors(current, theta_now, bounds)
-        steps[index]["accepted"] = True
+        steps[index] = replace(steps[index], accepted=True)
         added += [replace(entry.with_fitted(current, theta_now, len(added) + k), second_look=second_look)
                   for k, entry in enumerate(cand.entries())]
         log(f"  accepted {cand.name} on {cand.where()}")
@@ -232,8 +234,8 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
     current, added, theta_now, errors = replace_stand_ins(
         science, current, added, theta_now, errors, judge, columns, learned, args, variables, n_states, param_names,
         steps, log, evidence=evidence, candidates=candidates, fixed=fit.fixed)
-    return {"science": current, "theta": theta_now, "added": added, "steps": steps, "rivals": rivals,
-            "base_errors": base_errors, "errors": errors, "seconds": time.perf_counter() - start_time}
+    return Selection(science=current, theta=theta_now, added=added, steps=steps, rivals=rivals,
+                     base_errors=base_errors, errors=errors, seconds=time.perf_counter() - start_time)
 
 
 # A candidate gets a second look when the first split's z is above this (and its gain is enough).
@@ -277,7 +279,7 @@ def look_again(recheck: Judge, tried: list[Screened], current, theta: dict, adde
         except FIT_FAILURES:
             continue
         verdict = evidence.verdict(base, errors)
-        steps.append({**steps[index], **verdict, "step": f"{steps[index]['step']}, second look", "accepted": False})
+        steps.append(replace(steps[index], step=f"{steps[index].step}, second look", verdict=verdict, accepted=False))
         log(f"  second look at {cand.name} on {cand.where()}: training-fold MSE {verdict['mse_after']:.4g} "
             f"(gain {format_gain(verdict['gain'])}, z {verdict['z']:.1f})")
         looked.append(Screened(cand, fitted, verdict, errors, candidate_science, len(steps) - 1, second_look=True))
@@ -299,8 +301,7 @@ def _correct_joint(tried: list[Screened], steps: list, m: int, evidence: Evidenc
     verdicts = holm([tried[i].verdict for i in at], len(tried[at[0]].errors), evidence.z, evidence.min_gain, m)
     for i, verdict in zip(at, verdicts):
         tried[i] = tried[i]._replace(verdict=verdict)
-        # a row says yes when chosen
-        steps[tried[i].index].update({k: v for k, v in verdict.items() if k != "accepted"})
+        steps[tried[i].index] = replace(steps[tried[i].index], verdict=verdict)  # a row says yes when chosen
         log(f"  {tried[i].cand.name} judged as one of {max(m, len(at))} sets: threshold {verdict['threshold']:.2f}, "
             f"{'passed' if verdict['accepted'] else 'not passed'}")
 
@@ -372,8 +373,7 @@ def _drop_dispensable(science, current, added: list[PlacedTerm], theta, errors, 
             break
         _, i, rest, reduced, fitted, reduced_errors, with_it, without = min(trials, key=lambda t: t[0])
         label = "drop, second look" if added[i].second_look else "drop"  # which judge's errors the row holds
-        steps.append({"step": label, **added[i].row(), **evidence.verdict(with_it, without),
-                      "accepted": False, "dropped": True})
+        steps.append(Step.of(label, added[i].row(), verdict=evidence.verdict(with_it, without), dropped=True))
         log(f"  dropped {added[i].name} on component {added[i].component}: the later terms explain it")
         added = [t.with_fitted(reduced, fitted, k) for k, t in enumerate(rest)]
         current, theta, errors = reduced, fitted, reduced_errors
