@@ -21,7 +21,7 @@ from sklearn.exceptions import ConvergenceWarning, NotFittedError
 
 from sklearn_hybrid import DivergenceError, HybridRegressor, HybridRegressorCV, pack_inputs
 from sklearn_hybrid.datasets import get_data_home, make_pendulum
-from sklearn_hybrid.diagnosis import ResidualDiagnosis, close_the_loop
+from sklearn_hybrid.diagnosis import Evidence, ResidualDiagnosis, close_the_loop
 from sklearn_hybrid.identifiability import profile_theta, science_intervals
 from sklearn_hybrid.models import pendulum_f
 from sklearn_hybrid.residual import MLP
@@ -397,7 +397,7 @@ CASES = [
      ValueError, "y has 5 samples and X 6"),
     ("ResidualDiagnosis with y of too few samples to judge", diagnose(lambda X, y: (X[:3], y[:3])),
      ValueError, "3 samples: a split needs 4 at least"),
-    ("ResidualDiagnosis z=0", diagnose(lambda X, y: (X, y), z=0),
+    ("ResidualDiagnosis z=0", diagnose(lambda X, y: (X, y), evidence=Evidence(z=0)),
      ValueError, "z must be a positive number of standard errors, got 0"),
     ("ResidualDiagnosis judging a model with a theta encoder", diagnose(lambda X, y: (X, y), {"theta_encoder": "mlp"}),
      ValueError, "cannot judge terms of a model with a theta_encoder"),

@@ -66,6 +66,24 @@ def test_pendulum_damping_recovered(pendulum):
     assert len(axes) == len(diag.terms_)
 
 
+def test_residual_diagnosis_takes_the_loops_evidence_whole(pendulum):
+    """ResidualDiagnosis(evidence=Evidence(z=...)) as close_the_loop takes it; the flat z, min_gain and
+    validation_fraction still work, with a FutureWarning, and give the same verdicts."""
+    data, est = pendulum
+    whole = ResidualDiagnosis(state_names=NAMES, evidence=Evidence(z=4.0, min_gain=0.1), random_state=0)
+    whole.fit(est, data.X_train, data.y_train)
+    with pytest.warns(FutureWarning, match=r"pass evidence=Evidence\(z=4.0, min_gain=0.1\)"):
+        flat = ResidualDiagnosis(state_names=NAMES, z=4.0, min_gain=0.1, random_state=0)
+        flat.fit(est, data.X_train, data.y_train)
+    verdicts = [t["evidence"] for t in whole.new_terms_]
+    assert verdicts and verdicts == [t["evidence"] for t in flat.new_terms_]
+    assert verdicts[0]["threshold"] > critical_value(3.0, 13)  # asked with z = 4
+    with pytest.raises(ValueError, match="both evidence and"):
+        ResidualDiagnosis(evidence=Evidence(), z=4.0).fit(est, data.X_train, data.y_train)
+    with pytest.raises(ValueError, match=r"Evidence\(cv=\.\.\.\) and groups are the closed loop's"):
+        ResidualDiagnosis(evidence=Evidence(cv=3)).fit(est, data.X_train, data.y_train)
+
+
 def test_residual_diagnosis_adds_nothing_to_complete_science():
     """An undamped pendulum with noise and its complete science model: the network, acting on both
     equations, fits noise, and sparse regression reads candidates off it; held to

@@ -141,8 +141,9 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         ``science_only`` (an estimator holding that model), ``intervals`` (its parameters' intervals and
         verdicts, :func:`~sklearn_hybrid.identifiability.science_intervals`), ``initial_states`` (with
         ``fit_initial_states``: every sample's initial state, unobserved components fitted with the final
-        model; else None), ``added`` (the accepted terms),
-        ``steps`` (every candidate tried, with its validation error and verdict), ``rivals`` (forms the
+        model; else None), ``added`` (the accepted terms, each an
+        :class:`~sklearn_hybrid.diagnosis.AddedTerm`), ``steps`` (every candidate tried, a
+        :class:`~sklearn_hybrid.diagnosis.Step` with its validation error and verdict), ``rivals`` (forms the
         held-out data could not tell from the chosen terms that moved a science parameter, refitted:
         their ``model``, ``theta`` and the parameters they ``moved``), ``exact``
         (the exact components), ``unexplained`` (what the final science model still misses:

@@ -74,9 +74,8 @@ class ResidualDiagnosis(BaseEstimator):
         ODE components whose science equation is exact, never explained by default (as in
         :func:`~sklearn_hybrid.diagnosis.close_the_loop`): ``"auto"`` takes those whose science
         output depends on no free parameter at the visited states; ``None``: none.
-    validation_fraction, z, min_gain : float, default=0.25, 3.0 and 0.05
-        With ``y`` given to :meth:`fit`: the share of the samples (the last ones) that judge each
-        new term, and the evidence it needs (see :func:`~sklearn_hybrid.diagnosis.evidence`).
+    validation_fraction, z, min_gain : float
+        Deprecated: set them in ``evidence`` (``Evidence(z=4.0)``), as for ``close_the_loop``.
     science_terms : bool, default=True
         Add the science output's sensitivities ``df/d<name>`` to the free parameters (not those of the
         estimator's ``theta_fixed``) as candidates (see module).
@@ -84,6 +83,11 @@ class ResidualDiagnosis(BaseEstimator):
         Subsample the visited points to at most this many (seeded by ``random_state``).
     random_state : int, RandomState or None, default=None
         Seeds the subsampling and the bootstrap.
+    evidence : Evidence, optional
+        With ``y`` given to :meth:`fit`, the test each new term must pass
+        (:class:`~sklearn_hybrid.diagnosis.Evidence`, the closed loop's own): the last
+        ``validation_fraction`` of the samples judge, and a term must lower their error by
+        ``min_gain`` and by more than ``z`` standard errors. Default ``Evidence()``.
 
     Attributes
     ----------
@@ -117,9 +121,9 @@ class ResidualDiagnosis(BaseEstimator):
     def __init__(self, state_names: Sequence[str] | None = None, input_names: Sequence[str] | None = None,
                  units: Mapping[str, str] | None = None, library: CandidateLibrary | None = None,
                  regression: SparseTermRegression | None = None, components: Sequence[int] | None = None,
-                 min_residual: float = 0.01, exact: Any = "auto", validation_fraction: float = 0.25,
-                 z: float = 3.0, min_gain: float = 0.05, science_terms: bool = True,
-                 max_points: int = 20000, random_state: Any = None) -> None:
+                 min_residual: float = 0.01, exact: Any = "auto", validation_fraction: Any = "deprecated",
+                 z: Any = "deprecated", min_gain: Any = "deprecated", science_terms: bool = True,
+                 max_points: int = 20000, random_state: Any = None, evidence: Evidence | None = None) -> None:
         self.state_names = state_names
         self.input_names = input_names
         self.units = units
@@ -134,6 +138,7 @@ class ResidualDiagnosis(BaseEstimator):
         self.science_terms = science_terms
         self.max_points = max_points
         self.random_state = random_state
+        self.evidence = evidence
 
     # ------------------------------------------------------------------ fitting
     def fit(self, estimator: Any, X: Any, y: Any = None) -> "ResidualDiagnosis":
@@ -159,8 +164,7 @@ class ResidualDiagnosis(BaseEstimator):
         if isinstance(share, bool) or not (isinstance(share, Real) and 0 <= share < 1):
             raise ValueError(f"min_residual must be in [0, 1), got {self.min_residual!r}.")
         check_positive("max_points", self.max_points, integer=True)
-        if y is not None:
-            self._check_y(estimator, X, y)
+        test = self._check_y(estimator, X, y) if y is not None else None
         trace = estimator.residual_trace(X)
         points = trace["points"].reshape(len(trace["points"]), -1)
         inputs = trace["inputs"]
@@ -243,10 +247,10 @@ class ResidualDiagnosis(BaseEstimator):
                     "unit": "" if tunits is None else tunits[i],
                     "kind": "theta" if name.startswith(_SENS) else "term"})
         self.theta_shift_ = self._theta_shift()
-        self._judge(estimator, X, y, names, len(states))
+        self._judge(estimator, X, y, names, len(states), test)
         return self
 
-    def _judge(self, estimator, X, y, variables, n_states) -> None:
+    def _judge(self, estimator, X, y, variables, n_states, test: Evidence | None) -> None:
         """Hold the new terms to the held-out test (strongest first), or warn that they were not."""
         new = sorted((t for t in self.terms_ if t["kind"] == "term"), key=lambda t: -t["explained"])
         if not new:
@@ -261,13 +265,13 @@ class ResidualDiagnosis(BaseEstimator):
         library = {term.name: term for term in self.library_.terms_}  # each name's Term, added as it is
         placed = [{**t, "term": library[t["term"]]} for t in new]
         verdicts = judge_terms(estimator, X, y, placed, variables, n_states,
-                               validation_fraction=self.validation_fraction, z=self.z, min_gain=self.min_gain)
+                               validation_fraction=test.validation_fraction, z=test.z, min_gain=test.min_gain)
         for t, verdict in zip(new, verdicts):
             t["evidence"], t["kept"] = verdict, verdict["accepted"]
 
-    def _check_y(self, estimator, X, y) -> None:
+    def _check_y(self, estimator, X, y) -> Evidence:
         """The judge's options and ``y``'s layout, before anything is computed: the judge runs last."""
-        Evidence(validation_fraction=self.validation_fraction, z=self.z, min_gain=self.min_gain).check()
+        test = self._evidence()
         if getattr(estimator, "theta_encoder", None) is not None:
             raise ValueError("ResidualDiagnosis cannot judge terms of a model with a theta_encoder: its network-free "
                              "refits hold one theta shared by every sample. Fit it without y to read the terms.")
@@ -277,7 +281,29 @@ class ResidualDiagnosis(BaseEstimator):
         if shape[1:] != fitted and shape[1:] != (math.prod(fitted),):
             raise ValueError(f"y has per-sample shape {shape[1:]}; the estimator was fitted on y of per-sample "
                              f"shape {fitted}. Give the targets of X in the layout of the fit.")
-        held_out_splits(len(y), self.validation_fraction)  # enough samples to judge a term
+        held_out_splits(len(y), test.validation_fraction)  # enough samples to judge a term
+        return test
+
+    def _evidence(self) -> Evidence:
+        """The held-out test: ``evidence``, or the deprecated flat settings (with a FutureWarning)."""
+        flat = {k: getattr(self, k) for k in ("validation_fraction", "z", "min_gain")
+                if not (isinstance(getattr(self, k), str) and getattr(self, k) == "deprecated")}
+        if flat and self.evidence is not None:
+            raise ValueError(f"ResidualDiagnosis got both evidence and {sorted(flat)}: set them in evidence only, "
+                             f"e.g. Evidence({', '.join(f'{k}={v!r}' for k, v in flat.items())}).")
+        if flat:
+            warnings.warn(f"ResidualDiagnosis({', '.join(f'{k}=...' for k in flat)}) is deprecated and will be "
+                          f"removed: pass evidence=Evidence({', '.join(f'{k}={v!r}' for k, v in flat.items())}), "
+                          "as close_the_loop takes it.", FutureWarning, stacklevel=4)  # from fit
+        if self.evidence is not None and not isinstance(self.evidence, Evidence):
+            raise TypeError(f"evidence must be an Evidence object such as Evidence(z=4.0), got "
+                            f"{type(self.evidence).__name__}.")
+        test = self.evidence if self.evidence is not None else Evidence(**flat)
+        test.check()
+        if test.cv is not None or test.groups is not None:
+            raise ValueError("ResidualDiagnosis judges its terms on the last validation_fraction of the samples: "
+                             "Evidence(cv=...) and groups are the closed loop's (close_the_loop(evidence=...)).")
+        return test
 
     def _exact(self, estimator, jac, pnames, states) -> list[int]:
         """The exact components: named in ``exact``, or (``"auto"``) those whose science output
