@@ -10,7 +10,6 @@ import numbers
 import warnings
 
 import numpy as np
-import torch
 from sklearn.base import BaseEstimator, RegressorMixin, clone
 from sklearn.metrics import check_scoring
 from sklearn.utils.validation import check_is_fitted, validate_data
@@ -18,7 +17,7 @@ from sklearn.utils.validation import check_is_fitted, validate_data
 from .training.stacked import train_members, train_one_by_one
 from ._estimator import HybridRegressor
 from ._fitting import prepare_fit, store_fit
-from .methods import Method, make_method, stackable_methods
+from .methods import FLAT_SETTINGS, SAM, ParameterRegularization, method_of, stackable_methods
 from ._validation import check_n_jobs, set_feature_info, torch_threads, validate_into_copy
 from .training.memory import check_fit_memory
 from .metrics import make_flat_scorer
@@ -45,11 +44,9 @@ def member_estimator(estimator, params: dict):
     """A clone of ``estimator`` with one member's settings (``random_state`` and the swept keywords);
     a method given as an object gets those of its fields replaced in a copy (the estimator's own
     keywords are not read then)."""
-    swept = _configuration(params)
-    member = clone(estimator).set_params(random_state=params["random_state"])
-    if isinstance(estimator.method, Method):
-        return member.set_params(method=estimator.method.for_members(**swept))
-    return member.set_params(**swept)
+    method = method_of(estimator.get_params(deep=False), fitted=True)
+    return clone(estimator).set_params(random_state=params["random_state"], **FLAT_SETTINGS,
+                                       method=method.for_members(**_configuration(params)))
 
 
 def _configuration(params: dict) -> dict:
@@ -154,7 +151,7 @@ class HybridRegressorCV(RegressorMixin, BaseEstimator):
                 f"estimator must be a HybridRegressor, got {type(est).__name__}; e.g. "
                 "HybridRegressorCV(HybridRegressor(science=f), rhos=[0.01, 0.1])."
             )
-        method = make_method(est.method, rho=est.rho, lam=est.lam, eta=est.eta)
+        method = method_of(est.get_params(deep=False))
         if not method.stackable:
             raise ValueError(
                 f"HybridRegressorCV trains methods {stackable_methods()}; for "
@@ -163,8 +160,9 @@ class HybridRegressorCV(RegressorMixin, BaseEstimator):
         default_seed = 0 if est.random_state is None else est.random_state
         if not isinstance(default_seed, numbers.Integral):
             raise ValueError("With a RandomState as the estimator's random_state, give seeds=[...].")
-        rhos = _values("rhos", self.rhos, getattr(method, "rho", est.rho))
-        lams = _values("lams", self.lams, getattr(method, "lam", est.lam))
+        # a setting the method does not have is swept over its class default, and ignored
+        rhos = _values("rhos", self.rhos, getattr(method, "rho", SAM.rho))
+        lams = _values("lams", self.lams, getattr(method, "lam", ParameterRegularization.lam))
         seeds = _values("seeds", self.seeds, default_seed, kind=numbers.Integral, positive=False)
         if not all(0 <= s < 2**32 for s in seeds):  # numpy's seeding range
             raise ValueError(f"seeds must be integers in [0, 2**32 - 1], got {seeds}.")

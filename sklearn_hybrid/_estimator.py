@@ -21,7 +21,7 @@ from ._fitting import DTYPES, ode_structure, prepare_fit, store_fit
 from .training.memory import check_fit_memory, explained_memory_errors
 from .training.verdict import explain_start, judge_training
 from ._validation import check_positive, check_target_layout, torch_threads
-from .methods import make_method
+from .methods import method_of
 from .structures import make_structure
 from .structures.scales import describe_scales
 
@@ -54,18 +54,16 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
         zero, so that training starts from the science model alone
         (``{"hidden": (128, 128), "zero_init": False}`` for a wider network
         with a random start).
-    method : {"erm", "p-reg", "f-reg", "sam", "asam", "fsam"} or Method, default="fsam"
-        Training method, by name (its hyperparameters from ``rho``, ``lam``,
-        ``eta``) or as an object of :mod:`sklearn_hybrid.methods` such as
-        ``FisherSAM(rho=0.1)``, which carries its own.  The SAM family
-        perturbs the network parameters only.
-    rho : float, default=0.05
-        Perturbation radius of the SAM family (a method given by name).
-    lam : float, default=1e-3
-        Penalty weight of ``p-reg`` and ``f-reg`` (a method given by name).
-    eta : float or None, default=None
-        ASAM offset (default 0.01) or Fisher-SAM damping (default 1.0) (a
-        method given by name).
+    method : Method or {"erm", "p-reg", "f-reg", "sam", "asam", "fsam"}, default="fsam"
+        Training method, an object of :mod:`sklearn_hybrid.methods` that
+        carries its settings, such as ``FisherSAM(rho=0.1)`` (a grid search
+        reaches them as ``method__rho``), or a name for the method with its
+        defaults (``"fsam"``: ``FisherSAM(rho=0.05, eta=1.0)``).  The SAM
+        family perturbs the network parameters only.
+    rho, lam, eta : float
+        Deprecated: the method's settings belong to the method object
+        (``method=FisherSAM(rho=0.1)``, ``ParameterRegularization(lam=1e-2)``);
+        given beside a name they still apply, with a ``FutureWarning``.
     perturb : {"residual", "all"}, default="residual"
         Perturb the network only (the paper's method) or every parameter
         (ordinary SAM, the paper's Table 2).
@@ -252,7 +250,7 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
     """
 
     def __init__(self, science=None, *, structure="ode", residual="mlp", method="fsam",
-                 rho=0.05, lam=1e-3, eta=None, perturb="residual", theta_init=None,
+                 rho="deprecated", lam="deprecated", eta="deprecated", perturb="residual", theta_init=None,
                  theta_bounds=None, theta_fixed=None, theta_encoder=None, dt=None, n_substeps="auto",
                  solver="rk4",
                  observed=None, n_inputs=0, input_interp="cubic", lr=1e-2, lr_theta=None,
@@ -316,7 +314,7 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
         if not isinstance(self.n_inputs, numbers.Integral) or isinstance(self.n_inputs, bool) \
                 or self.n_inputs < 0:
             raise ValueError(f"n_inputs must be a non-negative integer, got {self.n_inputs!r}.")
-        return make_method(self.method, rho=self.rho, lam=self.lam, eta=self.eta)
+        return method_of(self.get_params(deep=False))
 
     def _make_structure(self):
         dt = 1.0 if self.dt is None else self.dt  # None: the output step is the time unit (fit warns)
@@ -386,7 +384,7 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
 
     def _training_advice(self, method):
         """What to change after a training that went bad."""
-        rho = f" or rho (rho={self.rho})" if method.perturbs else ""
+        rho = f" or rho (rho={method.rho})" if method.perturbs and hasattr(method, "rho") else ""
         return f"Lower lr (lr={self.lr}){rho}, check the data scale, or bound theta with theta_bounds."
     def _structure_X(self, X):
         """What the structure reads of ``X`` (the last state of each window with an encoder)."""

@@ -38,7 +38,9 @@ def sensitivity_curve(estimator, param_name: str, param_range: Sequence, X, y, X
     estimator : HybridRegressor
         Unfitted template (cloned for every fit).
     param_name : str
-        Hyperparameter to vary, e.g. ``"rho"`` or ``"lam"``.
+        Hyperparameter to vary, by its ``set_params`` name: a method object's setting as
+        ``"method__rho"`` (``HybridRegressor(method=FisherSAM())``), a network's as
+        ``"residual__hidden"``.
     param_range : sequence
         Its values.
     X, y : array-like
@@ -108,5 +110,5 @@ def plot_sensitivity(result: Bunch, reference: Bunch | None = None, axes=None):
         if reference is not None:
             ax.axhline(reference[key].mean(), ls="--", color="grey", label="reference")
             ax.legend()
-        ax.set(xscale="log", xlabel=result.param_name, ylabel=label)
+        ax.set(xscale="log", xlabel=result.param_name.rsplit("__", 1)[-1], ylabel=label)  # method__rho: rho
     return axes

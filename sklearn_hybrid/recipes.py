@@ -98,7 +98,7 @@ def silverbox_case(fast: bool = False, method: str = "erm", max_iter: int | None
     train = make_windows(y, u, length=window, stride=4 * window if fast else window, start=3, stop=len(y) - 4,
                          states=states)
     est = HybridRegressor(science=silverbox_f, observed=[0], n_inputs=1, input_interp="cubic", dt=1.0,
-                          n_substeps=1, residual=MLPOn([1], hidden=(32, 32)), method=method, rho=0.05,
+                          n_substeps=1, residual=MLPOn([1], hidden=(32, 32)), method=method,
                           lr=1e-2, max_iter=max_iter or (30 if fast else 150), batch_size=512,
                           random_state=random_state)
     n_test = 1500 if fast else None
@@ -167,7 +167,7 @@ def tanks_case(fast: bool = False, method: str = "erm", max_iter: int | None = N
                          states=np.column_stack([x1, y]))
     # Time unit 25 samples: rates, parameters and new-term coefficients of order 0.1-10 for Adam.
     est = HybridRegressor(science=tanks_f, observed=[1], n_inputs=1, input_interp="linear", dt=0.04,
-                          n_substeps=1, residual=MLPOn([0, 1], hidden=(32, 32)), method=method, rho=0.05,
+                          n_substeps=1, residual=MLPOn([0, 1], hidden=(32, 32)), method=method,
                           lr=1e-2, max_iter=max_iter or (20 if fast else 200), batch_size=None,
                           theta_bounds={k: (0.0, 50.0) for k in ("k1", "k3", "k4")}, random_state=random_state)
 
@@ -216,7 +216,7 @@ def pendulum_freeswing_case(fast: bool = False, method: str = "erm", max_iter: i
     train = make_windows(angle, length=window, stride=50 if fast else stride, stop=n_train,
                          states=np.column_stack([angle, vel]))
     est = HybridRegressor(science=swing_f, dt=dt, n_substeps=1, observed=[0],
-                          residual=MLPOn([1], hidden=(32, 32)), method=method, rho=0.05, lr=1e-2,
+                          residual=MLPOn([1], hidden=(32, 32)), method=method, lr=1e-2,
                           max_iter=max_iter or (20 if fast else 400), random_state=random_state)
 
     def scorer(fitted):
@@ -255,7 +255,7 @@ def hare_lynx_case(fast: bool = False, method: str = "erm", max_iter: int | None
     n_train = 15
     train = make_windows(counts, length=1, stop=n_train)
     est = HybridRegressor(science=predator_prey_f, dt=1.0, n_substeps=4, residual=MLPOn([0, 1], hidden=(32, 32)),
-                          method=method, rho=0.05, lr=1e-2, max_iter=max_iter or (20 if fast else 500),
+                          method=method, lr=1e-2, max_iter=max_iter or (20 if fast else 500),
                           theta_bounds={k: (0.0, 10.0) for k in "abcd"}, random_state=random_state)
 
     def scorer(fitted):

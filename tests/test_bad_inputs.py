@@ -20,6 +20,7 @@ import torch
 from sklearn.exceptions import ConvergenceWarning, NotFittedError
 
 from sklearn_hybrid import DivergenceError, HybridRegressor, HybridRegressorCV, pack_inputs
+from sklearn_hybrid.methods import SAM, FisherSAM
 from sklearn_hybrid.datasets import get_data_home, make_pendulum
 from sklearn_hybrid.diagnosis import Evidence, ResidualDiagnosis, close_the_loop
 from sklearn_hybrid.identifiability import profile_theta, science_intervals
@@ -341,7 +342,7 @@ CASES = [
     ("predict on NaN", predict_on(lambda X: np.where(X > 0, np.nan, X)),
      ValueError, "Input X contains NaN"),
     # audit 3
-    ("rho=inf", fit(method="sam", rho=np.inf), ValueError, "rho must be a positive number, got inf (finite"),
+    ("rho=inf", fit(method=SAM(rho=np.inf)), ValueError, "rho must be a positive number, got inf (finite"),
     ("lr=inf", fit(lr=np.inf), ValueError, "lr must be a positive number, got inf (finite"),
     ("random_state=-1", fit(random_state=-1), ValueError, "random_state must be None, a RandomState or an integer"),
     ("science without u, n_inputs=1", fit_on(lambda X, y: (np.concatenate([X, np.zeros((6, 6))], 1), y),
@@ -516,7 +517,7 @@ def test_training_that_went_bad_is_not_usable():
     """fsam with rho=10 ends without error, but far worse than predicting the mean: the fit is returned with a
     ConvergenceWarning, and its report says first that it is not usable."""
     X, y = pendulum(None, None)
-    est = HybridRegressor(science=pendulum_f, method="fsam", rho=10, max_iter=30, dt=0.2, random_state=0,
+    est = HybridRegressor(science=pendulum_f, method=FisherSAM(rho=10), max_iter=30, dt=0.2, random_state=0,
                           residual={"hidden": (128, 128), "zero_init": False})  # a random start to undo
     with pytest.warns(ConvergenceWarning, match=r"not usable: its training R\^2 is -.*worse than predicting"):
         est.fit(X, y)
@@ -528,7 +529,7 @@ def test_the_issues_fsam_with_rho_10_is_not_usable():
     """Issue 63, item 4: the default network with fsam at rho=10 for 100 iterations ended with a training R^2 of
     -2.46 and no word of it; it is flagged (theta never left its start), in the warning and the report."""
     X, y = pendulum(None, None)
-    est = HybridRegressor(science=pendulum_f, method="fsam", rho=10.0, max_iter=100, dt=0.2, random_state=0)
+    est = HybridRegressor(science=pendulum_f, method=FisherSAM(rho=10.0), max_iter=100, dt=0.2, random_state=0)
     with pytest.warns(ConvergenceWarning, match=r"not usable: its training R\^2 is -"):
         est.fit(X, y)
     assert est.score(X, y) < 0

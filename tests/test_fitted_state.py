@@ -12,6 +12,7 @@ import pytest
 from sklearn.metrics import r2_score
 
 from sklearn_hybrid import HybridRegressor, HybridRegressorCV, make_flat_scorer, theta_error
+from sklearn_hybrid.methods import FunctionalRegularization
 from sklearn_hybrid.datasets import make_pendulum
 from sklearn_hybrid.models import pendulum_f
 
@@ -76,7 +77,7 @@ def test_zero_weight_samples_change_neither_theta_nor_its_standard_error(data):
 def test_f_reg_penalty_weighs_samples_like_the_data_loss(data):
     """A weight of 2 equals a repeated sample for f-reg too (its penalty was an unweighted mean)."""
     X, y = data.X_train[:5], data.y_train[:5]
-    est = dict(science=pendulum_f, method="f-reg", lam=1.0, dtype="float64", validation_fraction=None,
+    est = dict(science=pendulum_f, method=FunctionalRegularization(lam=1.0), dtype="float64", validation_fraction=None,
                **FAST)
     weighted = HybridRegressor(**est).fit(X, y, sample_weight=[2, 1, 1, 1, 1])
     repeated = HybridRegressor(**est).fit(np.r_[X[:1], X], np.r_[y[:1], y])

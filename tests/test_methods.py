@@ -10,8 +10,8 @@ from torch import nn
 
 from sklearn_hybrid.training.engine import train
 from sklearn_hybrid.training.schedule import THETA_LR_FACTOR, TrainConfig
-from sklearn_hybrid.methods import (METHODS, Method, asam_perturbation, fsam_perturbation, make_method,
-                                    sam_perturbation)
+from sklearn_hybrid.methods import (METHODS, SAM, FisherSAM, Method, asam_perturbation, fsam_perturbation,
+                                    make_method, sam_perturbation)
 from sklearn_hybrid.science import ScienceModel
 from sklearn_hybrid.structures import HybridModule, make_structure
 
@@ -242,12 +242,12 @@ def test_a_new_method_registered_once_trains_alike_alone_and_stacked(monkeypatch
     cv = HybridRegressorCV(base, rhos=[0.5, 5.0], seeds=[3], validation_fraction=None).fit(X, y)
     thetas = []
     for params, member in zip(cv.cv_results_["params"], cv.estimators_):
-        alone = clone(base).set_params(**params).fit(X, y)
+        alone = clone(base).set_params(method=SignSAM(rho=params["rho"]), random_state=params["random_state"]).fit(X, y)
         np.testing.assert_allclose(member.theta_["omega"], alone.theta_["omega"], rtol=1e-12)
         np.testing.assert_allclose(member.history_["loss"], alone.history_["loss"], rtol=1e-12)
         thetas.append(alone.theta_["omega"])
     assert thetas[0] != thetas[1]  # the radius reached each member
-    fsam = clone(base).set_params(method="fsam", rho=5.0).fit(X, y)
+    fsam = clone(base).set_params(method=FisherSAM(rho=5.0)).fit(X, y)
     assert fsam.theta_["omega"] != thetas[1]  # not trained with another method's rule
 
 
@@ -263,8 +263,11 @@ def test_method_given_as_an_object():
     y = np.stack([X * np.cos(0.5 * k) for k in range(1, 4)], axis=1)
     common = dict(science=pendulum_f, dt=0.2, max_iter=5, residual={"hidden": (8,)}, random_state=0)
     by_object = HybridRegressor(method=FisherSAM(rho=0.2, eta=2.0), **common).fit(X, y)
-    by_name = HybridRegressor(method="fsam", rho=0.2, eta=2.0, **common).fit(X, y)
+    with pytest.warns(FutureWarning, match=r"method=FisherSAM\(rho=0.2, eta=2.0\)"):
+        by_name = HybridRegressor(method="fsam", rho=0.2, eta=2.0, **common).fit(X, y)  # deprecated, still applies
     assert by_object.theta_ == by_name.theta_
+    with pytest.raises(ValueError, match=r"carries its own settings: set rho=0.3 in it"):
+        HybridRegressor(method=FisherSAM(rho=0.2), rho=0.3, **common).fit(X, y)  # would be ignored
     assert "FisherSAM(rho=0.2, eta=2.0)" in by_object.fit_report()
     assert clone(by_object).method == FisherSAM(rho=0.2, eta=2.0)
     # a sweep over an object's rho replaces it in a copy, member by member
@@ -346,10 +349,10 @@ def test_a_new_method_with_its_own_hyperparameter_trains_alone(reach_sam):
     its radius reaching its rule (the same rule as SAM's, so the same fit as SAM at that rho)."""
     X, y = _pendulum_data()
     alone = _reach_fit(ReachSAM(reach=0.5)).fit(X, y)
-    assert alone.theta_ == _reach_fit("sam", rho=0.5).fit(X, y).theta_
-    assert alone.theta_ != _reach_fit("sam", rho=0.05).fit(X, y).theta_  # the radius counts
+    assert alone.theta_ == _reach_fit(SAM(rho=0.5)).fit(X, y).theta_
+    assert alone.theta_ != _reach_fit(SAM(rho=0.05)).fit(X, y).theta_  # the radius counts
     by_name = _reach_fit("reach-sam").fit(X, y)  # the method's default radius, rho is not its field
-    assert by_name.theta_ == _reach_fit("sam", rho=0.05).fit(X, y).theta_
+    assert by_name.theta_ == _reach_fit(SAM(rho=0.05)).fit(X, y).theta_
     assert "ReachSAM(reach=0.5)" in alone.fit_report()
     with pytest.raises(ValueError, match="ReachSAM.reach must be a positive number"):
         _reach_fit(ReachSAM(reach=-1.0)).fit(X, y)
@@ -390,7 +393,7 @@ def test_a_new_method_with_its_own_hyperparameter_trains_in_a_profile(reach_sam)
     X, y = _pendulum_data()
     options = dict(grid={"omega": [0.8, 1.2]}, max_iter=3, refine=False, objective=True)
     mine = profile_theta(_reach_fit(ReachSAM(reach=0.5)).fit(X, y), X, y, **options)
-    sam = profile_theta(_reach_fit("sam", rho=0.5).fit(X, y), X, y, **options)
+    sam = profile_theta(_reach_fit(SAM(rho=0.5)).fit(X, y), X, y, **options)
     other = profile_theta(_reach_fit(ReachSAM(reach=5.0)).fit(X, y), X, y, **options)
     np.testing.assert_allclose(mine.objective["omega"], sam.objective["omega"], rtol=1e-12)
     assert not np.allclose(mine.objective["omega"], other.objective["omega"])
@@ -458,4 +461,4 @@ def test_gsam_trains_a_stacked_member_as_a_single_fit():
     for params, member in zip(cv.cv_results_["params"], cv.estimators_):
         alone = clone(base).set_params(random_state=params["random_state"]).fit(X, y)
         np.testing.assert_allclose(member.history_["loss"], alone.history_["loss"], rtol=1e-12)
-    assert base.fit(X, y).theta_ != _reach_fit("sam", rho=0.5).fit(X, y).theta_  # its own rule
+    assert base.fit(X, y).theta_ != _reach_fit(SAM(rho=0.5)).fit(X, y).theta_  # its own rule

@@ -284,7 +284,8 @@ def test_hybrid_regressor_cv_trains_members_one_by_one(decay):
     assert cv.predict_theta(X)["k"].shape == (len(X),)
     # each member is the separate fit with its configuration
     member = cv.estimators_[1]
-    alone = clone(template).set_params(**cv.cv_results_["params"][1])
+    alone = clone(member)  # its configuration: the template with its rho and seed
+    assert alone.method.rho == cv.cv_results_["params"][1]["rho"]
     train_idx = np.sort(np.random.default_rng(0).permutation(len(X))[5:])  # validation_fraction 0.2
     alone.fit(X[train_idx], y[train_idx])
     np.testing.assert_allclose(member.predict_theta(X)["k"], alone.predict_theta(X)["k"], rtol=1e-5)

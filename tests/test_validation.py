@@ -7,6 +7,7 @@ import torch
 from sklearn_hybrid import DivergenceError, HybridRegressor
 from sklearn_hybrid._fitting import prepare_fit
 from sklearn_hybrid.models import pendulum_f
+from sklearn_hybrid.methods import SAM
 
 FAST = dict(max_iter=5, residual={"hidden": (8,)}, random_state=0, dt=0.2)
 
@@ -88,7 +89,7 @@ def test_unknown_method_lists_valid_ones(data):
 @pytest.mark.parametrize("rho", [0, -0.05])
 def test_non_positive_rho(data, rho):
     with pytest.raises(ValueError, match="rho must be a positive number"):
-        fit(data, rho=rho)
+        fit(data, method=SAM(rho=rho))
 
 
 @pytest.mark.parametrize("init", [3.0, 0.1, -1.0])

@@ -14,7 +14,7 @@ from .._estimator import HybridRegressor
 from .._fitting import fitted_data, fitted_settings
 from .._validation import check_target_layout
 from ..training.schedule import TrainConfig
-from ..methods import make_method, stackable_methods
+from ..methods import method_of, stackable_methods
 
 __all__ = ["fitted_problem", "member_config", "parameter_entries", "check_level", "entry_values",
            "set_entry", "bounds_of"]
@@ -33,7 +33,7 @@ def fitted_problem(estimator, X, y) -> Bunch:
     if getattr(estimator.model_, "encoder", None) is not None:
         raise ValueError("theta varies per sample (theta_encoder): there is no one theta to profile or resample.")
     fit = fitted_settings(estimator)
-    method = make_method(fit["method"], rho=fit["rho"], lam=fit["lam"], eta=fit["eta"])
+    method = method_of(fit, fitted=True)
     if not method.stackable:
         raise ValueError(f"Profiles and the bootstrap train stacked members, which method {method.name!r} "
                          f"cannot (its penalty needs the whole model); refit with one of {stackable_methods()}.")

@@ -3,16 +3,18 @@
 Each method is one small object (see :class:`Method`) that owns its choices (its
 hyperparameters, what it perturbs, whether it needs f-reg's map); adding a method
 means adding one class and one registry entry, and nothing else in the package
-names it.  The estimators take a name
-(``method="fsam"``, with ``rho``/``lam``/``eta`` beside it) or the object
-itself (``method=FisherSAM(rho=0.1)``), as scikit-learn takes
-``kernel="rbf"`` or ``kernel=RBF()``.
+names it.  The estimators take the object (``method=FisherSAM(rho=0.1)``), which
+carries its settings, or its name as a shorthand for the object with its
+defaults (``method="fsam"``), as scikit-learn takes ``kernel=RBF()`` or
+``kernel="rbf"``; the flat ``rho``, ``lam`` and ``eta`` beside a name are
+deprecated (:func:`method_of`).
 """
 
 from __future__ import annotations
 
 import dataclasses
-import math
+import warnings
+from collections.abc import Mapping
 
 from .._validation import check_positive
 from ._base import Method, per_member
@@ -20,7 +22,7 @@ from .regularized import ERM, FunctionalRegularization, ParameterRegularization
 from .sharpness import (ASAM, GSAM, SAM, FisherSAM, asam_perturbation, fsam_perturbation,
                         sam_perturbation)
 
-__all__ = ["METHODS", "make_method", "stackable_methods", "Method", "ERM",
+__all__ = ["METHODS", "make_method", "method_of", "FLAT_SETTINGS", "stackable_methods", "Method", "ERM",
            "ParameterRegularization", "FunctionalRegularization", "SAM", "ASAM", "FisherSAM", "GSAM",
            "per_member", "sam_perturbation", "asam_perturbation", "fsam_perturbation"]
 
@@ -70,10 +72,7 @@ def make_method(name: str | Method, *, rho: float = 0.05, lam: float = 1e-3,
     """
     if isinstance(name, Method):
         for field in type(name).hyperparameters:  # a hyperparameter of the object, checked as the names' are
-            value = getattr(name, field)
-            if not (isinstance(value, (int, float)) and not isinstance(value, bool)
-                    and math.isfinite(value) and value > 0):
-                raise ValueError(f"{type(name).__name__}.{field} must be a positive number, got {value!r}.")
+            check_positive(f"{type(name).__name__}.{field}", getattr(name, field))
         return dataclasses.replace(name)
     if not isinstance(name, str):
         raise TypeError(f"method must be a name ({list(METHODS)}) or a Method object such as "
@@ -84,3 +83,46 @@ def make_method(name: str | Method, *, rho: float = 0.05, lam: float = 1e-3,
     given = {"rho": rho, "lam": lam, "eta": eta}
     return cls(**{field: _positive(field, given[field]) for field in cls.hyperparameters
                   if given.get(field) is not None})
+
+
+#: The estimators' deprecated flat copies of a method's settings, each at its "not given" value.
+FLAT_SETTINGS = {"rho": "deprecated", "lam": "deprecated", "eta": "deprecated"}
+
+
+def method_of(settings: Mapping, *, fitted: bool = False) -> Method:
+    """The method an estimator's settings name: ``settings["method"]`` (a name or a :class:`Method`) with
+    the deprecated flat ``rho``, ``lam`` and ``eta`` of a method given by name.
+
+    Parameters
+    ----------
+    settings : mapping
+        The estimator's ``get_params()`` (or its parameters at fit): ``method`` and, where given, the
+        flat settings (``"deprecated"`` or None: not given).
+    fitted : bool, default=False
+        The settings of a fit made already (a profile's, a sweep's members): its fit warned of flat
+        settings, and a method object's own settings win, as they did when the flat ones had numbers
+        for defaults (a fit pickled then). Otherwise flat settings warn (``FutureWarning``), and beside
+        a method object they are an error.
+
+    Raises
+    ------
+    ValueError
+        For flat settings beside a method object, which carries its own (they would be ignored).
+    """
+    method = settings.get("method")
+    flat = {k: settings.get(k) for k in FLAT_SETTINGS
+            if not (settings.get(k) is None or isinstance(settings.get(k), str) and settings.get(k) == "deprecated")}
+    if fitted and isinstance(method, Method):
+        flat = {}
+    if flat and isinstance(method, Method):
+        given = ", ".join(f"{k}={v!r}" for k, v in flat.items())
+        raise ValueError(f"method={method!r} carries its own settings: set {given} in it "
+                         f"({type(method).__name__}({given})) and leave the estimator's {sorted(flat)} unset.")
+    if flat and not fitted:
+        given = ", ".join(f"{k}={v!r}" for k, v in flat.items())
+        cls = METHODS.get(method) if isinstance(method, str) else None
+        own = ", ".join(f"{k}={v!r}" for k, v in flat.items() if cls is None or k in cls.hyperparameters)
+        warnings.warn(f"HybridRegressor({given}) is deprecated and will be removed: the method carries its "
+                      f"settings, method={cls.__name__ if cls else 'FisherSAM'}({own}) (from sklearn_hybrid.methods; "
+                      "a grid search reaches them as method__rho).", FutureWarning, stacklevel=4)
+    return make_method(method, **flat)
