@@ -7,6 +7,8 @@ that names it.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 import numpy as np
 import torch
 
@@ -117,9 +119,9 @@ def call_science(science, args, expected_shape, what, differentiable=False):
     return out
 
 
-def check_finite_model(values, science, what: str = "predictions") -> None:
+def check_finite_model(values, name: str, theta: Mapping, what: str = "predictions") -> None:
     """Refuse a model whose own ``values`` (predictions, or their derivatives by theta; samples first) are
-    not finite at its theta on the data.
+    not finite at its ``theta`` on the data (``name``: the science function's).
 
     Without this a NaN prediction turns every residual, standard error and verdict that follows into NaN,
     which reads as the data's failure ("not identified by these data"); the error names the function, its
@@ -130,9 +132,9 @@ def check_finite_model(values, science, what: str = "predictions") -> None:
     if bad.any():
         rows = np.flatnonzero(bad)
         raise ValueError(
-            f"The science model's {what} are not finite: the science function {science.name!r} gives NaN or "
+            f"The science model's {what} are not finite: the science function {name!r} gives NaN or "
             f"infinite values on {len(rows)} of {len(values)} samples (first: sample {int(rows[0])}) at theta "
-            f"{science.as_dict()}. This is the model's failure, not the data's: make the function finite on the "
+            f"{ {k: float(v) if np.ndim(v) == 0 else np.asarray(v).tolist() for k, v in theta.items()} }. This is the model's failure, not the data's: make the function finite on the "
             "data's range (bound theta with theta_bounds or guard its domain), or leave out the samples where "
             "it is not defined."
         )

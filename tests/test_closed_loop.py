@@ -84,6 +84,19 @@ def test_residual_diagnosis_takes_the_loops_evidence_whole(pendulum):
         ResidualDiagnosis(evidence=Evidence(cv=3)).fit(est, data.X_train, data.y_train)
 
 
+def _sqrt_f(v, omega=0.5):
+    return torch.stack([v[..., 1], -omega * torch.sqrt(v[..., 0])], dim=-1)  # NaN where the angle is negative
+
+
+def test_a_science_that_is_not_finite_on_the_data_is_named_not_called_exact(pendulum):
+    """Audit (issue 63): close_the_loop on a science that returns NaN on the data said "Every component is
+    exact" (NaN derivatives read as no dependence on a parameter); it names the function and theta now."""
+    data, _ = pendulum
+    with pytest.raises(ValueError, match=r"outputs at the data's first states are not finite: the science "
+                                         r"function '_sqrt_f'.*at theta \{'omega': 0.5\}"):
+        close_the_loop(HybridRegressor(science=_sqrt_f, dt=0.1), data.X_train, data.y_train)
+
+
 def test_residual_diagnosis_adds_nothing_to_complete_science():
     """An undamped pendulum with noise and its complete science model: the network, acting on both
     equations, fits noise, and sparse regression reads candidates off it; held to

@@ -9,8 +9,9 @@ import torch
 from sklearn.base import clone
 from sklearn.exceptions import NotFittedError
 
-from sklearn_hybrid import HybridRegressor
+from sklearn_hybrid import DivergenceError, HybridRegressor
 from sklearn_hybrid.diagnosis import ZeroResidual
+from sklearn_hybrid.methods import ParameterRegularization
 from sklearn_hybrid.identifiability import (IDENTIFIED, PRACTICAL, STRUCTURAL, UNSETTLED, ThetaProfile, bootstrap_theta,
                                             plot_profile, profile_theta, science_intervals)
 
@@ -238,8 +239,8 @@ def test_the_objective_profile_trains_members_with_the_fit_s_method(line_data):
     """The plain profile's members minimise the loss alone; the objective's, p-reg's loss plus
     penalty, which the plain loss can only undercut."""
     X, y = line_data
-    est = HybridRegressor(science=line_f, structure="additive", residual={"hidden": (8,)}, method="p-reg",
-                          lam=1e-2, max_iter=40, tol=None, dtype="float64", random_state=0).fit(X, y)
+    est = HybridRegressor(science=line_f, structure="additive", residual={"hidden": (8,)}, method=ParameterRegularization(lam=1e-2),
+                          max_iter=40, tol=None, dtype="float64", random_state=0).fit(X, y)
     prof = profile_theta(est, X, y, params="a", n_points=3, max_iter=20, refine=False, objective=True)
     assert len(prof.objective["a"]) == len(prof.values["a"])
     assert np.all(prof.objective["a"] > prof.loss["a"])
@@ -461,3 +462,20 @@ def test_the_profile_plot_draws_what_it_leaves_out(offset_profile):
     assert any(line.get_label() == "member still falling" for line in ax.get_lines())
     plain = plot_profile(offset_profile)[0]
     assert "(" not in plain.get_title()
+
+
+def _domain_f(v, omega=0.7):
+    return torch.stack([v[..., 1], -omega ** 2 * torch.sin(v[..., 0]) + 0 * torch.log(omega - 0.62)], dim=-1)
+
+
+def test_a_profile_outside_the_sciences_domain_says_so_not_lower_lr():
+    """Audit (issue 63): members held where the science is NaN were dropped with the advice of a lower lr; their
+    loss is not finite before any step, which the error now says (and points to the span)."""
+    from sklearn_hybrid.datasets import make_pendulum
+
+    d = make_pendulum(8, 2, 2, dt=0.2, n_steps=5, random_state=0)
+    est = HybridRegressor(science=_domain_f, method="erm", dt=0.2, max_iter=30, residual={"hidden": (8,)},
+                          random_state=0).fit(d.X_train, d.y_train)
+    with pytest.raises(DivergenceError, match=r"at \{'omega': \[0.3, 0.4, 0.5\]\} the model's loss is not finite "
+                                              r"before the first training step.*a lower lr cannot help"):
+        profile_theta(est, d.X_train, d.y_train, grid={"omega": [0.3, 0.4, 0.5, 0.7]}, max_iter=10, refine=False)

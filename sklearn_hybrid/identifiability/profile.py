@@ -22,7 +22,7 @@ profiled range; *structurally non-identifiable* (flat) at both ends.
 from __future__ import annotations
 
 import copy
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy import stats
@@ -301,9 +301,17 @@ def profile_theta(estimator, X, y, params=None, *, grid=None, span=0.5, n_points
     free = np.isfinite(members[0]["loss"])  # the free member is a point of every profile
     short = [label for label, rows in found.items() if len(rows) + free < 3]
     if short:
+        left_out = {k: dropped[k] for k in short}
+        at_start = _not_finite_at_start(problem, plain, config, entries, left_out)
+        if at_start == left_out:  # before any step: no learning rate can help
+            raise DivergenceError(
+                f"The profile of {short} has fewer than 3 values whose training did not diverge: at {left_out} "
+                "the model's loss is not finite before the first training step (the science function is outside "
+                "its domain with the parameter held there), so a lower lr cannot help. Profile a narrower span "
+                "(profile_theta(..., span=...) or grid=...) inside the values where the science is finite.")
         raise DivergenceError(
             f"The profile of {short} has fewer than 3 values whose training did not diverge (left out: "
-            f"{ {k: dropped[k] for k in short} }): no interval can be read from it. Profile with a lower lr "
+            f"{left_out}): no interval can be read from it. Profile with a lower lr "
             "(profile_theta(..., lr=...)) or a narrower span.")
     best = _best(members)
     out = ThetaProfile(estimate={}, values={}, loss={}, objective={}, threshold=threshold_of(best), best_loss=best,
@@ -367,6 +375,24 @@ def _train_points(problem, method, points, config, n_jobs, n_threads, entries=()
                 "at": {label: float(entry_values(models[i].science, name)[k]) for name, k, label in entries}}
                for i in range(len(models))]
     return found, members, int(history["n_iter"])
+
+
+def _not_finite_at_start(problem, method, config, entries, values: dict) -> dict:
+    """Of the ``values`` held per label, those where the fit's model (theta held there, nothing trained) has a
+    non-finite loss: the science is not finite there, whatever the training would do."""
+    where = {label: (name, k) for name, k, label in entries}
+    points = [(label, v) for label, vs in values.items() for v in vs]
+    models = []
+    for label, v in points:
+        member = copy.deepcopy(problem.model)
+        set_entry(member.science, *where[label], v)
+        models.append(member)
+    loss = evaluate_members(models, method, problem.inputs, problem.y, config)["loss"]
+    out = {}
+    for (label, v), value in zip(points, loss):
+        if not np.isfinite(value):
+            out.setdefault(label, []).append(v)
+    return out
 
 
 def _trends(history, config) -> list[tuple[float, float]]:

@@ -196,13 +196,13 @@ def science_intervals(estimator, X, y, level=0.95, incomplete: str | None = None
             return out.reshape(len(out), len(X), -1).cpu().numpy()
 
         base = predict()
-        check_finite_model(base, science, "predictions")
+        check_finite_model(base, science.name, science.as_dict(), "predictions")
         entries = [(name, k) for name in science.names for k in range(science.raw[name].numel())]
         labels = [(name, k, name if science.shapes[name] == () else f"{name}[{k}]") for name, k in entries]
         J = theta_jacobian(science, predict, entries, predict_many, base)  # (n, m, p)
         if states:
             K = _state_derivatives(predict, inputs, states)  # (n, m, q)
-    check_finite_model(J, science, "derivatives of the predictions by theta")
+    check_finite_model(J, science.name, science.as_dict(), "derivatives of the predictions by theta")
     if states:  # theta's derivatives orthogonal to what each sample's own states can do
         J = np.stack([J[i] - K[i] @ np.linalg.lstsq(K[i], J[i], rcond=None)[0] for i in range(len(J))])
     r = y - base

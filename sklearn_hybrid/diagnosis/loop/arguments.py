@@ -15,7 +15,8 @@ import numpy as np
 from ..._fitting import ode_structure
 from ..._validation import check_not_nested
 from ...science import read_signature
-from ..sensitivity import exact_components, state_labels, parameter_jacobian
+from ..._probe import check_finite_model
+from ..sensitivity import exact_components, parameter_jacobian, science_output, state_labels
 
 
 def check_options(n_jobs, X_test, y_test) -> None:
@@ -66,8 +67,15 @@ def uncertain_components(estimator, X, y, exact, state_names) -> list[int] | Non
                                                        **dict(estimator.theta_init or {})}
         sample = X[: min(len(X), 64)]
         args = [sample[:, :d]] + ([sample[:, d:d + n_inputs]] if n_inputs else [])
+        # a science that is not finite here has no derivatives to read: say so, rather than call every
+        # equation exact (NaN derivatives are no dependence on a parameter)
+        name = getattr(estimator.science, "__name__", "science")
+        check_finite_model(science_output(estimator.science, theta, args), name, theta,
+                           "outputs at the data's first states")
+        jac, names = parameter_jacobian(estimator.science, theta, args)
+        check_finite_model(jac, name, theta, "derivatives by theta at the data's first states")
         # an equation whose only parameters are fixed (theta_fixed) has nothing to estimate either
-        fixed = exact_components(*parameter_jacobian(estimator.science, theta, args), set(estimator.theta_fixed or ()))
+        fixed = exact_components(jac, names, set(estimator.theta_fixed or ()))
         if fixed is None:
             return None
     else:

@@ -24,6 +24,7 @@ from sklearn.utils import check_random_state
 from sklearn.utils.validation import check_is_fitted
 
 from ..._fitting import ode_structure
+from ..._probe import check_finite_model
 from ...identifiability import science_intervals
 from ...residual import MLPOn
 from ...training.engine import DivergenceError
@@ -176,6 +177,8 @@ def learned_residual(before: Any, X: Any, setup: Setup, random_state: Any) -> Le
     args = [points[keep]] + ([] if inputs is None else [inputs[keep]])
     residual = trace["residual"][keep].reshape(len(keep), -1)
     base = science_output(before.science, before.theta_, args)
+    check_finite_model(base, getattr(before.science, "__name__", "science"), before.theta_,
+                       "outputs on the states the hybrid visited")
     if base.shape != residual.shape:
         raise ValueError(f"The science output has {base.shape[1]} values per sample and the network's part "
                          f"{residual.shape[1]}: close_the_loop needs a science model shaped like the target.")
