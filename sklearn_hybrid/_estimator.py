@@ -22,7 +22,7 @@ from .training.memory import check_fit_memory, explained_memory_errors
 from .training.verdict import explain_start, judge_training
 from ._validation import check_positive, check_target_layout, torch_threads
 from .methods import method_of
-from .structures import make_structure
+from .structures import structure_of
 from .structures.scales import describe_scales
 
 __all__ = ["HybridRegressor"]
@@ -39,14 +39,15 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
         arguments with a numeric default are the parameters theta, e.g.
         ``def pendulum_f(v, omega=0.5): ...``.  For ``"ode"`` it returns the
         known part of ``dv/dt``.
-    structure : {"ode", "compose", "additive"}, OdeStructure or callable, default="ode"
+    structure : OdeStructure, {"ode", "compose", "additive"} or callable, default="ode"
         How science and network combine (see :mod:`sklearn_hybrid.structures`),
-        by name or as an object, as scikit-learn takes ``kernel="rbf"`` or
-        ``kernel=RBF()``: ``OdeStructure(dt=0.1, observed=[0])`` carries the
-        ODE's options, which the name ``"ode"`` takes from ``dt``, ``n_substeps``,
-        ``solver``, ``observed``, ``n_inputs`` and ``input_interp`` below (left
-        at their defaults they defer to the object; given, they must agree with
-        it); a callable ``structure(x, f, g) -> y`` gives any nested composition.
+        as an object or by name, as scikit-learn takes ``kernel=RBF()`` or
+        ``kernel="rbf"``: ``OdeStructure(dt=0.1, observed=[0])`` carries the
+        ODE's options (the time between outputs ``dt``, the integration, the
+        observed states, the inputs; see :class:`~sklearn_hybrid.OdeStructure`),
+        and ``"ode"`` is the ODE with its defaults (``dt=1.0``, with a warning
+        that dt was not given); a callable ``structure(x, f, g) -> y`` gives
+        any nested composition.
     residual : str, dict or callable, default="mlp"
         Specification of the network g_phi (see
         :func:`sklearn_hybrid.residual.build_residual`); built inside ``fit``.
@@ -88,34 +89,11 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
         sample; ``theta_fixed`` parameters stay shared.  The encoder is part
         of theta: ``lr_theta``, no weight decay, perturbed by the SAM family
         only with ``perturb="all"``.
-    dt : float or None, default=None
-        ``"ode"``: time between consecutive outputs (outputs at ``dt, 2 dt, ...``),
-        in the time unit of theta's rates.  None: an ODE fit warns and takes
-        ``dt=1.0`` (the output step as the time unit; pass ``dt=1.0`` to say
-        so without a warning): the data cannot tell the time step, and a
-        wrong one scales every rate in theta without a sign.  Other
-        structures do not read it.
-    n_substeps : int or "auto", default="auto"
-        ``"ode"``: steps per output interval of ``"rk4"`` and of torchdiffeq's
-        fixed-grid methods (``"euler"``, ``"midpoint"``...).  ``"auto"``: for
-        the RK4 of an unforced system, the fewest of 1, 2, 4, 8, 16 whose free
-        run of the science model (at its starting theta, from the training
-        states) stays within 0.025 % of ``y``'s spread of a run with 64 steps,
-        chosen at fit (``n_substeps_``); 4 for a forced system or another
-        solver.  The cost of a fit grows with it.
-    solver : str, default="rk4"
-        ``"ode"``: ``"rk4"`` (output-aligned) or a torchdiffeq method such as
-        ``"dopri5"`` (adaptive: ``n_substeps`` then only sets the grid of the
-        inputs).
-    observed : list of int, optional
-        ``"ode"``: indices of the state components that ``y`` observes.
-    n_inputs : int, default=0
-        ``"ode"``: number of measured input channels u(t) (see
-        :func:`~sklearn_hybrid.pack_inputs`: ``X`` holds the initial state,
-        then the inputs at ``y``'s ``n_steps + 1`` times, and ``fit_report()``
-        says how it was read).
-    input_interp : {"cubic", "linear", "zoh", "fft"}, default="cubic"
-        ``"ode"``: reconstruction of u(t) between samples.
+    dt, n_substeps, solver, observed, n_inputs, input_interp
+        Deprecated: the ODE's options belong to the structure object,
+        ``structure=OdeStructure(dt=0.1, observed=[0])``; given beside
+        ``"ode"`` they still apply, with a ``FutureWarning`` (beside an
+        ``OdeStructure`` they must agree with it).
     lr : float, default=1e-2
         Initial Adam learning rate, cosine-annealed to 1e-6 over ``max_iter``
         (with early stopping the fit usually ends while it is still high; on
@@ -251,9 +229,9 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
 
     def __init__(self, science=None, *, structure="ode", residual="mlp", method="fsam",
                  rho="deprecated", lam="deprecated", eta="deprecated", perturb="residual", theta_init=None,
-                 theta_bounds=None, theta_fixed=None, theta_encoder=None, dt=None, n_substeps="auto",
-                 solver="rk4",
-                 observed=None, n_inputs=0, input_interp="cubic", lr=1e-2, lr_theta=None,
+                 theta_bounds=None, theta_fixed=None, theta_encoder=None, dt="deprecated",
+                 n_substeps="deprecated", solver="deprecated", observed="deprecated", n_inputs="deprecated",
+                 input_interp="deprecated", lr=1e-2, lr_theta=None,
                  max_iter=1000, tol=1e-3, n_iter_no_change=100, validation_fraction=None,
                  batch_size=None, weight_decay=1e-5, dtype="float32", device="cpu",
                  n_threads=1, random_state=None, verbose="auto"):
@@ -311,16 +289,16 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
             raise ValueError(f"perturb must be 'residual' or 'all', got {self.perturb!r}.")
         if self.dtype not in DTYPES:
             raise ValueError(f"dtype must be one of {list(DTYPES)}, got {self.dtype!r}.")
-        if not isinstance(self.n_inputs, numbers.Integral) or isinstance(self.n_inputs, bool) \
-                or self.n_inputs < 0:
-            raise ValueError(f"n_inputs must be a non-negative integer, got {self.n_inputs!r}.")
         return method_of(self.get_params(deep=False))
 
-    def _make_structure(self):
-        dt = 1.0 if self.dt is None else self.dt  # None: the output step is the time unit (fit warns)
-        return make_structure(self.structure, dt=dt, n_substeps=self.n_substeps,
-                              solver=self.solver, observed=self.observed,
-                              n_inputs=self.n_inputs, input_interp=self.input_interp)
+    def _dt_given(self) -> bool:
+        """Whether the ODE's time step was given (in an OdeStructure, or the deprecated flat ``dt``)."""
+        return not (isinstance(self.structure, str) and self.structure == "ode"
+                    and (self.dt is None or isinstance(self.dt, str) and self.dt == "deprecated"))
+
+    def _make_structure(self, warn: bool = False):
+        """A fresh structure from ``structure`` (and the deprecated flat ODE options; ``warn``: say so)."""
+        return structure_of(self.get_params(deep=False), warn=warn)
 
     def fit(self, X, y, sample_weight=None):
         """Fit theta and the network to data.
@@ -377,9 +355,9 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
     def _scales_note(self, setup) -> str:
         """The data's scales, and a forgotten ``dt``, beside the advice after a training that went bad."""
         note = describe_scales(setup.scales)
-        if self.dt is None and setup.scales is not None:
+        if not self._dt_given() and setup.scales is not None:
             note += (" dt was not given, so one time unit was taken between outputs: if the data were sampled "
-                     "at another step, every rate is off by that factor; give dt.")
+                     "at another step, every rate is off by that factor; give structure=OdeStructure(dt=...).")
         return f" {note}" if note else ""
 
     def _training_advice(self, method):
@@ -391,7 +369,7 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
         if self.theta_encoder is None:
             return X
         ode = ode_structure(self)
-        if (self.n_inputs if ode is None else ode.n_inputs):
+        if ode is not None and ode.n_inputs:
             raise ValueError("theta_encoder does not support forced ODEs (n_inputs > 0) yet.")
         return _encoder.split_window(ode is not None, X)
 

@@ -267,7 +267,9 @@ class EstimatorExtras:
         stop = (f"stopped early: loss and theta changed by less than tol={fit['tol']} over "
                 f"{fit['n_iter_no_change']} iterations" if self.stopped_early_ else
                 "ran to max_iter")
-        chosen = getattr(self, "n_substeps_", None) if fit.get("n_substeps") == "auto" else None
+        # n_substeps given as "auto" (in the structure, or a fit pickled with the flat keyword): the choice made
+        auto = fit.get("n_substeps") == "auto" or isinstance(getattr(self.model_.structure, "substeps_option", 0), str)
+        chosen = getattr(self, "n_substeps_", None) if auto else None
         lines = [f"science: {func}, structure: {fit['structure']}, method: {fit['method']}"
                  + (f", n_substeps: {chosen} (auto)" if chosen else ""),
                  f"iterations: {self.n_iter_} of max_iter={fit['max_iter']} ({stop})",

@@ -75,12 +75,13 @@ def prepare_fit(estimator: BaseEstimator, X, y, sample_weight=None) -> Bunch:
     ``seed`` and the data's shapes.
     """
     method = estimator._check_params()
-    if estimator.dt is None and isinstance(estimator.structure, str) and estimator.structure == "ode":
+    if not estimator._dt_given():
         # theta's rates are per time unit: a guessed step scales them all, and nothing in the data shows it
         warnings.warn("dt was not given: the ODE is integrated with dt=1.0, one time unit between consecutive "
                       "outputs of y, and theta's rates are per that unit. Give the time between outputs, e.g. "
-                      "HybridRegressor(..., dt=0.1) for data sampled every 0.1 s (dt=1.0 keeps the output step "
-                      "as the time unit, without this warning).", UserWarning, stacklevel=3)
+                      "HybridRegressor(..., structure=OdeStructure(dt=0.1)) for data sampled every 0.1 s "
+                      "(dt=1.0 keeps the output step as the time unit, without this warning).", UserWarning,
+                      stacklevel=3)
     y = None if y is None else check_not_nested(y)  # None: validate_data says y is required
     y_shape = () if y is None else y.shape[1:]
     if len(y_shape) > 1:  # scikit-learn validates 2-D targets; predict restores the shape
@@ -100,7 +101,7 @@ def prepare_fit(estimator: BaseEstimator, X, y, sample_weight=None) -> Bunch:
                          f"got {estimator.random_state!r}.") from error
     science = ScienceModel(estimator.science, estimator.theta_init, estimator.theta_bounds,
                            estimator.theta_fixed, dtype=dtype)
-    structure = estimator._make_structure()
+    structure = estimator._make_structure(warn=True)  # the fit says once that flat ODE options are deprecated
     X_struct = estimator._structure_X(X)
     structure.setup(X_struct, y_shape)
     with torch_threads(estimator.n_threads):

@@ -28,13 +28,13 @@ def main():
     LoopResult
         What :func:`~sklearn_hybrid.diagnosis.close_the_loop` returned (its ``before`` is the fit).
     """
-    from . import HybridRegressor
+    from . import HybridRegressor, OdeStructure
     from .datasets import make_pendulum
     from .diagnosis import close_the_loop
 
     data = make_pendulum(random_state=0)
     X, y = data.X_train, data.y_train
-    est = HybridRegressor(science=pendulum_f, dt=0.2, random_state=0).fit(X, y)
+    est = HybridRegressor(science=pendulum_f, structure=OdeStructure(dt=0.2), random_state=0).fit(X, y)
     print(est.fit_report())
     result = close_the_loop(est, X, y, state_names=["v", "v_dot"])
     print(result.report.splitlines()[-2])

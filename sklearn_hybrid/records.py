@@ -85,7 +85,7 @@ def fit_initial_state(estimator: Any, y_head: np.ndarray, x0_guess: np.ndarray, 
     guess = np.asarray(x0_guess, float).ravel()
     n_states = len(guess)
     ode = ode_structure(estimator)
-    declared = estimator.observed if ode is None else ode.observed
+    declared = None if ode is None else ode.observed
     observed = _indices("observed", observed if observed is not None else declared, n_states)
     free = _indices("free", free, n_states)
     if not np.all(np.isfinite(guess)):

@@ -17,7 +17,7 @@ from sklearn_hybrid._fitting import ode_structure
 from sklearn_hybrid.datasets import make_pendulum
 from sklearn_hybrid.diagnosis import close_the_loop
 from sklearn_hybrid.models import pendulum_f
-from sklearn_hybrid.structures import ODE_DEFAULTS
+from sklearn_hybrid.structures import ODE_DEFAULTS, ODE_FLAT_SETTINGS
 
 FAST = dict(max_iter=5, residual={"hidden": (8,)}, random_state=0, dtype="float64")
 
@@ -52,16 +52,21 @@ def test_the_estimators_keywords_defer_to_the_object_or_must_agree_with_it():
     data = make_pendulum(n_train=6, n_val=2, n_test=2, n_steps=4, random_state=0)
     X, y = data.X_train, data.y_train
     structure = OdeStructure(dt=0.2)
-    agreeing = HybridRegressor(science=pendulum_f, structure=structure, dt=0.2, **FAST).fit(X, y)
+    with pytest.warns(FutureWarning, match=r"structure=OdeStructure\(dt=0.2\)"):  # deprecated, still honoured
+        agreeing = HybridRegressor(science=pendulum_f, structure=structure, dt=0.2, **FAST).fit(X, y)
     assert agreeing.theta_ == HybridRegressor(science=pendulum_f, structure=structure, **FAST).fit(X, y).theta_
     with pytest.raises(ValueError, match=r"structure=OdeStructure\(dt=0.2\) and dt=0.1 disagree: give dt once"):
         HybridRegressor(science=pendulum_f, structure=structure, dt=0.1, **FAST).fit(X, y)
-    # a keyword left alone defers to the object: the estimator's defaults are OdeStructure's, but dt's, None
-    # ("not given": an ODE fit without a structure object warns and takes OdeStructure's 1.0)
+    # the flat keywords are deprecated: left alone ("deprecated", not given) they defer to the object
     keywords = inspect.signature(HybridRegressor).parameters
-    assert {k: keywords[k].default for k in ODE_DEFAULTS if k in keywords} == {
-        k: v for k, v in ODE_DEFAULTS.items() if k in keywords} | {"dt": None}
+    assert {k: keywords[k].default for k in ODE_DEFAULTS if k in keywords} == ODE_FLAT_SETTINGS
     assert ODE_DEFAULTS["dt"] == 1.0
+    # by name, flat options still apply (with a FutureWarning) and give the object's fit
+    with pytest.warns(FutureWarning, match=r"HybridRegressor\(dt=0.2, n_substeps=2\) is deprecated.*"
+                                           r"structure=OdeStructure\(dt=0.2, n_substeps=2\)"):
+        flat = HybridRegressor(science=pendulum_f, dt=0.2, n_substeps=2, **FAST).fit(X, y)
+    assert flat.theta_ == HybridRegressor(science=pendulum_f, structure=OdeStructure(dt=0.2, n_substeps=2),
+                                          **FAST).fit(X, y).theta_
 
 
 def test_clone_and_params_with_a_structure_object():

@@ -28,7 +28,7 @@ import numpy as np
 import torch
 from scipy.integrate import solve_ivp
 
-from sklearn_hybrid import HybridRegressor
+from sklearn_hybrid import HybridRegressor, OdeStructure
 from sklearn_hybrid.diagnosis import close_the_loop, free_run
 
 torch.set_num_threads(1)
@@ -58,7 +58,7 @@ X, y = readings[:, 0], readings[:, 1:]
 # %%
 # Close the loop with the gauge declared
 # --------------------------------------
-est = HybridRegressor(science=tank_f, dt=dt, method="erm", max_iter=20 if FAST else 200, random_state=0)
+est = HybridRegressor(science=tank_f, structure=OdeStructure(dt=dt), method="erm", max_iter=20 if FAST else 200, random_state=0)
 out = close_the_loop(est, X, y, state_names=["h"], units={"h": "m"}, offsets=["h"])
 print(out.report)
 print({k: round(v, 3) for k, v in out.science_theta.items()})

@@ -36,7 +36,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 import torch
 
-from sklearn_hybrid import HybridRegressor, theta_error
+from sklearn_hybrid import HybridRegressor, OdeStructure, theta_error
 from sklearn_hybrid.datasets import make_duffing
 from sklearn_hybrid.models import duffing_f
 
@@ -51,7 +51,7 @@ data = make_duffing(N_TRAIN, N_TRAIN, N_TRAIN, random_state=0)
 
 estimators = {}
 for method in ["erm", "fsam"]:
-    est = HybridRegressor(science=duffing_f, method=method, dt=data.dt, n_substeps=1,
+    est = HybridRegressor(science=duffing_f, method=method, structure=OdeStructure(dt=data.dt, n_substeps=1),
                           lr=3e-3, max_iter=MAX_ITER, residual={"hidden": (128, 128), "zero_init": False},
                           random_state=0)
     estimators[method] = est.fit(data.X_train, data.y_train)

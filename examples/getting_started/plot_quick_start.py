@@ -24,7 +24,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 import torch
 
-from sklearn_hybrid import HybridRegressor, plot_fit
+from sklearn_hybrid import HybridRegressor, OdeStructure, plot_fit
 from sklearn_hybrid.datasets import make_pendulum
 from sklearn_hybrid.diagnosis import close_the_loop
 from sklearn_hybrid.identifiability import profile_theta
@@ -43,7 +43,7 @@ def pendulum_f(v, omega=0.5):  # keyword defaults are the unknown parameters the
 data = make_pendulum(random_state=0)
 X, y = data.X_train, data.y_train
 settings = {"max_iter": 20} if FAST else {}  # the defaults, as in the Quick start
-est = HybridRegressor(science=pendulum_f, dt=0.2, random_state=0, **settings).fit(X, y)
+est = HybridRegressor(science=pendulum_f, structure=OdeStructure(dt=0.2), random_state=0, **settings).fit(X, y)
 print(est.fit_report())  # ends with the first screen: what the network's share implies
 
 # %%

@@ -26,7 +26,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 import torch
 
-from sklearn_hybrid import HybridRegressor, theta_error
+from sklearn_hybrid import HybridRegressor, OdeStructure, theta_error
 from sklearn_hybrid.datasets import make_pendulum
 from sklearn_hybrid.models import pendulum_f
 
@@ -49,7 +49,7 @@ print(data.DESCR)
 # the paper's protocol instead: 2,000 iterations at lr 3e-3, no early stop.)
 estimators = {}
 for method in ["erm", "fsam"]:
-    est = HybridRegressor(science=pendulum_f, method=method, dt=data.dt, random_state=0,
+    est = HybridRegressor(science=pendulum_f, method=method, structure=OdeStructure(dt=data.dt), random_state=0,
                           **({"max_iter": 10} if FAST else {}))
     estimators[method] = est.fit(data.X_train, data.y_train)
 
@@ -102,7 +102,7 @@ from sklearn_hybrid import make_theta_scorer
 from sklearn_hybrid.methods import FisherSAM
 
 search = GridSearchCV(
-    HybridRegressor(science=pendulum_f, method=FisherSAM(), dt=data.dt, random_state=0,
+    HybridRegressor(science=pendulum_f, method=FisherSAM(), structure=OdeStructure(dt=data.dt), random_state=0,
                     max_iter=10 if FAST else 300),
     {"method__rho": [0.01, 0.05, 0.2]}, scoring=make_theta_scorer(data.theta_true), cv=2)
 search.fit(data.X_train, data.y_train)

@@ -36,7 +36,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 import torch
 
-from sklearn_hybrid import HybridRegressor, theta_error
+from sklearn_hybrid import HybridRegressor, OdeStructure, theta_error
 from sklearn_hybrid.datasets import make_reaction_diffusion
 from sklearn_hybrid.models import diffusion_f
 
@@ -51,8 +51,7 @@ data = make_reaction_diffusion(N_TRAIN, N_TRAIN, N_TRAIN, grid_size=GRID, random
 
 estimators = {}
 for method in ["erm", "fsam"]:
-    est = HybridRegressor(science=diffusion_f, residual="cnn", method=method, dt=data.dt,
-                          n_substeps=1, lr=1e-3, max_iter=MAX_ITER, random_state=0)
+    est = HybridRegressor(science=diffusion_f, residual="cnn", method=method, structure=OdeStructure(dt=data.dt, n_substeps=1), lr=1e-3, max_iter=MAX_ITER, random_state=0)
     estimators[method] = est.fit(data.X_train, data.y_train)
 
 print("true a = %.2e, b = %.2e" % (data.theta_true["a"], data.theta_true["b"]))

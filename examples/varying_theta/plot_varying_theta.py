@@ -42,7 +42,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 import torch
 
-from sklearn_hybrid import HybridRegressor, theta_error
+from sklearn_hybrid import HybridRegressor, OdeStructure, theta_error
 from sklearn_hybrid.datasets import make_pendulum
 from sklearn_hybrid.models import pendulum_f
 
@@ -64,7 +64,7 @@ print(data.DESCR)
 estimators = {}
 for method in ["erm", "fsam"]:
     est = HybridRegressor(science=pendulum_f, theta_encoder="mlp", theta_bounds={"omega": (0.0, 2.0)},
-                          method=method, dt=data.dt, n_substeps=2, lr=3e-3, max_iter=MAX_ITER,
+                          method=method, structure=OdeStructure(dt=data.dt, n_substeps=2), lr=3e-3, max_iter=MAX_ITER,
                           random_state=0)
     estimators[method] = est.fit(data.X_train, data.y_train)
 

@@ -13,16 +13,19 @@ functional regulariser of ``method="f-reg"`` (``functional_penalty``, one value 
 callable        ``structure(x, f, g) -> y`` for anything more nested
 ==============  =========================================================
 
-The estimator takes a name or the object itself, as scikit-learn takes
-``kernel="rbf"`` or ``kernel=RBF()``: ``structure=OdeStructure(dt=0.1,
-observed=[0])`` carries the ODE's options, ``structure="ode"`` takes them from
-the estimator's keywords (``dt``, ``n_substeps``, ...).  A fit sets up a fresh
-copy, never the object given.
+The estimator takes the object itself or its name, as scikit-learn takes
+``kernel=RBF()`` or ``kernel="rbf"``: ``structure=OdeStructure(dt=0.1,
+observed=[0])`` carries the ODE's options, ``structure="ode"`` is the ODE with
+its defaults.  The estimator's flat ``dt``, ``n_substeps``, ``solver``,
+``observed``, ``n_inputs`` and ``input_interp`` are deprecated
+(:func:`structure_of`).  A fit sets up a fresh copy, never the object given.
 """
 
 from __future__ import annotations
 
 import copy
+import warnings
+from collections.abc import Mapping
 
 import numpy as np
 import torch
@@ -32,7 +35,7 @@ from .ode import ODE_DEFAULTS, OdeStructure, pack_inputs
 from .static import AdditiveStructure, CallableStructure, ComposeStructure
 
 __all__ = ["HybridModule", "make_structure", "STRUCTURES", "pack_inputs", "OdeStructure", "ComposeStructure",
-           "AdditiveStructure", "ode_options", "ODE_DEFAULTS"]
+           "AdditiveStructure", "ode_options", "ODE_DEFAULTS", "structure_of", "ODE_FLAT_SETTINGS"]
 
 
 class HybridModule(nn.Module):
@@ -121,7 +124,7 @@ def ode_options(structure: OdeStructure, **keywords) -> dict:
 
 
 def make_structure(spec, **options):
-    """A fresh structure from its name (with the estimator's ``options``), from a structure object (a copy,
+    """A fresh structure from its name (with ``options``, an ODE's), from a structure object (a copy,
     which a fit sets up; an OdeStructure's options merged with ``options`` by ``ode_options``), or from
     a callable ``structure(x, f, g) -> y``."""
     if isinstance(spec, OdeStructure):
@@ -138,3 +141,40 @@ def make_structure(spec, **options):
     if spec == "ode":
         return OdeStructure(**options)
     return STRUCTURES[spec]()
+
+
+#: The estimators' deprecated flat copies of an ODE structure's options, each at its "not given" value.
+ODE_FLAT_SETTINGS = {name: "deprecated" for name in ("dt", "n_substeps", "solver", "observed", "n_inputs",
+                                                      "input_interp")}
+
+
+def _given(value) -> bool:
+    return not (isinstance(value, str) and value == "deprecated")
+
+
+def structure_of(settings: Mapping, *, warn: bool = False):
+    """The structure an estimator's settings name: ``settings["structure"]`` (a name, a structure object or a
+    callable) with the deprecated flat ODE options beside it.
+
+    Parameters
+    ----------
+    settings : mapping
+        The estimator's ``get_params()`` (or its parameters at fit).
+    warn : bool, default=False
+        Warn (``FutureWarning``) that flat options are deprecated: a fit does, once; the package's own
+        reads of a structure (the diagnosis, the profile) do not.
+
+    Returns
+    -------
+    A fresh structure (see :func:`make_structure`); flat options given beside ``"ode"`` apply, beside an
+    ``OdeStructure`` they must agree with it (:func:`ode_options`).
+    """
+    flat = {k: settings.get(k, "deprecated") for k in ODE_FLAT_SETTINGS}
+    flat = {k: v for k, v in flat.items() if _given(v) and not (k == "dt" and v is None)}
+    spec = settings.get("structure", "ode")
+    if flat and warn:
+        given = ", ".join(f"{k}={v!r}" for k, v in flat.items())
+        warnings.warn(f"HybridRegressor({given}) is deprecated and will be removed: the structure carries its "
+                      f"options, structure=OdeStructure({given}) (from sklearn_hybrid).", FutureWarning,
+                      stacklevel=4)
+    return make_structure(spec, **flat)

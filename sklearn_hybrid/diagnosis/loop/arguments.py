@@ -113,7 +113,7 @@ def check_names(estimator, X, y, state_names, input_names, units, user_terms,
     n = _n_variables(estimator, X, y)
     if input_names is not None and not n_inputs:
         raise ValueError(f"input_names {list(input_names)} given, but the estimator has no inputs "
-                         f"(n_inputs={estimator.n_inputs}, structure={estimator.structure!r}).")
+                         f"(n_inputs={n_inputs}, structure={estimator.structure!r}).")
     variables = (state_labels(state_names, n, "x", "state_names")
                  + (state_labels(input_names, n_inputs, "u", "input_names") if n_inputs else []))
     names = variables + list(user_terms or {})

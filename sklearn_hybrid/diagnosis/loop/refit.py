@@ -17,6 +17,7 @@ from ..._fitting import ode_structure
 from ...datasets import make_windows
 from ...residual import ZeroResidual
 from ...science import read_signature
+from ...structures import ODE_FLAT_SETTINGS, OdeStructure
 from ..science_fit import ScienceFit
 
 __all__ = ["windowable", "accurate_substeps", "cut_windows", "fixed_science", "inside_bounds", "START_SMOOTHING",
@@ -158,6 +159,10 @@ def fixed_science(before, science, theta, X, y, n_substeps=None):
     est = clone(before).set_params(science=science, residual=ZeroResidual(), method="erm", max_iter=1,
                                    theta_init=inside_bounds(theta, before.theta_bounds), theta_fixed=names,
                                    verbose=False)
-    if n_substeps is not None and isinstance(before.structure, str) and before.n_substeps == "auto":
-        est.set_params(n_substeps=int(n_substeps))
+    ode = ode_structure(before)
+    if ode is not None:  # the ODE's options as one object (the estimator's flat copies are deprecated)
+        options = ode.options()
+        if n_substeps is not None and isinstance(before.structure, str) and options["n_substeps"] == "auto":
+            options["n_substeps"] = int(n_substeps)
+        est.set_params(structure=OdeStructure(**options), **ODE_FLAT_SETTINGS)
     return est.fit(X, y)
