@@ -19,7 +19,7 @@ import torch
 
 from sklearn.exceptions import ConvergenceWarning, NotFittedError
 
-from sklearn_hybrid import DivergenceError, HybridRegressor, HybridRegressorCV, pack_inputs
+from sklearn_hybrid import DivergenceError, HybridRegressor, HybridRegressorCV, OdeStructure, pack_inputs
 from sklearn_hybrid.methods import SAM, FisherSAM
 from sklearn_hybrid.datasets import get_data_home, make_pendulum
 from sklearn_hybrid.diagnosis import Evidence, ResidualDiagnosis, close_the_loop
@@ -712,7 +712,7 @@ def test_an_ode_fit_without_dt_says_it_guessed_the_time_step():
         guessed = HybridRegressor(**params).fit(X, y)
     with warnings.catch_warnings():
         warnings.simplefilter("error", UserWarning)
-        given = HybridRegressor(**params, dt=1.0).fit(X, y)
+        given = HybridRegressor(**params, structure=OdeStructure(dt=1.0)).fit(X, y)
         HybridRegressor(science=scalar_of_x, structure="additive", max_iter=3, random_state=0).fit(X, X[:, 0])
-    assert guessed.dt is None and guessed.model_.structure.dt == 1.0
+    assert guessed.structure == "ode" and guessed.model_.structure.dt == 1.0
     assert guessed.theta_ == given.theta_

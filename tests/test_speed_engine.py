@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import torch
 
-from sklearn_hybrid import HybridRegressor
+from sklearn_hybrid import HybridRegressor, OdeStructure
 from sklearn_hybrid.integrate import fast as fast_rk4, kernels
 from sklearn_hybrid.datasets import make_duffing, make_pendulum
 from sklearn_hybrid.integrate import integrate
@@ -172,10 +172,10 @@ def test_default_solver_step_keeps_integration_error_far_below_the_noise(make, s
     is under a tenth of the noise."""
     data = make(50, 1, 1, noise=0.0, random_state=0)
     default_noise = inspect.signature(make).parameters["noise"].default
-    fitted = HybridRegressor(science=science, dt=float(data.dt), max_iter=1, residual={"hidden": (8,)},
+    fitted = HybridRegressor(science=science, structure=OdeStructure(dt=float(data.dt)), max_iter=1, residual={"hidden": (8,)},
                              random_state=0).fit(data.X_train, data.y_train)
     n_substeps = fitted.n_substeps_
-    assert HybridRegressor().n_substeps == "auto" and n_substeps in (1, 2, 4, 8, 16)
+    assert OdeStructure().options()["n_substeps"] == "auto" and n_substeps in (1, 2, 4, 8, 16)  # the default
 
     def true_rhs(v, u):
         return torch.stack([v[:, 1], accel(v[:, 0], v[:, 1])], dim=-1)
