@@ -148,7 +148,7 @@ class AddedTerm(Result):
 class Selection(Result):
     """What the forward selection chose: the augmented science, its parameters, its terms and its path.
 
-    ``added`` holds the accepted terms as the selection placed them (:class:`PlacedTerm`); ``rivals``
+    ``added`` holds the accepted terms as the selection placed them (``loop.placed.PlacedTerm``); ``rivals``
     the candidates the held-out data could not tell from the choice; ``errors`` the chosen model's
     held-out errors, ``base_errors`` the science's alone.
     """

@@ -7,7 +7,7 @@ names it.  The estimators take the object (``method=FisherSAM(rho=0.1)``), which
 carries its settings, or its name as a shorthand for the object with its
 defaults (``method="fsam"``), as scikit-learn takes ``kernel=RBF()`` or
 ``kernel="rbf"``; the flat ``rho``, ``lam`` and ``eta`` beside a name are
-deprecated (:func:`method_of`).
+deprecated (``method_of``).
 """
 
 from __future__ import annotations

@@ -18,7 +18,7 @@ The estimator takes the object itself or its name, as scikit-learn takes
 observed=[0])`` carries the ODE's options, ``structure="ode"`` is the ODE with
 its defaults.  The estimator's flat ``dt``, ``n_substeps``, ``solver``,
 ``observed``, ``n_inputs`` and ``input_interp`` are deprecated
-(:func:`structure_of`).  A fit sets up a fresh copy, never the object given.
+(``structure_of``).  A fit sets up a fresh copy, never the object given.
 """
 
 from __future__ import annotations
