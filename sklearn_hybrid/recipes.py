@@ -326,7 +326,8 @@ def run_case(name: str, fast: bool = False, method: str = "erm", max_iter: int |
     name : str
         A key of ``CASES``.
     fast, method, max_iter : optional
-        Passed to the case function (``fast``: tiny data and few iterations, a pipeline check).
+        Passed to the case function (``fast``: tiny data and few iterations, a pipeline check,
+        whose loop adds at most one term).
     verbose : bool, default=False
         ``close_the_loop`` prints its stages and the report.
     progress : bool, default=False
@@ -369,7 +370,11 @@ def run_case(name: str, fast: bool = False, method: str = "erm", max_iter: int |
         scorer = _announced(scorer)
     out = close_the_loop(case.estimator, case.X, case.y, case.get("X_test"), case.get("y_test"),
                          state_names=case.state_names, input_names=case.input_names, units=case.units,
-                         candidates=Candidates(positive=case.get("positive", ())), offsets=case.get("offsets", ()),
+                         # fast: at most one term, as it checks the pipeline, not the answer (a term's step
+                         # on Silverbox's windows is most of a fast run)
+                         candidates=Candidates(positive=case.get("positive", ()),
+                                               **({"max_terms": 1} if fast else {})),
+                         offsets=case.get("offsets", ()),
                          param_names=case.param_names,
                          theta_true=case.get("theta_true"), test_scorer=scorer, n_jobs=n_jobs,
                          evidence=Evidence(cv=cv, groups=case.groups if grouped else None),
