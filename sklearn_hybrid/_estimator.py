@@ -20,7 +20,7 @@ from ._extras import EstimatorExtras, split_holdout
 from ._fitting import DTYPES, ode_structure, prepare_fit, store_fit
 from .training.memory import check_fit_memory, explained_memory_errors
 from .training.verdict import explain_start, judge_training
-from ._validation import check_positive, check_target_layout, torch_threads
+from ._validation import check_positive, check_target_layout, given_settings, torch_threads
 from .methods import method_of
 from .structures import structure_of
 from .structures.scales import describe_scales
@@ -294,7 +294,7 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
     def _dt_given(self) -> bool:
         """Whether the ODE's time step was given (in an OdeStructure, or the deprecated flat ``dt``)."""
         return not (isinstance(self.structure, str) and self.structure == "ode"
-                    and (self.dt is None or isinstance(self.dt, str) and self.dt == "deprecated"))
+                    and not given_settings(self.get_params(deep=False), ("dt",), none_unset=("dt",)))
 
     def _make_structure(self, warn: bool = False):
         """A fresh structure from ``structure`` (and the deprecated flat ODE options; ``warn``: say so)."""

@@ -131,10 +131,11 @@ def check_finite_model(values, name: str, theta: Mapping, what: str = "predictio
     bad = ~np.isfinite(values.reshape(len(values), -1)).all(axis=1)
     if bad.any():
         rows = np.flatnonzero(bad)
+        theta = {k: float(v) if np.ndim(v) == 0 else np.asarray(v).tolist() for k, v in theta.items()}
         raise ValueError(
             f"The science model's {what} are not finite: the science function {name!r} gives NaN or "
             f"infinite values on {len(rows)} of {len(values)} samples (first: sample {int(rows[0])}) at theta "
-            f"{ {k: float(v) if np.ndim(v) == 0 else np.asarray(v).tolist() for k, v in theta.items()} }. This is the model's failure, not the data's: make the function finite on the "
+            f"{theta}. This is the model's failure, not the data's: make the function finite on the "
             "data's range (bound theta with theta_bounds or guard its domain), or leave out the samples where "
             "it is not defined."
         )

@@ -49,6 +49,18 @@ def set_feature_info(estimator, features: dict) -> None:
         setattr(estimator, name, value)
 
 
+#: The default of an estimator's deprecated flat setting: not given.
+DEPRECATED = "deprecated"
+
+
+def given_settings(settings, names, none_unset=()) -> dict:
+    """Of ``names``, the deprecated flat settings given in ``settings`` (an estimator's ``get_params()``):
+    those neither ``DEPRECATED`` nor, for the names in ``none_unset``, None (their "not given" before)."""
+    values = {name: settings.get(name, DEPRECATED) for name in names}
+    return {name: v for name, v in values.items()
+            if not (isinstance(v, str) and v == DEPRECATED or v is None and name in none_unset)}
+
+
 def check_positive(name, value, integer=False, allow_none=False):
     """Raise a ValueError naming ``name`` unless ``value`` is a positive finite number (or integer)."""
     if value is None and allow_none:

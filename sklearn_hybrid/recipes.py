@@ -97,7 +97,9 @@ def silverbox_case(fast: bool = False, method: str = "erm", max_iter: int | None
     states = np.column_stack([y, estimate_derivative(y, method="central")])
     train = make_windows(y, u, length=window, stride=4 * window if fast else window, start=3, stop=len(y) - 4,
                          states=states)
-    est = HybridRegressor(science=silverbox_f, structure=OdeStructure(observed=[0], n_inputs=1, input_interp="cubic", dt=1.0, n_substeps=1), residual=MLPOn([1], hidden=(32, 32)), method=method,
+    est = HybridRegressor(science=silverbox_f,
+                          structure=OdeStructure(observed=[0], n_inputs=1, input_interp="cubic", dt=1.0, n_substeps=1),
+                          residual=MLPOn([1], hidden=(32, 32)), method=method,
                           lr=1e-2, max_iter=max_iter or (30 if fast else 150), batch_size=512,
                           random_state=random_state)
     n_test = 1500 if fast else None
@@ -165,7 +167,10 @@ def tanks_case(fast: bool = False, method: str = "erm", max_iter: int | None = N
     train = make_windows(y, u, length=window, stride=4 * stride if fast else stride, stop=len(y) - 1,
                          states=np.column_stack([x1, y]))
     # Time unit 25 samples: rates, parameters and new-term coefficients of order 0.1-10 for Adam.
-    est = HybridRegressor(science=tanks_f, structure=OdeStructure(observed=[1], n_inputs=1, input_interp="linear", dt=0.04, n_substeps=1), residual=MLPOn([0, 1], hidden=(32, 32)), method=method,
+    est = HybridRegressor(science=tanks_f,
+                          structure=OdeStructure(observed=[1], n_inputs=1, input_interp="linear", dt=0.04,
+                                                 n_substeps=1),
+                          residual=MLPOn([0, 1], hidden=(32, 32)), method=method,
                           lr=1e-2, max_iter=max_iter or (20 if fast else 200), batch_size=None,
                           theta_bounds={k: (0.0, 50.0) for k in ("k1", "k3", "k4")}, random_state=random_state)
 
@@ -252,7 +257,8 @@ def hare_lynx_case(fast: bool = False, method: str = "erm", max_iter: int | None
     counts = np.column_stack([data.hare, data.lynx]) / 10.0  # 10^4 pelts: order one
     n_train = 15
     train = make_windows(counts, length=1, stop=n_train)
-    est = HybridRegressor(science=predator_prey_f, structure=OdeStructure(dt=1.0, n_substeps=4), residual=MLPOn([0, 1], hidden=(32, 32)),
+    est = HybridRegressor(science=predator_prey_f, structure=OdeStructure(dt=1.0, n_substeps=4),
+                          residual=MLPOn([0, 1], hidden=(32, 32)),
                           method=method, lr=1e-2, max_iter=max_iter or (20 if fast else 500),
                           theta_bounds={k: (0.0, 10.0) for k in "abcd"}, random_state=random_state)
 
@@ -283,7 +289,8 @@ def synthetic_case(task: str = "pendulum", fast: bool = False, method: str = "er
         science, truth, lr = duffing_f, {"alpha": 1.0, "c_v3": 1.0}, 2e-2
     else:
         raise ValueError(f"Unknown synthetic task {task!r}; choose 'pendulum' or 'duffing'.")
-    est = HybridRegressor(science=science, method=method, structure=OdeStructure(dt=float(data.dt), n_substeps=1), lr=lr,
+    est = HybridRegressor(science=science, method=method, structure=OdeStructure(dt=float(data.dt), n_substeps=1),
+                          lr=lr,
                           max_iter=max_iter or (20 if fast else 500), random_state=random_state,
                           # From a zero start the Duffing network stays near the best linear fit
                           # (alpha ~ 0.67) and does not learn the cubic in 500 steps; a random start does.

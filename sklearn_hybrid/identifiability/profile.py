@@ -350,11 +350,7 @@ def _train_points(problem, method, points, config, n_jobs, n_threads, entries=()
     diverged has an infinite loss.
     """
     science = problem.model.science
-    models = [copy.deepcopy(problem.model)] if with_free else []
-    for _, name, k, value in points:
-        member = copy.deepcopy(problem.model)
-        set_entry(member.science, name, k, value)
-        models.append(member)
+    models = ([copy.deepcopy(problem.model)] if with_free else []) + _held_models(problem, points)
     offset = len(models) - len(points)
     held = {}
     for i, (_, name, k, _) in enumerate(points):
@@ -381,18 +377,23 @@ def _not_finite_at_start(problem, method, config, entries, values: dict) -> dict
     """Of the ``values`` held per label, those where the fit's model (theta held there, nothing trained) has a
     non-finite loss: the science is not finite there, whatever the training would do."""
     where = {label: (name, k) for name, k, label in entries}
-    points = [(label, v) for label, vs in values.items() for v in vs]
-    models = []
-    for label, v in points:
-        member = copy.deepcopy(problem.model)
-        set_entry(member.science, *where[label], v)
-        models.append(member)
-    loss = evaluate_members(models, method, problem.inputs, problem.y, config)["loss"]
+    points = [(label, *where[label], v) for label, vs in values.items() for v in vs]
+    loss = evaluate_members(_held_models(problem, points), method, problem.inputs, problem.y, config)["loss"]
     out = {}
-    for (label, v), value in zip(points, loss):
+    for (label, _, _, v), value in zip(points, loss):
         if not np.isfinite(value):
             out.setdefault(label, []).append(v)
     return out
+
+
+def _held_models(problem, points) -> list:
+    """A copy of the fit's model per ``(label, name, k, value)`` point, entry ``k`` of ``name`` held at ``value``."""
+    models = []
+    for _, name, k, value in points:
+        member = copy.deepcopy(problem.model)
+        set_entry(member.science, name, k, value)
+        models.append(member)
+    return models
 
 
 def _trends(history, config) -> list[tuple[float, float]]:

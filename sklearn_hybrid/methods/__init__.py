@@ -16,7 +16,7 @@ import dataclasses
 import warnings
 from collections.abc import Mapping
 
-from .._validation import check_positive
+from .._validation import DEPRECATED, check_positive, given_settings
 from ._base import Method, per_member
 from .regularized import ERM, FunctionalRegularization, ParameterRegularization
 from .sharpness import (ASAM, GSAM, SAM, FisherSAM, asam_perturbation, fsam_perturbation,
@@ -86,7 +86,7 @@ def make_method(name: str | Method, *, rho: float = 0.05, lam: float = 1e-3,
 
 
 #: The estimators' deprecated flat copies of a method's settings, each at its "not given" value.
-FLAT_SETTINGS = {"rho": "deprecated", "lam": "deprecated", "eta": "deprecated"}
+FLAT_SETTINGS = {"rho": DEPRECATED, "lam": DEPRECATED, "eta": DEPRECATED}
 
 
 def method_of(settings: Mapping, *, fitted: bool = False) -> Method:
@@ -110,8 +110,7 @@ def method_of(settings: Mapping, *, fitted: bool = False) -> Method:
         For flat settings beside a method object, which carries its own (they would be ignored).
     """
     method = settings.get("method")
-    flat = {k: settings.get(k) for k in FLAT_SETTINGS
-            if not (settings.get(k) is None or isinstance(settings.get(k), str) and settings.get(k) == "deprecated")}
+    flat = given_settings(settings, FLAT_SETTINGS, none_unset=FLAT_SETTINGS)
     if fitted and isinstance(method, Method):
         flat = {}
     if flat and isinstance(method, Method):

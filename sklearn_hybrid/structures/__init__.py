@@ -31,6 +31,7 @@ import numpy as np
 import torch
 from torch import nn
 
+from .._validation import DEPRECATED, given_settings
 from .ode import ODE_DEFAULTS, OdeStructure, pack_inputs
 from .static import AdditiveStructure, CallableStructure, ComposeStructure
 
@@ -144,12 +145,8 @@ def make_structure(spec, **options):
 
 
 #: The estimators' deprecated flat copies of an ODE structure's options, each at its "not given" value.
-ODE_FLAT_SETTINGS = {name: "deprecated" for name in ("dt", "n_substeps", "solver", "observed", "n_inputs",
-                                                      "input_interp")}
-
-
-def _given(value) -> bool:
-    return not (isinstance(value, str) and value == "deprecated")
+ODE_FLAT_SETTINGS = {name: DEPRECATED for name in ("dt", "n_substeps", "solver", "observed", "n_inputs",
+                                                    "input_interp")}
 
 
 def structure_of(settings: Mapping, *, warn: bool = False):
@@ -169,8 +166,7 @@ def structure_of(settings: Mapping, *, warn: bool = False):
     A fresh structure (see :func:`make_structure`); flat options given beside ``"ode"`` apply, beside an
     ``OdeStructure`` they must agree with it (:func:`ode_options`).
     """
-    flat = {k: settings.get(k, "deprecated") for k in ODE_FLAT_SETTINGS}
-    flat = {k: v for k, v in flat.items() if _given(v) and not (k == "dt" and v is None)}
+    flat = given_settings(settings, ODE_FLAT_SETTINGS, none_unset=("dt",))  # dt=None: not given, before
     spec = settings.get("structure", "ode")
     if flat and warn:
         given = ", ".join(f"{k}={v!r}" for k, v in flat.items())

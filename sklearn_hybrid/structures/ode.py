@@ -95,7 +95,7 @@ class OdeStructure:
         fit with ``structure="ode"`` (no object, so no ``dt``) warns and
         takes 1.0, the output step as the time unit.
     n_substeps : int or "auto", default="auto"
-        steps per output interval of ``"rk4"`` and of torchdiffeq's
+        Steps per output interval of ``"rk4"`` and of torchdiffeq's
         fixed-grid methods (``"euler"``, ``"midpoint"``...).  ``"auto"``: for
         the RK4 of an unforced system, the fewest of 1, 2, 4, 8, 16 whose free
         run of the science model (at its starting theta, from the training
@@ -107,14 +107,14 @@ class OdeStructure:
         ``"dopri5"`` (adaptive: ``n_substeps`` then only sets the grid of the
         inputs).
     observed : list of int, optional
-        indices of the state components that ``y`` observes.
+        Indices of the state components that ``y`` observes.
     n_inputs : int, default=0
-        number of measured input channels u(t) (see
+        Number of measured input channels u(t) (see
         :func:`~sklearn_hybrid.pack_inputs`: ``X`` holds the initial state,
         then the inputs at ``y``'s ``n_steps + 1`` times, and ``fit_report()``
         says how it was read).
     input_interp : {"cubic", "linear", "zoh", "fft"}, default="cubic"
-        reconstruction of u(t) between samples.
+        Reconstruction of u(t) between samples.
     solver_options : dict, optional
         Extra keyword arguments of torchdiffeq's adaptive solvers (``rtol``, ``atol``).
 
