@@ -9,7 +9,7 @@ import pytest
 import torch
 from scipy.integrate import solve_ivp
 
-from sklearn_hybrid import HybridRegressor
+from sklearn_hybrid import HybridRegressor, OdeStructure
 from sklearn_hybrid.diagnosis import (TERM_FAMILIES, TERM_KINDS, Candidates, Evidence, ScienceFit, SymbolicDiscovery,
                                       TermContext, physics_terms)
 from sklearn_hybrid.diagnosis.families.symbolic import form_term
@@ -125,10 +125,10 @@ def decay_f(v, k=0.5):
     return -k * v
 
 
-def test_the_loop_names_a_law_outside_the_term_list_with_discovery_and_only_with_it():
-    """dA/dt = -0.3 A - 1.0 A^2 / (0.25 + A^2): the selection reads the exact rates as what the network learned
-    (no training: a quick test of the wiring), the term list holds no Hill function."""
-    rng = np.random.default_rng(0)
+def _hill_decay(rng):
+    """dA/dt = -0.3 A - 1.0 A^2 / (0.25 + A^2), observed; a hybrid of ``decay_f`` barely trained on it (only its
+    layout is used: the selection reads the exact rates as what the network learned, a quick test of the wiring)
+    and a selection on them whose term list holds no Hill function."""
     dt, n_steps, n = 0.3, 12, 30
     x0 = rng.uniform(0.2, 2.5, (n, 1))
 
@@ -137,18 +137,21 @@ def test_the_loop_names_a_law_outside_the_term_list_with_discovery_and_only_with
     x = np.stack([solve_ivp(truth, (0, dt * n_steps), s, t_eval=dt * np.arange(n_steps + 1), rtol=1e-10,
                             atol=1e-12).y.T for s in x0])
     y = x[:, 1:] + 0.002 * rng.standard_normal(x[:, 1:].shape)
-    est = HybridRegressor(science=decay_f, dt=dt, max_iter=2, random_state=0).fit(x0, y)
+    est = HybridRegressor(science=decay_f, structure=OdeStructure(dt=dt), max_iter=2, random_state=0).fit(x0, y)
     states = x.reshape(-1, 1)
-    learned = truth(0, states)
-    splits = [(np.arange(24), np.arange(24, 30))]
     terms = [t for t in physics_terms(["A"], states) if t.kind in ("polynomial", "saturation")]
-    family = SymbolicDiscovery(operators="add,sub,mul,div,square", max_rounds=2, random_state=0)
 
-    def select(discovery):
-        return stepwise.forward_selection(decay_f, {"k": 0.5}, ScienceFit(est, x0, y), splits, ["A"], 1, [states],
-                                          learned, [0], candidates=Candidates(terms=terms, discovery=discovery,
-                                                                              max_terms=2), evidence=Evidence())
-    found = select(family)
+    def select(discovery, network=None):
+        return stepwise.forward_selection(decay_f, {"k": 0.5}, ScienceFit(est, x0, y), [(np.arange(24),
+                                          np.arange(24, 30))], ["A"], 1, [states], truth(0, states), [0],
+                                          candidates=Candidates(terms=terms, discovery=discovery, max_terms=2),
+                                          evidence=Evidence(), network=network)
+    return truth, states, select
+
+
+def test_the_loop_names_a_law_outside_the_term_list_with_discovery_and_only_with_it():
+    truth, states, select = _hill_decay(np.random.default_rng(0))
+    found = select(SymbolicDiscovery(operators="add,sub,mul,div,square", max_rounds=2, random_state=0))
     assert [t.kind for t in found["added"]] == ["discovered"]
     added = found["added"][0]
     augmented = found["science"]
@@ -158,6 +161,28 @@ def test_the_loop_names_a_law_outside_the_term_list_with_discovery_and_only_with
     assert "A" in added.name and added.term.component == 0
     without = select(False)
     assert all(t.kind != "discovered" for t in without["added"])
+
+
+def test_the_search_runs_only_where_the_networks_part_lowers_the_held_out_error():
+    """The search costs most of a loop with discovery: a network whose part, frozen in the science model,
+    does not predict the held-out trajectories better than the science refitted alone learned nothing the data
+    can confirm, and no form of it is searched for."""
+    truth, states, select = _hill_decay(np.random.default_rng(1))
+    searched = []
+
+    class Spy:
+        def terms(self, context, log=None):
+            searched.append(context.components)
+            return []
+
+    def missing(v):  # what decay_f at its start (k = 0.5) lacks: an effect the data see
+        return torch.as_tensor(truth(0, v.numpy()) + 0.5 * v.numpy())
+    select(Spy(), network=missing)
+    assert searched == [(0,)]
+    select(Spy(), network=lambda v: 0.3 * torch.sin(40 * v))  # a network that predicts worse than none
+    assert searched == [(0,)]
+    select(Spy())  # no network given: searched wherever the listed terms leave the residual unexplained
+    assert searched == [(0,), (0,)]
 
 
 def sirs_f(v, beta=1.5, gamma=0.4):

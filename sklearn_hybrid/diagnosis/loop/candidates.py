@@ -13,6 +13,7 @@ to refit and judge.
 
 from __future__ import annotations
 
+import inspect
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
 from itertools import zip_longest
@@ -21,7 +22,9 @@ from typing import Any
 import numpy as np
 import torch
 
+from ...science import read_signature
 from ..augment import augment_science
+from ..judge import FIT_FAILURES
 from ..science_fit import ScienceFit
 from ..sensitivity import finite_differences, free_columns, parameter_basis
 from ..families import SymbolicDiscovery, TermContext, physics_terms
@@ -128,12 +131,15 @@ def term_columns(terms: Sequence[Term], variables: dict[str, torch.Tensor]) -> l
 def discovered_terms(candidates: Candidates, columns: list[tuple], remaining: np.ndarray, jac: np.ndarray,
                      values: np.ndarray, science_values: np.ndarray, variables: Sequence[str], n_states: int,
                      components: Sequence[int], log: Callable[[str], None],
-                     units: Mapping[str, str] | None = None) -> list[Term]:
+                     units: Mapping[str, str] | None = None,
+                     carried: Callable[[], Any] | None = None) -> list[Term]:
     """The discovery family's forms (``candidates.discovery``) for the equations the listed terms leave unexplained.
 
     An equation is searched where the part of ``remaining`` (what the network learned) that no parameter of
     the science can take is material (over a twentieth of it) and no single listed term explains
-    ``candidates.explained`` of it.
+    ``candidates.explained`` of it; and, given ``carried`` (:func:`network_carries`), only where the network
+    lowers the held-out error: where it does not, it learned noise, and a closed form of that would be noise
+    too (the search is the loop's most expensive step).
     """
     family = SymbolicDiscovery() if candidates.discovery is True else candidates.discovery
     if not family:
@@ -148,9 +154,15 @@ def discovered_terms(candidates: Candidates, columns: list[tuple], remaining: np
         best = max((t.gain for t in rank_by_residual(columns, remaining, jac, [j], set())), default=0.0)
         share = best * total / float(free @ free)
         log(f"  the best listed term explains {share:.0%} of equation {j}'s residual beyond the parameters"
-            + (": searching closed forms" if share < candidates.explained else ""))
+            + (": a closed form wanted" if share < candidates.explained else ""))
         if share < candidates.explained:
             wanted.append(j)
+    verdict = carried() if wanted and carried is not None else None
+    if verdict is not None:
+        log(f"  the network, frozen in the science model: validation MSE {verdict['mse_after']:.4g} "
+            f"(gain {verdict['gain']:.1%}, z {verdict['z']:.1f})"
+            + ("" if verdict["accepted"] else ": no held-out evidence of an effect there, no search"))
+        wanted = wanted if verdict["accepted"] else []
     if not wanted:
         return []
     context = TermContext(tuple(variables), values, dict(units or {}), n_states, learned=remaining,
@@ -158,6 +170,31 @@ def discovered_terms(candidates: Candidates, columns: list[tuple], remaining: np
     found = family.terms(context, log=log)
     log(f"  discovery offered {len(found)} form(s): {', '.join(t.name for t in found)}")
     return found
+
+
+def network_carries(judge: Any, science: Callable, theta: Mapping[str, Any], network: Callable,
+                    base_errors: np.ndarray, evidence: Any) -> Any:
+    """The held-out verdict on the fitted network, frozen and added to ``science`` (None where a simulation
+    failed).
+
+    The science parameters are refitted around it (the hybrid's own theta took part of the effect's job) and
+    the model judged by ``judge`` against ``base_errors`` (the science refitted alone) with the test a term
+    must pass (``evidence.verdict``). The whole network: its parts on several equations can balance each other
+    (a flow between compartments), and one part alone would break that.
+    """
+    inputs, defaults = read_signature(science)
+
+    def with_network(*args, **values):
+        return science(*args, **values) + network(*args)
+
+    with_network.__signature__ = inspect.Signature(
+        [inspect.Parameter(n, inspect.Parameter.POSITIONAL_OR_KEYWORD) for n in inputs]
+        + [inspect.Parameter(k, inspect.Parameter.KEYWORD_ONLY, default=v) for k, v in defaults.items()])
+    try:
+        after = judge.errors(with_network, judge.fit(with_network, theta))
+    except FIT_FAILURES:  # the network off its visited states broke a simulation: no verdict either way
+        return None
+    return evidence.verdict(base_errors, after)
 
 
 def rank_by_residual(columns: list[tuple], remaining: np.ndarray, jac: np.ndarray, components: Sequence[int],

@@ -18,6 +18,7 @@ from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
+import torch
 from sklearn.base import clone
 from sklearn.exceptions import NotFittedError
 from sklearn.utils import check_random_state
@@ -231,9 +232,25 @@ def select_terms(before: Any, X: Any, y: Any, fit: ScienceFit, setup: Setup, lea
     sel = forward_selection(before.science, before.theta_, select, splits, learned.variables,
                             len(learned.states), learned.args, learned.learned, learned.components,
                             candidates=learned.candidates, evidence=evidence, param_names=setup.param_names,
-                            groups=codes, offsets=setup.offsets, flow_pairs=flows, units=setup.units, log=clock.log)
+                            groups=codes, offsets=setup.offsets, flow_pairs=flows, units=setup.units,
+                            network=network_part(before), log=clock.log)
     clock.lap("selection")
     return sel, Judged(n_val, unit)
+
+
+def network_part(before: Any) -> Callable | None:
+    """The fitted network as the science's inputs feed it, where it adds to the science (an ODE's right-hand
+    side, an additive model); None where it composes with it or a theta encoder binds per-sample theta."""
+    model = before.model_
+    if model.encoder is not None or not (ode_structure(before) is not None
+                                         or getattr(model.structure, "additive", False)):
+        return None
+    dtype = next((p.dtype for p in model.residual.parameters()), torch.float64)
+
+    def network(*args):
+        with torch.no_grad():
+            return model.residual(*(a.to(dtype) for a in args)).to(torch.float64)
+    return network
 
 
 @dataclass(frozen=True)

@@ -33,8 +33,8 @@ import torch
 from ...science import read_signature
 from ..judge import FIT_FAILURES, Judge, training_folds
 from .candidates import (Candidates, augment_with, candidate_groups, discovered_terms, field_groups, flow_candidates,
-                         initial_values, interleave, merge_rankings, offset_candidate, rank_by_residual, rank_by_fit,
-                         shape_bounds, term_columns)
+                         initial_values, interleave, merge_rankings, network_carries, offset_candidate,
+                         rank_by_residual, rank_by_fit, shape_bounds, term_columns)
 from .collapse import replace_stand_ins
 from ..evidence import Evidence, holm
 from .joint import joint_candidates
@@ -73,7 +73,8 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
                       candidates: Candidates, evidence: Evidence,
                       param_names: Mapping[str, str] | None = None, groups: np.ndarray | None = None,
                       offsets: Sequence[int] = (), flow_pairs: Sequence[tuple[int, int]] = (),
-                      units: Mapping[str, str] | None = None, log: Callable[[str], None] = lambda s: None) -> dict:
+                      units: Mapping[str, str] | None = None, network: Callable | None = None,
+                      log: Callable[[str], None] = lambda s: None) -> dict:
     """Add terms one at a time while a network-free refit validates better by more than the noise.
 
     With one split, when no candidate passes but some lowered the validation error by ``min_gain``
@@ -121,6 +122,11 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
         (:func:`~sklearn_hybrid.diagnosis.loop.candidates.flow_candidates`).
     units : dict of str to str, optional
         The variables' units: a discovered form that adds quantities of different units is marked.
+    network : callable, optional
+        The fitted network as the science's inputs feed it (``network(*args)``, shaped like the science's
+        output): with ``candidates.discovery``, the search runs only where the network, frozen in the
+        science model, lowers the held-out error (:func:`network_carries`); without it, wherever the listed
+        terms leave the residual unexplained.
 
     Returns
     -------
@@ -139,16 +145,19 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
     tensors = {name: torch.as_tensor(np.asarray(col, dtype=float)) for name, col in zip(variables, values.T)}
     tensors[SCIENCE_OUTPUT] = torch.as_tensor(science_output(science, theta, args), dtype=torch.float64)
     columns = term_columns(candidates.terms, tensors)
-    if candidates.discovery:  # closed forms for what the network learned, at the hybrid's own theta
-        found = discovered_terms(candidates, columns, np.asarray(learned) - tensors[SCIENCE_OUTPUT].numpy(),
-                                 free_columns(*parameter_jacobian(science, theta, args), fit.fixed), values,
-                                 tensors[SCIENCE_OUTPUT].numpy(), variables, n_states, components, log, units)
-        columns += term_columns(found, tensors)
     judge = Judge(fit, splits, groups)
     recheck = training_folds(fit, splits, groups, evidence.second_look)
     current, theta_now = science, judge.fit(science, theta)
     judge.settle(science, theta_now)
     errors = base_errors = judge.errors(science, theta_now)
+    if candidates.discovery:  # closed forms for what the network learned, at the hybrid's own theta
+        carried = None if network is None else (lambda: network_carries(judge, science, theta_now, network,
+                                                                         base_errors, evidence))
+        found = discovered_terms(candidates, columns, np.asarray(learned) - tensors[SCIENCE_OUTPUT].numpy(),
+                                 free_columns(*parameter_jacobian(science, theta, args), fit.fixed), values,
+                                 tensors[SCIENCE_OUTPUT].numpy(), variables, n_states, components, log, units,
+                                 carried)
+        columns += term_columns(found, tensors)
     scale = np.sqrt(np.mean(np.asarray(learned, dtype=float) ** 2, axis=0))
     log(f"science refitted alone: validation MSE {errors.mean():.4g}")
     added: list[PlacedTerm] = []
