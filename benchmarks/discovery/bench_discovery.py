@@ -8,7 +8,8 @@ of each state's spread, seed 0), the same data through:
   identification benchmark fits it), the term list only;
 - **loop + discovery**: the same first fit, ``Candidates(discovery=True)``; ``loop_discovery_2`` is the same arm
   run again after discovery was revised on what the first run showed (the records keep each arm's package
-  commit), so not a fresh test of the revision;
+  commit), so not a fresh test of the revision; ``loop_discovery_gated`` the revision with its search gated (run
+  only where the fitted network, frozen in the science model, lowers the held-out error);
 - **UDE + SINDy**: the first fit's network output on the visited states, STLSQ on pysindy's cubic polynomial
   library per equation (threshold by 5-fold CV, one-standard-error rule), terms and theta refitted without the
   network (``identification/anchors.py``, the recipe of ``bench_anchors_loop.py``);
@@ -53,10 +54,14 @@ RUNS = runs_folder("discovery")
 NOISE, SEED = 0.01, 0
 ARMS = [("loop", "closed loop (term list)"), ("loop_discovery", "closed loop + discovery (first run)"),
         ("loop_discovery_2", "closed loop + discovery (revised)"),
+        ("loop_discovery_gated", "closed loop + discovery (gated)"),
         ("ude_sindy", "UDE + SINDy (cubic library)"), ("sr_alone", "SR alone on derivatives"),
         ("sindy_data", "SINDy on the data")]
 # loop_discovery_2: the same arm run again after discovery was revised on what the first run showed (the record
-# keeps the package commit each arm ran at); it is not a fresh test of the revision, the batch has been seen
+# keeps the package commit each arm ran at); it is not a fresh test of the revision, the batch has been seen.
+# loop_discovery_gated: the revised discovery with its search run only where the fitted network, frozen in the
+# science model, lowers the held-out error (9770a58): does the gate keep every law the revision found?
+LOOP_ARMS = ("loop", "loop_discovery", "loop_discovery_2", "loop_discovery_gated")
 WHOLE_MODEL = ("sr_alone", "sindy_data")
 PREFACE = ("The batch (`benchmarks/discovery/laws.py`) was written and committed (942caa3) before any arm ran on it; "
            "the first run is the package at a9909c2 (discovery as first written). Discovery was then revised on "
@@ -181,12 +186,12 @@ def run_case(name: str, arms: list[str], budget: int = 0) -> dict:
         signal.signal(signal.SIGALRM, _stop)
         signal.alarm(budget)  # 0: no budget
         try:
-            if arm in ("loop", "loop_discovery", "loop_discovery_2", "ude_sindy") and hybrid is None:
+            if arm in LOOP_ARMS + ("ude_sindy",) and hybrid is None:
                 hybrid, reused = first_fit(system, data)
                 out["first_fit_reused"] = reused
             if arm == "loop":
                 got = _loop(system, data, hybrid, False)
-            elif arm in ("loop_discovery", "loop_discovery_2"):
+            elif arm in LOOP_ARMS[1:]:
                 got = _loop(system, data, hybrid, True)
             elif arm == "ude_sindy":
                 got = _ude_sindy(system, data, hybrid)
@@ -254,7 +259,7 @@ def render() -> None:
                      f"{field} of {len(got)} | {theta} | "
                      f"{np.median([g['rel_err'] for g in got]) if got else float('nan'):.3f} | "
                      f"{sum(_clean(arm, c) for c in ctl)} of {len(ctl)} | {np.median(secs):.0f} |")
-    held = [(r["system"], a, r[a]["intervals"]) for r in recs for a in ("loop", "loop_discovery", "loop_discovery_2")
+    held = [(r["system"], a, r[a]["intervals"]) for r in recs for a in LOOP_ARMS
             if a in r and r[a].get("intervals")]
     if held:
         called = sum(len(h["identified"]) for _, _, h in held)
@@ -273,7 +278,7 @@ def render() -> None:
         lines.append(f"| {s.name} | {s.effect} | " + " | ".join(cells) + " |")
     lines += ["", "## What the loop added", ""]
     for r in recs:
-        for arm in ("loop", "loop_discovery", "loop_discovery_2"):
+        for arm in LOOP_ARMS:
             if arm in r and "terms" in r[arm]:
                 lines.append(f"- {r['system']}, {arm} (package {r[arm]['package_commit']}): "
                              + ("; ".join(r[arm]["terms"]) or "nothing"))
@@ -283,7 +288,8 @@ def render() -> None:
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--cases", nargs="*", default=[s.name for s in LAWS])
-    parser.add_argument("--arms", nargs="*", default=[a for a, _ in ARMS if a != "loop_discovery_2"])
+    parser.add_argument("--arms", nargs="*",
+                        default=[a for a, _ in ARMS if a not in ("loop_discovery_2", "loop_discovery_gated")])
     parser.add_argument("--arm-budget", type=int, default=0,
                         help="stop an arm after this many seconds of wall-clock time and record it as stopped")
     parser.add_argument("--render", action="store_true", help="only write results/discovery.md from the records")
