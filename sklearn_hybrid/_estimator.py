@@ -215,10 +215,12 @@ class HybridRegressor(EstimatorExtras, RegressorMixin, BaseEstimator):
 
     Notes
     -----
-    Units.  Write the science function in your own units: for ``"ode"`` the fit
-    reads the scales the data carry and trains in them.  The network (the
-    package's MLP) reads each state standardised and writes each rate in units
-    of the rate that state is observed to change at; theta steps relative to
+    Units.  Write the science function in your own units: the fit reads the
+    scales the data carry and trains in them.  The network (the package's MLP)
+    reads each state standardised and writes each rate in units of the rate
+    that state is observed to change at (a static model: each input, and the
+    science's output it composes with, standardised, each target entry in
+    units of its spread); theta steps relative to
     its starting size (so give a start of the right order of magnitude, not
     0, where you can); the gradients are taken in units of ``y``'s variance.
     ``theta_``, the reports and the intervals stay in your units.  What this

@@ -29,8 +29,8 @@ from ._validation import check_dtype_range, check_not_nested, set_feature_info, 
 from .metrics import network_share
 from .residual import build_residual, is_zero_residual
 from .science import ScienceModel
-from .structures import HybridModule, OdeStructure
-from .structures.scales import ode_data_scales, set_network_scales
+from .structures import ComposeStructure, HybridModule, OdeStructure
+from .structures.scales import ode_data_scales, set_network_scales, static_data_scales
 from .training.schedule import THETA_LR_FACTOR, TrainConfig, cosine_lr, theta_drift
 
 #: The ``dtype`` parameter's names.
@@ -123,10 +123,13 @@ def prepare_fit(estimator: BaseEstimator, X, y, sample_weight=None) -> Bunch:
         with torch_threads(estimator.n_threads):
             structure.choose_substeps(science, inputs[0], torch.as_tensor(y, dtype=dtype))
     scales = None
-    if isinstance(structure, OdeStructure):  # the network trains in the data's scales, whatever the units
-        with torch_threads(estimator.n_threads):
-            scales = ode_data_scales(structure, science, structure_inputs, torch.as_tensor(y, dtype=dtype), weight)
-        set_network_scales(residual, scales)
+    with torch_threads(estimator.n_threads):  # the network trains in the data's scales, whatever the units
+        target = torch.as_tensor(y, dtype=dtype)
+        if isinstance(structure, OdeStructure):
+            scales = ode_data_scales(structure, science, structure_inputs, target, weight)
+        elif isinstance(structure, ComposeStructure) and structure.residual_shapes()[0] is not None:
+            scales = static_data_scales(structure, science, structure_inputs, target, weight)
+    set_network_scales(residual, scales)
     model = HybridModule(science, residual, structure, reduction, encoder).to(device)
     inputs = tuple(t.to(device) for t in inputs)
     if encoder is not None:

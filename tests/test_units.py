@@ -145,6 +145,48 @@ def test_a_forced_partially_observed_ode_in_other_units_is_the_order_one_fit(T, 
     assert ref.theta_["k"] != pytest.approx(1.0, rel=0.02)  # it moved
 
 
+def _fan(x, a=1.0, b=0.2):
+    """A fan's pressure rise from its speed x[:, 0] and the flow x[:, 1] (a static law): a x0^2 - b x1."""
+    return (a * x[:, 0] ** 2 - b * x[:, 1])[:, None]
+
+
+def _fan_data(X_scale=1.0, y_scale=1.0):
+    """The law at a = 1.5, b = 0.4 plus a missing 0.3 sin(2 x1), noisy; inputs x X_scale, pressure x y_scale."""
+    rng = np.random.default_rng(0)
+    X = rng.uniform(0.5, 2.0, size=(40, 2))
+    y = _fan(torch.as_tensor(X), a=1.5, b=0.4).numpy() + 0.3 * np.sin(2 * X[:, 1:])
+    y = y + 0.01 * rng.standard_normal(y.shape)
+    return (X * X_scale).astype(np.float32), (y * y_scale).astype(np.float32)
+
+
+@pytest.mark.parametrize("structure", ["additive", "compose"])
+@pytest.mark.parametrize("Xs, Ys", [(1e3, 1.0), (1.0, 1e-3), (1e-2, 1e4)])
+def test_a_static_fit_in_other_units_is_the_order_one_fit(structure, Xs, Ys):
+    """Speed and flow in units x Xs, pressure in units x Ys: a in Ys / Xs^2, b in Ys / Xs. The network reads
+    standardised inputs (and, composed, the science's output) and writes the target in units of its spread."""
+    settings = dict(structure=structure, random_state=0, max_iter=60, tol=None)
+    ref = HybridRegressor(science=_fan, **settings).fit(*_fan_data())
+
+    def fan_in_units(x, a=1.0 * Ys / Xs ** 2, b=0.2 * Ys / Xs):
+        return _fan(x, a=a, b=b)
+
+    X, y = _fan_data(Xs, Ys)
+    est = HybridRegressor(science=fan_in_units, **settings).fit(X, y)
+    assert est.theta_["a"] * Xs ** 2 / Ys == pytest.approx(ref.theta_["a"], rel=1e-3)
+    assert est.theta_["b"] * Xs / Ys == pytest.approx(ref.theta_["b"], rel=1e-3)
+    assert ref.theta_["a"] != pytest.approx(1.0, rel=0.05)  # it moved: the comparison means something
+    np.testing.assert_allclose(est.predict(X[:3]) / Ys, ref.predict(_fan_data()[0][:3]), rtol=1e-3, atol=1e-4)
+
+
+def test_a_static_fit_that_is_not_usable_prints_the_data_scales():
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        HybridRegressor(science=_fan, structure="additive", random_state=0, lr=1e-12, max_iter=30,
+                        tol=None).fit(*_fan_data(1e3))
+    messages = [str(w.message) for w in caught if issubclass(w.category, ConvergenceWarning)]
+    assert messages and "The data's scales: input spread 399, 481; target spread 1.59" in messages[0], messages
+
+
 def test_a_bootstrap_member_of_an_ode_trains_in_its_resample_s_scales():
     """The stacked bootstrap's member takes the steps a separate fit on its resample takes: its network in the
     scales of the resample (weights counting samples), its gradients in units of the resample's variance."""

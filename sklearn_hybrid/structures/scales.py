@@ -1,9 +1,10 @@
-"""The scales a hybrid ODE's data carry, which the network trains in and the advice prints.
+"""The scales a hybrid's data carry, which the network trains in and the advice prints.
 
 A science function is written in the user's units: states as fractions or counts, time in days or milliseconds.
-The network need not be: it reads each state standardised (minus its mean, over its spread) and writes each
-rate in units of the rate that state is observed to change at, so that its weights, the learning rate and the
-SAM radius mean the same in any units.  theta steps relative to its own size (see
+The network need not be: in an ODE it reads each state standardised (minus its mean, over its spread) and writes
+each rate in units of the rate that state is observed to change at; in a static model it reads each input (and,
+composed, each science output) standardised and writes each target entry in units of its spread. So its weights,
+the learning rate and the SAM radius mean the same in any units.  theta steps relative to its own size (see
 :class:`~sklearn_hybrid.science.ScienceModel`).  When a fit goes bad, the advice prints these scales.
 """
 
@@ -13,7 +14,7 @@ import numpy as np
 import torch
 from sklearn.utils import Bunch
 
-__all__ = ["ode_data_scales", "describe_scales", "set_network_scales"]
+__all__ = ["ode_data_scales", "static_data_scales", "describe_scales", "set_network_scales"]
 
 
 def _moments(values: torch.Tensor, weight: torch.Tensor | None = None) -> tuple[np.ndarray, np.ndarray]:
@@ -90,6 +91,44 @@ def ode_data_scales(structure, science, inputs: tuple, y: torch.Tensor,
                  state_spread=scale, rate=rate, horizon=structure.n_steps * structure.dt)
 
 
+def static_data_scales(structure, science, inputs: tuple, y: torch.Tensor,
+                       sample_weight: torch.Tensor | None = None) -> Bunch:
+    """The network's input shift and scale and its output scale for a static hybrid, read from the data.
+
+    Parameters
+    ----------
+    structure : AdditiveStructure or ComposeStructure
+        Set up on the data; a composition's network reads the science's output too.
+    science : ScienceModel
+        At its starting theta: a composition's network reads its output, at the scale it starts at.
+    inputs : tuple of Tensor
+        The structure's tensors (``X``).
+    y : Tensor
+        The targets.
+    sample_weight : Tensor of shape (n,), optional
+        Each sample's weight, as the data loss weighs it.
+
+    Returns
+    -------
+    Bunch
+        ``in_shift``, ``in_scale`` (one per flattened input entry: ``X``'s, then the science output's for a
+        composition) and ``out_scale`` (one per flattened target entry); ``input_spread`` and ``target_spread``
+        for messages.
+    """
+    x = inputs[0]
+    n = len(x)
+    w = None if sample_weight is None else torch.as_tensor(sample_weight, dtype=torch.float64, device=x.device)
+    parts = [x.reshape(n, -1)]
+    if not structure.additive:
+        with torch.no_grad():
+            parts.append(science(x).reshape(n, -1))
+    in_shift, in_scale = _moments(torch.cat(parts, dim=1), w)
+    out_scale = _moments(y.reshape(n, -1), w)[1]
+    in_scale, out_scale = (np.where(np.isnan(v), 1.0, v) for v in (in_scale, out_scale))  # zero throughout
+    return Bunch(in_shift=in_shift, in_scale=in_scale, out_scale=out_scale,
+                 input_spread=in_scale[:parts[0].shape[1]], target_spread=out_scale)
+
+
 def _repeat(weight: torch.Tensor | None, times: int) -> torch.Tensor | None:
     """Each sample's weight for each of its ``times`` values, flattened sample by sample."""
     return None if weight is None else weight.repeat_interleave(times)
@@ -99,10 +138,18 @@ def describe_scales(scales: Bunch | None) -> str:
     """The data's scales in a sentence, for the advice after a training that went bad."""
     if scales is None:
         return ""
+    if "horizon" not in scales:  # a static model's
+        return (f"The data's scales: input spread {_listed(scales.input_spread)}; target spread "
+                f"{_listed(scales.target_spread)}.")
     spread = ", ".join(f"{v:.3g}" for v in scales.state_spread)
     times = scales.horizon * scales.rate / np.maximum(scales.state_spread, np.finfo(float).tiny)
     return (f"The data's scales: state spread {spread}; horizon {scales.horizon:.3g} time units, over which the "
             f"fastest state moves {float(np.max(times)):.3g} times its spread at its observed rate.")
+
+
+def _listed(values: np.ndarray, most: int = 6) -> str:
+    shown = ", ".join(f"{v:.3g}" for v in values[:most])
+    return shown + (f", ... ({len(values)} in all)" if len(values) > most else "")
 
 
 def set_network_scales(residual, scales: Bunch | None) -> bool:
