@@ -21,7 +21,7 @@ GUARD = 'if __name__ == "__main__":'
 SCRIPTS = {p for p in FILES
            if p.name.startswith(("bench_", "check_", "why_"))
            or p.stem in {"table1", "gallery_figures", "choice_figure", "guide_figures", "results_figure",
-                          "discovery_figure"}}
+                          "discovery_figure", "screenshot_pages"}}
 # the top-level names the benchmarks import each other by, once benchmarks/ is on sys.path
 OWN = {"helpers"} | {p.name for p in BENCHMARKS.iterdir() if (p / "__init__.py").exists()}
 # optional dependencies of single benchmarks (the [bench] and [sindy] extras), not of the test environment
