@@ -597,6 +597,23 @@ def test_report_states_the_thresholds_used():
     assert "tail of z = 2.5" in text
 
 
+def test_report_says_when_no_candidate_could_be_judged():
+    """A science refitted alone into a point least squares cannot leave (a Michaelis constant across zero, seen on
+    the identification benchmark's substrate_inhibition) left every candidate at exactly its starting error: the
+    report said "no candidate improved the held-out error by more than the noise explains"."""
+    from sklearn_hybrid.diagnosis import format_table
+
+    step = {"step": 1, "output": "g[S]", "term": "S^2", "kind": "polynomial", "mse_before": 0.09032,
+            "mse_after": 0.09032, "gain": 0.0, "z": 0.0, "accepted": False}
+    steps = [step, {**step, "term": "1"}]
+    text = format_table([{"stage": "before", "theta": {"km": -0.024}}], steps=steps, n_validation=12)
+    assert "nothing judged" in text and "no evidence that nothing is missing" in text and "theta_bounds" in text
+    assert "more than the noise explains" not in text
+    moved = [steps[0], {**step, "term": "1", "mse_after": 0.0903, "gain": 0.0002}]
+    text = format_table([{"stage": "before", "theta": {"km": 0.3}}], steps=moved, n_validation=12)
+    assert "Nothing added: no candidate improved the held-out error by more than the noise explains" in text
+
+
 def test_report_writes_huge_losses_in_powers_of_ten():
     # a screening refit whose simulations blew up multiplied the error by ~1.8e22: its gain was
     # printed as -1823745583607992492752896.0%
@@ -748,7 +765,7 @@ def test_a_screening_refit_that_gets_lost_starts_again_from_the_model_it_extends
     start = {"omega": 0.6, damped.terms[0][2]: 1e4}
     lost = judge.fit(damped, start, {}, screening=True)
     assert judge.training_error(damped, lost) > 1e6  # the plain refit does not recover
-    theta = _screen(judge, damped, start, {}, n_kept=0)
+    theta = _screen(judge, damped, start, {}, n_kept=0, origin={"omega": 0.6})
     assert judge.training_error(damped, theta) < judge.training_error(damped, {**start, damped.terms[0][2]: 0.0})
     assert theta[damped.terms[0][2]] == pytest.approx(-0.5, rel=0.1)
 
@@ -772,9 +789,34 @@ def test_a_screening_refit_that_raises_starts_again_from_the_model_it_extends(pe
         return plain_fit(science, theta, *args, **kwargs)
 
     monkeypatch.setattr(judge, "fit", fit_that_raises_away_from_zero)
-    theta = _screen(judge, damped, {"omega": 0.6, coef: 3.0}, {}, n_kept=0)
+    theta = _screen(judge, damped, {"omega": 0.6, coef: 3.0}, {}, n_kept=0, origin={"omega": 0.6})
     assert starts == [3.0, 0.0]
     assert theta[coef] == pytest.approx(-0.5, rel=0.1)
+
+
+def test_a_screening_refit_that_does_not_move_is_tried_again_from_the_hybrids_theta(pendulum, monkeypatch):
+    """Seen on the identification benchmark's substrate_inhibition: the science refitted alone put its Michaelis
+    constant across zero, a pole inside the visited states, where least squares could not move; every candidate's
+    screening refit ended exactly where it started, and the loop added nothing. Such a refit is tried again with
+    the science's parameters at the hybrid's theta the selection started from."""
+    from sklearn_hybrid.diagnosis.loop.candidates import augment_with
+    from sklearn_hybrid.diagnosis.loop.stepwise import _screen
+
+    judge = _held_out_judge(pendulum)
+    damped = augment_with(pendulum_f, _on_v_dot(pendulum, ["v_dot"], coef=0.0), NAMES, 2, None)
+    coef = damped.terms[0][2]
+    plain_fit, starts = judge.fit, []
+
+    def fit_stuck_away_from_the_hybrid(science, theta, *args, **kwargs):
+        starts.append(theta["omega"])
+        return dict(theta) if theta["omega"] != 0.6 else plain_fit(science, theta, *args, **kwargs)
+
+    monkeypatch.setattr(judge, "fit", fit_stuck_away_from_the_hybrid)
+    theta = _screen(judge, damped, {"omega": 0.4, coef: 0.0}, {}, n_kept=0, origin={"omega": 0.6})
+    assert starts == [0.4, 0.6]
+    assert theta[coef] == pytest.approx(-0.5, rel=0.1) and theta["omega"] == pytest.approx(2 / 3, rel=0.02)
+    monkeypatch.setattr(judge, "fit", plain_fit)  # a refit that moves: kept
+    assert _screen(judge, damped, {"omega": 0.4, coef: 0.0}, {}, n_kept=0, origin={"omega": 0.6})[coef] < -0.3
 
 
 def _pendulum_with_damping_f(v, omega=0.5, gamma=0.0):

@@ -295,6 +295,11 @@ def format_table(rows: list[dict], added: Sequence[dict] = (), steps: Sequence[d
                          + ("; accepted on a second look" if t.get("second_look") else "")
                          + ("; dimensionally inconsistent in the units given" if t.get("consistent") is False else "")
                          + ")")
+    elif _none_moved(steps):
+        lines.append("Nothing added, and nothing judged: every candidate's refit stayed exactly where it started, "
+                     "at the science refitted alone, a point least squares could not leave (see its parameters "
+                     "in the table: one that left its physical range, a rate or a constant across zero, holds it "
+                     "there; give theta_bounds). This is no evidence that nothing is missing.")
     else:
         lines.append("Nothing added: no candidate improved the held-out error by more than the noise explains.")
     if unexplained is not None:
@@ -308,6 +313,13 @@ def format_table(rows: list[dict], added: Sequence[dict] = (), steps: Sequence[d
 #: hybrid holds the network-free model's terms' worth of freedom in its network, so a well-trained one is not
 #: worse by more than its overfitting of the noise.
 POOR_FIT_RATIO = 1.5
+
+
+def _none_moved(steps: Sequence[dict]) -> bool:
+    """Whether every candidate judged ended at exactly the error it started from: the screening refits were
+    stuck (an improvement of exactly zero is what no real fit gives), not a verdict on the candidates."""
+    judged = [s for s in steps if "failed" not in s]
+    return bool(judged) and all(s["mse_after"] == s["mse_before"] for s in judged)
 
 
 def _poor_fit_lines(rows: list[dict]) -> list[str]:

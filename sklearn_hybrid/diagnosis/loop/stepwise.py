@@ -197,7 +197,7 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
             start = {**theta_now, **initial_values(candidate_science, placed, len(cand.entries()))}
             try:
                 bounds = shape_bounds(candidate_science, placed)
-                fitted = _screen(judge, candidate_science, start, bounds, len(added))
+                fitted = _screen(judge, candidate_science, start, bounds, len(added), theta)
                 cand_errors = judge.errors(candidate_science, fitted, bounds, screening=True)
             except FIT_FAILURES as exc:  # a term that breaks the simulation
                 steps.append(Step.of(step, cand.row(), failed=repr(exc)))
@@ -315,7 +315,7 @@ def _correct_joint(tried: list[Screened], steps: list, m: int, evidence: Evidenc
             f"{'passed' if verdict['accepted'] else 'not passed'}")
 
 
-def _screen(judge: Judge, science, start: dict, bounds: dict, n_kept: int) -> dict:
+def _screen(judge: Judge, science, start: dict, bounds: dict, n_kept: int, origin: Mapping[str, Any]) -> dict:
     """The screening refit of a candidate model whose terms after the first ``n_kept`` are new.
 
     With the new coefficients at zero the candidate is the model the step continues from, so its
@@ -326,14 +326,28 @@ def _screen(judge: Judge, science, start: dict, bounds: dict, n_kept: int) -> di
     raise at a start outside its domain). Before ScienceFit bounded a diverged simulation's finite
     residuals, least squares itself raised from such starts on a non-finite Jacobian (a Brusselator's
     ``x^2*y`` on dx/dt, ranked at 2.96, lost to three terms that stand in for it).
+
+    A refit that still ends no better than that model did not move: the science refitted alone can sit
+    where least squares cannot leave (a Michaelis constant refitted across zero, a pole inside the visited
+    states). It is tried once more with the science's parameters at ``origin``, the hybrid's own theta
+    the selection started from, and kept if better.
     """
     nested = {**start, **{coef: 0.0 for _, _, coef in science.terms[n_kept:]}}
     try:
         fitted = judge.fit(science, start, bounds, screening=True)
     except FIT_FAILURES:
-        return judge.fit(science, nested, bounds, screening=True)
-    if judge.training_error(science, fitted) > judge.training_error(science, nested):
         fitted = judge.fit(science, nested, bounds, screening=True)
+    stuck, error = judge.training_error(science, nested), judge.training_error(science, fitted)
+    if error > stuck:
+        fitted = judge.fit(science, nested, bounds, screening=True)
+        error = judge.training_error(science, fitted)
+    if error >= stuck and any(not np.array_equal(start[k], v) for k, v in origin.items()):
+        try:
+            again = judge.fit(science, {**start, **origin}, bounds, screening=True)
+        except FIT_FAILURES:
+            return fitted
+        if judge.training_error(science, again) < stuck:
+            return again
     return fitted
 
 
