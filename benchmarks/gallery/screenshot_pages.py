@@ -34,7 +34,7 @@ def shoot(html: Path, page: str, out: Path) -> int:
                                 "(sphinx-build -b html doc doc/_build/html).")
     # local files: the page's stylesheets and images are files beside it
     subprocess.run(["wkhtmltoimage", "--quiet", "--enable-local-file-access", "--width", str(WIDTH),
-                    "--format", "jpg", "--quality", "45", str(source), str(out)], check=False,
+                    "--format", "jpg", "--quality", "30", str(source), str(out)], check=False,
                    stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     if not out.exists():
         raise RuntimeError(f"wkhtmltoimage made no image of {source}.")
