@@ -119,12 +119,12 @@ def prepare_fit(estimator: BaseEstimator, X, y, sample_weight=None) -> Bunch:
             if estimator.theta_encoder is not None:
                 encoder = _encoder.make_theta_encoder(estimator.theta_encoder, science, X.shape[1:], dtype)
                 inputs = inputs + (torch.tensor(X, dtype=dtype),)  # the window comes last
+    target = torch.tensor(np.asarray(y), dtype=dtype)  # a copy: y may be read-only (a memory map)
     if encoder is None and hasattr(structure, "choose_substeps"):
         with torch_threads(estimator.n_threads):
-            structure.choose_substeps(science, inputs[0], torch.as_tensor(y, dtype=dtype))
+            structure.choose_substeps(science, inputs[0], target)
     scales = None
     with torch_threads(estimator.n_threads):  # the network trains in the data's scales, whatever the units
-        target = torch.as_tensor(y, dtype=dtype)
         if isinstance(structure, OdeStructure):
             scales = ode_data_scales(structure, science, structure_inputs, target, weight)
         elif isinstance(structure, ComposeStructure) and structure.residual_shapes()[0] is not None:

@@ -15,7 +15,7 @@ import pytest
 import torch
 from sklearn.exceptions import ConvergenceWarning
 
-from sklearn_hybrid import HybridRegressor
+from sklearn_hybrid import HybridRegressor, OdeStructure
 from sklearn_hybrid.integrate import integrate
 from sklearn_hybrid.training.engine import DivergenceError
 
@@ -185,6 +185,20 @@ def test_a_static_fit_that_is_not_usable_prints_the_data_scales():
                         tol=None).fit(*_fan_data(1e3))
     messages = [str(w.message) for w in caught if issubclass(w.category, ConvergenceWarning)]
     assert messages and "The data's scales: input spread 399, 481; target spread 1.59" in messages[0], messages
+
+
+@pytest.mark.parametrize("structure", ["additive", "ode"])
+def test_read_only_data_are_read_without_a_warning(structure):
+    """The scales are read from a copy of y: torch warned that a read-only y (a memory map, as scikit-learn's
+    checks pass it) is not writable when the static scales were first read from it."""
+    X, y = _fan_data() if structure == "additive" else _data()[:2]
+    X.setflags(write=False)
+    y.setflags(write=False)
+    kwargs = {"structure": structure} if structure == "additive" else {"structure": OdeStructure(dt=0.3)}
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        HybridRegressor(science=_fan if structure == "additive" else decay_f, max_iter=3, tol=None,
+                        random_state=0, **kwargs).fit(X, y)
 
 
 def test_a_bootstrap_member_of_an_ode_trains_in_its_resample_s_scales():
