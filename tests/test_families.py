@@ -71,11 +71,14 @@ def test_a_form_is_marked_where_it_adds_quantities_of_different_units():
     assert term.consistent is False
 
 
-def _saturation_context():
+def _saturation_context(x_unit=1.0, rate_unit=1.0):
+    """The law 1.3 x / (0.7 + x) plus what the science's parameters take, x in units of ``x_unit``, the rate in
+    ``rate_unit`` (x in mm where it was in m: x_unit = 1e-3)."""
     x = np.linspace(0.05, 3.0, 200)[:, None]
-    learned = 1.3 * x / (0.7 + x) + 0.2 - 0.1 * x  # the law plus what the science's parameters take
+    learned = 1.3 * x / (0.7 + x) + 0.2 - 0.1 * x
     directions = np.stack([np.ones_like(x), -x], axis=-1)  # (points, outputs, parameters)
-    return TermContext(("x",), x, n_states=1, learned=learned, directions=directions, components=(0,))
+    return TermContext(("x",), x / x_unit, n_states=1, learned=learned / rate_unit,
+                       directions=directions / rate_unit, components=(0,))
 
 
 def test_symbolic_discovery_offers_the_law_on_what_the_network_learned():
@@ -98,6 +101,18 @@ def test_symbolic_discovery_offers_the_law_on_what_the_network_learned():
     assert min(misfits) < 1e-4 and "/(K1 + x)" in best.name
     assert next(v[0][0] for k, v in best.shape.items() if k == "K1") == pytest.approx(0.7, rel=1e-3)
     assert not any("dtheta" in t.name for t in terms)  # the directions the search read are theta's
+
+
+@pytest.mark.parametrize("x_unit, rate_unit", [(1e-3, 1.0), (1.0, 1e2), (1e3, 1e-4)])
+def test_symbolic_discovery_finds_the_same_forms_in_any_units(x_unit, rate_unit):
+    """The search runs in the data's scales: the same law in millimetres or kilometres, per second or per day,
+    gives the same forms, their constants in the units given."""
+    family = SymbolicDiscovery(operators="add,sub,mul,div", max_rounds=2, random_state=0)
+    reference = {t.name: t for t in family.terms(_saturation_context())}
+    scaled = {t.name: t for t in family.terms(_saturation_context(x_unit, rate_unit))}
+    assert set(scaled) == set(reference) and any("/(K1 + x)" in name for name in reference)
+    law = next(name for name in reference if "/(K1 + x)" in name)
+    assert scaled[law].shape["K1"][0][0] * x_unit == pytest.approx(reference[law].shape["K1"][0][0], rel=1e-6)
 
 
 def test_symbolic_discovery_says_how_to_install_its_engine(monkeypatch):

@@ -138,12 +138,16 @@ class SymbolicDiscovery:
                 new = _new_directions(directions, X)
                 names += [f"{DIRECTION}{k + 1}" for k in range(new.shape[1])]
                 X = np.column_stack([X, new])
+            # searched in the data's scales (each variable and the target over its spread, not shifted, so a
+            # form keeps its shape): the same physics in other units is the same search; forms come back in
+            # the user's units
+            scales, size = _spreads(X), float(_spreads(target[:, None])[0])
             self.fronts_[j] = {}
             for grammar in grammars:
-                front = self._search(X, target, grammar, log, f"equation {j} ({grammar})")
+                front = self._search(X / scales, target / size, grammar, log, f"equation {j} ({grammar})")
                 self.fronts_[j][grammar] = front
-                out += [t for t in self._offered(front, names, j, X, directions, float(np.var(target)),
-                                                 dict(context.units))
+                out += [t for t in self._offered(front, names, j, X, directions, float(np.var(target / size)),
+                                                 dict(context.units), scales)
                         if t.name not in {o.name for o in out}]
         self.seconds_ = time.process_time() - start
         return out
@@ -178,7 +182,7 @@ class SymbolicDiscovery:
         return front
 
     def _offered(self, front: list[dict], names: list[str], component: int, X: np.ndarray,
-                 directions: np.ndarray | None, variance: float, units: dict) -> list[Term]:
+                 directions: np.ndarray | None, variance: float, units: dict, scales: np.ndarray) -> list[Term]:
         """The shortest forms within reach (see ``slack`` and ``r2``), as terms (simplified, deduplicated)."""
         from .symbolic import form_term  # sympy is imported where a search has run, not with the package
         if not front:
@@ -195,7 +199,7 @@ class SymbolicDiscovery:
         for m in near:
             made = form_term(m["formula"], names, component, values=X, directions=directions,
                              theta_parts=[v for v in names if v.startswith(DIRECTION)], units=units,
-                             science=SCIENCE_SYMBOL if SCIENCE_SYMBOL in names else None)
+                             science=SCIENCE_SYMBOL if SCIENCE_SYMBOL in names else None, scales=scales)
             if made is None or len(made[0].shape) > self.max_constants:
                 continue
             if made[0].consistent is False:  # kept aside: offered only where no consistent form is
@@ -225,6 +229,12 @@ def _new_directions(directions: np.ndarray, X: np.ndarray, tol: float = 1e-9) ->
         if not gives:
             keep.append(d)
     return np.column_stack(keep) if keep else np.zeros((len(directions), 0))
+
+
+def _spreads(X: np.ndarray) -> np.ndarray:
+    """Each column's standard deviation, else its mean magnitude, else 1 (a column that is zero throughout)."""
+    std, size = X.std(axis=0), np.abs(X).mean(axis=0)
+    return np.where(std > 0, std, np.where(size > 0, size, 1.0))
 
 
 def _pareto(forms: list[dict]) -> list[dict]:

@@ -124,7 +124,8 @@ def _monic(expr: sympy.Expr) -> tuple[sympy.Expr, sympy.Expr]:
 
 def form_term(formula: str, variables: Sequence[str], component: int, *, science: str | None = None,
               values: np.ndarray | None = None, directions: np.ndarray | None = None, theta_parts: Sequence[str] = (),
-              units: Mapping[str, str] | None = None, spread: float = 1e3) -> tuple[Term, float] | None:
+              units: Mapping[str, str] | None = None, spread: float = 1e3,
+              scales: Sequence[float] | None = None) -> tuple[Term, float] | None:
     """The term of a formula over ``variables`` (``science`` names the symbol that stands for the science
     output of ``component``), and its coefficient; None for a formula with nothing left.
 
@@ -138,9 +139,12 @@ def form_term(formula: str, variables: Sequence[str], component: int, *, science
     formula gives it and may move within a factor ``spread`` either way, keeping its sign (a constant through
     zero turns a saturation into a pole). With ``units``, a form that adds or compares quantities of different
     units with no constant between them is marked (``Term.consistent`` False, see :func:`consistent_units`).
+    With ``scales``, the formula reads each variable over its scale (a search run in the data's scales): it is
+    written back in the variables' own units.
     """
     symbols = {f"X{i + 1}": sympy.Symbol(v) for i, v in enumerate(variables)}
-    expr = sympy.sympify(formula, locals=symbols)
+    read = symbols if scales is None else {k: s / sympy.Float(float(c)) for (k, s), c in zip(symbols.items(), scales)}
+    expr = sympy.sympify(formula, locals=read)
     for name in theta_parts:
         part = sympy.Symbol(name)
         if part in expr.free_symbols:
