@@ -119,7 +119,7 @@ def prepare_fit(estimator: BaseEstimator, X, y, sample_weight=None) -> Bunch:
             if estimator.theta_encoder is not None:
                 encoder = _encoder.make_theta_encoder(estimator.theta_encoder, science, X.shape[1:], dtype)
                 inputs = inputs + (torch.tensor(X, dtype=dtype),)  # the window comes last
-    target = torch.tensor(np.asarray(y), dtype=dtype)  # a copy: y may be read-only (a memory map)
+    target = torch.tensor(np.asarray(y), dtype=dtype)  # a copy (y may be read-only): read for scales, trained on
     if encoder is None and hasattr(structure, "choose_substeps"):
         with torch_threads(estimator.n_threads):
             structure.choose_substeps(science, inputs[0], target)
@@ -142,7 +142,7 @@ def prepare_fit(estimator: BaseEstimator, X, y, sample_weight=None) -> Bunch:
                          # an encoder's weights are a network's, not theta's relative raw values
                          theta_lr_factor=1.0 if encoder is not None else THETA_LR_FACTOR)
     setup = Bunch(model=model, method=method, inputs=inputs,
-                  y=torch.tensor(y, dtype=dtype, device=device),
+                  y=target.to(device),
                   sample_weight=None if weight is None else weight.to(device),
                   config=config, seed=seed, y_shape=y_shape, x_shape=X.shape[1:],
                   features=features, scales=scales)
