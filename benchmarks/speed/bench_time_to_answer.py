@@ -69,19 +69,6 @@ def _rel_errors(theta: dict, truth: dict) -> dict:
     return {k: abs(float(np.ravel(theta[k])[0]) - v) / abs(v) for k, v in truth.items() if k in theta}
 
 
-def _intervals(intervals, truth: dict) -> dict:
-    """Each parameter's verdict and interval from a ``science_intervals`` result, and whether it holds."""
-    out = {}
-    for k, v in truth.items():
-        if k not in getattr(intervals, "verdicts", {}):
-            continue
-        low, high = (float(b) for b in intervals.intervals[k])
-        identified = intervals.verdicts[k] == "identified"
-        out[k] = {"verdict": intervals.verdicts[k], "interval": [low, high], "identified": identified,
-                  "holds": bool(low <= v <= high)}
-    return out
-
-
 def _profile_verdicts(profile, truth: dict) -> dict:
     out = {}
     for k, v in truth.items():
@@ -132,7 +119,7 @@ def _path(path, system, X, y, seed, clock, record) -> dict:
     from sklearn_hybrid.diagnosis import Candidates, close_the_loop
     from sklearn_hybrid.identifiability import profile_theta
 
-    from speed.time_to_answer_systems import call_science, test_states
+    from speed.time_to_answer_systems import call_science, interval_verdicts, test_states
 
     est = HybridRegressor(science=system.science, dt=system.dt, random_state=seed, verbose=False).fit(X, y)
     clock.mark("fit")
@@ -174,7 +161,7 @@ def _path(path, system, X, y, seed, clock, record) -> dict:
                    "theta_rel_err": errors, "theta_max_rel_err": max(errors.values()),
                    "theta_within": bool(max(errors.values()) <= TOLERANCE),
                    "rel_err": float(np.linalg.norm(final - truth) / scale),
-                   "intervals": _intervals(loop.intervals, system.theta_true)})
+                   "intervals": interval_verdicts(loop.intervals, system.theta_true)})
     wrong = [f"profile {k}" for k, v in record["profile"].items() if v["identified"] and not v["holds"]]
     wrong += [f"loop {k}" for k, v in record["intervals"].items() if v["identified"] and not v["holds"]]
     record["confidently_wrong"] = wrong

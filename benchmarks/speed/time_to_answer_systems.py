@@ -6,7 +6,8 @@ dry friction, a damper on one mass of a chain) and one is complete.  The science
 at the function's defaults, 20-40 % from the truth.  The data are simulated with a fine RK4 (64 steps
 per output interval) from random initial states, with Gaussian noise of 1 % of each state's spread
 on the outputs; the models are compared in function space on the states of 20 noise-free test
-trajectories from other initial states.
+trajectories from other initial states; :func:`interval_verdicts` reads an interval's verdict against the truth
+(shared by the benchmarks that run these systems).
 """
 
 from __future__ import annotations
@@ -165,3 +166,16 @@ def test_states(system: System, seed: int) -> np.ndarray:
     """States where the models are compared in function space: 20 noise-free test trajectories."""
     X, y = simulate(system, seed + 1000, noise=0.0, n_samples=20)
     return np.concatenate([X, y.reshape(-1, y.shape[-1])]).astype(float)
+
+
+def interval_verdicts(intervals, truth: dict) -> dict:
+    """Each parameter's verdict and interval from a ``science_intervals`` result, and whether it holds."""
+    out = {}
+    for k, v in truth.items():
+        if k not in getattr(intervals, "verdicts", {}):
+            continue
+        low, high = (float(b) for b in intervals.intervals[k])
+        identified = intervals.verdicts[k] == "identified"
+        out[k] = {"verdict": intervals.verdicts[k], "interval": [low, high], "identified": identified,
+                  "holds": bool(low <= v <= high)}
+    return out

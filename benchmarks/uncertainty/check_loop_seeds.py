@@ -31,7 +31,7 @@ def run_seed(name: str, seed: int) -> dict:
 
     from sklearn_hybrid import HybridRegressor, OdeStructure
     from sklearn_hybrid.diagnosis import close_the_loop
-    from speed.time_to_answer_systems import SYSTEMS, simulate
+    from speed.time_to_answer_systems import SYSTEMS, interval_verdicts, simulate
 
     torch.set_num_threads(1)
     system = SYSTEMS[name]
@@ -42,12 +42,13 @@ def run_seed(name: str, seed: int) -> dict:
     loop = close_the_loop(est, X, y, state_names=system.state_names)
     out = {"system": name, "seed": seed, "added": [a["term"] for a in loop.added], "parameters": {},
            "cpu_seconds": time.process_time() - start, "package_commit": PACKAGE_COMMIT}
+    verdicts = interval_verdicts(loop.intervals, system.theta_true)
     for k, truth in system.theta_true.items():
         value = float(np.ravel(loop.science_theta[k])[0])
         row = {"truth": truth, "estimate": value}
-        if loop.intervals is not None and k in loop.intervals.verdicts:
-            low, high = (float(b) for b in loop.intervals.intervals[k])
-            row.update(verdict=loop.intervals.verdicts[k], interval=[low, high], holds=bool(low <= truth <= high),
+        if k in verdicts:
+            low, high = verdicts[k]["interval"]
+            row.update(verdict=verdicts[k]["verdict"], interval=[low, high], holds=verdicts[k]["holds"],
                        half_widths=(value - truth) / ((high - low) / 2) if high > low else None)
         out["parameters"][k] = row
     return out
