@@ -11,7 +11,13 @@ acceleration, 30 iterations, 4 RK4 steps per interval: the same fit in both code
     python benchmarks/speed/bench_long_record.py                       # the package of this checkout
     python benchmarks/speed/bench_long_record.py --package ../old      # a checkout of the old code
     python benchmarks/speed/bench_long_record.py --package ../prev --label bf8d06e  # another commit, its own row
+    python benchmarks/speed/bench_long_record.py --control             # the same records, nothing missing
     python benchmarks/speed/bench_long_record.py --render
+
+``--control`` gives the science its damping (``x'' = -k x - c x'``), so nothing is missing: on such a long
+record an audit saw the loop add ``sign(x_dot)`` at a tiny coefficient (its held-out gain passed the test,
+which sharpens with the record's length) and then withheld every interval.  Its row says what the loop adds
+(target: nothing) and whether each interval holds the truth.
 """
 
 from __future__ import annotations
@@ -28,6 +34,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the helpers, the studies' modules
 from helpers import machine_description, rk4_trajectories, runs_folder, write_results  # noqa: E402
+from speed.time_to_answer_systems import interval_verdicts  # noqa: E402
 
 FOLDER = runs_folder("long_record")
 N_RECORDS, N_STEPS, DT, NOISE = 6, 1500, 0.1, 0.01
@@ -48,7 +55,17 @@ def oscillator_f(v, k=1.0):
     return torch.stack([v[:, 1], -k * v[:, 0]], -1)
 
 
-def run_one() -> dict:
+def damped_oscillator_f(v, k=1.0, c=0.0):
+    import torch
+
+    return torch.stack([v[:, 1], -k * v[:, 0] - c * v[:, 1]], -1)
+
+
+#: the control's truth, in the damped science's parameters
+CONTROL_TRUTH = {"k": 1.5, "c": 0.1}
+
+
+def run_one(control: bool = False) -> dict:
     import torch
 
     import sklearn_hybrid
@@ -58,23 +75,28 @@ def run_one() -> dict:
     torch.set_num_threads(1)
     X, y = simulate()
     start = time.process_time()
-    est = HybridRegressor(science=oscillator_f, dt=DT, method="erm", max_iter=30, n_substeps=4,
+    science = damped_oscillator_f if control else oscillator_f
+    est = HybridRegressor(science=science, dt=DT, method="erm", max_iter=30, n_substeps=4,
                           residual=MLPOn([1], hidden=(32, 32)), random_state=0, verbose=False).fit(X, y)
     fitted = time.process_time()
     res = close_the_loop(est, X, y, state_names=["x", "x_dot"])
     done = time.process_time()
     theta = {k: float(v) for k, v in res.science_theta.items() if np.ndim(v) == 0}
+    truth = CONTROL_TRUTH if control else TRUTH
     root = Path(sklearn_hybrid.__file__).parents[1]
     commit = subprocess.run(["git", "log", "-1", "--format=%h", "--", "sklearn_hybrid"], capture_output=True,
                             text=True, cwd=root).stdout.strip()
     return {"package": str(root), "package_commit": commit, "fit_cpu_s": fitted - start, "loop_cpu_s": done - fitted,
             "loop_timings": res.get("timings"), "added": [f"{t['term']} [{t['output']}]" for t in res.added],
-            "theta": theta, "theta_rel_err": {k: abs(theta.get(k, np.nan) - v) / abs(v) for k, v in TRUTH.items()},
+            "theta": theta, "theta_rel_err": {k: abs(theta.get(k, np.nan) - v) / abs(v) for k, v in truth.items()},
+            "intervals": interval_verdicts(res.intervals, truth), "control": control,
             "windows": "windows of" in res.report, "machine": machine_description()}
 
 
 def render() -> None:
-    records = {p.stem: json.loads(p.read_text()) for p in sorted(FOLDER.glob("*.json"))}
+    every = {p.stem: json.loads(p.read_text()) for p in sorted(FOLDER.glob("*.json"))}
+    records = {name: r for name, r in every.items() if not r.get("control")}
+    controls = {name: r for name, r in every.items() if r.get("control")}
     lines = ["# The closed loop on long records", "",
              f"{N_RECORDS} records of {N_STEPS} steps (dt {DT}, noise {NOISE}) of an oscillator whose science lacks "
              "its damping (truth k = 1.5, c = -0.1 x_dot); the hybrid fitted once per process (erm, 32x32 network on "
@@ -98,7 +120,18 @@ def render() -> None:
         if "new" in records:
             lines.append(f"The loop {name} takes {records[name]['loop_cpu_s'] / records['new']['loop_cpu_s']:.1f} times "
                          "the new one's CPU seconds.")
-    write_results("long_record", {"records": records}, "\n".join(lines))
+    if controls:
+        lines += ["", "## Nothing missing", "",
+                  "The same records, the science given its damping (`x'' = -k x - c x'`, truth k = 1.5, c = 0.1): the "
+                  "loop should add nothing and its intervals should hold the truth.", "",
+                  "| code | package commit | loop CPU s | added | k | c | intervals |", "|---|---|---|---|---|---|---|"]
+        for name, r in controls.items():
+            intervals = "; ".join(f"{k} [{v['interval'][0]:.5g}, {v['interval'][1]:.5g}] {v['verdict']}, "
+                                  f"{'holds' if v['holds'] else 'misses'}" for k, v in r["intervals"].items())
+            lines.append(f"| {name} | {r['package_commit']} | {r['loop_cpu_s']:.0f} | "
+                         f"{'; '.join(r['added']) or 'nothing'} | {r['theta'].get('k', float('nan')):.4f} | "
+                         f"{r['theta'].get('c', float('nan')):.4f} | {intervals or 'none'} |")
+    write_results("long_record", {"records": every}, "\n".join(lines))
     print("\n".join(lines))
 
 
@@ -106,22 +139,25 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--package", default=None, help="a checkout of the old code (recorded as 'old')")
     parser.add_argument("--label", default=None, help="with --package: the record's name instead of 'old'")
+    parser.add_argument("--control", action="store_true",
+                        help="the science given its damping: nothing missing (recorded as 'control')")
     parser.add_argument("--render", action="store_true")
     parser.add_argument("--one", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.one:
-        print(json.dumps(run_one(), default=float))
+        print(json.dumps(run_one(args.control), default=float))
         return
     if not args.render:
         env = dict(os.environ, OMP_NUM_THREADS="1")
         if args.package:
             env["PYTHONPATH"] = str(Path(args.package).resolve()) + os.pathsep + env.get("PYTHONPATH", "")
-        done = subprocess.run([sys.executable, __file__, "--one"], env=env, capture_output=True, text=True,
+        done = subprocess.run([sys.executable, __file__, "--one", *(["--control"] if args.control else [])], env=env, capture_output=True, text=True,
                               cwd=Path(__file__).parent)
         if done.returncode:
             sys.exit(done.stderr[-3000:])
         FOLDER.mkdir(parents=True, exist_ok=True)
         name = (args.label or "old") if args.package else "new"
+        name = f"control_{name}" if args.control else name
         (FOLDER / f"{name}.json").write_text(done.stdout.strip().splitlines()[-1] + "\n")
     render()
 
