@@ -9,7 +9,7 @@ from scipy.stats import norm
 
 from sklearn_hybrid import HybridRegressor
 from sklearn_hybrid.diagnosis import Candidates, Evidence, ScienceFit, Term, physics_terms
-from sklearn_hybrid.diagnosis.loop import stepwise
+from sklearn_hybrid.diagnosis.loop import second_look, stepwise
 from sklearn_hybrid.diagnosis.loop.candidates import term_columns
 from sklearn_hybrid.diagnosis.evidence import critical_value, evidence, holm
 from sklearn_hybrid.diagnosis import Verdict
@@ -160,15 +160,15 @@ def test_joint_candidates_add_nothing_to_a_control():
 def test_of_the_best_a_single_term_of_another_kind_beats_two_stand_ins():
     """Two stand-ins that explain an effect only together lose to one term that does as well."""
     def tried(cand, mse):
-        return stepwise.Screened(cand, {}, {"accepted": True, "mse_after": mse}, None, None, 0)
+        return second_look.Screened(cand, {}, {"accepted": True, "mse_after": mse}, None, None, 0)
 
     pair = PlacedGroup((PlacedTerm(Term("sqrt|T|", None, "sqrt"), 0), PlacedTerm(Term("exp(k*T)", None, "exponential"),
                                                                                   0, {"k": 1.0})), joint=True)
     power = PlacedTerm(Term("|T|^p", None, "power"), 0, {"p": 1.0})
     assert pair.name == "sqrt|T| + exp(k*T)" and pair.n_parameters() == 3 and power.n_parameters() == 2
-    assert stepwise._simplest_of_the_best([tried(pair, 1.00), tried(power, 1.03)], 0.05).cand is power
+    assert second_look.simplest_of_the_best([tried(pair, 1.00), tried(power, 1.03)], 0.05).cand is power
     # a pair clearly better than every single stays
-    assert stepwise._simplest_of_the_best([tried(pair, 1.00), tried(power, 1.5)], 0.05).cand is pair
+    assert second_look.simplest_of_the_best([tried(pair, 1.00), tried(power, 1.5)], 0.05).cand is pair
 
 
 # ------------------------------------------------------------------------------------------- sign and power laws

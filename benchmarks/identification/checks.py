@@ -43,8 +43,8 @@ from identification import protocol
 from identification.systems import SYSTEMS
 
 from sklearn_hybrid.diagnosis import Evidence, close_the_loop
-from sklearn_hybrid.diagnosis.loop.stepwise import SECOND_LOOK_Z as MIN_Z
-from sklearn_hybrid.diagnosis.loop.stepwise import worth_a_second_look
+from sklearn_hybrid.diagnosis.loop.second_look import SECOND_LOOK_Z as MIN_Z
+from sklearn_hybrid.diagnosis.loop.second_look import worth_a_second_look
 from sklearn_hybrid.diagnosis.loop.watch import LoopWatch, watching
 
 CHECKS = protocol.cache_dir(False) / "selection_checks"

@@ -34,7 +34,7 @@ class LoopWatch:
     second_look_gate : bool, default=True
         False: at a step where no candidate passes, every candidate gets the second look, whatever its
         gain and z on the validation samples, so that the second look is the only judge (a stress test;
-        see :func:`~sklearn_hybrid.diagnosis.loop.stepwise.worth_a_second_look` for the gate).
+        see :func:`~sklearn_hybrid.diagnosis.loop.second_look.worth_a_second_look` for the gate).
     """
 
     on_selection: Callable | None = None
