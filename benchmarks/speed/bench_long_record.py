@@ -90,6 +90,7 @@ def run_one(control: bool = False) -> dict:
             "loop_timings": res.get("timings"), "added": [f"{t['term']} [{t['output']}]" for t in res.added],
             "theta": theta, "theta_rel_err": {k: abs(theta.get(k, np.nan) - v) / abs(v) for k, v in truth.items()},
             "intervals": interval_verdicts(res.intervals, truth), "control": control,
+            "conditional": dict(getattr(res.intervals, "conditional", {})),
             "windows": "windows of" in res.report, "machine": machine_description()}
 
 
@@ -104,14 +105,16 @@ def render() -> None:
              "The new code fits and judges the candidates on windows of 25 steps (`Evidence(window='auto')`), each "
              "started from the record smoothed there (since 7ed13e7; from the raw measurement before, a start whose "
              "noise rewarded a candidate that damps it away), and refits the chosen model on the whole records.", "",
-             "| code | package commit | loop CPU s | of which selection | fit CPU s | added | k | c_x_dot | windows |",
-             "|---|---|---|---|---|---|---|---|---|"]
+             "| code | package commit | loop CPU s | of which selection | fit CPU s | added | k | c_x_dot | windows "
+             "| CPU |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
     for name, r in records.items():
         sel = (r.get("loop_timings") or {}).get("selection")
         lines.append(f"| {name} | {r['package_commit']} | {r['loop_cpu_s']:.0f} | "
                      f"{'' if sel is None else f'{sel:.0f}'} | {r['fit_cpu_s']:.0f} | "
                      f"{'; '.join(r['added']) or 'nothing'} | {r['theta'].get('k', float('nan')):.4f} | "
-                     f"{r['theta'].get('c_x_dot', float('nan')):.4f} | {'yes' if r['windows'] else 'no'} |")
+                     f"{r['theta'].get('c_x_dot', float('nan')):.4f} | {'yes' if r['windows'] else 'no'} | "
+                     f"{r['machine']['cpu']} |")
     if {"old", "new"} <= set(records):
         ratio = records["old"]["loop_cpu_s"] / records["new"]["loop_cpu_s"]
         lines += ["", f"The old code's loop takes {ratio:.1f} times the new one's CPU seconds on the same records "
@@ -122,15 +125,21 @@ def render() -> None:
                          "the new one's CPU seconds.")
     if controls:
         lines += ["", "## Nothing missing", "",
-                  "The same records, the science given its damping (`x'' = -k x - c x'`, truth k = 1.5, c = 0.1): the "
+                  "`python benchmarks/speed/bench_long_record.py --control`: the same records, the science given its "
+                  "damping (`x'' = -k x - c x'`, truth k = 1.5, c = 0.1): the "
                   "loop should add nothing and its intervals should hold the truth.", "",
-                  "| code | package commit | loop CPU s | added | k | c | intervals |", "|---|---|---|---|---|---|---|"]
+                  "| code | package commit | loop CPU s | added | k | c | intervals | CPU |",
+                  "|---|---|---|---|---|---|---|---|"]
         for name, r in controls.items():
             intervals = "; ".join(f"{k} [{v['interval'][0]:.5g}, {v['interval'][1]:.5g}] {v['verdict']}, "
                                   f"{'holds' if v['holds'] else 'misses'}" for k, v in r["intervals"].items())
             lines.append(f"| {name} | {r['package_commit']} | {r['loop_cpu_s']:.0f} | "
                          f"{'; '.join(r['added']) or 'nothing'} | {r['theta'].get('k', float('nan')):.4f} | "
-                         f"{r['theta'].get('c', float('nan')):.4f} | {intervals or 'none'} |")
+                         f"{r['theta'].get('c', float('nan')):.4f} | {intervals or 'none'} | {r['machine']['cpu']} |")
+        for name, r in controls.items():
+            lines += [f"- {name}, {k} conditional: {why}" for k, why in r.get("conditional", {}).items()]
+    lines += ["", "Each row's CPU is the machine that made its record; the line below names the one that wrote "
+              "this page."]
     write_results("long_record", {"records": every}, "\n".join(lines))
     print("\n".join(lines))
 
@@ -151,7 +160,8 @@ def main(argv=None):
         env = dict(os.environ, OMP_NUM_THREADS="1")
         if args.package:
             env["PYTHONPATH"] = str(Path(args.package).resolve()) + os.pathsep + env.get("PYTHONPATH", "")
-        done = subprocess.run([sys.executable, __file__, "--one", *(["--control"] if args.control else [])], env=env, capture_output=True, text=True,
+        done = subprocess.run([sys.executable, __file__, "--one", *(["--control"] if args.control else [])], env=env,
+                              capture_output=True, text=True,
                               cwd=Path(__file__).parent)
         if done.returncode:
             sys.exit(done.stderr[-3000:])
