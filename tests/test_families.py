@@ -12,6 +12,7 @@ from scipy.integrate import solve_ivp
 from sklearn_hybrid import HybridRegressor, OdeStructure
 from sklearn_hybrid.diagnosis import (TERM_FAMILIES, TERM_KINDS, Candidates, Evidence, ScienceFit, SymbolicDiscovery,
                                       TermContext, physics_terms)
+from sklearn_hybrid.diagnosis.families.discovery import monomial_forms
 from sklearn_hybrid.diagnosis.families.symbolic import form_term
 from sklearn_hybrid.diagnosis.loop import stepwise
 
@@ -53,6 +54,26 @@ def test_the_part_a_parameter_of_the_science_provides_is_dropped_from_a_formula(
     assert term.name == "x^2/(K1 + x^2)" and coef == pytest.approx(-1.2, rel=1e-5)
     assert term.shape["K1"][0][0] == pytest.approx(1.0)  # a constant that happens to be 1 is still fitted
     assert form_term("(0.5 - 0.2 * X1)", ["x"], 0, values=x, directions=directions) is None  # nothing left
+
+
+def test_a_law_that_modifies_a_science_term_is_offered_in_the_variables():
+    """The search reads beta's direction S I (of -beta S I) as one variable and finds an incidence that falls as
+    cases rise as that direction over 1 + 8 I^2: written in the states, the law is offered; a direction no
+    product of the states writes still gives no form."""
+    rng = np.random.default_rng(0)
+    states = rng.uniform(0.05, 1.0, (60, 2))  # S, I
+    s, i = states.T
+    directions = np.column_stack([-s * i, np.sin(s)])
+    assert monomial_forms(directions, states, ["S", "I"]) == [(pytest.approx(-1.0), {"S": 1, "I": 1}), None]
+    written = {"dtheta1": (-1.0, {"S": 1, "I": 1})}
+    values = np.column_stack([states, directions[:, :1]])
+    found = "(X3 / (1 + 8 * X2 * X2)) - X3 + 0.3 * X3"  # the law, less beta's own part (theta's)
+    term, coef = form_term(found, ["S", "I", "dtheta1"], 1, values=values, directions=directions[:, :1],
+                           theta_parts=["dtheta1"], theta_forms=written)
+    assert term.name == "I*S/(I^2 + K1)" and term.shape["K1"][0][0] == pytest.approx(1 / 8)
+    assert coef == pytest.approx(-1 / 8)
+    assert form_term(found, ["S", "I", "dtheta1"], 1, values=values, directions=directions[:, :1],
+                     theta_parts=["dtheta1"]) is None
 
 
 def test_a_form_is_marked_where_it_adds_quantities_of_different_units():

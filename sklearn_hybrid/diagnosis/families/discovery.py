@@ -11,14 +11,15 @@ only propose: which form is the law is judged in the ODE, on held-out trajectori
 
 from __future__ import annotations
 
+import itertools
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
 from ..terms import Term
 
-__all__ = ["SymbolicDiscovery"]
+__all__ = ["SymbolicDiscovery", "monomial_forms"]
 
 SCIENCE_SYMBOL = "f"  # the science output of the equation, a variable of the search
 DIRECTION = "dtheta"  # the science's parameter directions, variables of the search that no offered form keeps
@@ -65,7 +66,8 @@ class SymbolicDiscovery:
         Give the search the science's parameter directions on the equation as variables too (``dtheta1``, ...):
         what the network learned also carries theta's error, and a form may then write the law plus a
         multiple of each direction. Those parts are theta's and are dropped; a form that uses a direction
-        otherwise is not offered.
+        otherwise is offered with the direction written in the variables where a product of their powers is
+        the direction (:func:`monomial_forms`), and not offered where none is.
     use_science : bool, default=False
         Offer the equation's science output as a variable ``f`` (a parameter that varies with the state:
         ``f * x``).
@@ -134,9 +136,12 @@ class SymbolicDiscovery:
             if not np.any(target):
                 continue
             directions = None if context.directions is None else context.directions[rows, j, :]
+            written = {}
             if self.use_directions and directions is not None:
                 new = _new_directions(directions, X)
                 names += [f"{DIRECTION}{k + 1}" for k in range(new.shape[1])]
+                written = {f"{DIRECTION}{k + 1}": form for k, form in
+                           enumerate(monomial_forms(new, context.values[rows], context.variables)) if form}
                 X = np.column_stack([X, new])
             # searched in the data's scales (each variable and the target over its spread, not shifted, so a
             # form keeps its shape): the same physics in other units is the same search; forms come back in
@@ -147,7 +152,7 @@ class SymbolicDiscovery:
                 front = self._search(X / scales, target / size, grammar, log, f"equation {j} ({grammar})")
                 self.fronts_[j][grammar] = front
                 out += [t for t in self._offered(front, names, j, X, directions, float(np.var(target / size)),
-                                                 dict(context.units), scales)
+                                                 dict(context.units), scales, written)
                         if t.name not in {o.name for o in out}]
         self.seconds_ = time.process_time() - start
         return out
@@ -182,7 +187,8 @@ class SymbolicDiscovery:
         return front
 
     def _offered(self, front: list[dict], names: list[str], component: int, X: np.ndarray,
-                 directions: np.ndarray | None, variance: float, units: dict, scales: np.ndarray) -> list[Term]:
+                 directions: np.ndarray | None, variance: float, units: dict, scales: np.ndarray,
+                 written: dict | None = None) -> list[Term]:
         """The shortest forms within reach (see ``slack`` and ``r2``), as terms (simplified, deduplicated)."""
         from .symbolic import form_term  # sympy is imported where a search has run, not with the package
         if not front:
@@ -199,7 +205,8 @@ class SymbolicDiscovery:
         for m in near:
             made = form_term(m["formula"], names, component, values=X, directions=directions,
                              theta_parts=[v for v in names if v.startswith(DIRECTION)], units=units,
-                             science=SCIENCE_SYMBOL if SCIENCE_SYMBOL in names else None, scales=scales)
+                             science=SCIENCE_SYMBOL if SCIENCE_SYMBOL in names else None, scales=scales,
+                             theta_forms=written)
             if made is None or len(made[0].shape) > self.max_constants:
                 continue
             if made[0].consistent is False:  # kept aside: offered only where no consistent form is
@@ -229,6 +236,35 @@ def _new_directions(directions: np.ndarray, X: np.ndarray, tol: float = 1e-9) ->
         if not gives:
             keep.append(d)
     return np.column_stack(keep) if keep else np.zeros((len(directions), 0))
+
+
+def monomial_forms(directions: np.ndarray, values: np.ndarray, variables: Sequence[str], max_power: int = 3,
+                   tol: float = 1e-8) -> list[tuple[float, dict[str, int]] | None]:
+    """Each direction (a column) written as ``c * prod(variable^power)`` over ``values`` (one column per
+    variable), the lowest total power first, where that fits it to within ``tol`` of its squared size; else None.
+
+    The search reads a science parameter's direction as one variable (beta's ``S I`` in ``-beta S I``), so a
+    law that modifies the science's term is found as that direction times a function of the states; written
+    in the variables, the form can be offered (``symbolic.form_term``'s ``theta_forms``).
+    """
+    values = np.asarray(values, dtype=float)
+    powers = sorted((p for p in itertools.product(range(max_power + 1), repeat=values.shape[1]) if sum(p)),
+                    key=lambda p: (sum(p), p[::-1]))
+    out: list[tuple[float, dict[str, int]] | None] = []
+    for d in np.asarray(directions, dtype=float).T:
+        size, found = float(d @ d), None
+        for p in powers if size > 0 else ():
+            m = np.prod(values ** np.array(p), axis=1)
+            mm = float(m @ m)
+            if mm == 0:
+                continue
+            c = float(m @ d) / mm
+            rest = d - c * m
+            if float(rest @ rest) < tol * size:
+                found = (c, {v: k for v, k in zip(variables, p) if k})
+                break
+        out.append(found)
+    return out
 
 
 def _spreads(X: np.ndarray) -> np.ndarray:

@@ -125,7 +125,8 @@ def _monic(expr: sympy.Expr) -> tuple[sympy.Expr, sympy.Expr]:
 def form_term(formula: str, variables: Sequence[str], component: int, *, science: str | None = None,
               values: np.ndarray | None = None, directions: np.ndarray | None = None, theta_parts: Sequence[str] = (),
               units: Mapping[str, str] | None = None, spread: float = 1e3,
-              scales: Sequence[float] | None = None) -> tuple[Term, float] | None:
+              scales: Sequence[float] | None = None,
+              theta_forms: Mapping[str, tuple[float, Mapping[str, int]]] | None = None) -> tuple[Term, float] | None:
     """The term of a formula over ``variables`` (``science`` names the symbol that stands for the science
     output of ``component``), and its coefficient; None for a formula with nothing left.
 
@@ -134,7 +135,11 @@ def form_term(formula: str, variables: Sequence[str], component: int, *, science
     science already provides are dropped: a form found on what the network learned also carries theta's
     error, and the part theta can take is theta's. The variables named in ``theta_parts`` (the directions
     themselves, given to the search as variables) are dropped where the formula is linear in them with a
-    constant coefficient; a formula that uses one otherwise gives None. Of the forms equal up to a constant,
+    constant coefficient; a formula that uses one otherwise gives None, unless ``theta_forms`` writes that
+    direction in the variables (``(c, {variable: power})``, the direction ``c * prod(variable^power)``): it is
+    then read as written (a law that modifies a science term, ``beta S I / (1 + K I^2)`` found as
+    ``dtheta1 / (1 + K I^2)`` where ``dtheta1`` is beta's direction ``S I``), and its part that a parameter
+    provides is dropped as any other. Of the forms equal up to a constant,
     the one that vanishes where the variables do is written. Each remaining constant starts at the value the
     formula gives it and may move within a factor ``spread`` either way, keeping its sign (a constant through
     zero turns a saturation into a pole). With ``units``, a form that adds or compares quantities of different
@@ -145,12 +150,18 @@ def form_term(formula: str, variables: Sequence[str], component: int, *, science
     symbols = {f"X{i + 1}": sympy.Symbol(v) for i, v in enumerate(variables)}
     read = symbols if scales is None else {k: s / sympy.Float(float(c)) for (k, s), c in zip(symbols.items(), scales)}
     expr = sympy.sympify(formula, locals=read)
+    written = theta_forms or {}
     for name in theta_parts:
         part = sympy.Symbol(name)
         if part in expr.free_symbols:
-            if not sympy.diff(expr, part).is_number:  # a direction inside the law: not a form of the variables
+            if sympy.diff(expr, part).is_number:  # a multiple of a direction: theta's part, dropped
+                expr = expr.subs(part, 0)
+            elif name in written:  # a direction inside the law, written in the variables
+                coefficient, powers = written[name]
+                expr = expr.subs(part, sympy.Float(coefficient) * sympy.Mul(
+                    *[sympy.Symbol(v) ** int(k) for v, k in powers.items()]))
+            else:  # a direction inside the law that no variables write: not a form of the variables
                 return None
-            expr = expr.subs(part, 0)
     if values is not None and directions is not None:
         expr = drop_parameter_parts(expr, [symbols[f"X{i + 1}"] for i in range(len(variables))], values, directions)
     expr = _zero_at_rest(expr, list(symbols.values()))
