@@ -447,14 +447,17 @@ def _units_section(records: list[dict]) -> list[str]:
         return []
     effects = [(n, o) for n, o in pairs if "rel_err" in o]
     controls = [(n, o) for n, o in pairs if "rel_err" not in o]
+    total = sum(r.get("noise") == 0.01 for r in records)
     within = lambda r: r.get("rel_err") is not None and r["rel_err"] <= 0.10  # noqa: E731
     cpu = lambda rs: float(np.median([r["cpu_seconds"] for r in rs if r.get("cpu_seconds")]))  # noqa: E731
     return ["", "## Rerun after training in the data's scales", "",
             f"Issue \"Your units, your machine\" changed every first hybrid fit (theta stepped relative to its own "
             f"size, the network's inputs standardised and its outputs sized to the observed rates, gradients in "
             f"units of the variance of y). `--rerun --refit --resume --noise 0.01` at package commit {UNITS_SINCE}, "
-            f"cut short after {len(pairs)} cases of the run order (domains and controls interleaved, so a cross-"
-            f"section): effects within 10 % {sum(within(n) for n, _ in effects)} of {len(effects)} (before: "
+            + (f"every one of its {len(pairs)} cases at that noise (the noise 0.05 half not rerun)"
+               if len(pairs) == total else f"cut short after {len(pairs)} of its {total} cases of the run order "
+               "(domains and controls interleaved, so a cross-section)")
+            + f": effects within 10 % {sum(within(n) for n, _ in effects)} of {len(effects)} (before: "
             f"{sum(within(o) for _, o in effects)}); controls with nothing added "
             f"{sum(n.get('n_added', 0) == 0 for n, _ in controls)} of {len(controls)} (before: "
             f"{sum(o.get('n_added', 0) == 0 for _, o in controls)}); median CPU seconds of a case {cpu([n for n, _ in pairs]):.0f} "
