@@ -437,11 +437,14 @@ CHECKS_SECTION = [
 # from 816bb34 (--rerun --refit --resume --noise 0.01, run order interleaving domains and controls), cut short,
 # set against each case's record before it (at 0eafee3).
 UNITS_SINCE, BEFORE_UNITS = "816bb34", "0eafee3"
+# cases of that rerun made again at a later package commit, one by one (--rerun --refit --cases NAME), and why
+UNITS_LATER = {"05936f9": "substrate_inhibition, after a fix of the selection's stuck screening refits (7f055e7)"}
 
 
 def _units_section(records: list[dict]) -> list[str]:
     """The cases rerun since the training in the data's scales, each beside its record before."""
-    pairs = [(r, _record_at(BEFORE_UNITS, r)) for r in records if r.get("package_commit") == UNITS_SINCE]
+    pairs = [(r, _record_at(BEFORE_UNITS, r)) for r in records
+             if r.get("package_commit") in (UNITS_SINCE, *UNITS_LATER)]
     pairs = [(new, old) for new, old in pairs if old is not None]
     if not pairs:
         return []
@@ -461,7 +464,9 @@ def _units_section(records: list[dict]) -> list[str]:
             f"{sum(within(o) for _, o in effects)}); controls with nothing added "
             f"{sum(n.get('n_added', 0) == 0 for n, _ in controls)} of {len(controls)} (before: "
             f"{sum(o.get('n_added', 0) == 0 for _, o in controls)}); median CPU seconds of a case {cpu([n for n, _ in pairs]):.0f} "
-            f"(before {cpu([o for _, o in pairs]):.0f}; this rerun shared the two cores with other work).", ""] \
+            f"(before {cpu([o for _, o in pairs]):.0f}; this rerun shared the two cores with other work)."
+            + "".join(f" Made again at {c}: {why}." for c, why in UNITS_LATER.items()
+                      if any(n.get("package_commit") == c for n, _ in pairs)), ""] \
         + _before_after(pairs)
 
 
