@@ -614,6 +614,20 @@ def test_report_says_when_no_candidate_could_be_judged():
     assert "Nothing added: no candidate improved the held-out error by more than the noise explains" in text
 
 
+def test_report_says_when_a_large_gain_was_too_uneven_to_pass():
+    """substrate_inhibition at 05936f9: candidates lowered the held-out error by up to 58 % but a few samples near
+    the science's pole carried it (z 1.7); the report blamed the noise."""
+    from sklearn_hybrid.diagnosis import format_table
+
+    step = {"step": 1, "output": "g[S]", "term": "exp(k*S)", "kind": "exponential", "mse_before": 0.09032,
+            "mse_after": 0.03759, "gain": 0.584, "z": 1.7, "accepted": False}
+    steps = [step, {**step, "term": "sqrt|u|", "mse_after": 0.07802, "gain": 0.136, "z": -0.5}]
+    text = format_table([{"stage": "before", "theta": {"km": -0.024}}], steps=steps, n_validation=12)
+    assert "more than the noise explains" not in text
+    assert "The largest gain, exp(k*S) on g[S], lowered the held-out error by 58.4% but unevenly" in text
+    assert "(z 1.7): these data neither show it nor rule it out" in text
+
+
 def test_report_writes_huge_losses_in_powers_of_ten():
     # a screening refit whose simulations blew up multiplied the error by ~1.8e22: its gain was
     # printed as -1823745583607992492752896.0%

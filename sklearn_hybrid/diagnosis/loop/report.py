@@ -301,7 +301,7 @@ def format_table(rows: list[dict], added: Sequence[dict] = (), steps: Sequence[d
                      "in the table: one that left its physical range, a rate or a constant across zero, holds it "
                      "there; give theta_bounds). This is no evidence that nothing is missing.")
     else:
-        lines.append("Nothing added: no candidate improved the held-out error by more than the noise explains.")
+        lines.append(_nothing_added(steps, min_gain))
     if unexplained is not None:
         shares = ", ".join(f"{k} {v:.1%}" for k, v in unexplained["share"].items()
                            if k in unexplained["components"])
@@ -313,6 +313,18 @@ def format_table(rows: list[dict], added: Sequence[dict] = (), steps: Sequence[d
 #: hybrid holds the network-free model's terms' worth of freedom in its network, so a well-trained one is not
 #: worse by more than its overfitting of the noise.
 POOR_FIT_RATIO = 1.5
+
+
+def _nothing_added(steps: Sequence[dict], min_gain: float) -> str:
+    """Why nothing was added: no candidate gained ``min_gain``, or the best that did was too uneven over the
+    validation samples to pass (a few samples can carry a large gain, or hide one)."""
+    gained = [s for s in steps if "failed" not in s and s["gain"] >= min_gain]
+    if not gained:
+        return "Nothing added: no candidate improved the held-out error by more than the noise explains."
+    best = max(gained, key=lambda s: s["gain"])
+    return (f"Nothing added: no candidate passed the evidence test. The largest gain, {best['term']} on "
+            f"{best['output']}, lowered the held-out error by {format_gain(best['gain'])} but unevenly over the "
+            f"validation samples (z {best['z']:.1f}): these data neither show it nor rule it out.")
 
 
 def _none_moved(steps: Sequence[dict]) -> bool:
