@@ -567,7 +567,7 @@ def test_selection_judges_each_candidate_on_its_own_evidence():
     passed and are within min_gain of the best, the simplest wins."""
     from sklearn_hybrid.diagnosis.loop.candidates import interleave
     from sklearn_hybrid.diagnosis.loop.placed import PlacedTerm
-    from sklearn_hybrid.diagnosis.loop.stepwise import Screened, _simplest_of_the_best
+    from sklearn_hybrid.diagnosis.loop.second_look import Screened, simplest_of_the_best
 
     def tried(term, kind, shape, mse, accepted):
         return Screened(PlacedTerm(Term(term, None, kind), 1, shape), {}, {"mse_after": mse, "accepted": accepted},
@@ -575,11 +575,11 @@ def test_selection_judges_each_candidate_on_its_own_evidence():
 
     hinge = tried("max(0, x - knot)", "hinge", {"knot": 0.1}, 2.2, False)
     drag = tried("|x|", "drag", {}, 3.5, True)
-    assert _simplest_of_the_best([hinge, drag], 0.05) is drag
-    assert _simplest_of_the_best([hinge], 0.05) is None
+    assert simplest_of_the_best([hinge, drag], 0.05) is drag
+    assert simplest_of_the_best([hinge], 0.05) is None
     cubic = tried("x^3", "polynomial", {}, 1.03, True)
     smooth = tried("tanh(x/w)", "dry_friction", {"w": 1.0}, 1.0, True)
-    assert _simplest_of_the_best([smooth, cubic, drag], 0.05) is cubic
+    assert simplest_of_the_best([smooth, cubic, drag], 0.05) is cubic
     x = Term("x", None, "polynomial")
     ranked = [PlacedTerm(x, 1, gain=g) for g in (0.9, 0.8, 0.7)] + [PlacedTerm(x, 0, gain=0.1)]
     assert [c.component for c in interleave(ranked, 3)] == [1, 0, 1]
@@ -1051,7 +1051,7 @@ def test_a_flux_between_two_components_is_added_to_both_at_once():
 def test_a_group_is_preferred_only_when_clearly_better_than_its_single_terms():
     from sklearn_hybrid.diagnosis.loop.candidates import candidate_groups
     from sklearn_hybrid.diagnosis.loop.placed import PlacedTerm
-    from sklearn_hybrid.diagnosis.loop.stepwise import Screened, _simplest_of_the_best
+    from sklearn_hybrid.diagnosis.loop.second_look import Screened, simplest_of_the_best
 
     single = PlacedTerm(Term("A*B", None, "polynomial"), 1, {}, 1.0, 0.5)
     other = PlacedTerm(single.term, 0, {}, -1.0, 0.5)
@@ -1063,8 +1063,8 @@ def test_a_group_is_preferred_only_when_clearly_better_than_its_single_terms():
     def tried(cand, mse):
         return Screened(cand, {}, {"accepted": True, "mse_after": mse}, None, None, 0)
 
-    assert _simplest_of_the_best([tried(single, 1.0), tried(group, 0.97)], 0.05).cand is single
-    assert _simplest_of_the_best([tried(single, 1.0), tried(group, 0.5)], 0.05).cand is group
+    assert simplest_of_the_best([tried(single, 1.0), tried(group, 0.97)], 0.05).cand is single
+    assert simplest_of_the_best([tried(single, 1.0), tried(group, 0.5)], 0.05).cand is group
 
 
 def _decay_f(v, k=0.6):
