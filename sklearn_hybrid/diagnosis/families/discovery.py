@@ -67,7 +67,7 @@ class SymbolicDiscovery:
         what the network learned also carries theta's error, and a form may then write the law plus a
         multiple of each direction. Those parts are theta's and are dropped; a form that uses a direction
         otherwise is offered with the direction written in the variables where a product of their powers is
-        the direction (:func:`monomial_forms`), and not offered where none is.
+        the direction (``monomial_forms``), and not offered where none is.
     use_science : bool, default=False
         Offer the equation's science output as a variable ``f`` (a parameter that varies with the state:
         ``f * x``).
