@@ -74,6 +74,8 @@ def test_a_law_that_modifies_a_science_term_is_offered_in_the_variables():
     assert coef == pytest.approx(-1 / 8)
     assert form_term(found, ["S", "I", "dtheta1"], 1, values=values, directions=directions[:, :1],
                      theta_parts=["dtheta1"]) is None
+    with pytest.raises(ValueError, match=r"one name per variable; got shapes \(60, 2\), \(60, 2\) and 1 names"):
+        monomial_forms(directions, states, ["S"])
 
 
 def test_a_form_is_marked_where_it_adds_quantities_of_different_units():

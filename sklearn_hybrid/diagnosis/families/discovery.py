@@ -240,18 +240,46 @@ def _new_directions(directions: np.ndarray, X: np.ndarray, tol: float = 1e-9) ->
 
 def monomial_forms(directions: np.ndarray, values: np.ndarray, variables: Sequence[str], max_power: int = 3,
                    tol: float = 1e-8) -> list[tuple[float, dict[str, int]] | None]:
-    """Each direction (a column) written as ``c * prod(variable^power)`` over ``values`` (one column per
-    variable), the lowest total power first, where that fits it to within ``tol`` of its squared size; else None.
+    """Each direction written as ``c * prod(variable^power)`` where a product of the variables' powers is it.
 
     The search reads a science parameter's direction as one variable (beta's ``S I`` in ``-beta S I``), so a
     law that modifies the science's term is found as that direction times a function of the states; written
     in the variables, the form can be offered (``symbolic.form_term``'s ``theta_forms``).
+
+    Parameters
+    ----------
+    directions : ndarray of shape (n_points, n_directions)
+        The science's parameter sensitivities at the visited states, one column each.
+    values : ndarray of shape (n_points, n_variables)
+        The variables at the same states, one column each.
+    variables : sequence of str
+        The variables' names, one per column of ``values``.
+    max_power : int, default=3
+        The highest power of each variable tried.
+    tol : float, default=1e-8
+        A product writes a direction when the least-squares remainder is under ``tol`` of its squared size.
+
+    Returns
+    -------
+    list of (float, dict of str to int) or None
+        Per direction, the coefficient and the powers of the variables that enter (the lowest total power
+        that fits), or None where no product does.
+
+    Raises
+    ------
+    ValueError
+        If ``directions`` and ``values`` differ in points, or ``variables`` does not name every column.
     """
-    values = np.asarray(values, dtype=float)
+    values, directions = np.asarray(values, dtype=float), np.asarray(directions, dtype=float)
+    if values.ndim != 2 or directions.ndim != 2 or len(values) != len(directions) \
+            or values.shape[1] != len(variables):
+        raise ValueError(f"monomial_forms needs directions (n_points, n_directions), values (n_points, "
+                         f"n_variables) and one name per variable; got shapes {directions.shape}, {values.shape} "
+                         f"and {len(variables)} names.")
     powers = sorted((p for p in itertools.product(range(max_power + 1), repeat=values.shape[1]) if sum(p)),
                     key=lambda p: (sum(p), p[::-1]))
     out: list[tuple[float, dict[str, int]] | None] = []
-    for d in np.asarray(directions, dtype=float).T:
+    for d in directions.T:
         size, found = float(d @ d), None
         for p in powers if size > 0 else ():
             m = np.prod(values ** np.array(p), axis=1)
