@@ -1,5 +1,8 @@
 """scikit-learn's estimator checks on the static structures (the ODE needs trajectory targets)."""
 
+import re
+
+import pytest
 from sklearn.utils.estimator_checks import parametrize_with_checks
 
 from sklearn_hybrid import HybridRegressor
@@ -45,6 +48,15 @@ def expected_failures(estimator):
     return {}
 
 
-@parametrize_with_checks(ESTIMATORS, expected_failed_checks=expected_failures)
+CHECKS = parametrize_with_checks(ESTIMATORS, expected_failed_checks=expected_failures)
+
+
+def stable_id(obj):
+    """scikit-learn's test id without the science function's memory address, which differs between
+    the suite's worker processes (pytest-xdist requires every worker to collect the same ids)."""
+    return re.sub(r"at0x[0-9a-f]+", "", CHECKS.kwargs["ids"](obj) or "") or None
+
+
+@pytest.mark.parametrize(*CHECKS.args, ids=stable_id)
 def test_sklearn_compatible(estimator, check):
     check(estimator)
