@@ -216,3 +216,49 @@ def test_a_bootstrap_member_of_an_ode_trains_in_its_resample_s_scales():
     assert len(boot.seeds) == 3 and boot.weights.shape == (3, len(y)) and np.all(boot.weights.sum(1) == len(y))
     alone = clone(est).set_params(random_state=boot.seeds[1]).fit(X, y, sample_weight=boot.weights[1])
     assert boot.samples["k"][1] == pytest.approx(alone.theta_["k"], rel=1e-9)
+
+
+def decay_squared(v, k=0.3, c=0.0):
+    """decay_f with the missing -0.4 v0^2 as a term of coefficient c (-0.4 / S in states x S)."""
+    return decay_f(v, k=k) + c * torch.stack([v[:, 0] ** 2, 0 * v[:, 1]], dim=-1)
+
+
+@pytest.mark.parametrize("S", [1e-3, 1e3])
+def test_the_network_free_refit_in_other_units_is_the_order_one_refit(S):
+    """The closed loop's least-squares refit measures residuals in units of y's size: its gradient tolerance is
+    absolute, and stopped the refit early on states in thousandths (a second term then looked worth adding)."""
+    from sklearn_hybrid.diagnosis import ScienceFit
+
+    settings = dict(random_state=0, max_iter=30, tol=None)
+    fitted = {}
+    for scale in (1.0, S):
+        X, y, dt = _data(S=scale)
+        est = HybridRegressor(science=decay_f, structure=OdeStructure(dt=dt, n_substeps=2), **settings).fit(X, y)
+        fitted[scale] = ScienceFit(est, X, y).fit(decay_squared, {"k": est.theta_["k"], "c": 0.0})
+    assert fitted[S]["k"] == pytest.approx(fitted[1.0]["k"], rel=1e-4)
+    assert fitted[S]["c"] * S == pytest.approx(fitted[1.0]["c"], rel=1e-3)
+    assert fitted[1.0]["c"] == pytest.approx(-0.4, rel=0.1)  # it converged: the comparison means something
+
+
+def test_intervals_of_parameters_of_very_different_sizes_are_those_of_order_one():
+    """A term's coefficient on states in 1e-6 units is of order 1e5 while k is of order one: the information
+    matrix's condition is read with each parameter in units of its own sensitivity, not as written (which
+    called both not identified)."""
+    from sklearn_hybrid.identifiability import science_intervals
+    from sklearn_hybrid.residual import ZeroResidual
+
+    out = {}
+    for S in (1.0, 1e-6):
+        def decay_squared_in_units(v, k=0.3, c=-0.3 / S):  # the user's start of c in the same units
+            return decay_squared(v, k=k, c=c)
+
+        X, y, dt = _data(S=S)
+        est = HybridRegressor(science=decay_squared_in_units, structure=OdeStructure(dt=dt, n_substeps=2),
+                              residual=ZeroResidual(), random_state=0, max_iter=40, tol=None,
+                              dtype="float64").fit(X, y)
+        out[S] = science_intervals(est, X, y)
+    ref, small = out[1.0], out[1e-6]
+    assert ref.verdicts == small.verdicts == {"k": "identified", "c": "identified"}
+    assert small.estimate["k"] == pytest.approx(ref.estimate["k"], rel=1e-3)
+    assert small.std["k"] == pytest.approx(ref.std["k"], rel=0.01)
+    assert small.std["c"] * 1e-6 == pytest.approx(ref.std["c"], rel=0.01)

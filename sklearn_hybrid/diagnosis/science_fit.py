@@ -81,12 +81,17 @@ class ScienceFit:
         self.anchor = self.initial_states.copy()  # where every fit of the states starts
         # A residual beyond this counts as a diverged simulation (see _bounded).
         self.diverged = 1e3 * max(1.0, float(np.sqrt(np.mean(self.y**2))))
+        # The data's own sizes: least_squares' gradient tolerance and the states' difference steps are
+        # absolute, so residuals are measured in units of y's RMS and steps in units of each state's.
+        self.y_scale = _rms_or_one(self.y)
+        self.state_scale = np.array([_rms_or_one(column) for column in self.anchor.reshape(len(X), -1).T])
 
     def subset(self, rows: np.ndarray) -> "ScienceFit":
         """The same fit restricted to some samples (a train / validation split)."""
         out = object.__new__(ScienceFit)
         out.structure, out.bounds, out.y, out.latent = self.structure, self.bounds, self.y[rows], self.latent
         out.fixed, out.diverged = self.fixed, self.diverged
+        out.y_scale, out.state_scale = self.y_scale, self.state_scale
         out.inputs = tuple(t[torch.as_tensor(rows)] for t in self.inputs)
         out.initial_states, out.anchor = self.initial_states[rows].copy(), self.anchor[rows].copy()
         return out
@@ -215,10 +220,12 @@ class ScienceFit:
                 out[k] = torch.as_tensor(v, dtype=x.dtype) if torch.is_tensor(x) else v
             return {k: out[k] for k in start}
 
-        scale = 1.0 / math.sqrt(self.y.size)
+        # In units of y's RMS: least_squares' gtol is absolute, and stopped refits early on data of
+        # small size (states in thousandths); the cap keeps its old place relative to the residuals.
+        scale, cap = 1.0 / (math.sqrt(self.y.size) * self.y_scale), self.diverged / self.y_scale
 
         def scaled(pred):  # residual vector(s) of predictions; diverged values steer the search away
-            return _bounded((pred - self.y).reshape(*pred.shape[:-2], -1) * scale, self.diverged)
+            return _bounded((pred - self.y).reshape(*pred.shape[:-2], -1) * scale, cap)
 
         def residuals(x):
             return scaled(self.predict(science, unpack(x)))
@@ -282,7 +289,7 @@ class ScienceFit:
         initial states: ``(n_latent, n, m)``, one simulation of all samples per state component."""
         out = np.empty((len(self.latent), *r.shape))
         for a, j in enumerate(self.latent):
-            step = 1e-6 * np.maximum(1.0, np.abs(x0[:, j]))
+            step = 1e-6 * np.maximum(self.state_scale[j], np.abs(x0[:, j]))
             moved = x0.copy()
             moved[:, j] += step
             out[a] = (residuals(moved) - r) / step[:, None]
@@ -307,6 +314,13 @@ class ScienceFit:
         except Exception:  # noqa: BLE001 -- any failure means: take the reference path
             return False
         return bool(np.allclose(many[0], alone, rtol=1e-9, atol=1e-12, equal_nan=True))
+
+
+def _rms_or_one(values: np.ndarray) -> float:
+    """Root mean square of the finite values, or 1 where they are all zero (no size to read)."""
+    values = np.asarray(values, dtype=float)
+    rms = float(np.sqrt(np.mean(values[np.isfinite(values)] ** 2))) if np.isfinite(values).any() else 0.0
+    return rms if rms > 0 else 1.0
 
 
 def _bounded(r: np.ndarray, cap: float) -> np.ndarray:

@@ -214,9 +214,15 @@ def science_intervals(estimator, X, y, level=0.95, incomplete: str | None = None
     B = score.T @ score
     dof = n - p
     t = stats.t.ppf(0.5 + level / 2, dof)
+    # The condition of A with each parameter in units of its own sensitivity: collinear columns, not
+    # parameters of different sizes (a coefficient of i^3 with i in thousandths is of order 1e5).
+    size = np.sqrt(np.diag(A))
     try:
-        cond_ok = np.linalg.cond(A) < 1e12
-        A_inv = np.linalg.inv(A)
+        if not np.all(size > 0):
+            raise np.linalg.LinAlgError("a parameter moves no prediction")
+        correlation = A / np.outer(size, size)
+        cond_ok = np.linalg.cond(correlation) < 1e12
+        A_inv = np.linalg.inv(correlation) / np.outer(size, size)
     except np.linalg.LinAlgError:
         cond_ok, A_inv = False, np.full_like(A, np.nan)
     cov = n / dof * A_inv @ B @ A_inv
