@@ -33,7 +33,8 @@ def test_a_formula_becomes_a_textbook_term_with_named_constants_and_its_coeffici
     # Operon's writing of 1.3 S I / (0.7 + S) with an intercept and the constants spread over the tree
     found = "(0.001853 + (1.002335 * (((0.108849 * X2) / ((0.825395 * X1) - (-0.579630))) * (9.834289 * X1))))"
     term, coef = form_term(found, ["S", "I"], component=1)
-    assert term.name == "I*S/(K1 + S)" and term.kind == "discovered" and term.component == 1
+    assert term.name == "I*S/(K1 + S)" and term.kind == "discovered"
+    assert term.component is None  # a form of the states: on any equation (the flux S and I share)
     (start,), (low, high) = term.shape["K1"]
     assert start == pytest.approx(0.7022, abs=1e-4) and low < start < high and low > 0  # the sign is kept
     d = {"S": torch.tensor([0.5, 2.0], dtype=torch.float64), "I": torch.tensor([1.0, 0.3], dtype=torch.float64)}
@@ -42,6 +43,26 @@ def test_a_formula_becomes_a_textbook_term_with_named_constants_and_its_coeffici
     torch.testing.assert_close(got, expected * d["S"] / d["S"])
     again = pickle.loads(pickle.dumps(term))  # an augmented science with it pickles (joblib.dump of a fit)
     torch.testing.assert_close(again(d, K1=torch.tensor(start, dtype=torch.float64)), got / coef)
+
+
+def test_a_form_of_the_states_is_placed_on_any_equation_and_one_of_the_science_output_on_its_own():
+    """A predation found on the prey's residual also feeds the predator: the ranking places it on both
+    equations (a group with a coefficient each), where it stayed on the prey's before."""
+    from sklearn_hybrid.diagnosis.loop.candidates import candidate_groups, rank_by_residual
+
+    states = np.random.default_rng(0).uniform(0.2, 2.0, (60, 2))
+    flux = states[:, 0] * states[:, 1] / (0.5 + states[:, 0])
+    learned = np.column_stack([-1.2 * flux, 0.6 * flux])  # half of what the prey loses feeds the predator
+    term, _ = form_term("X1 * X2 / (0.5 + X1)", ["x", "y"], component=0)
+    values = {v: torch.as_tensor(states[:, i]) for i, v in enumerate(["x", "y"])}
+    col = term(values, **{k: torch.tensor(v[0][0]) for k, v in term.shape.items()}).numpy()
+    shape = {k: v[0][0] for k, v in term.shape.items()}
+    ranked = rank_by_residual([(term, shape, col)], learned, np.zeros((60, 2, 0)), [0, 1], set())
+    assert sorted(c.component for c in ranked) == [0, 1]
+    assert sorted(round(c.coef / ranked[0].coef, 3) for c in ranked) in ([-0.5, 1.0], [1.0, -2.0])
+    assert len(candidate_groups(ranked)) == 1
+    reads_f, _ = form_term("X3 * X1", ["x", "y", "f"], component=1, science="f")
+    assert reads_f.component == 1  # the science output of its own equation: placed there only
 
 
 def test_the_part_a_parameter_of_the_science_provides_is_dropped_from_a_formula():
@@ -108,7 +129,7 @@ def test_symbolic_discovery_offers_the_law_on_what_the_network_learned():
     context = _saturation_context()
     family = SymbolicDiscovery(operators="add,sub,mul,div", max_rounds=2, random_state=0)
     terms = family.terms(context)
-    assert terms and all(t.kind == "discovered" and t.component == 0 for t in terms)
+    assert terms and all(t.kind == "discovered" and t.component is None for t in terms)
     assert family.fronts_[0]["add,sub,mul,div"] and family.seconds_ > 0
     # the law, up to what the science's parameters take (here a constant and a multiple of x): one offered
     # form, at its starting constants, with its coefficient and the directions explains the residual exactly
@@ -196,7 +217,7 @@ def test_the_loop_names_a_law_outside_the_term_list_with_discovery_and_only_with
     rates = augmented(torch.as_tensor(states), **{k: torch.tensor(v) for k, v in found["theta"].items()})
     np.testing.assert_allclose(rates.numpy(), truth(0, states), rtol=0, atol=0.01 * np.abs(truth(0, states)).max())
     assert abs(found["theta"]["k"] - 0.3) < 0.015  # theta right, the law's
-    assert "A" in added.name and added.term.component == 0
+    assert "A" in added.name and added.component == 0
     without = select(False)
     assert all(t.kind != "discovered" for t in without["added"])
 

@@ -100,7 +100,9 @@ class SymbolicDiscovery:
                 f"max_rounds={self.max_rounds})")
 
     def terms(self, context, log: Callable[[str], None] = lambda message: None) -> list[Term]:
-        """Forms for each of ``context.components`` from ``context.learned``, as terms on their equation.
+        """Forms found on each of ``context.components`` from ``context.learned``, as terms: on any equation
+        (a form found on one may be the flux another equation shares), except those that read an equation's
+        science output, which stay on it.
 
         Raises
         ------

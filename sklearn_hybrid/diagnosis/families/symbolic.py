@@ -128,7 +128,8 @@ def form_term(formula: str, variables: Sequence[str], component: int, *, science
               scales: Sequence[float] | None = None,
               theta_forms: Mapping[str, tuple[float, Mapping[str, int]]] | None = None) -> tuple[Term, float] | None:
     """The term of a formula over ``variables`` (``science`` names the symbol that stands for the science
-    output of ``component``), and its coefficient; None for a formula with nothing left.
+    output of ``component``), and its coefficient; None for a formula with nothing left. The term may be
+    placed on any equation unless it reads the science output (then on ``component``'s only).
 
     With ``values`` (the variables at the visited states, one column each) and ``directions`` (the science's
     parameter sensitivities there, one column each), the formula's additive parts that a parameter of the
@@ -172,7 +173,10 @@ def form_term(formula: str, variables: Sequence[str], component: int, *, science
     shape = {k: ([v], (v / spread, v * spread) if v > 0 else (v * spread, v / spread)) for k, v in constants.items()}
     func = SymbolicForm(sympy.srepr(form), {v: v for v in used}, list(constants), component, science)
     name = sympy.sstr(form).replace("**", "^")
-    term = Term(name, func, "discovered", shape, component=component)
+    # A form of the states alone may stand on any equation, as a listed term does: a predation found on the
+    # prey's residual also feeds the predator (a group of the two, each with its coefficient). A form that
+    # reads the science output of ``component`` stays on that equation.
+    term = Term(name, func, "discovered", shape, component=component if science in used else None)
     term.consistent = consistent_units(form, units or {}, set(constants))
     return term, factor
 

@@ -243,7 +243,7 @@ def mirror_trades(intervals: Any, science: Callable, theta: Mapping[str, Any], a
     n = len(args[0])
     mirrors, where = [], []
     for t in added:
-        # an offset has no form; a term made for its own equation (a scaled or a discovered one) stays there; a
+        # an offset has no form; a term made for its own equation (a scaled one, a discovered one reading f) stays; a
         # vector field's component has its partners on the other equations (the field's other components)
         if t.kind == "offset" or t.term.component is not None or t.term.field is not None:
             continue
