@@ -434,40 +434,49 @@ CHECKS_SECTION = [
 
 # Issue "Your units, your machine": training in the data's scales (theta stepped relative to its size, the
 # network's inputs and outputs scaled, gradients in units of var(y)) changes every first hybrid fit; a rerun
-# from 816bb34 (--rerun --refit --resume --noise 0.01, run order interleaving domains and controls), cut short,
-# set against each case's record before it (at 0eafee3).
+# from 816bb34 (--rerun --refit --resume --noise 0.01, run order interleaving domains and controls) set against
+# each case's record before it (at 0eafee3). The noise 0.05 half was rerun later, at UNITS_05.
 UNITS_SINCE, BEFORE_UNITS = "816bb34", "0eafee3"
+UNITS_05 = "9dd11c9"  # --rerun --refit --resume --noise 0.05, after the network-free refit in units of y (9dd11c9)
 # cases of that rerun made again at a later package commit, one by one (--rerun --refit --cases NAME), and why
 UNITS_LATER = {"05936f9": "substrate_inhibition, after a fix of the selection's stuck screening refits (7f055e7)"}
+UNITS_RERUNS = {0.01: (UNITS_SINCE, *UNITS_LATER), 0.05: (UNITS_05,)}
 
 
 def _units_section(records: list[dict]) -> list[str]:
-    """The cases rerun since the training in the data's scales, each beside its record before."""
+    """The cases rerun since the training in the data's scales, each beside its record before, per noise level."""
     pairs = [(r, _record_at(BEFORE_UNITS, r)) for r in records
-             if r.get("package_commit") in (UNITS_SINCE, *UNITS_LATER)]
+             if r.get("package_commit") in UNITS_RERUNS.get(r.get("noise"), ())]
     pairs = [(new, old) for new, old in pairs if old is not None]
     if not pairs:
         return []
-    effects = [(n, o) for n, o in pairs if "rel_err" in o]
-    controls = [(n, o) for n, o in pairs if "rel_err" not in o]
-    total = sum(r.get("noise") == 0.01 for r in records)
     within = lambda r: r.get("rel_err") is not None and r["rel_err"] <= 0.10  # noqa: E731
     cpu = lambda rs: float(np.median([r["cpu_seconds"] for r in rs if r.get("cpu_seconds")]))  # noqa: E731
-    return ["", "## Rerun after training in the data's scales", "",
-            f"Issue \"Your units, your machine\" changed every first hybrid fit (theta stepped relative to its own "
-            f"size, the network's inputs standardised and its outputs sized to the observed rates, gradients in "
-            f"units of the variance of y). `--rerun --refit --resume --noise 0.01` at package commit {UNITS_SINCE}, "
-            + (f"every one of its {len(pairs)} cases at that noise (the noise 0.05 half not rerun)"
-               if len(pairs) == total else f"cut short after {len(pairs)} of its {total} cases of the run order "
-               "(domains and controls interleaved, so a cross-section)")
+    lines = ["", "## Rerun after training in the data's scales", "",
+             "Issue \"Your units, your machine\" changed every first hybrid fit (theta stepped relative to its own "
+             "size, the network's inputs standardised and its outputs sized to the observed rates, gradients in "
+             "units of the variance of y). Each noise level rerun with `--rerun --refit --resume --noise LEVEL`, "
+             "each case beside its record before (at " + BEFORE_UNITS + "); these reruns shared the two cores with "
+             "other work.", ""]
+    for noise, commits in UNITS_RERUNS.items():
+        at = [(n, o) for n, o in pairs if n.get("noise") == noise]
+        if not at:
+            continue
+        effects = [(n, o) for n, o in at if "rel_err" in o]
+        controls = [(n, o) for n, o in at if "rel_err" not in o]
+        total = sum(r.get("noise") == noise for r in records)
+        lines.append(
+            f"- Noise {noise:g}, package commit {commits[0]}: "
+            + (f"every one of its {len(at)} cases" if len(at) == total else
+               f"{len(at)} of its {total} cases so far (the run order interleaves domains and controls)")
             + f": effects within 10 % {sum(within(n) for n, _ in effects)} of {len(effects)} (before: "
             f"{sum(within(o) for _, o in effects)}); controls with nothing added "
             f"{sum(n.get('n_added', 0) == 0 for n, _ in controls)} of {len(controls)} (before: "
-            f"{sum(o.get('n_added', 0) == 0 for _, o in controls)}); median CPU seconds of a case {cpu([n for n, _ in pairs]):.0f} "
-            f"(before {cpu([o for _, o in pairs]):.0f}; this rerun shared the two cores with other work)."
+            f"{sum(o.get('n_added', 0) == 0 for _, o in controls)}); median CPU seconds of a case "
+            f"{cpu([n for n, _ in at]):.0f} (before {cpu([o for _, o in at]):.0f})."
             + "".join(f" Made again at {c}: {why}." for c, why in UNITS_LATER.items()
-                      if any(n.get("package_commit") == c for n, _ in pairs)), ""] \
-        + _before_after(pairs)
+                      if c in commits and any(n.get("package_commit") == c for n, _ in at)))
+    return lines + [""] + _before_after(pairs)
 
 
 def _before_after(pairs: list[tuple[dict, dict]]) -> list[str]:
