@@ -262,3 +262,23 @@ def test_intervals_of_parameters_of_very_different_sizes_are_those_of_order_one(
     assert small.estimate["k"] == pytest.approx(ref.estimate["k"], rel=1e-3)
     assert small.std["k"] == pytest.approx(ref.std["k"], rel=0.01)
     assert small.std["c"] * 1e-6 == pytest.approx(ref.std["c"], rel=0.01)
+
+
+def test_a_state_every_sample_starts_at_the_same_value_is_read_in_its_own_size():
+    """An unobserved velocity that every sample starts at 0.5: its spread over the samples is zero, which the
+    float sums wrote as 1e-16, and the network read it in units of 1e-16 (inputs of 1e15 once it moved)."""
+    from sklearn_hybrid import pack_inputs
+    from sklearn_hybrid.structures.scales import moments
+
+    assert moments(torch.full((25, 1), 0.99, dtype=torch.float64))[1][0] == pytest.approx(0.99)
+    rng = np.random.default_rng(0)
+    n, m, dt = 10, 12, 0.2
+    u = np.sin(2 * np.pi * rng.uniform(0.3, 0.8, (n, 1)) * np.arange(m + 1) * dt)[:, :, None]
+    x0 = np.column_stack([rng.uniform(-1, 1, n), np.full(n, 0.5)])
+    with torch.no_grad():
+        y = integrate(lambda v, u_: _driven(v, u_, k=1.6, g=0.8), torch.as_tensor(x0), m, dt, n_substeps=8,
+                      u_fine=torch.as_tensor(np.repeat(u, 16, axis=1)[:, : 16 * m + 1])).numpy()[..., :1]
+    est = HybridRegressor(science=_driven, structure=OdeStructure(dt=dt, n_inputs=1, observed=[0]), max_iter=5,
+                          tol=None, random_state=0).fit(pack_inputs(x0, u), y.astype(np.float32))
+    network = getattr(est.model_.residual, "mlp", est.model_.residual)
+    assert network.in_scale[1].item() == pytest.approx(0.5)

@@ -14,10 +14,10 @@ import numpy as np
 import torch
 from sklearn.utils import Bunch
 
-__all__ = ["ode_data_scales", "static_data_scales", "describe_scales", "set_network_scales"]
+__all__ = ["ode_data_scales", "static_data_scales", "describe_scales", "set_network_scales", "moments"]
 
 
-def _moments(values: torch.Tensor, weight: torch.Tensor | None = None) -> tuple[np.ndarray, np.ndarray]:
+def moments(values: torch.Tensor, weight: torch.Tensor | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Per column of ``values`` (m, c): the weighted mean, and the weighted standard deviation, else the mean
     magnitude, else NaN (a column that is zero throughout says nothing of its scale)."""
     values = values.detach().to(torch.float64)
@@ -26,6 +26,10 @@ def _moments(values: torch.Tensor, weight: torch.Tensor | None = None) -> tuple[
     mean = w @ values
     std = (w @ (values - mean).pow(2)).sqrt().cpu().numpy()
     size = (w @ values.abs()).cpu().numpy()
+    # A constant column's standard deviation comes out as rounding (1e-16 of its size, not 0): no spread, so
+    # that its mean magnitude is its scale (an unobserved state every sample starts at 0.5 is not read in
+    # units of 1e-16).
+    std = np.where(std > 1e-9 * size, std, 0.0)
     spread = np.where(np.isfinite(std) & (std > 0), std, np.where(np.isfinite(size) & (size > 0), size, np.nan))
     return mean.cpu().numpy(), spread
 
@@ -65,18 +69,18 @@ def ode_data_scales(structure, science, inputs: tuple, y: torch.Tensor,
     for j in range(d):
         if j in observed:  # over the whole observed path, and its steps for the rate
             path = torch.cat([x0[:, j:j + 1], y[..., observed.index(j)]], dim=1).to(torch.float64)
-            shift[j], scale[j] = (v[0] for v in _moments(path.reshape(-1, 1), _repeat(w, path.shape[1])))
+            shift[j], scale[j] = (v[0] for v in moments(path.reshape(-1, 1), _repeat(w, path.shape[1])))
             steps = path.diff(dim=1) / structure.dt
-            rate[j] = _moments(steps.reshape(-1, 1), _repeat(w, steps.shape[1]))[1][0]
+            rate[j] = moments(steps.reshape(-1, 1), _repeat(w, steps.shape[1]))[1][0]
         else:
-            shift[j], scale[j] = (v[0] for v in _moments(x0[:, j:j + 1], w))
+            shift[j], scale[j] = (v[0] for v in moments(x0[:, j:j + 1], w))
     scale = np.where(np.isnan(scale), 1.0, scale)  # a state that is zero throughout: its own unit
     missing = np.isnan(rate)
     if missing.any():  # a state y does not observe changes at the science's own rate at the start
         with torch.no_grad():
             u0 = None if len(inputs) < 2 else inputs[1][:, 0]
             f0 = science(x0.reshape(n, *structure.state_shape), *(() if u0 is None else (u0,)))
-        rate = np.where(missing, _moments(f0.reshape(n, -1), w)[1], rate)
+        rate = np.where(missing, moments(f0.reshape(n, -1), w)[1], rate)
     missing = np.isnan(rate)
     if missing.any():  # nothing known of its rate: the others' typical rate, else its spread per output step
         seen = rate[~missing]
@@ -84,7 +88,7 @@ def ode_data_scales(structure, science, inputs: tuple, y: torch.Tensor,
     in_shift, in_scale = [shift], [scale]
     if len(inputs) > 1:  # a forced system: its input channels, over the fine grid
         u = inputs[1].reshape(-1, inputs[1].shape[-1])
-        u_shift, u_scale = _moments(u, _repeat(w, inputs[1].shape[1]))
+        u_shift, u_scale = moments(u, _repeat(w, inputs[1].shape[1]))
         in_shift.append(u_shift)
         in_scale.append(np.where(np.isnan(u_scale), 1.0, u_scale))
     return Bunch(in_shift=np.concatenate(in_shift), in_scale=np.concatenate(in_scale), out_scale=rate,
@@ -122,8 +126,8 @@ def static_data_scales(structure, science, inputs: tuple, y: torch.Tensor,
     if not structure.additive:
         with torch.no_grad():
             parts.append(science(x).reshape(n, -1))
-    in_shift, in_scale = _moments(torch.cat(parts, dim=1), w)
-    out_scale = _moments(y.reshape(n, -1), w)[1]
+    in_shift, in_scale = moments(torch.cat(parts, dim=1), w)
+    out_scale = moments(y.reshape(n, -1), w)[1]
     in_scale, out_scale = (np.where(np.isnan(v), 1.0, v) for v in (in_scale, out_scale))  # zero throughout
     return Bunch(in_shift=in_shift, in_scale=in_scale, out_scale=out_scale,
                  input_spread=in_scale[:parts[0].shape[1]], target_spread=out_scale)

@@ -16,7 +16,9 @@ import time
 from collections.abc import Callable, Sequence
 
 import numpy as np
+import torch
 
+from ...structures.scales import moments
 from ..terms import Term
 
 __all__ = ["SymbolicDiscovery", "monomial_forms"]
@@ -298,9 +300,9 @@ def monomial_forms(directions: np.ndarray, values: np.ndarray, variables: Sequen
 
 
 def _spreads(X: np.ndarray) -> np.ndarray:
-    """Each column's standard deviation, else its mean magnitude, else 1 (a column that is zero throughout)."""
-    std, size = X.std(axis=0), np.abs(X).mean(axis=0)
-    return np.where(std > 0, std, np.where(size > 0, size, 1.0))
+    """Each column's spread as the network's scales read it (``structures.scales.moments``), 1 where it has none."""
+    spread = moments(torch.as_tensor(np.asarray(X, dtype=float)))[1]
+    return np.where(np.isnan(spread), 1.0, spread)
 
 
 def _pareto(forms: list[dict]) -> list[dict]:
