@@ -441,6 +441,10 @@ UNITS_05 = "9dd11c9"  # --rerun --refit --resume --noise 0.05, after the network
 # cases of that rerun made again at a later package commit, one by one (--rerun --refit --cases NAME), and why
 UNITS_LATER = {"05936f9": "substrate_inhibition, after a fix of the selection's stuck screening refits (7f055e7)"}
 UNITS_RERUNS = {0.01: (UNITS_SINCE, *UNITS_LATER), 0.05: (UNITS_05,)}
+# which cases a rerun cut short holds: the 0.01 rerun kept the run order; the 0.05 one ran the cases in two lists
+# side by side (--cases), each ordered by its record's CPU seconds before, the costliest first
+UNITS_ORDER = {0.01: "the run order interleaves domains and controls, so a cross-section",
+               0.05: "the costliest first, by their records' CPU seconds before: not a cross-section"}
 
 
 def _units_section(records: list[dict]) -> list[str]:
@@ -468,7 +472,7 @@ def _units_section(records: list[dict]) -> list[str]:
         lines.append(
             f"- Noise {noise:g}, package commit {commits[0]}: "
             + (f"every one of its {len(at)} cases" if len(at) == total else
-               f"{len(at)} of its {total} cases so far (the run order interleaves domains and controls)")
+               f"{len(at)} of its {total} cases so far ({UNITS_ORDER[noise]})")
             + f": effects within 10 % {sum(within(n) for n, _ in effects)} of {len(effects)} (before: "
             f"{sum(within(o) for _, o in effects)}); controls with nothing added "
             f"{sum(n.get('n_added', 0) == 0 for n, _ in controls)} of {len(controls)} (before: "
