@@ -97,8 +97,8 @@ def _path(system, units, X, y, dt, seed, record, convert_back, science_in) -> No
     record["added_theta"] = {k: float(np.ravel(v)[0]) for k, v in loop.science_theta.items() if k not in system.dims}
     # a flow (the term on two equations, +c on one, -c on the other) is one model whichever equation its
     # record names first: written with both, in a fixed order
-    record["added"] = [f"{a['term']} [{' <-> '.join(sorted([a.output, a.opposite_output]))}]"
-                       if a.opposite_output else f"{a['term']} [{a['output']}]" for a in loop.added]
+    record["added"] = [f"{a.term} [{' <-> '.join(sorted([a.output, a.opposite_output]))}]" if a.opposite_output
+                       else f"{a.term} [{a.output}]" for a in loop.added]
     record["loop_theta"] = theta
     record["theta_rel_err"] = {k: abs(theta[k] - v) / abs(v) for k, v in system.theta_true.items()}
     intervals = {}

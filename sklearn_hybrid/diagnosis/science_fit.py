@@ -79,12 +79,13 @@ class ScienceFit:
             self.latent = [j for j in range(self.structure.state_shape[0]) if j not in observed]
         self.initial_states = self.inputs[0].numpy().copy()
         self.anchor = self.initial_states.copy()  # where every fit of the states starts
-        # A residual beyond this counts as a diverged simulation (see _bounded).
-        self.diverged = 1e3 * max(1.0, float(np.sqrt(np.mean(self.y**2))))
         # The data's own sizes: least_squares' gradient tolerance and the states' difference steps are
-        # absolute, so residuals are measured in units of y's RMS and steps in units of each state's.
+        # absolute, so residuals are measured in units of y's RMS and steps in units of each unobserved
+        # state's (read from X, before any settling moves the anchor).
         self.y_scale = _rms_or_one(self.y)
-        self.state_scale = np.array([_rms_or_one(column) for column in self.anchor.reshape(len(X), -1).T])
+        self.state_scale = {j: _rms_or_one(self.anchor[:, j]) for j in self.latent}
+        # A residual beyond this counts as a diverged simulation (see _bounded).
+        self.diverged = 1e3 * max(1.0, self.y_scale)
 
     def subset(self, rows: np.ndarray) -> "ScienceFit":
         """The same fit restricted to some samples (a train / validation split)."""

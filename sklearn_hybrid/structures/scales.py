@@ -18,8 +18,21 @@ __all__ = ["ode_data_scales", "static_data_scales", "describe_scales", "set_netw
 
 
 def moments(values: torch.Tensor, weight: torch.Tensor | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """Per column of ``values`` (m, c): the weighted mean, and the weighted standard deviation, else the mean
-    magnitude, else NaN (a column that is zero throughout says nothing of its scale)."""
+    """Per column: the weighted mean, and the weighted standard deviation, else the mean magnitude, else NaN.
+
+    Parameters
+    ----------
+    values : Tensor of shape (m, c)
+        One column per quantity.
+    weight : Tensor of shape (m,), optional
+        Each row's weight (a weight of 2 reads as a duplicated row); equal weights by default.
+
+    Returns
+    -------
+    mean, spread : ndarray of shape (c,)
+        ``spread`` is NaN for a column that is zero throughout (it says nothing of its scale), and the mean
+        magnitude for a constant one.
+    """
     values = values.detach().to(torch.float64)
     w = torch.ones(len(values), dtype=torch.float64, device=values.device) if weight is None else weight
     w = w / w.sum()
@@ -29,8 +42,8 @@ def moments(values: torch.Tensor, weight: torch.Tensor | None = None) -> tuple[n
     # A constant column's standard deviation comes out as rounding (1e-16 of its size, not 0): no spread, so
     # that its mean magnitude is its scale (an unobserved state every sample starts at 0.5 is not read in
     # units of 1e-16).
-    std = np.where(std > 1e-9 * size, std, 0.0)
-    spread = np.where(np.isfinite(std) & (std > 0), std, np.where(np.isfinite(size) & (size > 0), size, np.nan))
+    spread = np.where(np.isfinite(std) & (std > 1e-9 * size), std,
+                      np.where(np.isfinite(size) & (size > 0), size, np.nan))
     return mean.cpu().numpy(), spread
 
 
