@@ -9,7 +9,10 @@ Each README snippet is run under each setting in a fresh process, as ``tests/tes
 gives, for every number of every documented output line, the spread over the settings, which the README check's
 tolerances are set from (``tests/test_readme.py`` reads ``results/float_paths.json``).
 
-    python benchmarks/units/check_float_paths.py [--settings ...] [--jobs 2]
+    python benchmarks/units/check_float_paths.py [--settings ...] [--jobs 2] [--beside-other-cpus]
+
+``--beside-other-cpus`` keeps the runs of the last record that were made on a CPU of another model (each setting
+named with its CPU), so the spreads cover both makes of the project's machines, not only the forced paths of one.
 """
 
 from __future__ import annotations
@@ -24,7 +27,7 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the helpers
-from helpers import ROOT, write_results  # noqa: E402
+from helpers import RESULTS, ROOT, machine_description, write_results  # noqa: E402
 
 README = ROOT / "README.md"
 BLOCK = re.compile(r"```python\n(.*?)```(?:(?:(?!```).)*?```text\n(.*?)```)?", re.S)  # as tests/test_readme.py
@@ -105,13 +108,33 @@ def spreads(runs: list[dict]) -> list[dict]:
     return table
 
 
+def other_cpu_runs(cpu: str) -> list[dict]:
+    """The last record's runs made on another CPU model (a record before runs carried their CPU: its machine's)."""
+    path = RESULTS / "float_paths.json"
+    if not path.exists():
+        return []
+    record = json.loads(path.read_text())
+    out = []
+    for run in record["runs"]:
+        made_on = run.get("cpu", record["machine"]["cpu"])
+        if made_on != cpu:
+            name = run["setting"] if run["setting"].endswith(f"({made_on})") else f"{run['setting']} ({made_on})"
+            out.append(dict(run, setting=name, cpu=made_on))
+    return out
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--settings", nargs="+", default=list(SETTINGS), choices=list(SETTINGS))
     parser.add_argument("--jobs", type=int, default=2)
+    parser.add_argument("--beside-other-cpus", action="store_true",
+                        help="keep the last record's runs made on another CPU model")
     args = parser.parse_args()
+    cpu = machine_description()["cpu"]
     with ThreadPoolExecutor(args.jobs) as pool:
-        runs = list(pool.map(run_setting, args.settings))
+        runs = [dict(run, cpu=cpu) for run in pool.map(run_setting, args.settings)]
+    if args.beside_other_cpus:
+        runs = [dict(run, setting=f"{run['setting']} ({cpu})") for run in runs] + other_cpu_runs(cpu)
     failed = [f"{r['setting']} block {k + 1}: {b['stderr']}" for r in runs for k, b in r["blocks"].items()
               if b["returncode"]]
     table = spreads(runs)
@@ -119,7 +142,7 @@ def main() -> None:
     lines = ["# The README's numbers under other float paths", "",
              "Each README snippet run in a fresh process under each setting (another CPU's vector width, MKL's "
              "CPU-independent path, oneDNN off, more threads); per documented number, the values and their spread. "
-             f"Settings: {', '.join(args.settings)}.", ""]
+             f"Settings: {', '.join(run['setting'] for run in runs)}.", ""]
     lines += [f"Failed: {f}" for f in failed] + ([""] if failed else [])
     lines += ["Lines printed in another shape than the README's (other words or verdict; their numbers are left "
               "out of the spreads below):", ""] + [
@@ -131,7 +154,7 @@ def main() -> None:
         lines.append(f"| {row['block'] + 1} | `{row['text'][:60]}` | {row['index']} | {row['documented']:g} | "
                      f"{min(values) if values else float('nan'):g} | {max(values) if values else float('nan'):g} | "
                      f"{row['relative_spread']:.2%} |")
-    write_results("float_paths", {"settings": args.settings, "readme": README.read_text(), "numbers": table,
+    write_results("float_paths", {"settings": [run["setting"] for run in runs], "readme": README.read_text(), "numbers": table,
                                   "other_shapes": shapes, "failed": failed, "runs": runs}, "\n".join(lines))
     print("\n".join(lines))
 
