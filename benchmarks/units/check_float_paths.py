@@ -27,7 +27,7 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the helpers
-from helpers import RESULTS, ROOT, machine_description, write_results  # noqa: E402
+from helpers import PACKAGE_COMMIT, RESULTS, ROOT, machine_description, write_results  # noqa: E402
 
 README = ROOT / "README.md"
 BLOCK = re.compile(r"```python\n(.*?)```(?:(?:(?!```).)*?```text\n(.*?)```)?", re.S)  # as tests/test_readme.py
@@ -119,7 +119,8 @@ def other_cpu_runs(cpu: str) -> list[dict]:
         made_on = run.get("cpu", record["machine"]["cpu"])
         if made_on != cpu:
             name = run["setting"] if run["setting"].endswith(f"({made_on})") else f"{run['setting']} ({made_on})"
-            out.append(dict(run, setting=name, cpu=made_on))
+            out.append(dict(run, setting=name, cpu=made_on,
+                            package_commit=run.get("package_commit", record["package_commit"])))
     return out
 
 
@@ -132,7 +133,7 @@ def main() -> None:
     args = parser.parse_args()
     cpu = machine_description()["cpu"]
     with ThreadPoolExecutor(args.jobs) as pool:
-        runs = [dict(run, cpu=cpu) for run in pool.map(run_setting, args.settings)]
+        runs = [dict(run, cpu=cpu, package_commit=PACKAGE_COMMIT) for run in pool.map(run_setting, args.settings)]
     if args.beside_other_cpus:
         runs = [dict(run, setting=f"{run['setting']} ({cpu})") for run in runs] + other_cpu_runs(cpu)
     failed = [f"{r['setting']} block {k + 1}: {b['stderr']}" for r in runs for k, b in r["blocks"].items()
@@ -143,6 +144,9 @@ def main() -> None:
              "Each README snippet run in a fresh process under each setting (another CPU's vector width, MKL's "
              "CPU-independent path, oneDNN off, more threads); per documented number, the values and their spread. "
              f"Settings: {', '.join(run['setting'] for run in runs)}.", ""]
+    kept = sorted({(run["cpu"], run["package_commit"]) for run in runs if run["cpu"] != cpu})
+    lines += [f"Runs on another CPU, kept from an earlier record: {c}, package commit {p}." for c, p in kept]
+    lines += [""] if kept else []
     lines += [f"Failed: {f}" for f in failed] + ([""] if failed else [])
     lines += ["Lines printed in another shape than the README's (other words or verdict; their numbers are left "
               "out of the spreads below):", ""] + [
