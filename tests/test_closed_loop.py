@@ -1057,14 +1057,67 @@ def test_a_group_is_preferred_only_when_clearly_better_than_its_single_terms():
     other = PlacedTerm(single.term, 0, {}, -1.0, 0.5)
     hinge = PlacedTerm(Term("max(0, B - knot)", None, "hinge"), 1, {"knot": 0.3}, 1.0, 0.5)
     group, = candidate_groups([single, hinge, other])
-    assert group.component == [1, 0] and group.members == (single, other)
+    assert group.component == [1, 0] and [m.key for m in group.members] == [single.key, other.key]
     assert group.n_parameters() == 2 and group.row()["ranked_by"] == "group"
+    single, other = group.members  # judged below as the group's members
 
     def tried(cand, mse):
         return Screened(cand, {}, {"accepted": True, "mse_after": mse}, None, None, 0)
 
     assert simplest_of_the_best([tried(single, 1.0), tried(group, 0.97)], 0.05).cand is single
     assert simplest_of_the_best([tried(single, 1.0), tried(group, 0.5)], 0.05).cand is group
+
+
+def test_a_group_of_a_shaped_term_shares_its_shape():
+    """One flux, one shape: a saturating uptake 0.8 A/(0.5 + A) leaves A and half of it enters B. The group
+    places A/(K + |A|) on both balances with a coefficient each and one K (it costs three parameters, not four),
+    fitted to the truth."""
+    from sklearn_hybrid.diagnosis.loop.candidates import candidate_groups
+    from sklearn_hybrid.diagnosis.loop.placed import PlacedTerm
+
+    saturation = Term("A/(K + |A|)", None, "saturation", {"K": ([0.3], (1e-3, 10.0))})
+    ranked = [PlacedTerm(saturation, 0, {"K": 0.4}, -1.0, 0.6), PlacedTerm(saturation, 1, {"K": 0.9}, 0.5, 0.3)]
+    group, = candidate_groups(ranked)
+    assert [m.shape for m in group.members] == [{"K": 0.4}, {"K": 0.4}]  # the first-ranked member's start
+    assert group.n_parameters() == 3 and ranked[0].shape == {"K": 0.4} and ranked[1].shape == {"K": 0.9}
+
+    rng = np.random.default_rng(0)
+    names, dt, n_steps = ["A", "B"], 0.25, 12
+
+    def truth(t, x):
+        flux = 0.8 * x[0] / (0.5 + x[0])
+        return [-0.3 * x[0] - flux, 0.3 * x[0] - 0.9 * x[1] + 0.5 * flux]
+
+    def library(names, states):
+        return [t for t in physics_terms(names, states) if t.kind == "saturation"]
+
+    x0 = rng.uniform([0.5, 0.0], [2.0, 0.5], size=(40, 2))
+    sel = select_on_simulated_data(_reaction_f, {"k1": 0.4, "k2": 0.7}, truth, x0, dt, n_steps, 0.01, rng, names,
+                                   library, rtol=1e-8, atol=1e-6)
+    on_a = [t for t in sel["added"] if t.name.startswith("A/")]
+    assert sorted(t.component for t in on_a) == [0, 1], sel["added"]
+    assert on_a[0].shape_params == on_a[1].shape_params and on_a[0].shape_group == on_a[0].name
+    assert on_a[0].shape == on_a[1].shape == {"K": pytest.approx(0.5, rel=0.1)}
+    coefs = {t.component: t.coef for t in on_a}
+    assert coefs == {0: pytest.approx(-0.8, rel=0.1), 1: pytest.approx(0.4, rel=0.1)}
+    assert on_a[0].record()["shape_group"] == on_a[0].name
+
+
+def test_augment_science_shares_a_shape_groups_parameters():
+    from sklearn_hybrid.diagnosis.terms import Term as T
+
+    term = T("x/(K + |x|)", lambda d, K: d["x"] / (K + d["x"].abs()), "saturation", {"K": ([1.0], (1e-3, 10))})
+    entries = [{"component": 0, "term": term, "coef": -1.0, "shape": {"K": 0.5}, "shape_group": "g"},
+               {"component": 1, "term": term, "coef": 0.5, "shape": {"K": 0.9}, "shape_group": "g"}]
+    aug = augment_science(_reaction_f, entries, ["x", "y"])
+    shape_params = [p for p in inspect.signature(aug).parameters if p.startswith("K")]
+    assert len(shape_params) == 1 and aug.shape_names[0] == aug.shape_names[1]
+    assert aug.initial[shape_params[0]] == 0.5  # the group's first term makes it
+    v = torch.tensor([[1.0, 0.0]])
+    base = _reaction_f(v)
+    assert torch.allclose(aug(v) - base, torch.tensor([[-1.0 / 1.5, 0.5 / 1.5]]))
+    with pytest.raises(ValueError, match=r"shape group 'g'.*\['K'\]"):
+        augment_science(_reaction_f, [entries[0], {**entries[1], "shape": {}}], ["x", "y"])
 
 
 def _decay_f(v, k=0.6):

@@ -71,7 +71,8 @@ def augment_science(science: Callable, terms: Sequence[Mapping[str, Any]], varia
         names (default the term's name). An entry of ``"kind"`` ``"offset"`` is a sensor offset on
         state ``"component"`` (a column of the first input): the right-hand side, original and added
         terms alike, sees ``x[component] - offset``, with ``"coef"`` the offset's initial value
-        (parameter ``offset_<state>``).
+        (parameter ``offset_<state>``). Terms with the same ``"shape_group"`` label share their shape
+        parameters: the first of them makes them (from its ``"shape"``), the others read them.
     variable_names : list of str
         Names of the columns of the first input (the state or the features), then of the second
         input (the measured inputs of a forced ODE), if any.
@@ -104,7 +105,7 @@ def augment_science(science: Callable, terms: Sequence[Mapping[str, Any]], varia
     values = {k: theta.get(k, v) for k, v in defaults.items()}
     values = {k: float(v) if np.ndim(v) == 0 else np.asarray(v, float).tolist() for k, v in values.items()}
 
-    added, taken, catalogue, opposites = [], list(values) + list(inputs), None, {}
+    added, taken, catalogue, opposites, shared = [], list(values) + list(inputs), None, {}, {}
     for t in terms:
         lacking = [key for key in ("component", "term", "coef") if key not in t]
         if lacking:
@@ -136,12 +137,22 @@ def augment_science(science: Callable, terms: Sequence[Mapping[str, Any]], varia
                                  "or name one of named_terms(variable_names).")
             function = catalogue[term]
         func = None if is_offset else function
-        # a term's nonlinear (shape) parameters become parameters of the new function too
-        shape = {}
-        for local, value in dict(t.get("shape") or {}).items():
-            shape[local] = parameter_name(t.get("label") or term, taken, prefix=local)
-            taken.append(shape[local])
-            values[shape[local]] = float(value)
+        # a term's nonlinear (shape) parameters become parameters of the new function too, made by the first
+        # term of a shape group and shared by the others (one flux entering several balances has one shape)
+        group = t.get("shape_group")
+        if group is not None and group in shared:
+            shape = shared[group]
+            if set(shape) != set(dict(t.get("shape") or {})):
+                raise ValueError(f"Term {term!r} is in shape group {group!r}, whose first term has the shape "
+                                 f"parameters {sorted(shape)}; it has {sorted(dict(t.get('shape') or {}))}.")
+        else:
+            shape = {}
+            for local, value in dict(t.get("shape") or {}).items():
+                shape[local] = parameter_name(t.get("label") or term, taken, prefix=local)
+                taken.append(shape[local])
+                values[shape[local]] = float(value)
+            if group is not None:
+                shared[group] = shape
         opposite = t.get("opposite")
         if opposite is not None:
             if is_offset or isinstance(opposite, bool) or not isinstance(opposite, (int, np.integer)) \

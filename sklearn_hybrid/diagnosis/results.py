@@ -134,14 +134,16 @@ class AddedTerm(Result):
     opposite: int | None = None
     opposite_output: str | None = None
     consistent: bool | None = None
+    shape_group: str | None = None  # shares its shape parameters with the other terms of this label
 
     def as_dict(self) -> dict[str, Any]:
         # the keys in the order, and with the presence, that the records kept before this class
         fields_ = super().as_dict()
         order = ("component", "term", "kind", "unit", "function", "shape", "bounds", "coef", "gain", "ranked_by",
-                 "param", "shape_params", "second_look", "opposite", "consistent", "output", "opposite_output")
-        return {k: fields_[k] for k in order
-                if fields_[k] is not None or k not in ("ranked_by", "opposite", "opposite_output", "consistent")}
+                 "param", "shape_params", "second_look", "opposite", "consistent", "shape_group", "output",
+                 "opposite_output")
+        return {k: fields_[k] for k in order if fields_[k] is not None
+                or k not in ("ranked_by", "opposite", "opposite_output", "consistent", "shape_group")}
 
 
 @dataclass(frozen=True, eq=False)

@@ -303,13 +303,16 @@ def candidate_groups(ranked: list[PlacedTerm]) -> list[PlacedGroup]:
     A reaction's flux enters the balance of every species it converts (``-k A B`` on A, ``+k A B`` on
     B); alone on either component the term explains little, since the other balance stays wrong, and
     at high noise neither single passes although the pair explains nearly everything. Judged like any
-    candidate, and costing one parameter per component, a group wins only where it validates better
+    candidate, and costing one coefficient per component (its shape parameters, one set shared by the
+    members, as one flux has one shape), a group wins only where it validates better
     than each of its single terms by more than ``min_gain`` (see :func:`_simplest_of_the_best`).
     """
     by_term: dict[str, list[PlacedTerm]] = {}
     for cand in ranked:
         by_term.setdefault(cand.name, []).append(cand)
-    return [PlacedGroup(tuple(entries), gain=entries[0].gain) for entries in by_term.values() if len(entries) > 1]
+    # one flux, one shape: the members share the shape parameters, starting from the first-ranked member's
+    return [PlacedGroup(tuple(replace(e, shape=entries[0].shape, shape_group=name) for e in entries),
+                        gain=entries[0].gain) for name, entries in by_term.items() if len(entries) > 1]
 
 
 def flow_candidates(scored: list[PlacedTerm], pairs: Sequence[tuple[int, int]], n: int) -> list[PlacedTerm]:
@@ -378,7 +381,8 @@ def augment_with(science: Callable, placed: Sequence[PlacedTerm], variables: Seq
     """``science`` with the ``placed`` terms, in that order (:func:`~sklearn_hybrid.diagnosis.augment_science`,
     whose public input is a list of dicts: each term is handed over as one)."""
     terms = [{"component": t.component, "term": t.name, "kind": t.kind, "coef": t.coef, "function": t.term.func,
-              "shape": t.shape, "param": (param_names or {}).get(t.name), "opposite": t.opposite} for t in placed]
+              "shape": t.shape, "param": (param_names or {}).get(t.name), "opposite": t.opposite,
+              "shape_group": t.shape_group} for t in placed]
     return augment_science(science, terms, variables, n_states=n_states)
 
 

@@ -59,6 +59,9 @@ class PlacedTerm:
     opposite : int, optional
         A flow: the term also enters this component with the opposite sign and the same coefficient (what
         leaves one compartment enters the other; ``ranked_by`` ``"flow"``).
+    shape_group : str, optional
+        A member of a group of one term on several components (:class:`PlacedGroup`): the members with this
+        label share one set of shape parameters (see :func:`~sklearn_hybrid.diagnosis.augment_science`).
     """
 
     term: Term
@@ -71,6 +74,7 @@ class PlacedTerm:
     shape_params: Mapping[str, str] | None = None
     second_look: bool = False
     opposite: int | None = None
+    shape_group: str | None = None
 
     def __post_init__(self) -> None:
         # checked here: a name or an index in place of the Term failed only where ``.name`` was first read
@@ -171,6 +175,8 @@ class PlacedTerm:
             out["opposite"] = self.opposite
         if self.term.consistent is not None:  # a discovered form: dimensionally consistent in the units given
             out["consistent"] = self.term.consistent
+        if self.shape_group is not None:
+            out["shape_group"] = self.shape_group
         return out
 
 
@@ -234,8 +240,9 @@ class PlacedGroup:
         return list(self.members)
 
     def n_parameters(self) -> int:
-        """Coefficients and shape parameters the candidate adds."""
-        return sum(m.n_parameters() for m in self.members)
+        """Coefficients and shape parameters the candidate adds (a shape group's shape counted once)."""
+        shapes = {m.shape_group if m.shape_group is not None else i: len(m.shape) for i, m in enumerate(self.members)}
+        return len(self.members) + sum(shapes.values())
 
     def where(self) -> str:
         """Where it acts, in words for the log."""

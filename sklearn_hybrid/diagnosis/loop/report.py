@@ -293,6 +293,8 @@ def format_table(rows: list[dict], added: Sequence[dict] = (), steps: Sequence[d
                          + (f" with {shape}" if shape else "") + f" ({KIND_WORDS.get(t['kind'], t['kind'])}"
                          + (f", term in {t['unit']}" if t.get("unit") else "") + f"; parameter {t['param']}"
                          + ("; accepted on a second look" if t.get("second_look") else "")
+                         + ("; its shape shared by every equation it is added to" if t.get("shape_group")
+                            and shape else "")
                          + ("; dimensionally inconsistent in the units given" if t.get("consistent") is False else "")
                          + ")")
     elif _none_moved(steps):
