@@ -1103,6 +1103,34 @@ def test_a_group_of_a_shaped_term_shares_its_shape():
     assert on_a[0].record()["shape_group"] == on_a[0].name
 
 
+def test_a_discovered_forms_spare_constant_is_dropped():
+    """A ratio-dependent flux 0.8 A B/(A + 0.7 B) leaves A; the only candidate is the form the search might write,
+    B (A + K2 B)/(A + K1 B), with a spare K2. The selection adds it, then drops K2 (the reduced form validates as
+    well with a parameter less) and fits K1 to the truth; the report's steps show the reduction tried."""
+    from sklearn_hybrid.diagnosis.families.symbolic import form_term
+
+    rng = np.random.default_rng(1)
+    names, dt, n_steps = ["A", "B"], 0.25, 12
+
+    def truth(t, x):
+        return [-0.3 * x[0] - 0.8 * x[0] * x[1] / (x[0] + 0.7 * x[1]), 0.3 * x[0] - 0.9 * x[1]]
+
+    def library(names, states):
+        return [form_term("X2*(X1 + 0.2*X2)/(X1 + 0.5*X2)", names, 0)[0]]
+
+    x0 = rng.uniform([0.5, 0.3], [2.0, 1.5], size=(40, 2))
+    sel = select_on_simulated_data(_reaction_f, {"k1": 0.4, "k2": 0.7}, truth, x0, dt, n_steps, 0.005, rng, names,
+                                   library, rtol=1e-8, atol=1e-6)
+    (term,) = sel["added"]
+    assert term.component == 0 and list(term.shape) == ["K1"] and "K2" not in term.name, term.name
+    a, b = torch.tensor([0.5, 1.0, 2.0, 1.0]), torch.tensor([0.3, 1.0, 0.5, 1.5])
+    found = term.coef * term.term({"A": a, "B": b}, K1=torch.tensor(term.shape["K1"]))
+    assert torch.allclose(found, -0.8 * a * b / (a + 0.7 * b), rtol=0.03)  # the law, however it is written
+    tried = [s for s in sel["steps"] if s["step"] == "simplify"]
+    assert len(tried) >= 2 and [s["accepted"] for s in tried].count(True) == 1  # each constant, then again
+    assert sel["theta"]["k1"] == pytest.approx(0.3, rel=0.05)
+
+
 def test_augment_science_shares_a_shape_groups_parameters():
     from sklearn_hybrid.diagnosis.terms import Term as T
 

@@ -13,6 +13,7 @@ from sklearn_hybrid import HybridRegressor, OdeStructure
 from sklearn_hybrid.diagnosis import (TERM_FAMILIES, TERM_KINDS, Candidates, Evidence, ScienceFit, SymbolicDiscovery,
                                       TermContext, physics_terms)
 from sklearn_hybrid.diagnosis.families.discovery import monomial_forms
+from sklearn_hybrid.diagnosis.terms import Term
 from sklearn_hybrid.diagnosis.families.symbolic import form_term
 from sklearn_hybrid.diagnosis.loop import stepwise
 
@@ -297,3 +298,18 @@ def test_a_term_function_pickled_before_the_families_still_loads():
 
     old = pickle.dumps(terms.saturation_term, protocol=0).replace(b"saturation_term", b"_saturation")
     assert pickle.loads(old) is terms.saturation_term
+
+
+def test_reduced_forms_set_each_constant_to_zero_and_skip_what_leaves_no_variable():
+    from sklearn_hybrid.diagnosis.families.symbolic import form_term, reduced_forms
+
+    term, _ = form_term("X2*(X1 + 0.3*X2)/(X1 + 0.7*X2)", ["x", "y"], 0)
+    reduced = {r.name: r for r in reduced_forms(term)}
+    assert set(reduced) == {"x*y/(K1*y + x)", "(K2*y^2 + x*y)/x"}
+    law = reduced["x*y/(K1*y + x)"]
+    assert law.shape == {"K1": term.shape["K1"]} and law.kind == "discovered" and law.component is None
+    d = {"x": torch.tensor([1.0, 2.0]), "y": torch.tensor([0.5, 1.0])}
+    assert torch.allclose(law(d, K1=torch.tensor(0.7)), d["x"] * d["y"] / (d["x"] + 0.7 * d["y"]))
+    saturation, _ = form_term("X1/(0.5 + X1)", ["x"], 0)
+    assert reduced_forms(saturation) == []  # x/x is a constant: the library's own term
+    assert reduced_forms(Term("x^2", lambda d: d["x"] ** 2, "polynomial")) == []  # not a discovered form

@@ -65,7 +65,7 @@ class Verdict(Result):
 class Step(Result):
     """A candidate judged during the selection: what it was, where, its verdict and whether it was taken.
 
-    ``step`` is the step's number, or a label (``"3, second look"``, ``"drop"``, ``"replace"``);
+    ``step`` is the step's number, or a label (``"3, second look"``, ``"drop"``, ``"replace"``, ``"simplify"``);
     ``rank_gain`` the share of the residual the candidate explained when ranked; ``verdict`` None
     where its refit failed (``failed`` says why); ``accepted`` whether the selection took it (not the
     verdict's own yes: among several that pass, one is taken).

@@ -19,7 +19,7 @@ import torch
 from ..sensitivity import parameter_basis
 from ..terms import SCIENCE_OUTPUT, Term
 
-__all__ = ["SymbolicForm", "form_term", "canonical_form", "consistent_units", "drop_parameter_parts"]
+__all__ = ["SymbolicForm", "form_term", "canonical_form", "consistent_units", "drop_parameter_parts", "reduced_forms"]
 
 # sympy's functions as torch computes them (a formula of the operators a physicist writes)
 _TORCH = {"exp": torch.exp, "log": torch.log, "sqrt": torch.sqrt, "Abs": torch.abs, "sin": torch.sin,
@@ -179,6 +179,39 @@ def form_term(formula: str, variables: Sequence[str], component: int, *, science
     term = Term(name, func, "discovered", shape, component=component if science in used else None)
     term.consistent = consistent_units(form, units or {}, set(constants))
     return term, factor
+
+
+def reduced_forms(term: Term) -> list[Term]:
+    """The discovered ``term`` with one of its constants set to zero, one term per constant whose removal
+    leaves a finite form of the variables (``x y/(x + K1 y)`` from ``y (x + K2 y)/(x + K1 y)``); none for a
+    term that is not a discovered form.
+
+    The search writes a law with whatever constants lower its error on what the network learned, which also
+    carries the network's own error: a constant the law lacks comes out small, not zero, and trades with
+    theta in the refit. Each reduced form keeps the other constants (their starting values and bounds are the
+    term's), its equation and its units' verdict (setting a constant to zero adds no new sum).
+    """
+    form = term.func
+    if not isinstance(form, SymbolicForm) or not form.constants:
+        return []
+    expr = sympy.sympify(form.formula, locals=_symbols(form))
+    out = []
+    for k in form.constants:
+        reduced = _one_fraction(expr.subs(sympy.Symbol(k), 0))
+        if reduced.has(sympy.zoo, sympy.nan, sympy.oo, -sympy.oo):
+            continue
+        names = {s.name for s in reduced.free_symbols}
+        used = [v for v in form.variables if v in names]
+        if not used:  # a constant is the library's own term
+            continue
+        left = [c for c in form.constants if c in names]
+        func = SymbolicForm(sympy.srepr(reduced), {v: form.variables[v] for v in used}, left, form.component,
+                            form.science)
+        made = Term(sympy.sstr(reduced).replace("**", "^"), func, term.kind, {c: term.shape[c] for c in left},
+                    unit=term.unit, component=term.component, field=term.field)
+        made.consistent = term.consistent
+        out.append(made)
+    return out
 
 
 def consistent_units(form: sympy.Expr, units: Mapping[str, str], constants: set[str]) -> bool | None:

@@ -1,4 +1,4 @@
-"""Replace stand-ins: several terms on one equation that one term of another kind explains as well.
+"""Fewer parameters where the data need no more: stand-ins replaced, a discovered form's spare constants dropped.
 
 A selection that adds one term at a time can end with two stand-ins that explain an effect only
 together: for a heat loss ``T^2.7`` a square root and an exponential, each accepted in its own step,
@@ -8,6 +8,12 @@ tries, on every equation that ended with two or more terms not all polynomial, t
 the other kinds that best explain what those terms explain, and keeps the one whose model validates
 within ``min_gain`` of the model with the stand-ins, when it has fewer parameters. It only ever
 removes parameters, so it cannot add a term where nothing is missing.
+
+:func:`drop_spare_constants` does the same within a discovered form (``kind="discovered"``): each of its
+constants set to zero in turn (:func:`~sklearn_hybrid.diagnosis.families.symbolic.reduced_forms`), the
+reduced form kept where its model validates within ``min_gain`` of the full one. The search fits its forms
+to what the network learned, whose error a spare constant takes up; in the refit such a constant trades
+with theta.
 """
 
 from __future__ import annotations
@@ -21,11 +27,12 @@ from ...science import read_signature
 from ..evidence import Evidence
 from ..judge import FIT_FAILURES, Judge
 from .candidates import Candidates, augment_with, initial_values, rank_by_residual, shape_bounds
+from ..families.symbolic import reduced_forms
 from .placed import PlacedTerm
 from ..results import Step, Verdict
 from ..sensitivity import free_columns, parameter_jacobian, science_output
 
-__all__ = ["replace_stand_ins"]
+__all__ = ["replace_stand_ins", "drop_spare_constants"]
 
 
 def replace_stand_ins(science: Callable, current: Callable, added: list[PlacedTerm], theta: dict,
@@ -106,6 +113,61 @@ def replace_stand_ins(science: Callable, current: Callable, added: list[PlacedTe
         added = [t.with_fitted(current, theta, k) for k, t in enumerate([*rest, cand])]  # the new one: no second look
         log(f"  replaced {', '.join(t.name for t in on_j)} on component {j} by {cand.name}")
     return current, added, theta, errors
+
+
+def drop_spare_constants(science: Callable, current: Callable, added: list[PlacedTerm], theta: dict,
+                         errors: np.ndarray, judge: Judge, variables: Sequence[str], n_states: int,
+                         param_names: Mapping[str, str] | None, steps: list[Step], log: Callable[[str], None], *,
+                         evidence: Evidence) -> tuple:
+    """Set each constant of each accepted discovered form to zero in turn, and keep the reduced form whose
+    model validates best within ``evidence.min_gain`` of the model's; again until none does.
+
+    A group's members (one form on several equations, ``shape_group``) are reduced together. The arguments
+    are :func:`replace_stand_ins`'s; each reduction tried adds a row to ``steps`` (``step`` ``"simplify"``).
+
+    Returns
+    -------
+    tuple
+        ``(current, added, theta, errors)``, with the spare constants dropped.
+    """
+    original = read_signature(science)[1]
+    while True:
+        now, best = float(np.mean(errors)), None
+        units = {}  # a group's members reduce together: one unit per shape group, or per single term
+        for t in added:
+            if t.kind == "discovered":
+                units.setdefault(t.shape_group or id(t), []).append(t)
+        for members in units.values():
+            for term in reduced_forms(members[0].term):
+                group = members[0].shape_group and term.name
+                made = {id(m): replace(m, term=term, shape={k: m.shape[k] for k in term.shape}, shape_group=group,
+                                       param=None, shape_params=None) for m in members}
+                placed = [made.get(id(t), t) for t in added]
+                model = augment_with(science, placed, variables, n_states, param_names)
+                bounds = shape_bounds(model, placed)
+                start = {**{k: theta[k] for k in original}, **initial_values(model, placed, len(placed))}
+                try:
+                    fitted = judge.fit(model, start, bounds)
+                    cand_errors = judge.errors(model, fitted, bounds)
+                except FIT_FAILURES:
+                    continue
+                mse = float(np.mean(cand_errors))
+                ok = bool(np.isfinite(mse) and mse <= (1 + evidence.min_gain) * now)
+                judged = Verdict(now, mse, 1 - mse / now if now > 0 else 0.0, float("nan"), None, ok)
+                row = made[id(members[0])].row()
+                if len(members) > 1:
+                    row["component"] = [m.component for m in members]
+                steps.append(Step.of("simplify", row, verdict=judged, replaces=[members[0].name]))
+                log(f"  simplify {members[0].name} to {term.name}: validation MSE {mse:.4g} against {now:.4g}"
+                    f"{' (as well)' if ok else ''}")
+                if ok and (best is None or mse < best[0]):
+                    best = (mse, members[0].name, term.name, model, fitted, cand_errors, placed, len(steps) - 1)
+        if best is None:
+            return current, added, theta, errors
+        _, old, new, current, theta, errors, placed, index = best
+        steps[index] = replace(steps[index], accepted=True)
+        added = [t.with_fitted(current, theta, k) for k, t in enumerate(placed)]
+        log(f"  simplified {old} to {new}")
 
 
 def _start(science: Callable, reduced, rest: list[PlacedTerm], theta: dict) -> dict:

@@ -16,7 +16,9 @@ The best one that passes is refitted on every training sample and kept, and a te
 that it makes dispensable (the model without it validates as well) is dropped; the next step
 starts from there. Selection stops when no candidate passes; an equation left with two or more
 terms, not all polynomial, then has them replaced by one term of another kind that validates as well
-(:func:`~sklearn_hybrid.diagnosis.loop.collapse.replace_stand_ins`). The candidates, their rankings and
+(:func:`~sklearn_hybrid.diagnosis.loop.collapse.replace_stand_ins`), and a discovered form's constants that
+the held-out data do not need are dropped (:func:`~sklearn_hybrid.diagnosis.loop.collapse.drop_spare_constants`).
+The candidates, their rankings and
 their augmented models are built in :mod:`~sklearn_hybrid.diagnosis.loop.candidates`.
 """
 
@@ -35,7 +37,7 @@ from ..judge import FIT_FAILURES, Judge, training_folds
 from .candidates import (Candidates, augment_with, candidate_groups, discovered_terms, field_groups, flow_candidates,
                          initial_values, interleave, merge_rankings, network_carries, offset_candidate,
                          rank_by_residual, rank_by_fit, shape_bounds, term_columns)
-from .collapse import replace_stand_ins
+from .collapse import drop_spare_constants, replace_stand_ins
 from ..evidence import Evidence
 from .joint import joint_candidates
 from .placed import PlacedTerm
@@ -225,6 +227,9 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
     current, added, theta_now, errors = replace_stand_ins(
         science, current, added, theta_now, errors, judge, columns, learned, args, variables, n_states, param_names,
         steps, log, evidence=evidence, candidates=candidates, fixed=fit.fixed)
+    current, added, theta_now, errors = drop_spare_constants(
+        science, current, added, theta_now, errors, judge, variables, n_states, param_names, steps, log,
+        evidence=evidence)
     return Selection(science=current, theta=theta_now, added=added, steps=steps, rivals=rivals,
                      base_errors=base_errors, errors=errors, seconds=time.perf_counter() - start_time)
 
