@@ -27,10 +27,11 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the helpers
-from helpers import PACKAGE_COMMIT, RESULTS, ROOT, machine_description, write_results  # noqa: E402
+from helpers import PACKAGE_COMMIT, RESULTS, ROOT, machine_description, runs_folder, write_results  # noqa: E402
 
 README = ROOT / "README.md"
 BLOCK = re.compile(r"```python\n(.*?)```(?:(?:(?!```).)*?```text\n(.*?)```)?", re.S)  # as tests/test_readme.py
+CPU = machine_description()["cpu"]
 NUMBER = re.compile(r"-?\d+(?:\.\d+)?(?:e-?\d+)?")
 
 #: name -> (environment, torch settings made before the snippet runs)
@@ -56,7 +57,14 @@ def numbered_lines(text: str) -> list[str]:
 
 
 def run_setting(name: str) -> dict:
-    """Every README snippet in a fresh process under one setting: the printed lines with numbers."""
+    """Every README snippet in a fresh process under one setting: the printed lines with numbers. Each run is
+    cached as it ends (``results/runs/float_paths/``, by CPU, package commit and setting), for these snippets."""
+    cache = runs_folder("float_paths") / re.sub(r"\W+", "_", f"{CPU}_{PACKAGE_COMMIT}_{name}").strip("_")
+    cache = cache.with_suffix(".json")
+    if cache.exists():
+        cached = json.loads(cache.read_text())
+        if cached["snippets"] == snippets():
+            return {"setting": name, "blocks": {int(k): b for k, b in cached["blocks"].items()}}
     env, torch_code = SETTINGS[name]
     out = {}
     for k, (code, _) in enumerate(snippets()):
@@ -65,6 +73,8 @@ def run_setting(name: str) -> dict:
                               text=True, cwd=ROOT)
         out[k] = {"lines": numbered_lines(done.stdout), "returncode": done.returncode,
                   "stderr": done.stderr[-1500:] if done.returncode else ""}
+    cache.parent.mkdir(parents=True, exist_ok=True)
+    cache.write_text(json.dumps({"snippets": snippets(), "blocks": out}, indent=1))
     return {"setting": name, "blocks": out}
 
 
@@ -119,7 +129,8 @@ def other_cpu_runs(cpu: str) -> list[dict]:
         made_on = run.get("cpu", record["machine"]["cpu"])
         if made_on != cpu:
             name = run["setting"] if run["setting"].endswith(f"({made_on})") else f"{run['setting']} ({made_on})"
-            out.append(dict(run, setting=name, cpu=made_on,
+            blocks = {int(k): b for k, b in run["blocks"].items()}  # JSON keeps the block numbers as strings
+            out.append(dict(run, setting=name, cpu=made_on, blocks=blocks,
                             package_commit=run.get("package_commit", record["package_commit"])))
     return out
 
@@ -131,7 +142,7 @@ def main() -> None:
     parser.add_argument("--beside-other-cpus", action="store_true",
                         help="keep the last record's runs made on another CPU model")
     args = parser.parse_args()
-    cpu = machine_description()["cpu"]
+    cpu = CPU
     with ThreadPoolExecutor(args.jobs) as pool:
         runs = [dict(run, cpu=cpu, package_commit=PACKAGE_COMMIT) for run in pool.map(run_setting, args.settings)]
     if args.beside_other_cpus:
