@@ -292,6 +292,47 @@ def test_a_flow_between_two_compartments_is_one_term_with_one_coefficient():
     assert all(t.opposite is None for t in without["added"]) and len(without["added"]) >= 2
 
 
+def test_a_flow_is_offered_once_per_pair_and_with_a_yield_as_a_group():
+    """Each pair's flow once (its two orientations are one model), on the component it enters; and the same
+    term on both components with a coefficient each, for a flux whose yield is not one (2 A -> B at 0.5 A^2:
+    -1.0 A^2 on A, +0.5 A^2 on B), even where the term ranks among the best on one equation only."""
+    from sklearn_hybrid.diagnosis.loop.candidates import flow_candidates, flow_groups
+    from sklearn_hybrid.diagnosis.loop.placed import PlacedTerm
+
+    square = Term("A^2", lambda d: d["A"] ** 2, "polynomial")
+    scored = [PlacedTerm(square, 0, {}, -1.0, 0.6), PlacedTerm(square, 1, {}, 0.5, 0.3)]
+    (flow,) = flow_candidates(scored, [(0, 1), (1, 0)], 4)
+    assert (flow.component, flow.opposite, flow.gain) == (1, 0, pytest.approx(0.9))
+    (group,) = flow_groups([flow], scored)
+    assert [(m.component, m.coef) for m in group.members] == [(1, 0.5), (0, -1.0)] and group.gain == flow.gain
+
+    rng = np.random.default_rng(0)
+    dt, n_steps, n = 0.25, 12, 40
+    x0 = rng.uniform([0.5, 0.0], [2.0, 0.5], size=(n, 2))
+
+    def truth(t, v):
+        return [-0.3 * v[0] - v[0] ** 2, 0.3 * v[0] - 0.9 * v[1] + 0.5 * v[0] ** 2]
+
+    def reaction_f(v, k1=0.4, k2=0.7):
+        return torch.stack([-k1 * v[:, 0], k1 * v[:, 0] - k2 * v[:, 1]], dim=-1)
+    x = np.stack([solve_ivp(truth, (0, dt * n_steps), s, t_eval=dt * np.arange(n_steps + 1), rtol=1e-8,
+                            atol=1e-10).y.T for s in x0])
+    y = x[:, 1:] + 0.01 * rng.standard_normal(x[:, 1:].shape)
+    est = HybridRegressor(science=reaction_f, structure=OdeStructure(dt=dt), method="erm", max_iter=2,
+                          random_state=0).fit(x0, y)
+    states = x.reshape(-1, 2)
+    learned = np.array([truth(0, v) for v in states])
+    terms = [t for t in physics_terms(["A", "B"], states) if t.kind == "polynomial"]
+    found = stepwise.forward_selection(reaction_f, {"k1": 0.4, "k2": 0.7}, ScienceFit(est, x0, y),
+                                       [(np.arange(n - 12), np.arange(n - 12, n))], ["A", "B"], 2, [states],
+                                       learned, [0, 1], candidates=Candidates(terms=terms, n_candidates=1),
+                                       evidence=Evidence(second_look=None), flow_pairs=[(0, 1), (1, 0)])
+    coefs = {t.key: t.coef for t in found["added"]}
+    assert coefs == {(0, "A^2"): pytest.approx(-1.0, rel=0.05), (1, "A^2"): pytest.approx(0.5, rel=0.05)}
+    flows = [s for s in found["steps"] if s.ranked_by == "flow"]
+    assert flows and all(s.component == [1, 0] for s in flows if s.term == "A^2")  # one orientation
+
+
 def test_a_term_function_pickled_before_the_families_still_loads():
     """A fitted model saved before the kinds became families names their functions by their old private names."""
     from sklearn_hybrid.diagnosis import terms

@@ -14,7 +14,7 @@ of each state's spread, seed 0), the same data through:
   (written in the states where a product of their powers gives it); ``loop_discovery_anywhere`` that search with
   each form of the states offered on every equation (a group where it stands on several);
   ``loop_discovery_lean`` that arm with a group's members sharing the form's constants and a form's spare
-  constants dropped;
+  constants dropped; ``loop_discovery_yields`` that arm with each flow offered once and also with a yield;
 - **UDE + SINDy**: the first fit's network output on the visited states, STLSQ on pysindy's cubic polynomial
   library per equation (threshold by 5-fold CV, one-standard-error rule), terms and theta refitted without the
   network (``identification/anchors.py``, the recipe of ``bench_anchors_loop.py``);
@@ -63,6 +63,7 @@ ARMS = [("loop", "closed loop (term list)"), ("loop_discovery", "closed loop + d
         ("loop_discovery_written", "closed loop + discovery (directions written)"),
         ("loop_discovery_anywhere", "closed loop + discovery (forms on any equation)"),
         ("loop_discovery_lean", "closed loop + discovery (shapes shared, spare constants dropped)"),
+        ("loop_discovery_yields", "closed loop + discovery (and flows with a yield)"),
         ("ude_sindy", "UDE + SINDy (cubic library)"), ("sr_alone", "SR alone on derivatives"),
         ("sindy_data", "SINDy on the data")]
 # loop_discovery_2: the same arm run again after discovery was revised on what the first run showed (the record
@@ -80,8 +81,13 @@ ARMS = [("loop", "closed loop (term list)"), ("loop_discovery", "closed loop + d
 # an accepted discovered form's constants are set to zero in turn, the reduced form kept where it validates as
 # well (a spare constant takes up the network's error and trades with theta); the same cases again, not fresh.
 # (An arm with the shared shapes alone, committed at 47870cb, was stopped before its first case ended.)
+# loop_discovery_yields: the lean arm, with each flow offered once per pair (its two orientations are one model,
+# and the second was refitted as its rival) and also as a group, a coefficient each (a flux whose yield is not
+# one: half the prey eaten becomes predator; the flow alone needed a second term beside it, which traded with
+# theta). The lean arm was stopped after its first case for this one; the same cases again, not fresh.
 LOOP_ARMS = ("loop", "loop_discovery", "loop_discovery_2", "loop_discovery_gated", "loop_discovery_written",
-             "loop_discovery_anywhere", "loop_discovery_lean")
+             "loop_discovery_anywhere", "loop_discovery_lean",
+             "loop_discovery_yields")
 WHOLE_MODEL = ("sr_alone", "sindy_data")
 PREFACE = ("The batch (`benchmarks/discovery/laws.py`) was written and committed (942caa3) before any arm ran on it; "
            "the first run is the package at a9909c2 (discovery as first written). Discovery was then revised on "
@@ -314,7 +320,7 @@ def main(argv=None) -> None:
     parser.add_argument("--arms", nargs="*",
                         default=[a for a, _ in ARMS if a not in ("loop_discovery_2", "loop_discovery_gated",
                                                                  "loop_discovery_written", "loop_discovery_anywhere",
-                                                                 "loop_discovery_lean")])
+                                                                 "loop_discovery_lean", "loop_discovery_yields")])
     parser.add_argument("--arm-budget", type=int, default=0,
                         help="stop an arm after this many seconds of wall-clock time and record it as stopped")
     parser.add_argument("--render", action="store_true", help="only write results/discovery.md from the records")

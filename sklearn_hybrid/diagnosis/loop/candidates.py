@@ -322,19 +322,42 @@ def flow_candidates(scored: list[PlacedTerm], pairs: Sequence[tuple[int, int]], 
 
     A waning immunity moves ``w R`` from the recovered to the susceptible; two free coefficients (``+0.35 R``
     on dS, ``-0.35 R`` on dR) say nothing of their agreeing, and cost a parameter more. ``pairs`` are the
-    components whose states may exchange (states in one unit).
+    components whose states may exchange (states in one unit). A pair's two orientations are one model (the
+    coefficient's sign turns it around): each flow is offered once, on the component it enters (``+c``).
     """
-    best: dict[tuple[int, str], PlacedTerm] = {}
-    for cand in scored:
-        best.setdefault((cand.component, cand.name), cand)
+    best = _best_placements(scored)
     out = []
     for i, j in pairs:
         for (component, name), a in best.items():
             b = best.get((j, name))
-            if component != i or b is None or a.term.component is not None or a.coef * b.coef >= 0:
+            if component != i or b is None or a.term.component is not None or not a.coef > 0 > b.coef:
                 continue
             out.append(replace(a, gain=a.gain + b.gain, ranked_by="flow", opposite=j))
     return sorted(out, key=lambda t: -t.gain)[:n]
+
+
+def flow_groups(flows: list[PlacedTerm], scored: list[PlacedTerm]) -> list[PlacedGroup]:
+    """Each flow also as a group: its term on both components, a coefficient each (:func:`candidate_groups`).
+
+    A flux may enter the second balance with a yield other than one: half the prey eaten becomes predator,
+    one mole of A makes two of B. Alone, the flow (``+c``, ``-c``) fits such a flux only with a second term
+    beside it, and a group of the term is offered only where the term ranks among the best on both
+    equations. Judged like any group; where the yield is one, the flow is the simpler of the two.
+    """
+    best = _best_placements(scored)
+    out = []
+    for flow in flows:
+        pair = [best[(flow.component, flow.name)], best[(flow.opposite, flow.name)]]
+        out += [replace(g, gain=flow.gain) for g in candidate_groups(pair)]
+    return out
+
+
+def _best_placements(scored: list[PlacedTerm]) -> dict[tuple[int, str], PlacedTerm]:
+    """Each (component, term)'s best-ranked placement in ``scored``."""
+    best: dict[tuple[int, str], PlacedTerm] = {}
+    for cand in scored:
+        best.setdefault((cand.component, cand.name), cand)
+    return best
 
 
 def field_groups(ranked: list[PlacedTerm], scored: list[PlacedTerm]) -> list[PlacedGroup]:

@@ -35,7 +35,7 @@ import torch
 from ...science import read_signature
 from ..judge import FIT_FAILURES, Judge, training_folds
 from .candidates import (Candidates, augment_with, candidate_groups, discovered_terms, field_groups, flow_candidates,
-                         initial_values, interleave, merge_rankings, network_carries, offset_candidate,
+                         flow_groups, initial_values, interleave, merge_rankings, network_carries, offset_candidate,
                          rank_by_residual, rank_by_fit, shape_bounds, term_columns)
 from .collapse import drop_spare_constants, replace_stand_ins
 from ..evidence import Evidence
@@ -103,7 +103,8 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
     flow_pairs : list of (int, int), optional
         Components whose states may exchange (one unit): a term ranked on both with opposite signs is also a
         candidate as a flow, one coefficient for both
-        (:func:`~sklearn_hybrid.diagnosis.loop.candidates.flow_candidates`).
+        (:func:`~sklearn_hybrid.diagnosis.loop.candidates.flow_candidates`), and as a group, a coefficient
+        each (a yield other than one, :func:`~sklearn_hybrid.diagnosis.loop.candidates.flow_groups`).
     units : dict of str to str, optional
         The variables' units: a discovered form that adds quantities of different units is marked.
     network : callable, optional
@@ -175,6 +176,9 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
                  if len(g.members) <= room]
         flows = [f for f in flow_candidates(scored, flow_pairs, candidates.n_candidates)
                  if not f.covers & taken]
+        grouped = {frozenset(m.key for m in g.members) for g in together}
+        together += [g for g in flow_groups(flows, scored) if len(g.members) <= room
+                     and frozenset(m.key for m in g.members) not in grouped]
         for cand in ranked + flows + together + joint:
             placed = [*added, *cand.entries()]
             candidate_science = augment_with(science, placed, variables, n_states, param_names)
