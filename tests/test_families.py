@@ -354,3 +354,26 @@ def test_reduced_forms_set_each_constant_to_zero_and_skip_what_leaves_no_variabl
     saturation, _ = form_term("X1/(0.5 + X1)", ["x"], 0)
     assert reduced_forms(saturation) == []  # x/x is a constant: the library's own term
     assert reduced_forms(Term("x^2", lambda d: d["x"] ** 2, "polynomial")) == []  # not a discovered form
+
+
+def test_a_form_is_offered_also_with_the_parts_a_parameter_provides():
+    """Holling III on the predator's equation, 0.6 x^2 y/(0.64 + x^2) = 0.6 y - 0.384 y/(0.64 + x^2), beside the
+    science's -m y: without the part in m's direction the search's form is y/(K + x^2), which on the prey's
+    equation lacks the law's y; whole (here with theta's error in m's direction too), it is
+    y (K + x^2)/(K + x^2) with two constants, the first of which the loop may drop."""
+    rng = np.random.default_rng(0)
+    X = rng.uniform(0.2, 2.0, (200, 2))
+    directions = -X[:, 1:2]  # -m y's direction
+    formula = "0.9*X2 - 0.384*X2/(0.64 + X1**2)"  # 0.6 y of the law, 0.3 y of m's error
+    dropped, _ = form_term(formula, ["x", "y"], 1, values=X, directions=directions)
+    whole, _ = form_term(formula, ["x", "y"], 1, values=X, directions=directions, keep_parameter_parts=True)
+    assert dropped.name == "y/(K1 + x^2)" and whole.name == "y*(K2 + x^2)/(K1 + x^2)", whole.name
+    assert whole.shape["K2"][0] == [pytest.approx(0.192 / 0.9)] and whole.shape["K1"][0] == [pytest.approx(0.64)]
+    constant, _ = form_term("2.5 + X2/(0.64 + X1**2)", ["x", "y"], 1, values=X, directions=directions,
+                            keep_parameter_parts=True)
+    assert constant.name == "y/(K1 + x^2)"  # a constant is the library's term, kept or not
+
+    search = SymbolicDiscovery(max_forms=1)
+    front = [{"formula": formula, "length": 9, "mse": 1e-4}]
+    offered = search._offered(front, ["x", "y"], 1, X, directions, 1.0, {}, np.ones(2))
+    assert [t.name for t in offered] == ["y/(K1 + x^2)", "y*(K2 + x^2)/(K1 + x^2)"]

@@ -15,6 +15,8 @@ of each state's spread, seed 0), the same data through:
   each form of the states offered on every equation (a group where it stands on several);
   ``loop_discovery_lean`` that arm with a group's members sharing the form's constants and a form's spare
   constants dropped; ``loop_discovery_yields`` that arm with each flow offered once and also with a yield;
+  ``loop_discovery_whole`` that arm with each discovered form also offered whole (its parts in a science
+  parameter's direction kept);
 - **UDE + SINDy**: the first fit's network output on the visited states, STLSQ on pysindy's cubic polynomial
   library per equation (threshold by 5-fold CV, one-standard-error rule), terms and theta refitted without the
   network (``identification/anchors.py``, the recipe of ``bench_anchors_loop.py``);
@@ -64,6 +66,7 @@ ARMS = [("loop", "closed loop (term list)"), ("loop_discovery", "closed loop + d
         ("loop_discovery_anywhere", "closed loop + discovery (forms on any equation)"),
         ("loop_discovery_lean", "closed loop + discovery (shapes shared, spare constants dropped)"),
         ("loop_discovery_yields", "closed loop + discovery (and flows with a yield)"),
+        ("loop_discovery_whole", "closed loop + discovery (and forms offered whole)"),
         ("ude_sindy", "UDE + SINDy (cubic library)"), ("sr_alone", "SR alone on derivatives"),
         ("sindy_data", "SINDy on the data")]
 # loop_discovery_2: the same arm run again after discovery was revised on what the first run showed (the record
@@ -85,9 +88,13 @@ ARMS = [("loop", "closed loop (term list)"), ("loop_discovery", "closed loop + d
 # and the second was refitted as its rival) and also as a group, a coefficient each (a flux whose yield is not
 # one: half the prey eaten becomes predator; the flow alone needed a second term beside it, which traded with
 # theta). The lean arm was stopped after its first case for this one; the same cases again, not fresh.
+# loop_discovery_whole: the yields arm, with each discovered form also offered whole where the parts a science
+# parameter provides were dropped from it (holling_iii's law x^2 y/(K + x^2) is y - K y/(K + x^2): found on the
+# predator's equation beside -m y, it was offered as y/(K + x^2), which on the prey's equation lacks the law's y,
+# and m took the rest); the same cases again, not fresh.
 LOOP_ARMS = ("loop", "loop_discovery", "loop_discovery_2", "loop_discovery_gated", "loop_discovery_written",
              "loop_discovery_anywhere", "loop_discovery_lean",
-             "loop_discovery_yields")
+             "loop_discovery_yields", "loop_discovery_whole")
 WHOLE_MODEL = ("sr_alone", "sindy_data")
 PREFACE = ("The batch (`benchmarks/discovery/laws.py`) was written and committed (942caa3) before any arm ran on it; "
            "the first run is the package at a9909c2 (discovery as first written). Discovery was then revised on "
@@ -320,7 +327,8 @@ def main(argv=None) -> None:
     parser.add_argument("--arms", nargs="*",
                         default=[a for a, _ in ARMS if a not in ("loop_discovery_2", "loop_discovery_gated",
                                                                  "loop_discovery_written", "loop_discovery_anywhere",
-                                                                 "loop_discovery_lean", "loop_discovery_yields")])
+                                                                 "loop_discovery_lean", "loop_discovery_yields",
+                                                                 "loop_discovery_whole")])
     parser.add_argument("--arm-budget", type=int, default=0,
                         help="stop an arm after this many seconds of wall-clock time and record it as stopped")
     parser.add_argument("--render", action="store_true", help="only write results/discovery.md from the records")

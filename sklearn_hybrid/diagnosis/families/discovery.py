@@ -51,7 +51,10 @@ class SymbolicDiscovery:
     max_forms : int, default=2
         Forms offered per equation and grammar: the front's knee (the form whose error falls most below the
         next shorter one's), then the shortest among those within reach; a form dimensionally inconsistent in
-        the variables' units (``Term.consistent`` False) only where too few consistent ones are.
+        the variables' units (``Term.consistent`` False) only where too few consistent ones are. Each is
+        offered without the parts a science parameter provides (they are theta's error) and, where that
+        dropped something, also whole (a law may hold such a part: ``x^2 y/(K + x^2)`` is
+        ``y - K y/(K + x^2)``, beside a science's ``-m y``).
     slack : float, default=0.5
         A form is within reach when its error is at most ``1 + slack`` times the front's lowest, or when it
         explains at least ``r2`` of what the network learned.
@@ -206,11 +209,13 @@ class SymbolicDiscovery:
         near = [knee] + [m for m in near if m is not knee]
         out: dict[str, Term] = {}
         aside: list[Term] = []
+        kept: dict[str, Term] = {}
         for m in near:
-            made = form_term(m["formula"], names, component, values=X, directions=directions,
-                             theta_parts=[v for v in names if v.startswith(DIRECTION)], units=units,
-                             science=SCIENCE_SYMBOL if SCIENCE_SYMBOL in names else None, scales=scales,
-                             theta_forms=written)
+            made, whole = (form_term(m["formula"], names, component, values=X, directions=directions,
+                                     theta_parts=[v for v in names if v.startswith(DIRECTION)], units=units,
+                                     science=SCIENCE_SYMBOL if SCIENCE_SYMBOL in names else None, scales=scales,
+                                     theta_forms=written, keep_parameter_parts=keep)
+                           for keep in (False, True))
             if made is None or len(made[0].shape) > self.max_constants:
                 continue
             if made[0].consistent is False:  # kept aside: offered only where no consistent form is
@@ -218,10 +223,13 @@ class SymbolicDiscovery:
                 continue
             if made[0].name not in out and len(out) < self.max_forms:  # one form written twice: the first
                 out[made[0].name] = made[0]
+                # the form with the parts a science parameter provides kept, where dropping them changed it
+                if whole is not None and whole[0].name != made[0].name and len(whole[0].shape) <= self.max_constants:
+                    kept[whole[0].name] = whole[0]
         for term in aside:
             if term.name not in out and len(out) < self.max_forms:
                 out[term.name] = term
-        return list(out.values())
+        return list(out.values()) + [t for name, t in kept.items() if name not in out]
 
 
 def _new_directions(directions: np.ndarray, X: np.ndarray, tol: float = 1e-9) -> np.ndarray:

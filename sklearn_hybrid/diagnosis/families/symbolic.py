@@ -126,7 +126,8 @@ def form_term(formula: str, variables: Sequence[str], component: int, *, science
               values: np.ndarray | None = None, directions: np.ndarray | None = None, theta_parts: Sequence[str] = (),
               units: Mapping[str, str] | None = None, spread: float = 1e3,
               scales: Sequence[float] | None = None,
-              theta_forms: Mapping[str, tuple[float, Mapping[str, int]]] | None = None) -> tuple[Term, float] | None:
+              theta_forms: Mapping[str, tuple[float, Mapping[str, int]]] | None = None,
+              keep_parameter_parts: bool = False) -> tuple[Term, float] | None:
     """The term of a formula over ``variables`` (``science`` names the symbol that stands for the science
     output of ``component``), and its coefficient; None for a formula with nothing left. The term may be
     placed on any equation unless it reads the science output (then on ``component``'s only).
@@ -140,7 +141,9 @@ def form_term(formula: str, variables: Sequence[str], component: int, *, science
     direction in the variables (``(c, {variable: power})``, the direction ``c * prod(variable^power)``): it is
     then read as written (a law that modifies a science term, ``beta S I / (1 + K I^2)`` found as
     ``dtheta1 / (1 + K I^2)`` where ``dtheta1`` is beta's direction ``S I``), and its part that a parameter
-    provides is dropped as any other. Of the forms equal up to a constant,
+    provides is dropped as any other; with ``keep_parameter_parts`` only a constant is dropped (a law may hold a
+    part in a parameter's direction, ``x^2 y/(K + x^2) = y - K y/(K + x^2)`` beside a science's ``-m y``: placed
+    on another equation, or with a constant set to zero, the part is the law's). Of the forms equal up to a constant,
     the one that vanishes where the variables do is written. Each remaining constant starts at the value the
     formula gives it and may move within a factor ``spread`` either way, keeping its sign (a constant through
     zero turns a saturation into a pole). With ``units``, a form that adds or compares quantities of different
@@ -164,7 +167,8 @@ def form_term(formula: str, variables: Sequence[str], component: int, *, science
             else:  # a direction inside the law that no variables write: not a form of the variables
                 return None
     if values is not None and directions is not None:
-        expr = drop_parameter_parts(expr, [symbols[f"X{i + 1}"] for i in range(len(variables))], values, directions)
+        kept = np.asarray(directions)[:, :0] if keep_parameter_parts else directions
+        expr = drop_parameter_parts(expr, [symbols[f"X{i + 1}"] for i in range(len(variables))], values, kept)
     expr = _zero_at_rest(expr, list(symbols.values()))
     factor, form, constants = canonical_form(expr)
     used = sorted((s.name for s in form.free_symbols if s.name not in constants), key=list(variables).index)
