@@ -1131,6 +1131,25 @@ def test_a_discovered_forms_spare_constant_is_dropped():
     assert sel["theta"]["k1"] == pytest.approx(0.3, rel=0.05)
 
 
+def test_a_term_held_on_one_equation_joins_its_shape_when_placed_on_another():
+    """One flux, one shape, also across steps: the saturation accepted on A's equation, then offered on B's,
+    reads the held K (one coefficient more, not two parameters), and the model shares it."""
+    from sklearn_hybrid.diagnosis.loop.candidates import augment_with, join_shape_groups
+    from sklearn_hybrid.diagnosis.loop.placed import PlacedTerm
+
+    saturation = Term("A/(K + |A|)", lambda d, K: d["A"] / (K + d["A"].abs()), "saturation",
+                      {"K": ([0.3], (1e-3, 10.0))})
+    held = PlacedTerm(saturation, 0, {"K": 0.5}, -0.8, 0.6)
+    on_b, other = PlacedTerm(saturation, 1, {"K": 0.9}, 0.4, 0.3), PlacedTerm(Term("B", None, "polynomial"), 1)
+    joined, kept = join_shape_groups([held], [on_b, other])
+    assert kept is other and (joined.shape, joined.shape_group, joined.shares_shape) == ({"K": 0.5}, held.name, True)
+    assert joined.n_parameters() == 1 and on_b.n_parameters() == 2
+    model = augment_with(_reaction_f, [held, joined], ["A", "B"], 2, None)
+    assert model.shape_names[0] == model.shape_names[1]
+    assert len([p for p in inspect.signature(model).parameters if p.startswith("K")]) == 1
+    assert join_shape_groups([held], [PlacedTerm(saturation, 0, {"K": 0.9})])[0].shares_shape is False  # same equation
+
+
 def test_augment_science_shares_a_shape_groups_parameters():
     from sklearn_hybrid.diagnosis.terms import Term as T
 

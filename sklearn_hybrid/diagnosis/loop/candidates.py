@@ -336,6 +336,25 @@ def flow_candidates(scored: list[PlacedTerm], pairs: Sequence[tuple[int, int]], 
     return sorted(out, key=lambda t: -t.gain)[:n]
 
 
+def join_shape_groups(added: Sequence[PlacedTerm], candidates: list) -> list:
+    """``candidates`` with each single term whose term the model already holds on another component, with
+    shape parameters, placed as a member of that term's shape group: its shape is the held term's, and it adds
+    a coefficient only.
+
+    One flux has one shape. The selection may take a flux's term on one equation first (a predation on the
+    prey's) and only later on another (the predator's); there, alone, it would fit a shape of its own, and cost
+    as many parameters as another form that trades with a science parameter.
+    """
+    held = {t.name: t for t in added if t.shape and t.kind != "offset"}
+    out = []
+    for cand in candidates:
+        t = held.get(cand.name) if isinstance(cand, PlacedTerm) else None
+        if t is not None and t.component != cand.component and t.shape_group in (None, t.name):
+            cand = replace(cand, shape=dict(t.shape), shape_group=t.name, shares_shape=True)
+        out.append(cand)
+    return out
+
+
 def flow_groups(flows: list[PlacedTerm], scored: list[PlacedTerm]) -> list[PlacedGroup]:
     """Each flow also as a group: its term on both components, a coefficient each (:func:`candidate_groups`).
 
@@ -403,9 +422,10 @@ def augment_with(science: Callable, placed: Sequence[PlacedTerm], variables: Seq
                  param_names: Mapping[str, str] | None):
     """``science`` with the ``placed`` terms, in that order (:func:`~sklearn_hybrid.diagnosis.augment_science`,
     whose public input is a list of dicts: each term is handed over as one)."""
+    joined = {t.shape_group for t in placed if t.shares_shape}  # the term it joins holds the shape group too
     terms = [{"component": t.component, "term": t.name, "kind": t.kind, "coef": t.coef, "function": t.term.func,
               "shape": t.shape, "param": (param_names or {}).get(t.name), "opposite": t.opposite,
-              "shape_group": t.shape_group} for t in placed]
+              "shape_group": t.shape_group or (t.name if t.name in joined else None)} for t in placed]
     return augment_science(science, terms, variables, n_states=n_states)
 
 

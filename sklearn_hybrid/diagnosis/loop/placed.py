@@ -62,6 +62,9 @@ class PlacedTerm:
     shape_group : str, optional
         A member of a group of one term on several components (:class:`PlacedGroup`): the members with this
         label share one set of shape parameters (see :func:`~sklearn_hybrid.diagnosis.augment_science`).
+    shares_shape : bool, default=False
+        It joins the shape group of the same term already in the model on another component
+        (:func:`~sklearn_hybrid.diagnosis.loop.candidates.join_shape_groups`): it adds a coefficient only.
     """
 
     term: Term
@@ -75,6 +78,7 @@ class PlacedTerm:
     second_look: bool = False
     opposite: int | None = None
     shape_group: str | None = None
+    shares_shape: bool = False
 
     def __post_init__(self) -> None:
         # checked here: a name or an index in place of the Term failed only where ``.name`` was first read
@@ -109,7 +113,7 @@ class PlacedTerm:
 
     def n_parameters(self) -> int:
         """Coefficients and shape parameters the candidate adds."""
-        return 1 + len(self.shape)
+        return 1 + (0 if self.shares_shape else len(self.shape))
 
     def where(self) -> str:
         """Where it acts, in words for the log."""

@@ -35,7 +35,7 @@ import torch
 from ...science import read_signature
 from ..judge import FIT_FAILURES, Judge, training_folds
 from .candidates import (Candidates, augment_with, candidate_groups, discovered_terms, field_groups, flow_candidates,
-                         flow_groups, initial_values, interleave, merge_rankings, network_carries, offset_candidate,
+                         flow_groups, initial_values, join_shape_groups, interleave, merge_rankings, network_carries, offset_candidate,
                          rank_by_residual, rank_by_fit, shape_bounds, term_columns)
 from .collapse import drop_spare_constants, replace_stand_ins
 from ..evidence import Evidence
@@ -179,7 +179,7 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
         grouped = {frozenset(m.key for m in g.members) for g in together}
         together += [g for g in flow_groups(flows, scored) if len(g.members) <= room
                      and frozenset(m.key for m in g.members) not in grouped]
-        for cand in ranked + flows + together + joint:
+        for cand in join_shape_groups(added, ranked + flows) + together + joint:
             placed = [*added, *cand.entries()]
             candidate_science = augment_with(science, placed, variables, n_states, param_names)
             start = {**theta_now, **initial_values(candidate_science, placed, len(cand.entries()))}
@@ -213,6 +213,8 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
         theta_now = judge.fit(current, theta_now, bounds)
         errors = judge.errors(current, theta_now, bounds)
         steps[index] = replace(steps[index], accepted=True)
+        joined = {e.shape_group for e in cand.entries() if e.shares_shape}  # the term it joined: labelled too
+        added = [replace(t, shape_group=t.name) if t.name in joined and t.shape_group is None else t for t in added]
         added += [replace(entry.with_fitted(current, theta_now, len(added) + k), second_look=second_look)
                   for k, entry in enumerate(cand.entries())]
         log(f"  accepted {cand.name} on {cand.where()}")
