@@ -1150,6 +1150,47 @@ def test_a_term_held_on_one_equation_joins_its_shape_when_placed_on_another():
     assert join_shape_groups([held], [PlacedTerm(saturation, 0, {"K": 0.9})])[0].shares_shape is False  # same equation
 
 
+def test_a_rival_form_on_another_equation_gives_way_to_the_held_law_with_its_shape():
+    """A flux 0.8 A/(0.5 + A) leaves A and half of it enters B. The model holds the law on A's equation and a
+    rival form on B's, each with a constant of its own; one_shape_per_flux puts the law on B's too, joined to its
+    constant (a coefficient, not two parameters), and the refit finds the yield."""
+    from sklearn_hybrid.diagnosis.families.symbolic import form_term
+    from sklearn_hybrid.diagnosis.judge import Judge
+    from sklearn_hybrid.diagnosis.loop.candidates import augment_with, initial_values, shape_bounds
+    from sklearn_hybrid.diagnosis.loop.collapse import one_shape_per_flux
+    from sklearn_hybrid.diagnosis.loop.placed import PlacedTerm
+
+    rng = np.random.default_rng(0)
+    names, dt, n_steps = ["A", "B"], 0.25, 12
+
+    def truth(t, x):
+        flux = 0.8 * x[0] / (0.5 + x[0])
+        return [-0.3 * x[0] - flux, 0.3 * x[0] - 0.9 * x[1] + 0.5 * flux]
+
+    x0 = rng.uniform([0.5, 0.0], [2.0, 0.5], size=(40, 2))
+    t = dt * np.arange(n_steps + 1)
+    x = np.stack([solve_ivp(truth, (0, t[-1]), s, t_eval=t, rtol=1e-8, atol=1e-10).y.T for s in x0])
+    y = x[:, 1:] + 0.005 * rng.standard_normal(x[:, 1:].shape)
+    est = HybridRegressor(science=_reaction_f, dt=dt, method="erm", max_iter=2, random_state=0).fit(x0, y)
+    judge = Judge(ScienceFit(est, x0, y), [(np.arange(28), np.arange(28, 40))])
+    law, rival = form_term("X1/(0.4 + X1)", names, 0)[0], form_term("X1**2/(0.6 + X1**2)", names, 1)[0]
+    placed = [PlacedTerm(law, 0, {"K1": 0.4}, -0.8), PlacedTerm(rival, 1, {"K1": 0.6}, 0.4)]
+    model = augment_with(_reaction_f, placed, names, 2, None)
+    bounds = shape_bounds(model, placed)
+    theta = judge.fit(model, {"k1": 0.4, "k2": 0.7, **initial_values(model, placed, 2)}, bounds)
+    errors = judge.errors(model, theta, bounds)
+    added = [p.with_fitted(model, theta, k) for k, p in enumerate(placed)]
+    steps = []
+    _, added, theta, _ = one_shape_per_flux(_reaction_f, model, added, theta, errors, judge, names, 2, None, steps,
+                                            lambda s: None, evidence=Evidence())
+    assert [(a.component, a.name) for a in added] == [(0, law.name), (1, law.name)]
+    assert added[0].shape_params == added[1].shape_params and added[1].shares_shape
+    assert added[0].shape == {"K1": pytest.approx(0.5, rel=0.05)}
+    assert added[1].coef / added[0].coef == pytest.approx(-0.5, rel=0.05)
+    assert theta["k1"] == pytest.approx(0.3, rel=0.05) and theta["k2"] == pytest.approx(0.9, rel=0.05)
+    assert any(s.step == "one shape" and s.accepted for s in steps)
+
+
 def test_augment_science_shares_a_shape_groups_parameters():
     from sklearn_hybrid.diagnosis.terms import Term as T
 

@@ -17,7 +17,8 @@ of each state's spread, seed 0), the same data through:
   constants dropped; ``loop_discovery_yields`` that arm with each flow offered once and also with a yield;
   ``loop_discovery_whole`` that arm with each discovered form also offered whole (its parts in a science
   parameter's direction kept); ``loop_discovery_joined`` that arm with a term placed beside the same term
-  held on another equation sharing its constants;
+  held on another equation sharing its constants; ``loop_discovery_one_shape`` that arm with a discovered form
+  on one equation replaced by another's joined to its constants where that validates as well;
 - **UDE + SINDy**: the first fit's network output on the visited states, STLSQ on pysindy's cubic polynomial
   library per equation (threshold by 5-fold CV, one-standard-error rule), terms and theta refitted without the
   network (``identification/anchors.py``, the recipe of ``bench_anchors_loop.py``);
@@ -69,6 +70,7 @@ ARMS = [("loop", "closed loop (term list)"), ("loop_discovery", "closed loop + d
         ("loop_discovery_yields", "closed loop + discovery (and flows with a yield)"),
         ("loop_discovery_whole", "closed loop + discovery (and forms offered whole)"),
         ("loop_discovery_joined", "closed loop + discovery (and a held term's shape joined)"),
+        ("loop_discovery_one_shape", "closed loop + discovery (and one shape per flux)"),
         ("ude_sindy", "UDE + SINDy (cubic library)"), ("sr_alone", "SR alone on derivatives"),
         ("sindy_data", "SINDy on the data")]
 # loop_discovery_2: the same arm run again after discovery was revised on what the first run showed (the record
@@ -99,10 +101,14 @@ ARMS = [("loop", "closed loop (term list)"), ("loop_discovery", "closed loop + d
 # the law -1.2 x^2 y/(K + x^2) on the prey's equation, K 0.637, and then on the predator's the rival form
 # y/(K + x^2) at the same cost as the law with its own K, m taking the rest (m -0.20 for 0.4). The whole arm was
 # stopped after that case for this one; the same cases again, not fresh.
+# loop_discovery_one_shape: the joined arm, with a discovered form on one equation replaced by another equation's
+# discovered form joined to its constants where that validates as well (the joined arm took holling_iii as the
+# whole arm did: y/(K + x^2) on the predator's equation first, then the law on the prey's, so nothing joined).
+# The joined arm was stopped after two cases for this one; the same cases again, not fresh.
 LOOP_ARMS = ("loop", "loop_discovery", "loop_discovery_2", "loop_discovery_gated", "loop_discovery_written",
              "loop_discovery_anywhere", "loop_discovery_lean",
              "loop_discovery_yields", "loop_discovery_whole",
-             "loop_discovery_joined")
+             "loop_discovery_joined", "loop_discovery_one_shape")
 WHOLE_MODEL = ("sr_alone", "sindy_data")
 PREFACE = ("The batch (`benchmarks/discovery/laws.py`) was written and committed (942caa3) before any arm ran on it; "
            "the first run is the package at a9909c2 (discovery as first written). Discovery was then revised on "
@@ -336,7 +342,8 @@ def main(argv=None) -> None:
                         default=[a for a, _ in ARMS if a not in ("loop_discovery_2", "loop_discovery_gated",
                                                                  "loop_discovery_written", "loop_discovery_anywhere",
                                                                  "loop_discovery_lean", "loop_discovery_yields",
-                                                                 "loop_discovery_whole", "loop_discovery_joined")])
+                                                                 "loop_discovery_whole", "loop_discovery_joined",
+                                                                 "loop_discovery_one_shape")])
     parser.add_argument("--arm-budget", type=int, default=0,
                         help="stop an arm after this many seconds of wall-clock time and record it as stopped")
     parser.add_argument("--render", action="store_true", help="only write results/discovery.md from the records")

@@ -479,8 +479,18 @@ def _units_section(records: list[dict]) -> list[str]:
             f"{sum(o.get('n_added', 0) == 0 for _, o in controls)}); median CPU seconds of a case "
             f"{cpu([n for n, _ in at]):.0f} (before {cpu([o for _, o in at]):.0f})."
             + "".join(f" Made again at {c}: {why}." for c, why in UNITS_LATER.items()
-                      if c in commits and any(n.get("package_commit") == c for n, _ in at)))
+                      if c in commits and any(n.get("package_commit") == c for n, _ in at))
+            + _machines_of([n for n, _ in at]))
     return lines + [""] + _before_after(pairs)
+
+
+def _machines_of(records: list[dict]) -> str:
+    """Which CPUs made these records, with how many each, where more than one did."""
+    cpus: dict[str, int] = {}
+    for r in records:
+        cpu = r.get("machine", {}).get("cpu", "unknown")
+        cpus[cpu] = cpus.get(cpu, 0) + 1
+    return "" if len(cpus) < 2 else " Made on " + ", ".join(f"{cpu} ({n})" for cpu, n in cpus.items()) + "."
 
 
 def _before_after(pairs: list[tuple[dict, dict]]) -> list[str]:

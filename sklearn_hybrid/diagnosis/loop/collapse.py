@@ -13,7 +13,9 @@ removes parameters, so it cannot add a term where nothing is missing.
 constants set to zero in turn (:func:`~sklearn_hybrid.diagnosis.families.symbolic.reduced_forms`), the
 reduced form kept where its model validates within ``min_gain`` of the full one. The search fits its forms
 to what the network learned, whose error a spare constant takes up; in the refit such a constant trades
-with theta.
+with theta. :func:`one_shape_per_flux` puts an accepted discovered form in place of another equation's
+discovered form, sharing the first one's constants, where that validates as well: a flux taken on one equation
+and, in another step, a rival form of it on another.
 """
 
 from __future__ import annotations
@@ -32,7 +34,7 @@ from .placed import PlacedTerm
 from ..results import Step, Verdict
 from ..sensitivity import free_columns, parameter_jacobian, science_output
 
-__all__ = ["replace_stand_ins", "drop_spare_constants"]
+__all__ = ["replace_stand_ins", "drop_spare_constants", "one_shape_per_flux"]
 
 
 def replace_stand_ins(science: Callable, current: Callable, added: list[PlacedTerm], theta: dict,
@@ -168,6 +170,64 @@ def drop_spare_constants(science: Callable, current: Callable, added: list[Place
         steps[index] = replace(steps[index], accepted=True)
         added = [t.with_fitted(current, theta, k) for k, t in enumerate(placed)]
         log(f"  simplified {old} to {new}")
+
+
+def one_shape_per_flux(science: Callable, current: Callable, added: list[PlacedTerm], theta: dict,
+                       errors: np.ndarray, judge: Judge, variables: Sequence[str], n_states: int,
+                       param_names: Mapping[str, str] | None, steps: list[Step], log: Callable[[str], None], *,
+                       evidence: Evidence) -> tuple:
+    """Replace a discovered form on one equation by another equation's discovered form, joined to its shape,
+    where the model validates within ``evidence.min_gain`` of the model's; again until none does.
+
+    One flux, one shape: the selection may take a predation's law on the prey's equation and, in another step,
+    a rival form on the predator's that a science parameter completes (``y/(K + x^2)`` beside ``-m y`` where the
+    law is ``x^2 y/(K + x^2)``), at the cost of the law with a shape of its own. The law joined to the held shape
+    costs a coefficient only. The arguments are :func:`replace_stand_ins`'s; each replacement tried adds a row
+    to ``steps`` (``step`` ``"one shape"``).
+
+    Returns
+    -------
+    tuple
+        ``(current, added, theta, errors)``, with the replacements that validated.
+    """
+    original = read_signature(science)[1]
+    tried: set[tuple] = set()
+    while True:
+        now, best = float(np.mean(errors)), None
+        shaped = [t for t in added if t.shape and t.kind == "discovered" and t.opposite is None]
+        for held in shaped:
+            for other in shaped:
+                names = {t.key for t in added}
+                if other.component == held.component or (other.component, held.name) in names \
+                        or (held.key, other.key) in tried or other.shape_group is not None:
+                    continue
+                tried.add((held.key, other.key))
+                joined = replace(held, component=other.component, coef=other.coef, shape_group=held.name,
+                                 shares_shape=True, param=None, shape_params=None, second_look=False)
+                placed = [replace(t, shape_group=t.name) if t is held and t.shape_group is None else t
+                          for t in added if t is not other] + [joined]
+                model = augment_with(science, placed, variables, n_states, param_names)
+                bounds = shape_bounds(model, placed)
+                start = {**{k: theta[k] for k in original}, **initial_values(model, placed, len(placed))}
+                try:
+                    fitted = judge.fit(model, start, bounds)
+                    cand_errors = judge.errors(model, fitted, bounds)
+                except FIT_FAILURES:
+                    continue
+                mse = float(np.mean(cand_errors))
+                ok = bool(np.isfinite(mse) and mse <= (1 + evidence.min_gain) * now)
+                judged = Verdict(now, mse, 1 - mse / now if now > 0 else 0.0, float("nan"), None, ok)
+                steps.append(Step.of("one shape", joined.row(), verdict=judged, replaces=[other.name]))
+                log(f"  {other.name} on component {other.component} as {held.name}, its shape shared: validation "
+                    f"MSE {mse:.4g} against {now:.4g}{' (as well)' if ok else ''}")
+                if ok and (best is None or mse < best[0]):
+                    best = (mse, other, held, model, fitted, cand_errors, placed, len(steps) - 1)
+        if best is None:
+            return current, added, theta, errors
+        _, other, held, current, theta, errors, placed, index = best
+        steps[index] = replace(steps[index], accepted=True)
+        added = [t.with_fitted(current, theta, k) for k, t in enumerate(placed)]
+        log(f"  replaced {other.name} on component {other.component} by {held.name}, its shape shared")
 
 
 def _start(science: Callable, reduced, rest: list[PlacedTerm], theta: dict) -> dict:

@@ -37,7 +37,7 @@ from ..judge import FIT_FAILURES, Judge, training_folds
 from .candidates import (Candidates, augment_with, candidate_groups, discovered_terms, field_groups, flow_candidates,
                          flow_groups, initial_values, join_shape_groups, interleave, merge_rankings, network_carries, offset_candidate,
                          rank_by_residual, rank_by_fit, shape_bounds, term_columns)
-from .collapse import drop_spare_constants, replace_stand_ins
+from .collapse import drop_spare_constants, one_shape_per_flux, replace_stand_ins
 from ..evidence import Evidence
 from .joint import joint_candidates
 from .placed import PlacedTerm
@@ -233,6 +233,9 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
     current, added, theta_now, errors = replace_stand_ins(
         science, current, added, theta_now, errors, judge, columns, learned, args, variables, n_states, param_names,
         steps, log, evidence=evidence, candidates=candidates, fixed=fit.fixed)
+    current, added, theta_now, errors = one_shape_per_flux(
+        science, current, added, theta_now, errors, judge, variables, n_states, param_names, steps, log,
+        evidence=evidence)
     current, added, theta_now, errors = drop_spare_constants(
         science, current, added, theta_now, errors, judge, variables, n_states, param_names, steps, log,
         evidence=evidence)
