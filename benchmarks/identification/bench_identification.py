@@ -437,7 +437,8 @@ CHECKS_SECTION = [
 # from 816bb34 (--rerun --refit --resume --noise 0.01, run order interleaving domains and controls) set against
 # each case's record before it (at 0eafee3). The noise 0.05 half was rerun later, at UNITS_05.
 UNITS_SINCE, BEFORE_UNITS = "816bb34", "0eafee3"
-UNITS_05 = "9dd11c9"  # --rerun --refit --resume --noise 0.05, after the network-free refit in units of y (9dd11c9)
+UNITS_05 = "9dd11c9"  # --rerun --refit --resume --noise 0.05, after the network-free refit in units of y (9dd11c9);
+# its first 89 cases (the costliest) ran on an Intel Xeon, the other 58 on an AMD EPYC from a worktree at 9dd11c9
 # cases of that rerun made again at a later package commit, one by one (--rerun --refit --cases NAME), and why
 UNITS_LATER = {"05936f9": "substrate_inhibition, after a fix of the selection's stuck screening refits (7f055e7)"}
 UNITS_RERUNS = {0.01: (UNITS_SINCE, *UNITS_LATER), 0.05: (UNITS_05,)}
