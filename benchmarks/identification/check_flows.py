@@ -7,6 +7,7 @@ goes through ``close_the_loop`` twice, with ``Candidates(flows=True)`` (the defa
 before flows), and the page lists the terms, the number of coefficients and the function-space score of each.
 
     python benchmarks/identification/check_flows.py
+    python benchmarks/identification/check_flows.py --rerun   # every case again, at this package
     python benchmarks/identification/check_flows.py --render
 
 Each case is cached in ``results/runs/flows/<case>.json``.
@@ -76,12 +77,13 @@ def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--cases", nargs="*", default=CASES, choices=list(SYSTEMS))
     parser.add_argument("--render", action="store_true")
+    parser.add_argument("--rerun", action="store_true", help="run the cases again, over their records")
     args = parser.parse_args(argv)
     if not args.render:
         RUNS.mkdir(parents=True, exist_ok=True)
         for name in args.cases:
             path = RUNS / f"{name}.json"
-            if path.exists():
+            if path.exists() and not args.rerun:
                 continue
             rec = run_case(name)
             path.write_text(json.dumps(rec, indent=1, default=float) + "\n")
