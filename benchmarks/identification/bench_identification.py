@@ -440,8 +440,12 @@ UNITS_SINCE, BEFORE_UNITS = "816bb34", "0eafee3"
 UNITS_05 = "9dd11c9"  # --rerun --refit --resume --noise 0.05, after the network-free refit in units of y (9dd11c9);
 # its first 89 cases (the costliest) ran on an Intel Xeon, the other 58 on an AMD EPYC from a worktree at 9dd11c9
 # cases of that rerun made again at a later package commit, one by one (--rerun --refit --cases NAME), and why
-UNITS_LATER = {"05936f9": "substrate_inhibition, after a fix of the selection's stuck screening refits (7f055e7)"}
-UNITS_RERUNS = {0.01: (UNITS_SINCE, *UNITS_LATER), 0.05: (UNITS_05,)}
+UNITS_LATER = {"05936f9": "substrate_inhibition, after a fix of the selection's stuck screening refits (7f055e7)",
+               "e5a8f7a": "the cases whose record had chosen a flow or a group of a shaped term, after flows were "
+                          "offered once per pair and also with a yield, and a group's members (or a term joining "
+                          "one held on another equation) came to share the term's shape (aafdbda, 47870cb, "
+                          "d0e8946); on an AMD EPYC"}
+UNITS_RERUNS = {0.01: (UNITS_SINCE, *UNITS_LATER), 0.05: (UNITS_05, *UNITS_LATER)}
 # which cases a rerun cut short holds: the 0.01 rerun kept the run order; the 0.05 one ran the cases in two lists
 # side by side (--cases), each ordered by its record's CPU seconds before, the costliest first
 UNITS_ORDER = {0.01: "the run order interleaves domains and controls, so a cross-section",
