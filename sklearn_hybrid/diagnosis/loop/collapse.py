@@ -92,22 +92,16 @@ def replace_stand_ins(science: Callable, current: Callable, added: list[PlacedTe
                   if c.kind not in kinds and c.n_parameters() < budget][:candidates.n_candidates]
         best = None
         for cand in ranked:
-            placed = [*rest, cand]
-            model = augment_with(science, placed, variables, n_states, param_names)
-            bounds = shape_bounds(model, placed)
-            try:
-                fitted = judge.fit(model, {**base, **initial_values(model, placed)}, bounds)
-                cand_errors = judge.errors(model, fitted, bounds)
-            except FIT_FAILURES:
+            refit = _judged_refit(science, [*rest, cand], base, 1, judge, variables, n_states, param_names,
+                                  float(np.mean(errors)), min_gain)
+            if refit is None:
                 continue
-            mse, now = float(np.mean(cand_errors)), float(np.mean(errors))
-            ok = bool(np.isfinite(mse) and mse <= (1 + min_gain) * now)
-            judged = Verdict(now, mse, 1 - mse / now if now > 0 else 0.0, float("nan"), None, ok)
+            model, fitted, cand_errors, judged = refit
             steps.append(Step.of("replace", cand.row(), verdict=judged, replaces=[t.name for t in on_j]))
             log(f"  replace {', '.join(t.name for t in on_j)} on component {j} by {cand.name}: validation "
-                f"MSE {mse:.4g} against {now:.4g}{' (as well)' if ok else ''}")
-            if ok and (best is None or mse < best[0]):
-                best = (mse, cand, model, fitted, cand_errors, len(steps) - 1)
+                f"MSE {judged.mse_after:.4g} against {judged.mse_before:.4g}{' (as well)' if judged.accepted else ''}")
+            if judged.accepted and (best is None or judged.mse_after < best[0]):
+                best = (judged.mse_after, cand, model, fitted, cand_errors, len(steps) - 1)
         if best is None:
             continue
         _, cand, current, theta, errors, index = best
@@ -135,6 +129,7 @@ def drop_spare_constants(science: Callable, current: Callable, added: list[Place
     original = read_signature(science)[1]
     while True:
         now, best = float(np.mean(errors)), None
+        start = {k: theta[k] for k in original}  # the science's own parameters; the terms from their values
         units = {}  # a group's members reduce together: one unit per shape group, or per single term
         for t in added:
             if t.kind == "discovered":
@@ -145,25 +140,20 @@ def drop_spare_constants(science: Callable, current: Callable, added: list[Place
                 made = {id(m): replace(m, term=term, shape={k: m.shape[k] for k in term.shape}, shape_group=group,
                                        param=None, shape_params=None) for m in members}
                 placed = [made.get(id(t), t) for t in added]
-                model = augment_with(science, placed, variables, n_states, param_names)
-                bounds = shape_bounds(model, placed)
-                start = {**{k: theta[k] for k in original}, **initial_values(model, placed, len(placed))}
-                try:
-                    fitted = judge.fit(model, start, bounds)
-                    cand_errors = judge.errors(model, fitted, bounds)
-                except FIT_FAILURES:
+                refit = _judged_refit(science, placed, start, len(placed), judge, variables, n_states, param_names,
+                                      now, evidence.min_gain)
+                if refit is None:
                     continue
-                mse = float(np.mean(cand_errors))
-                ok = bool(np.isfinite(mse) and mse <= (1 + evidence.min_gain) * now)
-                judged = Verdict(now, mse, 1 - mse / now if now > 0 else 0.0, float("nan"), None, ok)
+                model, fitted, cand_errors, judged = refit
                 row = made[id(members[0])].row()
                 if len(members) > 1:
                     row["component"] = [m.component for m in members]
                 steps.append(Step.of("simplify", row, verdict=judged, replaces=[members[0].name]))
-                log(f"  simplify {members[0].name} to {term.name}: validation MSE {mse:.4g} against {now:.4g}"
-                    f"{' (as well)' if ok else ''}")
-                if ok and (best is None or mse < best[0]):
-                    best = (mse, members[0].name, term.name, model, fitted, cand_errors, placed, len(steps) - 1)
+                log(f"  simplify {members[0].name} to {term.name}: validation MSE {judged.mse_after:.4g} against "
+                    f"{now:.4g}{' (as well)' if judged.accepted else ''}")
+                if judged.accepted and (best is None or judged.mse_after < best[0]):
+                    best = (judged.mse_after, members[0].name, term.name, model, fitted, cand_errors, placed,
+                            len(steps) - 1)
         if best is None:
             return current, added, theta, errors
         _, old, new, current, theta, errors, placed, index = best
@@ -194,10 +184,11 @@ def one_shape_per_flux(science: Callable, current: Callable, added: list[PlacedT
     tried: set[tuple] = set()
     while True:
         now, best = float(np.mean(errors)), None
+        start = {k: theta[k] for k in original}  # the science's own parameters; the terms from their values
         shaped = [t for t in added if t.shape and t.kind == "discovered" and t.opposite is None]
+        names = {t.key for t in added}
         for held in shaped:
             for other in shaped:
-                names = {t.key for t in added}
                 if other.component == held.component or (other.component, held.name) in names \
                         or (held.key, other.key) in tried or other.shape_group is not None:
                     continue
@@ -206,28 +197,40 @@ def one_shape_per_flux(science: Callable, current: Callable, added: list[PlacedT
                                  shares_shape=True, param=None, shape_params=None, second_look=False)
                 placed = [replace(t, shape_group=t.name) if t is held and t.shape_group is None else t
                           for t in added if t is not other] + [joined]
-                model = augment_with(science, placed, variables, n_states, param_names)
-                bounds = shape_bounds(model, placed)
-                start = {**{k: theta[k] for k in original}, **initial_values(model, placed, len(placed))}
-                try:
-                    fitted = judge.fit(model, start, bounds)
-                    cand_errors = judge.errors(model, fitted, bounds)
-                except FIT_FAILURES:
+                refit = _judged_refit(science, placed, start, len(placed), judge, variables, n_states, param_names,
+                                      now, evidence.min_gain)
+                if refit is None:
                     continue
-                mse = float(np.mean(cand_errors))
-                ok = bool(np.isfinite(mse) and mse <= (1 + evidence.min_gain) * now)
-                judged = Verdict(now, mse, 1 - mse / now if now > 0 else 0.0, float("nan"), None, ok)
+                model, fitted, cand_errors, judged = refit
                 steps.append(Step.of("one shape", joined.row(), verdict=judged, replaces=[other.name]))
                 log(f"  {other.name} on component {other.component} as {held.name}, its shape shared: validation "
-                    f"MSE {mse:.4g} against {now:.4g}{' (as well)' if ok else ''}")
-                if ok and (best is None or mse < best[0]):
-                    best = (mse, other, held, model, fitted, cand_errors, placed, len(steps) - 1)
+                    f"MSE {judged.mse_after:.4g} against {now:.4g}{' (as well)' if judged.accepted else ''}")
+                if judged.accepted and (best is None or judged.mse_after < best[0]):
+                    best = (judged.mse_after, other, held, model, fitted, cand_errors, placed, len(steps) - 1)
         if best is None:
             return current, added, theta, errors
         _, other, held, current, theta, errors, placed, index = best
         steps[index] = replace(steps[index], accepted=True)
         added = [t.with_fitted(current, theta, k) for k, t in enumerate(placed)]
         log(f"  replaced {other.name} on component {other.component} by {held.name}, its shape shared")
+
+
+def _judged_refit(science: Callable, placed: list[PlacedTerm], base: dict, newest: int, judge: Judge,
+                  variables: Sequence[str], n_states: int, param_names: Mapping[str, str] | None, now: float,
+                  min_gain: float) -> tuple | None:
+    """The model of ``placed`` refitted from ``base`` (its last ``newest`` terms from their own values) and
+    judged against the held-out error ``now``: ``(model, fitted, errors, verdict)``, the verdict accepted where
+    the refit validates within ``min_gain`` of ``now``; None where the refit failed."""
+    model = augment_with(science, placed, variables, n_states, param_names)
+    bounds = shape_bounds(model, placed)
+    try:
+        fitted = judge.fit(model, {**base, **initial_values(model, placed, newest)}, bounds)
+        errors = judge.errors(model, fitted, bounds)
+    except FIT_FAILURES:
+        return None
+    mse = float(np.mean(errors))
+    ok = bool(np.isfinite(mse) and mse <= (1 + min_gain) * now)
+    return model, fitted, errors, Verdict(now, mse, 1 - mse / now if now > 0 else 0.0, float("nan"), None, ok)
 
 
 def _start(science: Callable, reduced, rest: list[PlacedTerm], theta: dict) -> dict:

@@ -16,10 +16,12 @@ The best one that passes is refitted on every training sample and kept, and a te
 that it makes dispensable (the model without it validates as well) is dropped; the next step
 starts from there. Selection stops when no candidate passes; an equation left with two or more
 terms, not all polynomial, then has them replaced by one term of another kind that validates as well
-(:func:`~sklearn_hybrid.diagnosis.loop.collapse.replace_stand_ins`), and a discovered form's constants that
+(:func:`~sklearn_hybrid.diagnosis.loop.collapse.replace_stand_ins`), a discovered form on one equation gives
+way to another equation's, its constants shared, where that validates as well
+(:func:`~sklearn_hybrid.diagnosis.loop.collapse.one_shape_per_flux`), and a discovered form's constants that
 the held-out data do not need are dropped (:func:`~sklearn_hybrid.diagnosis.loop.collapse.drop_spare_constants`).
-The candidates, their rankings and
-their augmented models are built in :mod:`~sklearn_hybrid.diagnosis.loop.candidates`.
+The candidates, their rankings and their augmented models are built in
+:mod:`~sklearn_hybrid.diagnosis.loop.candidates`.
 """
 
 from __future__ import annotations
@@ -35,8 +37,8 @@ import torch
 from ...science import read_signature
 from ..judge import FIT_FAILURES, Judge, training_folds
 from .candidates import (Candidates, augment_with, candidate_groups, discovered_terms, field_groups, flow_candidates,
-                         flow_groups, initial_values, join_shape_groups, interleave, merge_rankings, network_carries, offset_candidate,
-                         rank_by_residual, rank_by_fit, shape_bounds, term_columns)
+                         flow_groups, initial_values, interleave, join_shape_groups, merge_rankings, network_carries,
+                         offset_candidate, rank_by_residual, rank_by_fit, shape_bounds, term_columns)
 from .collapse import drop_spare_constants, one_shape_per_flux, replace_stand_ins
 from ..evidence import Evidence
 from .joint import joint_candidates
