@@ -78,18 +78,24 @@ def reference_seconds() -> float:
         torch.set_num_threads(threads)
 
 
-def machine_description() -> dict:
-    """CPU model, core count, memory, library versions and speed (:func:`reference_seconds`)."""
-    import numpy
-    import sklearn
-    import torch
-
+def cpu_model() -> str:
+    """The CPU's model name (``/proc/cpuinfo``'s, else the platform's)."""
     cpu = platform.processor() or "unknown"
     try:
         with open("/proc/cpuinfo") as fh:
             cpu = next(line.split(":", 1)[1].strip() for line in fh if line.startswith("model name"))
     except (OSError, StopIteration):
         pass
+    return cpu
+
+
+def machine_description() -> dict:
+    """CPU model, core count, memory, library versions and speed (:func:`reference_seconds`)."""
+    import numpy
+    import sklearn
+    import torch
+
+    cpu = cpu_model()
     try:
         mem = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") / 2**30
     except (ValueError, OSError):

@@ -27,11 +27,11 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the helpers
-from helpers import PACKAGE_COMMIT, RESULTS, ROOT, machine_description, runs_folder, write_results  # noqa: E402
+from helpers import PACKAGE_COMMIT, RESULTS, ROOT, cpu_model, runs_folder, write_results  # noqa: E402
 
 README = ROOT / "README.md"
 BLOCK = re.compile(r"```python\n(.*?)```(?:(?:(?!```).)*?```text\n(.*?)```)?", re.S)  # as tests/test_readme.py
-CPU = machine_description()["cpu"]
+CPU = cpu_model()  # the runs are cached and kept by it
 NUMBER = re.compile(r"-?\d+(?:\.\d+)?(?:e-?\d+)?")
 
 #: name -> (environment, torch settings made before the snippet runs)

@@ -210,12 +210,14 @@ class SymbolicDiscovery:
         out: dict[str, Term] = {}
         aside: list[Term] = []
         kept: dict[str, Term] = {}
+
+        def term_of(formula: str, keep: bool):
+            return form_term(formula, names, component, values=X, directions=directions,
+                             theta_parts=[v for v in names if v.startswith(DIRECTION)], units=units,
+                             science=SCIENCE_SYMBOL if SCIENCE_SYMBOL in names else None, scales=scales,
+                             theta_forms=written, keep_parameter_parts=keep)
         for m in near:
-            made, whole = (form_term(m["formula"], names, component, values=X, directions=directions,
-                                     theta_parts=[v for v in names if v.startswith(DIRECTION)], units=units,
-                                     science=SCIENCE_SYMBOL if SCIENCE_SYMBOL in names else None, scales=scales,
-                                     theta_forms=written, keep_parameter_parts=keep)
-                           for keep in (False, True))
+            made = term_of(m["formula"], False)
             if made is None or len(made[0].shape) > self.max_constants:
                 continue
             if made[0].consistent is False:  # kept aside: offered only where no consistent form is
@@ -224,6 +226,7 @@ class SymbolicDiscovery:
             if made[0].name not in out and len(out) < self.max_forms:  # one form written twice: the first
                 out[made[0].name] = made[0]
                 # the form with the parts a science parameter provides kept, where dropping them changed it
+                whole = term_of(m["formula"], True)
                 if whole is not None and whole[0].name != made[0].name and len(whole[0].shape) <= self.max_constants:
                     kept[whole[0].name] = whole[0]
         for term in aside:

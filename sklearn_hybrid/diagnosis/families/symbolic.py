@@ -194,6 +194,16 @@ def reduced_forms(term: Term) -> list[Term]:
     carries the network's own error: a constant the law lacks comes out small, not zero, and trades with
     theta in the refit. Each reduced form keeps the other constants (their starting values and bounds are the
     term's), its equation and its units' verdict (setting a constant to zero adds no new sum).
+
+    Parameters
+    ----------
+    term : Term
+        A term, usually one :func:`form_term` made (its function a :class:`SymbolicForm`).
+
+    Returns
+    -------
+    list of Term
+        One reduced term per constant that can go, in the order of the constants; empty for another term.
     """
     form = term.func
     if not isinstance(form, SymbolicForm) or not form.constants:
