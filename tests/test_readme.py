@@ -28,7 +28,7 @@ def test_readme_has_the_snippets_it_promises():
     assert len(found) >= 2  # quick start (fit, report, loop), the profile
     assert "est.fit_report()" in found[0][0] and "close_the_loop(est, X, y" in found[0][0]
     assert "print(result.intervals)" in found[0][0] and "first screen" in found[0][1]
-    assert "profile_theta(est, X, y)" in found[1][0]
+    assert "profile_theta(est, X, y" in found[1][0]
     assert all(output for _, output in found)  # every snippet shows what it prints
 
 
