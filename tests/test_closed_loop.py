@@ -1135,7 +1135,7 @@ def test_a_term_held_on_one_equation_joins_its_shape_when_placed_on_another():
     """One flux, one shape, also across steps: the saturation accepted on A's equation, then offered on B's,
     reads the held K (one coefficient more, not two parameters), and the model shares it."""
     from sklearn_hybrid.diagnosis.loop.candidates import augment_with, join_shape_groups
-    from sklearn_hybrid.diagnosis.loop.placed import PlacedTerm
+    from sklearn_hybrid.diagnosis.loop.placed import PlacedTerm, label_joined_shapes
 
     saturation = Term("A/(K + |A|)", lambda d, K: d["A"] / (K + d["A"].abs()), "saturation",
                       {"K": ([0.3], (1e-3, 10.0))})
@@ -1148,6 +1148,9 @@ def test_a_term_held_on_one_equation_joins_its_shape_when_placed_on_another():
     assert model.shape_names[0] == model.shape_names[1]
     assert len([p for p in inspect.signature(model).parameters if p.startswith("K")]) == 1
     assert join_shape_groups([held], [PlacedTerm(saturation, 0, {"K": 0.9})])[0].shares_shape is False  # same equation
+    # the held term is labelled the group it leads, where the model is built and where the selection keeps it
+    assert [t.shape_group for t in label_joined_shapes([held, joined, other])] == [held.name, held.name, None]
+    assert label_joined_shapes([held, other]) == [held, other]  # nothing joins it: no group
 
 
 def test_a_rival_form_on_another_equation_gives_way_to_the_held_law_with_its_shape():

@@ -29,7 +29,7 @@ from ..science_fit import ScienceFit
 from ..sensitivity import finite_differences, free_columns, parameter_basis
 from ..families import SymbolicDiscovery, TermContext, physics_terms
 from ..terms import Term
-from .placed import PlacedGroup, PlacedTerm, offset_term
+from .placed import PlacedGroup, PlacedTerm, label_joined_shapes, offset_term
 
 
 @dataclass(frozen=True, eq=False)
@@ -422,10 +422,9 @@ def augment_with(science: Callable, placed: Sequence[PlacedTerm], variables: Seq
                  param_names: Mapping[str, str] | None):
     """``science`` with the ``placed`` terms, in that order (:func:`~sklearn_hybrid.diagnosis.augment_science`,
     whose public input is a list of dicts: each term is handed over as one)."""
-    joined = {t.shape_group for t in placed if t.shares_shape}  # the term it joins holds the shape group too
     terms = [{"component": t.component, "term": t.name, "kind": t.kind, "coef": t.coef, "function": t.term.func,
               "shape": t.shape, "param": (param_names or {}).get(t.name), "opposite": t.opposite,
-              "shape_group": t.shape_group or (t.name if t.name in joined else None)} for t in placed]
+              "shape_group": t.shape_group} for t in label_joined_shapes(list(placed))]
     return augment_science(science, terms, variables, n_states=n_states)
 
 

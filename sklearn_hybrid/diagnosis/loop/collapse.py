@@ -30,7 +30,7 @@ from ..evidence import Evidence
 from ..judge import FIT_FAILURES, Judge
 from .candidates import Candidates, augment_with, initial_values, rank_by_residual, shape_bounds
 from ..families.symbolic import reduced_forms
-from .placed import PlacedTerm
+from .placed import PlacedTerm, label_joined_shapes
 from ..results import Step, Verdict
 from ..sensitivity import free_columns, parameter_jacobian, science_output
 
@@ -195,8 +195,7 @@ def one_shape_per_flux(science: Callable, current: Callable, added: list[PlacedT
                 tried.add((held.key, other.key))
                 joined = replace(held, component=other.component, coef=other.coef, shape_group=held.name,
                                  shares_shape=True, param=None, shape_params=None, second_look=False)
-                placed = [replace(t, shape_group=t.name) if t is held and t.shape_group is None else t
-                          for t in added if t is not other] + [joined]
+                placed = label_joined_shapes([t for t in added if t is not other] + [joined])
                 refit = _judged_refit(science, placed, start, len(placed), judge, variables, n_states, param_names,
                                       now, evidence.min_gain)
                 if refit is None:

@@ -23,7 +23,7 @@ from typing import Any, Union
 
 from ..terms import Term
 
-__all__ = ["PlacedTerm", "PlacedGroup", "Candidate", "offset_term"]
+__all__ = ["PlacedTerm", "PlacedGroup", "Candidate", "offset_term", "label_joined_shapes"]
 
 
 def offset_term(name: str) -> Term:
@@ -182,6 +182,18 @@ class PlacedTerm:
         if self.shape_group is not None:
             out["shape_group"] = self.shape_group
         return out
+
+
+def label_joined_shapes(placed: list[PlacedTerm]) -> list[PlacedTerm]:
+    """``placed`` with each term that another joins (one with ``shares_shape``) labelled its shape group.
+
+    A term placed while the same term is held on another equation joins the held one's shape
+    (:func:`~sklearn_hybrid.diagnosis.loop.candidates.join_shape_groups`); the held term, placed before any
+    joined it, carries no group yet, and takes its own name as the group's label here, so that the augmented
+    model gives both one set of shape parameters.
+    """
+    joined = {t.shape_group for t in placed if t.shares_shape}
+    return [replace(t, shape_group=t.name) if t.name in joined and t.shape_group is None else t for t in placed]
 
 
 @dataclass(frozen=True, eq=False)

@@ -43,7 +43,7 @@ from .candidates import (Candidates, augment_with, candidate_groups, discovered_
 from .collapse import drop_spare_constants, one_shape_per_flux, replace_stand_ins
 from ..evidence import Evidence
 from .joint import joint_candidates
-from .placed import PlacedTerm
+from .placed import PlacedTerm, label_joined_shapes
 from .report import format_gain
 from ..results import Selection, Step
 from .second_look import Screened, correct_joint, look_again, simplest_of_the_best
@@ -218,10 +218,9 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
         theta_now = judge.fit(current, theta_now, bounds)
         errors = judge.errors(current, theta_now, bounds)
         steps[index] = replace(steps[index], accepted=True)
-        joined = {e.shape_group for e in cand.entries() if e.shares_shape}  # the term it joined: labelled too
-        added = [replace(t, shape_group=t.name) if t.name in joined and t.shape_group is None else t for t in added]
-        added += [replace(entry.with_fitted(current, theta_now, len(added) + k), second_look=second_look)
-                  for k, entry in enumerate(cand.entries())]
+        added = label_joined_shapes(added + [replace(entry.with_fitted(current, theta_now, len(added) + k),
+                                                     second_look=second_look)
+                                             for k, entry in enumerate(cand.entries())])
         log(f"  accepted {cand.name} on {cand.where()}")
         known[_key(added)] = theta_now
         current, added, theta_now, errors = _drop_dispensable(
