@@ -12,8 +12,7 @@ and each is said in the result instead of an interval that would read as certain
   right-hand side too small to see there can add up along a trajectory, and no candidate may have
   captured it);
 - :func:`weigh_rivals`: a term the held-out data could not tell from the chosen one (another form
-  instead of it, or one more term they lean to by ``OPEN_Z`` standard errors) moves a science parameter
-  outside its interval; the parameter
+  instead of it, or one more term) moves a science parameter outside its interval; the parameter
   is identified only given the chosen form, and its interval is widened to the rival values;
 - :func:`mirror_trades`: a chosen term's form, placed on another uncertain equation (its mirror),
   would trade with a science parameter there: a flow between two states, or a force between two

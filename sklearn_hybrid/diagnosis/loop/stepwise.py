@@ -36,7 +36,6 @@ import torch
 
 from ...science import read_signature
 from ..judge import FIT_FAILURES, Judge, training_folds
-from .caveats import OPEN_Z
 from .candidates import (Candidates, augment_with, candidate_groups, discovered_terms, field_groups, flow_candidates,
                          flow_groups, initial_values, interleave, join_shape_groups, merge_rankings, network_carries,
                          offset_candidate, rank_by_residual, rank_by_fit, shape_bounds, term_columns)
@@ -156,9 +155,7 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
     known: dict[tuple, dict] = {}  # each model the path settled on (its terms in order) and its fit
     steps: list[Step] = []
     # candidates the held-out data could not tell from the choice: instead of an accepted term (within
-    # min_gain of its error) or, at the last step, added to the final model (lowering its error by at least
-    # OPEN_Z standard errors: a term that gains less is as likely noise's gift as an effect, and whether one
-    # such term out of the many tried happens to gain depends on the rounding of the fit that ranked them)
+    # min_gain of its error) or, at the last step, added to the final model (lowering its error a little)
     rivals: list[dict] = []
     step = 0
     while len(added) < candidates.max_terms:
@@ -206,7 +203,7 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
             best = look_again(recheck, tried, current, theta_now, added, steps, evidence, log, len(joint))
         if best is None:
             rivals += [{"role": "add", "cand": t.cand, "theta": t.theta, "mse": t.verdict["mse_after"]} for t in tried
-                       if t.verdict["gain"] > 0 and t.verdict["z"] >= OPEN_Z and np.isfinite(t.verdict["mse_after"])]
+                       if t.verdict["gain"] > 0 and np.isfinite(t.verdict["mse_after"])]
             break
         best_mse = best.verdict["mse_after"]
         rivals += [{"role": "instead", "of": _key(best.cand.entries()), "cand": t.cand, "theta": t.theta,
