@@ -444,7 +444,11 @@ UNITS_LATER = {"05936f9": "substrate_inhibition, after a fix of the selection's 
                "e5a8f7a": "the cases whose record had chosen a flow or a group of a shaped term, after flows were "
                           "offered once per pair and also with a yield, and a group's members (or a term joining "
                           "one held on another equation) came to share the term's shape (aafdbda, 47870cb, "
-                          "d0e8946); on an AMD EPYC"}
+                          "d0e8946); on an AMD EPYC",
+               "d2f515d": "the other 50 cases at noise 0.05 whose states share a unit (where the loop offers flows), "
+                          "for the same changes, which also offer a flow with a yield and join a held term's shape "
+                          "wherever such states are (--rerun --refit --noise 0.05 --cases, two lists side by side, "
+                          "each the costliest first); on an AMD EPYC"}
 UNITS_RERUNS = {0.01: (UNITS_SINCE, *UNITS_LATER), 0.05: (UNITS_05, *UNITS_LATER)}
 # which cases a rerun cut short holds: the 0.01 rerun kept the run order; the 0.05 one ran the cases in two lists
 # side by side (--cases), each ordered by its record's CPU seconds before, the costliest first
