@@ -40,7 +40,7 @@ def test_a_vector_fields_terms_are_tried_together_each_on_its_own_equation():
     """|v| vx ranked on g[vx]: the group places it there and |v| vy where that ranks best (not on
     g[vx] again, and not where it ranks second), each with its own coefficient; a term of no field
     makes no group."""
-    from sklearn_hybrid.diagnosis.loop.candidates import field_groups
+    from sklearn_hybrid.diagnosis.loop.groups import field_groups
     from sklearn_hybrid.diagnosis.loop.placed import PlacedTerm
 
     terms = {t.name: t for t in physics_terms(["vx", "vy"], np.ones((5, 2)), kinds=["norm", "polynomial"],

@@ -1049,7 +1049,7 @@ def test_a_flux_between_two_components_is_added_to_both_at_once():
 
 
 def test_a_group_is_preferred_only_when_clearly_better_than_its_single_terms():
-    from sklearn_hybrid.diagnosis.loop.candidates import candidate_groups
+    from sklearn_hybrid.diagnosis.loop.groups import candidate_groups
     from sklearn_hybrid.diagnosis.loop.placed import PlacedTerm
     from sklearn_hybrid.diagnosis.loop.second_look import Screened, simplest_of_the_best
 
@@ -1072,7 +1072,7 @@ def test_a_group_of_a_shaped_term_shares_its_shape():
     """One flux, one shape: a saturating uptake 0.8 A/(0.5 + A) leaves A and half of it enters B. The group
     places A/(K + |A|) on both balances with a coefficient each and one K (it costs three parameters, not four),
     fitted to the truth."""
-    from sklearn_hybrid.diagnosis.loop.candidates import candidate_groups
+    from sklearn_hybrid.diagnosis.loop.groups import candidate_groups
     from sklearn_hybrid.diagnosis.loop.placed import PlacedTerm
 
     saturation = Term("A/(K + |A|)", None, "saturation", {"K": ([0.3], (1e-3, 10.0))})
@@ -1134,7 +1134,8 @@ def test_a_discovered_forms_spare_constant_is_dropped():
 def test_a_term_held_on_one_equation_joins_its_shape_when_placed_on_another():
     """One flux, one shape, also across steps: the saturation accepted on A's equation, then offered on B's,
     reads the held K (one coefficient more, not two parameters), and the model shares it."""
-    from sklearn_hybrid.diagnosis.loop.candidates import augment_with, join_shape_groups
+    from sklearn_hybrid.diagnosis.loop.candidates import augment_with
+    from sklearn_hybrid.diagnosis.loop.groups import join_shape_groups
     from sklearn_hybrid.diagnosis.loop.placed import PlacedTerm, label_joined_shapes
 
     saturation = Term("A/(K + |A|)", lambda d, K: d["A"] / (K + d["A"].abs()), "saturation",

@@ -49,7 +49,8 @@ def test_a_formula_becomes_a_textbook_term_with_named_constants_and_its_coeffici
 def test_a_form_of_the_states_is_placed_on_any_equation_and_one_of_the_science_output_on_its_own():
     """A predation found on the prey's residual also feeds the predator: the ranking places it on both
     equations (a group with a coefficient each), where it stayed on the prey's before."""
-    from sklearn_hybrid.diagnosis.loop.candidates import candidate_groups, rank_by_residual
+    from sklearn_hybrid.diagnosis.loop.candidates import rank_by_residual
+    from sklearn_hybrid.diagnosis.loop.groups import candidate_groups
 
     states = np.random.default_rng(0).uniform(0.2, 2.0, (60, 2))
     flux = states[:, 0] * states[:, 1] / (0.5 + states[:, 0])
@@ -296,7 +297,7 @@ def test_a_flow_is_offered_once_per_pair_and_with_a_yield_as_a_group():
     """Each pair's flow once (its two orientations are one model), on the component it enters; and the same
     term on both components with a coefficient each, for a flux whose yield is not one (2 A -> B at 0.5 A^2:
     -1.0 A^2 on A, +0.5 A^2 on B), even where the term ranks among the best on one equation only."""
-    from sklearn_hybrid.diagnosis.loop.candidates import flow_candidates, flow_groups
+    from sklearn_hybrid.diagnosis.loop.groups import flow_candidates, flow_groups
     from sklearn_hybrid.diagnosis.loop.placed import PlacedTerm
 
     square = Term("A^2", lambda d: d["A"] ** 2, "polynomial")

@@ -64,7 +64,7 @@ class PlacedTerm:
         label share one set of shape parameters (see :func:`~sklearn_hybrid.diagnosis.augment_science`).
     shares_shape : bool, default=False
         It joins the shape group of the same term already in the model on another component
-        (:func:`~sklearn_hybrid.diagnosis.loop.candidates.join_shape_groups`): it adds a coefficient only.
+        (:func:`~sklearn_hybrid.diagnosis.loop.groups.join_shape_groups`): it adds a coefficient only.
     """
 
     term: Term
@@ -188,7 +188,7 @@ def label_joined_shapes(placed: list[PlacedTerm]) -> list[PlacedTerm]:
     """``placed`` with each term that another joins (one with ``shares_shape``) labelled its shape group.
 
     A term placed while the same term is held on another equation joins the held one's shape
-    (:func:`~sklearn_hybrid.diagnosis.loop.candidates.join_shape_groups`); the held term, placed before any
+    (:func:`~sklearn_hybrid.diagnosis.loop.groups.join_shape_groups`); the held term, placed before any
     joined it, carries no group yet, and takes its own name as the group's label here, so that the augmented
     model gives both one set of shape parameters.
     """
@@ -206,8 +206,8 @@ class PlacedGroup:
         The terms it places.
     joint : bool, default=False
         False: one term on several components, or the terms of one vector field each on its own
-        (``ranked_by`` ``"group"``, see :func:`~sklearn_hybrid.diagnosis.loop.candidates.candidate_groups`
-        and :func:`~sklearn_hybrid.diagnosis.loop.candidates.field_groups`); True: a set of terms on one
+        (``ranked_by`` ``"group"``, see :func:`~sklearn_hybrid.diagnosis.loop.groups.candidate_groups`
+        and :func:`~sklearn_hybrid.diagnosis.loop.groups.field_groups`); True: a set of terms on one
         equation that explain the residual only together (kind ``"joint"``, see
         :func:`~sklearn_hybrid.diagnosis.loop.joint.joint_candidates`).
     gain : float, default=nan

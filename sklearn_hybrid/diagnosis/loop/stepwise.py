@@ -36,10 +36,10 @@ import torch
 
 from ...science import read_signature
 from ..judge import FIT_FAILURES, Judge, training_folds
-from .candidates import (Candidates, augment_with, candidate_groups, discovered_terms, field_groups, flow_candidates,
-                         flow_groups, initial_values, interleave, join_shape_groups, merge_rankings, network_carries,
-                         offset_candidate, rank_by_residual, rank_by_fit, shape_bounds, term_columns)
+from .candidates import (Candidates, augment_with, discovered_terms, initial_values, interleave, merge_rankings,
+                         network_carries, offset_candidate, rank_by_residual, rank_by_fit, shape_bounds, term_columns)
 from .collapse import drop_spare_constants, one_shape_per_flux, replace_stand_ins
+from .groups import candidate_groups, field_groups, flow_candidates, flow_groups, join_shape_groups
 from ..evidence import Evidence
 from .joint import joint_candidates
 from .placed import PlacedTerm, label_joined_shapes
@@ -105,8 +105,8 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
     flow_pairs : list of (int, int), optional
         Components whose states may exchange (one unit): a term ranked on both with opposite signs is also a
         candidate as a flow, one coefficient for both
-        (:func:`~sklearn_hybrid.diagnosis.loop.candidates.flow_candidates`), and as a group, a coefficient
-        each (a yield other than one, :func:`~sklearn_hybrid.diagnosis.loop.candidates.flow_groups`).
+        (:func:`~sklearn_hybrid.diagnosis.loop.groups.flow_candidates`), and as a group, a coefficient
+        each (a yield other than one, :func:`~sklearn_hybrid.diagnosis.loop.groups.flow_groups`).
     units : dict of str to str, optional
         The variables' units: a discovered form that adds quantities of different units is marked.
     network : callable, optional
