@@ -448,7 +448,10 @@ UNITS_LATER = {"05936f9": "substrate_inhibition, after a fix of the selection's 
                "d2f515d": "the other 50 cases at noise 0.05 whose states share a unit (where the loop offers flows), "
                           "for the same changes, which also offer a flow with a yield and join a held term's shape "
                           "wherever such states are (--rerun --refit --noise 0.05 --cases, two lists side by side, "
-                          "each the costliest first); on an AMD EPYC"}
+                          "each the costliest first); on an AMD EPYC",
+               "c341a2b": "the noise 0.01 cases whose states share a unit, for the same changes (--rerun --refit "
+                          "--noise 0.01 --cases, two lists side by side, started with 35 minutes of the session "
+                          "left: the cases it reached); on an AMD EPYC"}
 UNITS_RERUNS = {0.01: (UNITS_SINCE, *UNITS_LATER), 0.05: (UNITS_05, *UNITS_LATER)}
 # which cases a rerun cut short holds: the 0.01 rerun kept the run order; the 0.05 one ran the cases in two lists
 # side by side (--cases), each ordered by its record's CPU seconds before, the costliest first
