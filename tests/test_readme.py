@@ -48,26 +48,27 @@ def test_the_demo_runs_the_quick_start():
 FLOAT_PATHS = README.parent / "benchmarks" / "results" / "float_paths.json"
 
 
+def float_path_record():
+    """The record of ``benchmarks/units/check_float_paths.py`` where it measured these very snippets, else None."""
+    if not FLOAT_PATHS.exists():
+        return None
+    record = json.loads(FLOAT_PATHS.read_text())
+    return record if BLOCK.findall(record["readme"]) == snippets() else None
+
+
 def measured_spreads():
     """``(block, line, index) -> spread`` of each documented number over other CPUs' float paths, from
-    ``benchmarks/units/check_float_paths.py`` (its record must be of these snippets), else {}."""
-    if not FLOAT_PATHS.exists():
-        return {}
-    record = json.loads(FLOAT_PATHS.read_text())
-    if BLOCK.findall(record["readme"]) != snippets():
-        return {}
-    return {(n["block"], n["line"], n["index"]): n["spread"] for n in record["numbers"]}
+    :func:`float_path_record`, else {}."""
+    record = float_path_record()
+    return {} if record is None else {(n["block"], n["line"], n["index"]): n["spread"] for n in record["numbers"]}
 
 
 def measured_alternatives():
     """``block -> [printed lines, ...]``: each block's numbered lines as a run under another float path printed
-    them in other words (another verdict) than the README shows, from ``benchmarks/units/check_float_paths.py``
-    (its record must be of these snippets), else {}. Such a block holds a verdict at the margin that another
-    CPU's rounding tips; the README says so beside it."""
-    if not FLOAT_PATHS.exists():
-        return {}
-    record = json.loads(FLOAT_PATHS.read_text())
-    if BLOCK.findall(record["readme"]) != snippets():
+    them in other words (another verdict) than the README shows, from :func:`float_path_record`, else {}. Such a
+    block holds a verdict at the margin that another CPU's rounding tips; the README says so beside it."""
+    record = float_path_record()
+    if record is None:
         return {}
     out = {}
     for k, (_, documented) in enumerate(snippets()):
@@ -141,7 +142,8 @@ def test_a_block_prints_as_the_readme_shows_it_or_as_a_measured_alternative():
     assert shown_as([want[0].replace("0.666477", "0.6665")], want, [alternative]) == want
     assert shown_as([alternative[0].replace("0.6676", "0.6677"), alternative[1]], want, [alternative]) == alternative
     assert shown_as(alternative[:1], want, [alternative]) is None  # a line short
-    assert shown_as([alternative[0].replace("max(0, v - knot)", "|v|^p"), alternative[1]], want, [alternative]) is None
+    other_words = [alternative[0].replace("max(0, v - knot)", "|v|^p"), alternative[1]]
+    assert shown_as(other_words, want, [alternative]) is None
     assert shown_as(["    omega: 0.65  NOT IDENTIFIED: the data fit as well over [0.3, 0.9]"], want, [alternative]) is None
 
 

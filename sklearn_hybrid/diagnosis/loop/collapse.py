@@ -105,8 +105,7 @@ def replace_stand_ins(science: Callable, current: Callable, added: list[PlacedTe
         if best is None:
             continue
         _, cand, current, theta, errors, index = best
-        steps[index] = replace(steps[index], accepted=True)
-        added = [t.with_fitted(current, theta, k) for k, t in enumerate([*rest, cand])]  # the new one: no second look
+        added = _kept(steps, index, current, theta, [*rest, cand])  # the new one: no second look
         log(f"  replaced {', '.join(t.name for t in on_j)} on component {j} by {cand.name}")
     return current, added, theta, errors
 
@@ -157,8 +156,7 @@ def drop_spare_constants(science: Callable, current: Callable, added: list[Place
         if best is None:
             return current, added, theta, errors
         _, old, new, current, theta, errors, placed, index = best
-        steps[index] = replace(steps[index], accepted=True)
-        added = [t.with_fitted(current, theta, k) for k, t in enumerate(placed)]
+        added = _kept(steps, index, current, theta, placed)
         log(f"  simplified {old} to {new}")
 
 
@@ -209,9 +207,15 @@ def one_shape_per_flux(science: Callable, current: Callable, added: list[PlacedT
         if best is None:
             return current, added, theta, errors
         _, other, held, current, theta, errors, placed, index = best
-        steps[index] = replace(steps[index], accepted=True)
-        added = [t.with_fitted(current, theta, k) for k, t in enumerate(placed)]
+        added = _kept(steps, index, current, theta, placed)
         log(f"  replaced {other.name} on component {other.component} by {held.name}, its shape shared")
+
+
+def _kept(steps: list[Step], index: int, current: Callable, theta: dict, placed: list[PlacedTerm]) -> list[PlacedTerm]:
+    """The stage's choice kept: ``steps[index]`` marked accepted, and ``placed`` read at their fitted values
+    in ``current`` (``theta``), as the model's terms from now on."""
+    steps[index] = replace(steps[index], accepted=True)
+    return [t.with_fitted(current, theta, k) for k, t in enumerate(placed)]
 
 
 def _judged_refit(science: Callable, placed: list[PlacedTerm], base: dict, newest: int, judge: Judge,
