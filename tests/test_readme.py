@@ -144,7 +144,8 @@ def test_a_block_prints_as_the_readme_shows_it_or_as_a_measured_alternative():
     assert shown_as(alternative[:1], want, [alternative]) is None  # a line short
     other_words = [alternative[0].replace("max(0, v - knot)", "|v|^p"), alternative[1]]
     assert shown_as(other_words, want, [alternative]) is None
-    assert shown_as(["    omega: 0.65  NOT IDENTIFIED: the data fit as well over [0.3, 0.9]"], want, [alternative]) is None
+    another_verdict = ["    omega: 0.65  NOT IDENTIFIED: the data fit as well over [0.3, 0.9]"]
+    assert shown_as(another_verdict, want, [alternative]) is None
 
 
 def test_readme_snippets_run_and_print_their_documented_output(tmp_path, monkeypatch, capsys):
