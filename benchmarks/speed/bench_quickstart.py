@@ -47,7 +47,7 @@ def one_run():
     mark("report")
     result = close_the_loop(est, X, y, state_names=["v", "v_dot"])
     mark("loop")
-    profile = profile_theta(est, X, y)
+    profile = profile_theta(est, X, y, max_iter=2000)  # as the README's second block
     mark("profile (optional)")
     path = [k for k in steps if not k.endswith("(optional)")]
     return {"steps": steps, "n_iter": est.n_iter_, "n_substeps": est.n_substeps_, "omega": est.theta_["omega"],
