@@ -79,10 +79,25 @@ def test_the_part_a_parameter_of_the_science_provides_is_dropped_from_a_formula(
     assert form_term("(0.5 - 0.2 * X1)", ["x"], 0, values=x, directions=directions) is None  # nothing left
 
 
+def test_a_direction_s_rest_share_goes_to_its_parameter():
+    """A form that is a science direction times a function finite and non-zero at rest loses the direction's
+    multiple at rest (the parameter's); a function that vanishes there, or is not finite there, is kept."""
+    import sympy
+
+    from sklearn_hybrid.diagnosis.families.symbolic import rest_share_dropped
+
+    S, I = sympy.symbols("S I")
+    assert sympy.simplify(rest_share_dropped(S * I / (I + 0.5), S * I, [S, I]) + 2 * S * I ** 2 / (I + 0.5)) == 0
+    assert rest_share_dropped(S ** 2 * I, S * I, [S, I]) == S ** 2 * I  # the function S vanishes at rest
+    arrhenius = S * I * sympy.exp(-3 / I)
+    assert rest_share_dropped(arrhenius, S * I, [S, I]) == arrhenius  # not finite at rest
+
+
 def test_a_law_that_modifies_a_science_term_is_offered_in_the_variables():
     """The search reads beta's direction S I (of -beta S I) as one variable and finds an incidence that falls as
-    cases rise as that direction over 1 + 8 I^2: written in the states, the law is offered; a direction no
-    product of the states writes still gives no form."""
+    cases rise as that direction over 1 + 8 I^2: written in the states, the law's departure from the science term
+    is offered (beta keeps its meaning at low prevalence); a direction no product of the states writes still
+    gives no form."""
     rng = np.random.default_rng(0)
     states = rng.uniform(0.05, 1.0, (60, 2))  # S, I
     s, i = states.T
@@ -93,8 +108,9 @@ def test_a_law_that_modifies_a_science_term_is_offered_in_the_variables():
     found = "(X3 / (1 + 8 * X2 * X2)) - X3 + 0.3 * X3"  # the law, less beta's own part (theta's)
     term, coef = form_term(found, ["S", "I", "dtheta1"], 1, values=values, directions=directions[:, :1],
                            theta_parts=["dtheta1"], theta_forms=written)
-    assert term.name == "I*S/(I^2 + K1)" and term.shape["K1"][0][0] == pytest.approx(1 / 8)
-    assert coef == pytest.approx(-1 / 8)
+    # -S I/(1 + 8 I^2) less its value at rest times the direction (-S I): 8 S I^3/(1 + 8 I^2)
+    assert term.name == "I^3*S/(I^2 + K1)" and term.shape["K1"][0][0] == pytest.approx(1 / 8)
+    assert coef == pytest.approx(1.0)
     assert form_term(found, ["S", "I", "dtheta1"], 1, values=values, directions=directions[:, :1],
                      theta_parts=["dtheta1"]) is None
     with pytest.raises(ValueError, match=r"one name per variable; got shapes \(60, 2\), \(60, 2\) and 1 names"):

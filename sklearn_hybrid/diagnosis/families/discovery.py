@@ -48,9 +48,10 @@ class SymbolicDiscovery:
         At most this many rounds per equation.
     tol : float, default=0.01
         The front has settled when a round lowers no length's error by more than this share.
-    max_forms : int, default=2
+    max_forms : int, default=4
         Forms offered per equation and grammar: the front's knee (the form whose error falls most below the
-        next shorter one's), then the shortest among those within reach; a form dimensionally inconsistent in
+        next shorter one's), then the shortest among those within reach (the samples rank a law's form beside
+        stand-ins of its length; each offered form is judged in the ODE); a form dimensionally inconsistent in
         the variables' units (``Term.consistent`` False) only where too few consistent ones are. Each is
         offered without the parts a science parameter provides (they are theta's error) and, where that
         dropped something, also whole (a law may hold such a part: ``x^2 y/(K + x^2)`` is
@@ -91,7 +92,7 @@ class SymbolicDiscovery:
     def __init__(self, operators: tuple[str, ...] = ("add,sub,mul,div,square", "add,sub,mul,div,square,sqrt",
                                                      "add,sub,mul,div,exp,log"), max_length: int = 20,
                  population_size: int = 300, generations: int = 25, max_rounds: int = 8, tol: float = 0.01,
-                 max_forms: int = 2, slack: float = 0.5, max_constants: int = 3, r2: float = 0.99,
+                 max_forms: int = 4, slack: float = 0.5, max_constants: int = 3, r2: float = 0.99,
                  max_points: int = 400,
                  random_state: int = 0, use_directions: bool = True, use_science: bool = False) -> None:
         self.operators, self.max_length, self.population_size = operators, max_length, population_size

@@ -19,7 +19,8 @@ import torch
 from ..sensitivity import parameter_basis
 from ..terms import SCIENCE_OUTPUT, Term
 
-__all__ = ["SymbolicForm", "form_term", "canonical_form", "consistent_units", "drop_parameter_parts", "reduced_forms"]
+__all__ = ["SymbolicForm", "form_term", "canonical_form", "consistent_units", "drop_parameter_parts", "reduced_forms",
+           "rest_share_dropped"]
 
 # sympy's functions as torch computes them (a formula of the operators a physicist writes)
 _TORCH = {"exp": torch.exp, "log": torch.log, "sqrt": torch.sqrt, "Abs": torch.abs, "sin": torch.sin,
@@ -141,7 +142,9 @@ def form_term(formula: str, variables: Sequence[str], component: int, *, science
     direction in the variables (``(c, {variable: power})``, the direction ``c * prod(variable^power)``): it is
     then read as written (a law that modifies a science term, ``beta S I / (1 + K I^2)`` found as
     ``dtheta1 / (1 + K I^2)`` where ``dtheta1`` is beta's direction ``S I``), and its part that a parameter
-    provides is dropped as any other; with ``keep_parameter_parts`` only a constant is dropped (a law may hold a
+    provides is dropped as any other, the multiple of the direction it holds at rest included (the law's
+    departure from the science term is offered, ``S I^3/(K + I^2)``, and beta keeps its meaning at low
+    prevalence; see :func:`rest_share_dropped`); with ``keep_parameter_parts`` only a constant is dropped (a law may hold a
     part in a parameter's direction, ``x^2 y/(K + x^2) = y - K y/(K + x^2)`` beside a science's ``-m y``: placed
     on another equation, or with a constant set to zero, the part is the law's). Of the forms equal up to a constant,
     the one that vanishes where the variables do is written. Each remaining constant starts at the value the
@@ -155,6 +158,7 @@ def form_term(formula: str, variables: Sequence[str], component: int, *, science
     read = symbols if scales is None else {k: s / sympy.Float(float(c)) for (k, s), c in zip(symbols.items(), scales)}
     expr = sympy.sympify(formula, locals=read)
     written = theta_forms or {}
+    inside = []  # the directions written inside the law, as products of the variables
     for name in theta_parts:
         part = sympy.Symbol(name)
         if part in expr.free_symbols:
@@ -162,13 +166,15 @@ def form_term(formula: str, variables: Sequence[str], component: int, *, science
                 expr = expr.subs(part, 0)
             elif name in written:  # a direction inside the law, written in the variables
                 coefficient, powers = written[name]
-                expr = expr.subs(part, sympy.Float(coefficient) * sympy.Mul(
-                    *[sympy.Symbol(v) ** int(k) for v, k in powers.items()]))
+                inside.append(sympy.Mul(*[sympy.Symbol(v) ** int(k) for v, k in powers.items()]))
+                expr = expr.subs(part, sympy.Float(coefficient) * inside[-1])
             else:  # a direction inside the law that no variables write: not a form of the variables
                 return None
     if values is not None and directions is not None:
         kept = np.asarray(directions)[:, :0] if keep_parameter_parts else directions
         expr = drop_parameter_parts(expr, [symbols[f"X{i + 1}"] for i in range(len(variables))], values, kept)
+    for monomial in inside:  # the rest share of a direction written inside the law is its parameter's
+        expr = rest_share_dropped(expr, monomial, list(symbols.values()))
     expr = _zero_at_rest(expr, list(symbols.values()))
     factor, form, constants = canonical_form(expr)
     used = sorted((s.name for s in form.free_symbols if s.name not in constants), key=list(variables).index)
@@ -290,6 +296,39 @@ def _zero_at_rest(expr: sympy.Expr, symbols: Sequence[sympy.Symbol]) -> sympy.Ex
             or at_rest == 0:
         return expr
     return _one_fraction(expr - at_rest)
+
+
+def rest_share_dropped(expr: sympy.Expr, direction: sympy.Expr, symbols: Sequence[sympy.Symbol]) -> sympy.Expr:
+    """``expr`` less the multiple of ``direction`` it holds at rest, where ``expr`` is ``direction`` times a
+    function of the variables that is finite and not zero where they all are.
+
+    A law that modifies a science term (``beta S I / (1 + K I)`` in place of ``beta S I``) is found as the
+    term's direction times a function (``S I / (K + I)``), and that function's value at rest is a multiple
+    of the direction, which the parameter provides: the parameter keeps its meaning as the term's rate where
+    the law's departure vanishes (beta the contact rate at low prevalence), and the form left is the law's
+    departure, ``S I^2 / (K + I)``. Unchanged where the function is not finite at rest (``exp(-E/T)``) or
+    vanishes there.
+
+    Parameters
+    ----------
+    expr : sympy.Expr
+        The form.
+    direction : sympy.Expr
+        A science parameter's direction written in the variables (a product of their powers).
+    symbols : sequence of sympy.Symbol
+        The variables; rest is where they are all zero.
+
+    Returns
+    -------
+    sympy.Expr
+        The form less ``direction`` times its ratio's value at rest.
+    """
+    ratio = sympy.cancel(sympy.together(expr / direction))
+    at_rest = ratio.subs({s: 0 for s in symbols})
+    if not at_rest.is_number or at_rest.has(sympy.zoo, sympy.nan, sympy.oo, -sympy.oo) or not at_rest.is_real \
+            or at_rest == 0:
+        return expr
+    return _one_fraction(expr - at_rest * direction)
 
 
 def drop_parameter_parts(expr: sympy.Expr, symbols: Sequence[sympy.Symbol], values: np.ndarray,

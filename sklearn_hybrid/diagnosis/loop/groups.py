@@ -16,7 +16,7 @@ from dataclasses import replace
 
 from .placed import PlacedGroup, PlacedTerm
 
-__all__ = ["candidate_groups", "flow_candidates", "flow_groups", "join_shape_groups", "field_groups"]
+__all__ = ["candidate_groups", "first_placements", "flow_candidates", "flow_groups", "join_shape_groups", "field_groups"]
 
 
 def candidate_groups(ranked: list[PlacedTerm]) -> list[PlacedGroup]:
@@ -57,6 +57,16 @@ def flow_candidates(scored: list[PlacedTerm], pairs: Sequence[tuple[int, int]], 
                 continue
             out.append(replace(a, gain=a.gain + b.gain, ranked_by="flow", opposite=j))
     return sorted(out, key=lambda t: -t.gain)[:n]
+
+
+def first_placements(scored: list[PlacedTerm], names: set[str]) -> list[PlacedTerm]:
+    """The best-ranked placement in ``scored`` of each term named in ``names``: one candidate per term,
+    on the equation where it explains most (a term ``scored`` does not hold, none)."""
+    out: dict[str, PlacedTerm] = {}
+    for cand in scored:
+        if cand.name in names:
+            out.setdefault(cand.name, cand)
+    return list(out.values())
 
 
 def join_shape_groups(added: Sequence[PlacedTerm], candidates: list) -> list:

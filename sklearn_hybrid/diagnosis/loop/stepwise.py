@@ -39,7 +39,8 @@ from ..judge import FIT_FAILURES, Judge, training_folds
 from .candidates import (Candidates, augment_with, discovered_terms, initial_values, interleave, merge_rankings,
                          network_carries, offset_candidate, rank_by_residual, rank_by_fit, shape_bounds, term_columns)
 from .collapse import drop_spare_constants, one_shape_per_flux, replace_stand_ins
-from .groups import candidate_groups, field_groups, flow_candidates, flow_groups, join_shape_groups
+from .groups import (candidate_groups, field_groups, first_placements, flow_candidates, flow_groups,
+                     join_shape_groups)
 from ..evidence import Evidence
 from .joint import joint_candidates
 from .placed import PlacedTerm, label_joined_shapes
@@ -145,6 +146,10 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
                                  tensors[SCIENCE_OUTPUT].numpy(), variables, n_states, components, log, units,
                                  carried)
         columns += term_columns(found, tensors)
+    # each discovered form is judged in the ODE at least once, placed where it explains most and as a flow:
+    # the rankings read it at the constants the search gave it, fitted to what the network learned, which
+    # carries the network's own error; a law whose constants the refit moves may rank below a stand-in there
+    unjudged = {t.name for t in found} if candidates.discovery else set()
     scale = np.sqrt(np.mean(np.asarray(learned, dtype=float) ** 2, axis=0))
     log(f"science refitted alone: validation MSE {errors.mean():.4g}")
     added: list[PlacedTerm] = []
@@ -169,6 +174,7 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
                               variables, n_states, param_names)[:candidates.n_candidates]
         declared = [offset_candidate(k, variables) for k in offsets]
         ranked = merge_rankings(by_residual, by_fit) + [c for c in declared if c.key not in taken]
+        ranked += [c for c in first_placements(scored, unjudged) if c.key not in {r.key for r in ranked}]
         if not ranked:
             break
         tried: list[Screened] = []
@@ -178,6 +184,9 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
                  if len(g.members) <= room]
         flows = [f for f in flow_candidates(scored, flow_pairs, candidates.n_candidates)
                  if not f.covers & taken]
+        flows += [f for f in flow_candidates(scored, flow_pairs, len(scored)) if f.name in unjudged
+                  and not f.covers & taken and f.key not in {g.key for g in flows}]
+        unjudged = set()
         grouped = {frozenset(m.key for m in g.members) for g in together}
         together += [g for g in flow_groups(flows, scored) if len(g.members) <= room
                      and frozenset(m.key for m in g.members) not in grouped]
