@@ -35,8 +35,13 @@ at most 0.01 and theta within 5 %; the **field** within 10 % when ``rel_err`` is
 model, when ``control_err`` is at most 0.05. Every arm of a case is cached in
 ``results/runs/discovery/<case>.json`` as it ends (the first fits in ``fits/``, not committed); a rerun resumes.
 
+The second batch (``laws_second.py``: 9 effects, 3 controls, written after the first had been seen) runs with
+``--batch laws_2``, the arms of the package as it stands (``DEFAULT_ARMS``), its records in
+``results/runs/discovery_2/`` and its page ``results/discovery_2.md``.
+
     python benchmarks/discovery/bench_discovery.py                      # every case, resuming
     python benchmarks/discovery/bench_discovery.py --cases holling_iii --arms loop loop_discovery
+    python benchmarks/discovery/bench_discovery.py --batch laws_2       # the second batch
     python benchmarks/discovery/bench_discovery.py --render
 """
 
@@ -54,12 +59,15 @@ import torch
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the helpers, the studies' modules
 from helpers import PACKAGE_COMMIT, cpu_seconds, runs_folder, write_results  # noqa: E402
-from discovery.laws import BY_NAME, LAWS  # noqa: E402
+from discovery.laws import LAWS  # noqa: E402
+from discovery.laws_second import LAWS_2  # noqa: E402
 from identification import anchors  # noqa: E402
 from identification.protocol import PROTOCOL, first_hybrid_fit, loop_arguments, make_data, score  # noqa: E402
 from identification.systems import simulate  # noqa: E402
 
-RUNS = runs_folder("discovery")
+# batch -> its systems and the name of its records' folder and results page
+BATCHES = {"laws": (LAWS, "discovery"), "laws_2": (LAWS_2, "discovery_2")}
+BY_NAME = {s.name: s for systems, _ in BATCHES.values() for s in systems}
 NOISE, SEED = 0.01, 0
 ARMS = [("loop", "closed loop (term list)"), ("loop_discovery", "closed loop + discovery (first run)"),
         ("loop_discovery_2", "closed loop + discovery (revised)"),
@@ -138,8 +146,24 @@ PREFACE = ("The batch (`benchmarks/discovery/laws.py`) was written and committed
            "on an AMD EPYC, from first fits made there.")  # they replace the science: no theta, clean by control_err
 
 
+def _runs(system) -> Path:
+    """The records' folder of the batch that holds ``system``."""
+    return runs_folder(next(folder for systems, folder in BATCHES.values() if system in systems))
+
+
+TITLES = {"laws": "# Name the law: the laws batch", "laws_2": "# Name the law: the second laws batch"}
+PREFACES = {"laws": PREFACE, "laws_2": (
+    "The second batch (`benchmarks/discovery/laws_second.py`, 9 effects of fields the first batch has and others, "
+    "3 controls) was written and committed before any arm ran on it, after the first batch had been seen by "
+    "eleven revisions of the discovery family: the first run of each arm here is a test of the package as it "
+    "stood, on laws it was not revised on. In saturating_treatment and emax_kill the law replaces a science term "
+    "by its saturating form and the parameter keeps its meaning as the term's rate at rest (gamma, k).")}
+# the arms of the package as it stands (the first batch's earlier arms are kept as its history)
+DEFAULT_ARMS = ("loop", "loop_discovery_judged", "ude_sindy", "sr_alone", "sindy_data")
+
+
 def first_fit(system, data):
-    return first_hybrid_fit(system, data, SEED, RUNS / "fits" / f"{system.name}.pkl")
+    return first_hybrid_fit(system, data, SEED, _runs(system) / "fits" / f"{system.name}.pkl")
 
 
 def _loop(system, data, hybrid, discovery: bool) -> dict:
@@ -237,7 +261,7 @@ def _stop(signum, frame):
 def run_case(name: str, arms: list[str], budget: int = 0) -> dict:
     torch.set_num_threads(1)
     system = BY_NAME[name]
-    path = RUNS / f"{name}.json"
+    path = _runs(system) / f"{name}.json"
     out = json.loads(path.read_text()) if path.exists() else {"system": name, "noise": NOISE, "seed": SEED}
     data = make_data(system, NOISE, SEED)
     hybrid = None
@@ -269,7 +293,7 @@ def run_case(name: str, arms: list[str], budget: int = 0) -> dict:
             signal.alarm(0)
         got.update(seconds=time.perf_counter() - start, cpu_seconds=cpu_seconds() - cpu, package_commit=PACKAGE_COMMIT)
         out[arm] = got
-        RUNS.mkdir(parents=True, exist_ok=True)
+        path.parent.mkdir(parents=True, exist_ok=True)
         path.write_text(json.dumps(out, indent=1, default=float) + "\n")
         print(f"{name} {arm}: {_cell(system, got)} ({got['cpu_seconds']:.0f} CPU s)", flush=True)
     return out
@@ -295,23 +319,24 @@ def _cell(system, r: dict) -> str:
     return f"rel_err {r['rel_err']:.3f}{theta}"
 
 
-def render() -> None:
-    recs = [json.loads((RUNS / f"{s.name}.json").read_text()) for s in LAWS if (RUNS / f"{s.name}.json").exists()]
+def render(batch: str = "laws") -> None:
+    systems, folder = BATCHES[batch]
+    runs = runs_folder(folder)
+    recs = [json.loads((runs / f"{s.name}.json").read_text()) for s in systems if (runs / f"{s.name}.json").exists()]
     effects = [r for r in recs if not BY_NAME[r["system"]].is_control]
     controls = [r for r in recs if BY_NAME[r["system"]].is_control]
-    lines = ["# Name the law: the laws batch", "", PREFACE, "",
+    n_controls = sum(s.is_control for s in systems)
+    arms = [(arm, label) for arm, label in ARMS if any(arm in r for r in recs)]
+    lines = [TITLES[batch], "", PREFACES[batch], "",
              "`benchmarks/discovery/bench_discovery.py` (its docstring has the protocol, the arms and the scores). "
-             f"{len(effects)} of 17 effects and {len(controls)} of 4 controls have records; a recipe's counts are "
-             "over the cases it ran.", "",
+             f"{len(effects)} of {len(systems) - n_controls} effects and {len(controls)} of {n_controls} controls "
+             "have records; a recipe's counts are over the cases it ran.", "",
              "| recipe | law named (rel_err <= 0.01, theta within 5 %) | field within 10 % | theta within 5 % | "
              "median rel_err | controls clean | median CPU s |", "|---|---|---|---|---|---|---|"]
-    for arm, label in ARMS:
+    for arm, label in arms:
         got = [r[arm] for r in effects if arm in r and "error" not in r[arm]]
         ctl = [r[arm] for r in controls if arm in r and "error" not in r[arm]]
         failed = sum(arm in r and "error" in r[arm] for r in recs)
-        if not got and not ctl:
-            lines.append(f"| {label} | not run | | | | | |")
-            continue
         named = "n/a (no theta)" if arm in WHOLE_MODEL else f"{sum(_named(None, arm, g) for g in got)} of {len(got)}"
         field = sum(g["rel_err"] <= 0.10 for g in got)
         theta = ("n/a" if arm in WHOLE_MODEL else
@@ -328,15 +353,15 @@ def render() -> None:
         missed = [f"{name} ({arm}): {', '.join(h['missed'])}" for name, arm, h in held if h["missed"]]
         lines += ["", f"Intervals (the arms that recorded them): {called} parameters called identified, "
                   f"{len(missed)} arm(s) with a miss" + (": " + "; ".join(missed) if missed else "") + "."]
-    restored = [f"{r['system']} ({a})" for r in recs for a, _ in ARMS if a in r and "restored_from_log" in r[a]]
+    restored = [f"{r['system']} ({a})" for r in recs for a, _ in arms if a in r and "restored_from_log" in r[a]]
     if restored:
         lines += ["", "Restored from the run's log line (the record was overwritten by mistake while the run went on; "
                   "rel_err, theta error and CPU seconds as printed, terms not kept): " + ", ".join(restored) + "."]
-    lines += ["", "## Per case", "", "| system | effect | " + " | ".join(label for _, label in ARMS) + " |",
-              "|---|---|" + "---|" * len(ARMS)]
+    lines += ["", "## Per case", "", "| system | effect | " + " | ".join(label for _, label in arms) + " |",
+              "|---|---|" + "---|" * len(arms)]
     for r in recs:
         s = BY_NAME[r["system"]]
-        cells = [_cell(s, r[a]) if a in r else "" for a, _ in ARMS]
+        cells = [_cell(s, r[a]) if a in r else "" for a, _ in arms]
         lines.append(f"| {s.name} | {s.effect} | " + " | ".join(cells) + " |")
     lines += ["", "## What the loop added", ""]
     for r in recs:
@@ -344,29 +369,27 @@ def render() -> None:
             if arm in r and "terms" in r[arm]:
                 lines.append(f"- {r['system']}, {arm} (package {r[arm]['package_commit']}): "
                              + ("; ".join(r[arm]["terms"]) or "nothing"))
-    write_results("discovery", {"records": recs}, "\n".join(lines))
+    write_results(folder, {"records": recs}, "\n".join(lines))
 
 
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--cases", nargs="*", default=[s.name for s in LAWS])
-    parser.add_argument("--arms", nargs="*",
-                        default=[a for a, _ in ARMS if a not in ("loop_discovery_2", "loop_discovery_gated",
-                                                                 "loop_discovery_written", "loop_discovery_anywhere",
-                                                                 "loop_discovery_lean", "loop_discovery_yields",
-                                                                 "loop_discovery_whole", "loop_discovery_joined",
-                                                                 "loop_discovery_one_shape")])
+    parser.add_argument("--batch", choices=sorted(BATCHES), default="laws")
+    parser.add_argument("--cases", nargs="*", help="default: every case of the batch")
+    parser.add_argument("--arms", nargs="*", default=list(DEFAULT_ARMS))
     parser.add_argument("--arm-budget", type=int, default=0,
                         help="stop an arm after this many seconds of wall-clock time and record it as stopped")
-    parser.add_argument("--render", action="store_true", help="only write results/discovery.md from the records")
+    parser.add_argument("--render", action="store_true", help="only write the batch's results page from the records")
     args = parser.parse_args(argv)
+    systems = BATCHES[args.batch][0]
+    cases = [s.name for s in systems] if args.cases is None else args.cases
     if not args.render:
-        unknown = sorted(set(args.cases) - set(BY_NAME)) + sorted(set(args.arms) - {a for a, _ in ARMS})
+        unknown = (sorted(set(cases) - {s.name for s in systems}) + sorted(set(args.arms) - {a for a, _ in ARMS}))
         if unknown:
-            raise SystemExit(f"unknown cases or arms: {unknown}")
-        for name in args.cases:
+            raise SystemExit(f"unknown cases (of batch {args.batch}) or arms: {unknown}")
+        for name in cases:
             run_case(name, args.arms, args.arm_budget)
-    render()
+    render(args.batch)
 
 
 if __name__ == "__main__":
