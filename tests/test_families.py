@@ -218,10 +218,11 @@ def _hill_decay(rng):
     states = x.reshape(-1, 1)
     terms = [t for t in physics_terms(["A"], states) if t.kind in ("polynomial", "saturation")]
 
-    def select(discovery, network=None):
+    def select(discovery, network=None, **options):
         return stepwise.forward_selection(decay_f, {"k": 0.5}, ScienceFit(est, x0, y), [(np.arange(24),
                                           np.arange(24, 30))], ["A"], 1, [states], truth(0, states), [0],
-                                          candidates=Candidates(terms=terms, discovery=discovery, max_terms=2),
+                                          candidates=Candidates(terms=terms, discovery=discovery,
+                                                                **{"max_terms": 2, **options}),
                                           evidence=Evidence(), network=network)
     return truth, states, select
 
@@ -238,6 +239,20 @@ def test_the_loop_names_a_law_outside_the_term_list_with_discovery_and_only_with
     assert "A" in added.name and added.component == 0
     without = select(False)
     assert all(t.kind != "discovered" for t in without["added"])
+
+
+def test_every_discovered_form_is_judged_in_the_ode_whatever_its_rank():
+    """The rankings take one candidate each here (n_candidates=1); each form the discovery family offers is still
+    refitted in the ODE at the first step, where it explains most: the samples only propose."""
+    truth, states, select = _hill_decay(np.random.default_rng(0))
+
+    class Offers:  # a family offering fixed forms (the family protocol: ``terms(context, log)``)
+        def terms(self, context, log=lambda message: None):
+            return [Term(f"A^{p}", lambda d, p=p: d["A"] ** p, "discovered", {}) for p in (3, 4, 5)]
+
+    found = select(Offers(), n_candidates=1, max_terms=1)
+    first = {s.term for s in found["steps"] if s.step == 1}
+    assert {"A^3", "A^4", "A^5"} <= first
 
 
 def test_the_search_runs_only_where_the_networks_part_lowers_the_held_out_error():

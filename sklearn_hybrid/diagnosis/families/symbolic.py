@@ -142,12 +142,13 @@ def form_term(formula: str, variables: Sequence[str], component: int, *, science
     direction in the variables (``(c, {variable: power})``, the direction ``c * prod(variable^power)``): it is
     then read as written (a law that modifies a science term, ``beta S I / (1 + K I^2)`` found as
     ``dtheta1 / (1 + K I^2)`` where ``dtheta1`` is beta's direction ``S I``), and its part that a parameter
-    provides is dropped as any other, the multiple of the direction it holds at rest included (the law's
-    departure from the science term is offered, ``S I^3/(K + I^2)``, and beta keeps its meaning at low
-    prevalence; see :func:`rest_share_dropped`); with ``keep_parameter_parts`` only a constant is dropped (a law may hold a
-    part in a parameter's direction, ``x^2 y/(K + x^2) = y - K y/(K + x^2)`` beside a science's ``-m y``: placed
-    on another equation, or with a constant set to zero, the part is the law's). Of the forms equal up to a constant,
-    the one that vanishes where the variables do is written. Each remaining constant starts at the value the
+    provides is dropped as any other, the multiple of the direction it holds at rest included, with
+    ``keep_parameter_parts`` too (the law's departure from the science term is offered, ``S I^3/(K + I^2)``,
+    and beta keeps its meaning at low prevalence; see :func:`rest_share_dropped`); with
+    ``keep_parameter_parts`` no other part is dropped but a constant (a law may hold a part in a parameter's
+    direction, ``x^2 y/(K + x^2) = y - K y/(K + x^2)`` beside a science's ``-m y``: placed on another
+    equation, or with a constant set to zero, the part is the law's). Of the forms equal up to a constant, the
+    one that vanishes where the variables do is written. Each remaining constant starts at the value the
     formula gives it and may move within a factor ``spread`` either way, keeping its sign (a constant through
     zero turns a saturation into a pole). With ``units``, a form that adds or compares quantities of different
     units with no constant between them is marked (``Term.consistent`` False, see :func:`consistent_units`).

@@ -16,7 +16,8 @@ from dataclasses import replace
 
 from .placed import PlacedGroup, PlacedTerm
 
-__all__ = ["candidate_groups", "first_placements", "flow_candidates", "flow_groups", "join_shape_groups", "field_groups"]
+__all__ = ["candidate_groups", "first_placements", "flow_candidates", "flow_groups", "join_shape_groups",
+           "field_groups"]
 
 
 def candidate_groups(ranked: list[PlacedTerm]) -> list[PlacedGroup]:
