@@ -194,6 +194,8 @@ def network_carries(judge: Any, science: Callable, theta: Mapping[str, Any], net
         after = judge.errors(with_network, judge.fit(with_network, theta))
     except FIT_FAILURES:  # the network off its visited states broke a simulation: no verdict either way
         return None
+    if not np.all(np.isfinite(after)):  # or ran a held-out trajectory off to infinity: no verdict either
+        return None
     return evidence.verdict(base_errors, after)
 
 
