@@ -1,9 +1,11 @@
-"""The closed-loop guide's figure on discovery: each effect of the laws batch, before and with symbolic regression.
+"""The closed-loop guide's figure on discovery: each effect of the two laws batches, before and with discovery.
 
-Reads the committed records of ``discovery/bench_discovery.py`` (``results/discovery.json``) and draws, per effect
-case, the final model's error in function space (``rel_err``) for the loop with its term list, the loop with
-discovery and UDE + SINDy, with the 1 % (law named, if theta is also right) and 10 % (field) lines. Nothing is
-trained: the figure is the records drawn.
+Reads the committed records of ``discovery/bench_discovery.py`` (``results/discovery.json``, the first batch, and
+``results/discovery_2.json``, the second, written after the first had been seen) and draws, per effect case, the
+final model's error in function space (``rel_err``) for the loop with its term list, the loop with discovery as the
+package now runs it (the arm ``loop_discovery_judged``) and UDE + SINDy, with the 1 % (law named, if theta is also
+right) and 10 % (field) lines; a filled marker where theta is also within 5 %. Nothing is trained: the figure is
+the records drawn.
 
     python benchmarks/gallery/discovery_figure.py
 
@@ -21,8 +23,9 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the helpers
 from helpers import RESULTS  # noqa: E402
 
-ARMS = [("loop", "loop, term list", "o", "0.55"), ("loop_discovery", "loop + discovery", "s", "C0"),
+ARMS = [("loop", "loop, term list", "o", "0.55"), ("loop_discovery_judged", "loop + discovery", "s", "C0"),
         ("ude_sindy", "UDE + SINDy", "^", "C2")]
+BATCHES = [("discovery", "first laws batch"), ("discovery_2", "second laws batch (written after the first was seen)")]
 
 
 def main() -> None:
@@ -31,23 +34,31 @@ def main() -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    records = [r for r in json.loads((RESULTS / "discovery.json").read_text())["records"]
-               if r.get("loop", {}).get("rel_err") is not None]
-    records.sort(key=lambda r: r["loop"]["rel_err"])
-    fig, ax = plt.subplots(figsize=(9, 3.6))
-    x = np.arange(len(records))
-    for key, label, marker, color in ARMS:
-        y = [r.get(key, {}).get("rel_err", np.nan) for r in records]
-        ax.semilogy(x, np.maximum(np.asarray(y, dtype=float), 1e-4), marker, color=color, ms=5, label=label,
-                    linestyle="none")
-    ax.axhline(0.01, color="C3", lw=1, ls=":", label="1 %: the law (with theta within 5 %)")
-    ax.axhline(0.10, color="C3", lw=1, ls="--", label="10 %: the field")
-    ax.set_xticks(x)
-    ax.set_xticklabels([r["system"] for r in records], rotation=60, ha="right", fontsize=7)
-    ax.set_ylabel("rel_err (final model vs truth)")
-    ax.set_title("Laws outside the term list: the final model's error per case", fontsize=10)
-    ax.legend(fontsize=7, loc="upper left")
-    fig.tight_layout()
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.6), sharey=True,
+                             gridspec_kw={"width_ratios": [17, 9]})
+    for ax, (name, title) in zip(axes, BATCHES):
+        records = [r for r in json.loads((RESULTS / f"{name}.json").read_text())["records"]
+                   if r.get("loop", {}).get("rel_err") is not None]
+        records.sort(key=lambda r: r["loop"]["rel_err"])
+        x = np.arange(len(records))
+        for key, label, marker, color in ARMS:
+            got = [r.get(key, {}) for r in records]
+            y = np.maximum(np.asarray([g.get("rel_err", np.nan) for g in got], dtype=float), 1e-4)
+            right = np.array([(g.get("theta_error") is not None and g["theta_error"] <= 0.05) for g in got])
+            ax.semilogy(x[right], y[right], marker, color=color, ms=5, linestyle="none",
+                        label=f"{label} (theta within 5 %)")
+            ax.semilogy(x[~right], y[~right], marker, color=color, ms=5, linestyle="none", mfc="none",
+                        label=f"{label} (theta off)")
+        ax.axhline(0.01, color="C3", lw=1, ls=":", label="1 %: the law (with theta within 5 %)")
+        ax.axhline(0.10, color="C3", lw=1, ls="--", label="10 %: the field")
+        ax.set_xticks(x)
+        ax.set_xticklabels([r["system"] for r in records], rotation=60, ha="right", fontsize=7)
+        ax.set_title(title, fontsize=9)
+    axes[0].set_ylabel("rel_err (final model vs truth)")
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.suptitle("Laws outside the term list: the final model's error per case", fontsize=10)
+    fig.tight_layout(rect=(0, 0.12, 1, 1))
+    fig.legend(handles, labels, fontsize=7, loc="lower center", ncol=4, frameon=False)
     out = RESULTS / "guide" / "discovery.png"
     fig.savefig(out, dpi=110)
     print(out)
