@@ -34,11 +34,13 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 from _results import render_all, render_snippets  # noqa: E402
 
 #: Results pages (benchmarks/results/<name>.md -> doc/results/<name>.rst), in the order shown.
-RESULT_PAGES = ["tasks", "pendulum_theta", "early_stopping", "sensitivity_pendulum", "theta_convergence",
-                "coverage", "uncertainty", "profile_budget", "profile_jobs", "laplace", "loop_states", "quickstart", "time_to_answer", "units", "float_paths", "network_scales", "long_record", "time_to_theta", "closed_loop",
-                "greybox", "identification", "selection_checks", "second_look_null", "inconclusive_candidates",
-                "more_validation", "mirror_trades", "anchors_loop", "discovery", "flows", "varying_theta", "speed", "free_run",
-                "sparse_regression", "large_fit", "memory_check", "gpu"]
+RESULT_PAGES = ["tasks", "pendulum_theta", "early_stopping", "sensitivity_pendulum", "theta_convergence", "coverage",
+                "uncertainty", "profile_budget", "profile_jobs", "laplace", "loop_states", "quickstart",
+                "time_to_answer", "units", "float_paths", "network_scales", "long_record", "time_to_theta",
+                "closed_loop", "greybox", "identification", "selection_checks", "second_look_null",
+                "inconclusive_candidates", "more_validation", "mirror_trades", "anchors_loop", "discovery",
+                "discovery_2", "flows", "varying_theta", "speed", "free_run", "sparse_regression", "large_fit",
+                "memory_check", "gpu"]
 render_all(RESULT_PAGES)  # -> doc/results/<name>.rst
 render_snippets()
 
