@@ -21,13 +21,13 @@ from identification.systems import System
 BATCH = "laws"
 
 
-def _on(component: int, d: int, values: np.ndarray) -> np.ndarray:
+def on_component(component: int, d: int, values: np.ndarray) -> np.ndarray:
     out = np.zeros((len(values), d))
     out[:, component] = values
     return out
 
 
-def _pair(values: np.ndarray, gain: float = 1.0) -> np.ndarray:
+def pair_flux(values: np.ndarray, gain: float = 1.0) -> np.ndarray:
     """A flux that leaves the first state and enters the second, scaled by ``gain`` there."""
     return np.stack([-values, gain * values], axis=1)
 
@@ -143,27 +143,27 @@ def vital_sir_f(v, beta=2.0, gamma=0.5, mu=0.1):
 # ------------------------------------------------------------------------------------------------------- effects
 def _holling_iii(x, u):
     p = 1.2 * x[:, 0] ** 2 * x[:, 1] / (0.64 + x[:, 0] ** 2)
-    return _pair(p, 0.5)
+    return pair_flux(p, 0.5)
 
 
 def _beddington(x, u):
     p = 1.5 * x[:, 0] * x[:, 1] / (1 + 0.8 * x[:, 0] + 0.6 * x[:, 1])
-    return _pair(p, 0.5)
+    return pair_flux(p, 0.5)
 
 
 def _ratio_dependent(x, u):
     p = 1.0 * x[:, 0] * x[:, 1] / (x[:, 0] + 0.7 * x[:, 1])
-    return _pair(p, 0.5)
+    return pair_flux(p, 0.5)
 
 
 def _saturating_incidence(x, u):  # beta S I / (1 + 3 I) in place of beta S I, beta = 2.5
     s, i = x[:, 0], x[:, 1]
-    return _pair(-2.5 * s * i * (1 / (1 + 3 * i) - 1))
+    return pair_flux(-2.5 * s * i * (1 / (1 + 3 * i) - 1))
 
 
 def _behavioural_incidence(x, u):  # beta S I / (1 + 8 I^2) in place of beta S I, beta = 2.0
     s, i = x[:, 0], x[:, 1]
-    return _pair(-2.0 * s * i * (1 / (1 + 8 * i ** 2) - 1))
+    return pair_flux(-2.0 * s * i * (1 / (1 + 8 * i ** 2) - 1))
 
 
 def _standard_incidence(x, u):  # beta S I / N in place of beta S I, N = S + I + R shrinking, beta = 1.4
@@ -175,7 +175,7 @@ def _standard_incidence(x, u):  # beta S I / N in place of beta S I, N = S + I +
 def _haldane(x, u):
     s, b = x[:, 0], x[:, 1]
     uptake = 1.5 * s * b / (0.3 + s + s ** 2 / 0.5)
-    return _pair(uptake, 0.5)
+    return pair_flux(uptake, 0.5)
 
 
 def _arrhenius(x, u):  # k C exp(E (1 - 1/T)) in place of k C: k = 0.4, E = 3, h = 0.5
@@ -186,7 +186,7 @@ def _arrhenius(x, u):  # k C exp(E (1 - 1/T)) in place of k C: k = 0.4, E = 3, h
 
 def _saturating_autocatalysis(x, u):
     a, b = x[:, 0], x[:, 1]
-    return _pair(1.2 * a * b / (0.4 + b))
+    return pair_flux(1.2 * a * b / (0.4 + b))
 
 
 def _butler_volmer(x, u):  # 2 i0 sinh(a eta) in place of g eta: i0 = 0.3, a = 1.5, g = 0.5
@@ -196,33 +196,33 @@ def _butler_volmer(x, u):  # 2 i0 sinh(a eta) in place of g eta: i0 = 0.3, a = 1
 
 
 def _nernst_drive(x, u):
-    return _pair(0.3 * np.log(x[:, 0] / x[:, 1]))
+    return pair_flux(0.3 * np.log(x[:, 0] / x[:, 1]))
 
 
 def _stribeck(x, u):
     v = x[:, 1]
-    return _on(1, 2, -0.5 * np.tanh(v / 0.05) * np.exp(-(v / 0.4) ** 2))
+    return on_component(1, 2, -0.5 * np.tanh(v / 0.05) * np.exp(-(v / 0.4) ** 2))
 
 
 def _coil_pull(x, u):
-    return _on(1, 2, 0.8 * u[:, 0] ** 2 / (0.5 + x[:, 0]) ** 2)
+    return on_component(1, 2, 0.8 * u[:, 0] ** 2 / (0.5 + x[:, 0]) ** 2)
 
 
 def _stiffening(x, u):
-    return _on(1, 2, -2.0 * x[:, 0] ** 3 / (1 + x[:, 0] ** 2))
+    return on_component(1, 2, -2.0 * x[:, 0] ** 3 / (1 + x[:, 0] ** 2))
 
 
 def _radiation(x, u):
-    return _pair(0.002 * (x[:, 0] ** 4 - x[:, 1] ** 4))
+    return pair_flux(0.002 * (x[:, 0] ** 4 - x[:, 1] ** 4))
 
 
 def _thermistor(x, u):  # u^2 / R(T), R = R0 exp(B (1/T - 1)), in place of u^2 / R0: p = 1/R0 = 0.4, B = 3
     T = x[:, 0]
-    return _on(0, 2, 0.4 * u[:, 0] ** 2 * (np.exp(3.0 * (1 - 1 / T)) - 1))
+    return on_component(0, 2, 0.4 * u[:, 0] ** 2 * (np.exp(3.0 * (1 - 1 / T)) - 1))
 
 
 def _growth(x, u):
-    return _on(0, 2, 0.4 * x[:, 0] * np.log(6.0 / x[:, 0]))
+    return on_component(0, 2, 0.4 * x[:, 0] * np.log(6.0 / x[:, 0]))
 
 
 def _system(name, domain, kind, effect, science, theta, missing, names, units, dt, n_steps, low, high, u_range=None,

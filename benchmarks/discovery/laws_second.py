@@ -21,7 +21,7 @@ import numpy as np
 import torch
 
 from identification.systems import System
-from discovery.laws import POP, _on, _pair, logistic_prey_f, mass_action_sir_f
+from discovery.laws import POP, logistic_prey_f, mass_action_sir_f, on_component, pair_flux
 
 BATCH = "laws_2"
 
@@ -91,12 +91,12 @@ def emax_kill_f(v, g=0.3, k=0.6, ec50=0.7, d=0.4):
 # ------------------------------------------------------------------------------------------------------- effects
 def _ivlev(x, u):
     p = 0.9 * x[:, 1] * (1 - np.exp(-1.4 * x[:, 0]))
-    return _pair(p, 0.5)
+    return pair_flux(p, 0.5)
 
 
 def _treatment(x, u):  # gamma I / (1 + a I) in place of gamma I: gamma = 0.8, a = 4
     i = x[:, 1]
-    return _on(1, 2, 0.8 * i * (1 - 1 / (1 + 4 * i)))
+    return on_component(1, 2, 0.8 * i * (1 - 1 / (1 + 4 * i)))
 
 
 def _competitive(x, u):
@@ -106,7 +106,7 @@ def _competitive(x, u):
 
 
 def _repression(x, u):
-    return _on(0, 2, 2.0 / (1 + (x[:, 1] / 0.8) ** 2))
+    return on_component(0, 2, 2.0 / (1 + (x[:, 1] / 0.8) ** 2))
 
 
 def _convection(x, u):
@@ -117,7 +117,7 @@ def _convection(x, u):
 
 def _emax(x, u):  # k c x / (1 + c / EC50) in place of k c x: k = 0.6, EC50 = 0.7
     tumour, c = x[:, 0], x[:, 1]
-    return _on(0, 2, 0.6 * c * tumour * (1 - 1 / (1 + c / 0.7)))
+    return on_component(0, 2, 0.6 * c * tumour * (1 - 1 / (1 + c / 0.7)))
 
 
 def _langmuir_hinshelwood(x, u):
@@ -128,12 +128,12 @@ def _langmuir_hinshelwood(x, u):
 
 def _wilson_cowan(x, u):
     e, i = x[:, 0], x[:, 1]
-    return _on(0, 2, 1.5 / (1 + np.exp(-(4.0 * e - 3.0 * i - 1.0))))
+    return on_component(0, 2, 1.5 / (1 + np.exp(-(4.0 * e - 3.0 * i - 1.0))))
 
 
 def _smith(x, u):
     light = u[:, 0]
-    return _on(0, 2, 1.2 * x[:, 0] * light / np.sqrt(1 + (light / 0.8) ** 2))
+    return on_component(0, 2, 1.2 * x[:, 0] * light / np.sqrt(1 + (light / 0.8) ** 2))
 
 
 def _system(name, domain, kind, effect, science, theta, missing, names, units, dt, n_steps, low, high, u_range=None,
