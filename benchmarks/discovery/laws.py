@@ -22,6 +22,7 @@ BATCH = "laws"
 
 
 def on_component(component: int, d: int, values: np.ndarray) -> np.ndarray:
+    """An effect on one of ``d`` equations: ``values`` on ``component``, zero on the others."""
     out = np.zeros((len(values), d))
     out[:, component] = values
     return out
