@@ -175,7 +175,7 @@ def discovered_terms(candidates: Candidates, columns: list[tuple], remaining: np
 def network_carries(judge: Any, science: Callable, theta: Mapping[str, Any], network: Callable,
                     base_errors: np.ndarray, evidence: Any) -> Any:
     """The held-out verdict on the fitted network, frozen and added to ``science`` (None where a simulation
-    failed).
+    failed or a held-out trajectory ran off to infinity: no evidence either way).
 
     The science parameters are refitted around it (the hybrid's own theta took part of the effect's job) and
     the model judged by ``judge`` against ``base_errors`` (the science refitted alone) with the test a term
