@@ -18,8 +18,6 @@ import torch
 
 from identification.systems import System
 
-BATCH = "laws"
-
 
 def on_component(component: int, d: int, values: np.ndarray) -> np.ndarray:
     """An effect on one of ``d`` equations: ``values`` on ``component``, zero on the others."""
@@ -306,4 +304,3 @@ LAWS = [
             {"beta": 2.5, "gamma": 0.6, "mu": 0.15}, None, ["S", "I", "R"], {"S": "1", "I": "1", "R": "1"}, 0.25, 30,
             (0.4, 0.02, 0.0), (0.95, 0.3, 0.3)),
 ]
-BY_NAME = {s.name: s for s in LAWS}

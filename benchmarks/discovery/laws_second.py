@@ -23,8 +23,6 @@ import torch
 from identification.systems import System
 from discovery.laws import POP, logistic_prey_f, mass_action_sir_f, on_component, pair_flux
 
-BATCH = "laws_2"
-
 
 # ------------------------------------------------------------------------------------------------ science models
 def dilution3_f(v, u, D=0.4):
@@ -187,4 +185,3 @@ LAWS_2 = [
             {"g": 0.3, "k": 0.6, "ec50": 0.7, "d": 0.4}, None, ["x", "c"], {"x": "1e9 cells", "c": "mg/L"}, 0.25,
             30, (0.5, 0.2), (3.0, 3.0)),
 ]
-BY_NAME_2 = {s.name: s for s in LAWS_2}

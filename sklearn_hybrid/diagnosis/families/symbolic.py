@@ -292,11 +292,17 @@ def _zero_at_rest(expr: sympy.Expr, symbols: Sequence[sympy.Symbol]) -> sympy.Ex
     """``expr`` less its value where every variable is zero, where that value is finite: the search writes a
     law up to a constant (its intercept is the library's term ``"1"``), and of the forms equal up to a constant
     the textbook's vanishes at rest (``x^2/(K + x^2)``, not ``-K/(K + x^2)``)."""
+    at_rest = _value_at_rest(expr, symbols)
+    return expr if at_rest is None else _one_fraction(expr - at_rest)
+
+
+def _value_at_rest(expr: sympy.Expr, symbols: Sequence[sympy.Symbol]) -> sympy.Expr | None:
+    """``expr``'s value where every variable is zero, where that is a finite real number other than zero."""
     at_rest = expr.subs({s: 0 for s in symbols})
     if not at_rest.is_number or at_rest.has(sympy.zoo, sympy.nan, sympy.oo, -sympy.oo) or not at_rest.is_real \
             or at_rest == 0:
-        return expr
-    return _one_fraction(expr - at_rest)
+        return None
+    return at_rest
 
 
 def rest_share_dropped(expr: sympy.Expr, direction: sympy.Expr, symbols: Sequence[sympy.Symbol]) -> sympy.Expr:
@@ -324,12 +330,8 @@ def rest_share_dropped(expr: sympy.Expr, direction: sympy.Expr, symbols: Sequenc
     sympy.Expr
         The form less ``direction`` times its ratio's value at rest.
     """
-    ratio = sympy.cancel(sympy.together(expr / direction))
-    at_rest = ratio.subs({s: 0 for s in symbols})
-    if not at_rest.is_number or at_rest.has(sympy.zoo, sympy.nan, sympy.oo, -sympy.oo) or not at_rest.is_real \
-            or at_rest == 0:
-        return expr
-    return _one_fraction(expr - at_rest * direction)
+    at_rest = _value_at_rest(sympy.cancel(sympy.together(expr / direction)), symbols)
+    return expr if at_rest is None else _one_fraction(expr - at_rest * direction)
 
 
 def drop_parameter_parts(expr: sympy.Expr, symbols: Sequence[sympy.Symbol], values: np.ndarray,

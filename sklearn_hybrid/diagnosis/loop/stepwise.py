@@ -174,7 +174,8 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
                               variables, n_states, param_names)[:candidates.n_candidates]
         declared = [offset_candidate(k, variables) for k in offsets]
         ranked = merge_rankings(by_residual, by_fit) + [c for c in declared if c.key not in taken]
-        ranked += [c for c in first_placements(scored, unjudged) if c.key not in {r.key for r in ranked}]
+        in_ranked = {r.key for r in ranked}
+        ranked += [c for c in first_placements(scored, unjudged) if c.key not in in_ranked]
         if not ranked:
             break
         tried: list[Screened] = []
@@ -182,10 +183,10 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
         together = [g for g in candidate_groups(ranked) + field_groups(ranked, scored) if len(g.members) <= room]
         joint = [g for g in joint_candidates(columns, remaining, jac, components, taken, n=candidates.n_candidates)
                  if len(g.members) <= room]
-        flows = [f for f in flow_candidates(scored, flow_pairs, candidates.n_candidates)
-                 if not f.covers & taken]
-        flows += [f for f in flow_candidates(scored, flow_pairs, len(scored)) if f.name in unjudged
-                  and not f.covers & taken and f.key not in {g.key for g in flows}]
+        every_flow = flow_candidates(scored, flow_pairs, len(scored))  # best first
+        flows = [f for f in every_flow[:candidates.n_candidates] if not f.covers & taken]
+        in_flows = {f.key for f in flows}
+        flows += [f for f in every_flow if f.name in unjudged and not f.covers & taken and f.key not in in_flows]
         unjudged = set()
         grouped = {frozenset(m.key for m in g.members) for g in together}
         together += [g for g in flow_groups(flows, scored) if len(g.members) <= room
