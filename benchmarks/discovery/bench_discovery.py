@@ -37,11 +37,13 @@ model, when ``control_err`` is at most 0.05. Every arm of a case is cached in
 
 The second batch (``laws_second.py``: 9 effects, 3 controls, written after the first had been seen) runs with
 ``--batch laws_2``, the arms of the package as it stands (``DEFAULT_ARMS``), its records in
-``results/runs/discovery_2/`` and its page ``results/discovery_2.md``.
+``results/runs/discovery_2/`` and its page ``results/discovery_2.md``. The third (``laws_third.py``: 10 effects, 3
+controls, written after both had been seen) runs with ``--batch laws_3``, likewise (``discovery_3``).
 
     python benchmarks/discovery/bench_discovery.py                      # every case, resuming
     python benchmarks/discovery/bench_discovery.py --cases holling_iii --arms loop loop_discovery
     python benchmarks/discovery/bench_discovery.py --batch laws_2       # the second batch
+    python benchmarks/discovery/bench_discovery.py --batch laws_3       # the third batch
     python benchmarks/discovery/bench_discovery.py --render
 """
 
@@ -61,12 +63,13 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the
 from helpers import PACKAGE_COMMIT, cpu_seconds, runs_folder, write_results  # noqa: E402
 from discovery.laws import LAWS  # noqa: E402
 from discovery.laws_second import LAWS_2  # noqa: E402
+from discovery.laws_third import LAWS_3  # noqa: E402
 from identification import anchors  # noqa: E402
 from identification.protocol import PROTOCOL, first_hybrid_fit, loop_arguments, make_data, score  # noqa: E402
 from identification.systems import simulate  # noqa: E402
 
 # batch -> its systems and the name of its records' folder and results page
-BATCHES = {"laws": (LAWS, "discovery"), "laws_2": (LAWS_2, "discovery_2")}
+BATCHES = {"laws": (LAWS, "discovery"), "laws_2": (LAWS_2, "discovery_2"), "laws_3": (LAWS_3, "discovery_3")}
 BY_NAME = {s.name: s for systems, _ in BATCHES.values() for s in systems}
 NOISE, SEED = 0.01, 0
 ARMS = [("loop", "closed loop (term list)"), ("loop_discovery", "closed loop + discovery (first run)"),
@@ -160,7 +163,8 @@ def _runs(system) -> Path:
     return runs_folder(next(folder for systems, folder in BATCHES.values() if system in systems))
 
 
-TITLES = {"laws": "# Name the law: the laws batch", "laws_2": "# Name the law: the second laws batch"}
+TITLES = {"laws": "# Name the law: the laws batch", "laws_2": "# Name the law: the second laws batch",
+          "laws_3": "# Name the law: the third laws batch"}
 PREFACES = {"laws": PREFACE, "laws_2": (
     "The second batch (`benchmarks/discovery/laws_second.py`, 9 effects of fields the first batch has and others, "
     "3 controls) was written and committed before any arm ran on it, after the first batch had been seen by "
@@ -175,7 +179,16 @@ PREFACES = {"laws": PREFACE, "laws_2": (
     "gate on a diverged trajectory' (4a88d53) ran after a fix that ivlev_predation's first run showed (the search's "
     "gate skipped it on an infinite validation error), on the cases where the judged arm added no discovered form "
     "(elsewhere the search ran, which the fix does not change): on ivlev_predation a revision seen by its case. "
-    "CPU seconds of the first arm run on a case (here 'loop') include the first hybrid fit.")}
+    "CPU seconds of the first arm run on a case (here 'loop') include the first hybrid fit."),
+    "laws_3": (
+    "The third batch (`benchmarks/discovery/laws_third.py`, 10 effects of fields the other batches have and "
+    "others, 3 controls) was written and committed before any arm ran on it, after the first batch had been seen "
+    "by twelve revisions of the discovery family and the second by one: every run here is a test of the package "
+    "as it stood (the commit each record names) on laws no revision has seen. The row 'no gate on a diverged "
+    "trajectory' is the loop with discovery as the package stands. In product_inhibition, eddy_brake and "
+    "gain_compression the law replaces a science term by its inhibited or saturating form and the parameter keeps "
+    "its meaning as the term's rate at rest (mu, c, g). CPU seconds of the first arm run on a case (here 'loop') "
+    "include the first hybrid fit.")}
 # the arms of the package as it stands (the first batch's earlier arms are kept as its history)
 DEFAULT_ARMS = ("loop", "loop_discovery_finite", "ude_sindy", "sr_alone", "sindy_data")
 
