@@ -1,6 +1,7 @@
 """Term families (diagnosis/families/): the registry behind physics_terms, a found formula as a term, and the
 discovery family inside the closed loop's selection."""
 
+import math
 import pickle
 import sys
 
@@ -390,6 +391,24 @@ def test_reduced_forms_set_each_constant_to_zero_and_skip_what_leaves_no_variabl
     saturation, _ = form_term("X1/(0.5 + X1)", ["x"], 0)
     assert reduced_forms(saturation) == []  # x/x is a constant: the library's own term
     assert reduced_forms(Term("x^2", lambda d: d["x"] ** 2, "polynomial")) == []  # not a discovered form
+
+
+def test_a_form_with_a_function_of_numbers_evaluates_and_its_reduced_form_drops_the_number():
+    # bug: x exp(-exp(K1 y)) with K1 set to zero left exp(-1), and torch.exp(-1) raised a TypeError that
+    # stopped the whole loop (found on a laws batch's Crowley-Martin predation)
+    import sympy
+
+    from sklearn_hybrid.diagnosis.families.symbolic import SymbolicForm, form_term, reduced_forms
+
+    d = {"x": torch.tensor([1.0, 2.0]), "y": torch.tensor([0.5, 1.0])}
+    x, y = sympy.symbols("x y")
+    numbers = SymbolicForm(sympy.srepr(x * sympy.exp(-1) + sympy.sqrt(2) * sympy.log(3) * y), {"x": "x", "y": "y"}, ())
+    assert torch.allclose(numbers(d), d["x"] * math.exp(-1) + math.sqrt(2) * math.log(3) * d["y"])
+    term, _ = form_term("X2*exp(-exp(-1.5*X2))*log(0.8*X1)", ["x", "y"], 0)
+    reduced = {r.name: r for r in reduced_forms(term)}
+    form = next(r for name, r in reduced.items() if "exp" not in name)
+    assert form.name == "y*log(K2*x)"  # the factor exp(-1) goes to the term's coefficient
+    assert torch.allclose(form(d, K2=torch.tensor(0.8)), d["y"] * torch.log(0.8 * d["x"]))
 
 
 def test_a_form_is_offered_also_with_the_parts_a_parameter_provides():

@@ -84,6 +84,7 @@ ARMS = [("loop", "closed loop (term list)"), ("loop_discovery", "closed loop + d
         ("loop_discovery_one_shape", "closed loop + discovery (and one shape per flux)"),
         ("loop_discovery_judged", "closed loop + discovery (and every form judged, its rest share theta's)"),
         ("loop_discovery_finite", "closed loop + discovery (and no gate on a diverged trajectory)"),
+        ("loop_discovery_folded", "closed loop + discovery (and a number's function evaluated)"),
         ("ude_sindy", "UDE + SINDy (cubic library)"), ("sr_alone", "SR alone on derivatives"),
         ("sindy_data", "SINDy on the data")]
 # loop_discovery_2: the same arm run again after discovery was revised on what the first run showed (the record
@@ -129,10 +130,15 @@ ARMS = [("loop", "closed loop (term list)"), ("loop_discovery", "closed loop + d
 # evidence of an effect" and skipped the search; it now gives no verdict either way, as where a simulation
 # raises, and the search runs. Run only on the cases where the judged arm added no discovered form (elsewhere the
 # search ran, which the fix does not change); the second batch's ivlev_predation has been seen by this fix.
+# loop_discovery_folded: the finite arm with a bug fixed that the third batch's crowley_martin showed: a form's
+# constant set to zero left a function of numbers (x exp(-exp(K1 y)) at K1 = 0 has exp(-1)), torch.exp(-1)
+# raised, and the whole loop stopped; a function of numbers is now evaluated, and a reduced form's number factor
+# goes to its coefficient. Elsewhere the forms evaluate as before: run on the case that failed.
 LOOP_ARMS = ("loop", "loop_discovery", "loop_discovery_2", "loop_discovery_gated", "loop_discovery_written",
              "loop_discovery_anywhere", "loop_discovery_lean",
              "loop_discovery_yields", "loop_discovery_whole",
-             "loop_discovery_joined", "loop_discovery_one_shape", "loop_discovery_judged", "loop_discovery_finite")
+             "loop_discovery_joined", "loop_discovery_one_shape", "loop_discovery_judged", "loop_discovery_finite",
+             "loop_discovery_folded")
 WHOLE_MODEL = ("sr_alone", "sindy_data")
 PREFACE = ("The batch (`benchmarks/discovery/laws.py`) was written and committed (942caa3) before any arm ran on it; "
            "the first run is the package at a9909c2 (discovery as first written). Discovery was then revised on "
@@ -183,14 +189,16 @@ PREFACES = {"laws": PREFACE, "laws_2": (
     "laws_3": (
     "The third batch (`benchmarks/discovery/laws_third.py`, 10 effects of fields the other batches have and "
     "others, 3 controls) was written and committed before any arm ran on it, after the first batch had been seen "
-    "by twelve revisions of the discovery family and the second by one: every run here is a test of the package "
-    "as it stood (the commit each record names) on laws no revision has seen. The row 'no gate on a diverged "
-    "trajectory' is the loop with discovery as the package stands. In product_inhibition, eddy_brake and "
+    "by twelve revisions of the discovery family and the second by one: the first run of each arm here is a test "
+    "of the package as it stood (28e1fa6) on laws no revision has seen. The row 'no gate on a diverged "
+    "trajectory' is the loop with discovery at that commit; on crowley_martin it stopped on a bug (a form's "
+    "constant set to zero left exp(-1), which torch could not evaluate), and the row 'a number's function "
+    "evaluated' is the fix, run on that case only (a revision seen by its case). In product_inhibition, eddy_brake and "
     "gain_compression the law replaces a science term by its inhibited or saturating form and the parameter keeps "
     "its meaning as the term's rate at rest (mu, c, g). CPU seconds of the first arm run on a case (here 'loop') "
     "include the first hybrid fit.")}
 # the arms of the package as it stands (the first batch's earlier arms are kept as its history)
-DEFAULT_ARMS = ("loop", "loop_discovery_finite", "ude_sindy", "sr_alone", "sindy_data")
+DEFAULT_ARMS = ("loop", "loop_discovery_folded", "ude_sindy", "sr_alone", "sindy_data")
 
 
 def first_fit(system, data):
@@ -369,13 +377,16 @@ def render(batch: str = "laws") -> None:
              "have records; a recipe's counts are over the cases it ran.", "",
              "| recipe | law named (rel_err <= 0.01, theta within 5 %) | field within 10 % | theta within 5 % | "
              "median rel_err | controls clean | median CPU s |", "|---|---|---|---|---|---|---|"]
-    # the package as it stands: the gate's fix where it ran, the judged arm where the fix does not apply
-    now = [dict(r, loop_package_now=r.get("loop_discovery_finite", r.get("loop_discovery_judged"))) for r in recs]
+    # the package as it stands: the latest fix where it ran, the arm before it where the fix does not apply
+    now = [dict(r, loop_package_now=r.get("loop_discovery_folded", r.get("loop_discovery_finite",
+                                                                         r.get("loop_discovery_judged"))))
+           for r in recs]
     now = [r for r in now if r["loop_package_now"] is not None]
     table = [(arm, label, recs) for arm, label in arms]
     if any("loop_discovery_finite" in r for r in recs):
-        table.append(("loop_package_now", "closed loop + discovery as the package stands ('no gate on a diverged "
-                      "trajectory' where it ran, 'every form judged' elsewhere)", now))
+        table.append(("loop_package_now", "closed loop + discovery as the package stands (the latest of 'a "
+                      "number's function evaluated', 'no gate on a diverged trajectory' and 'every form judged' that "
+                      "ran)", now))
     for arm, label, rows in table:
         done = [r for r in rows if arm in r and "error" not in r[arm]]
         got = [r[arm] for r in done if not BY_NAME[r["system"]].is_control]

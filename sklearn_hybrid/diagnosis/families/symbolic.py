@@ -53,7 +53,7 @@ class SymbolicForm:
 
     def __call__(self, d: Mapping[str, torch.Tensor], **constants: torch.Tensor) -> torch.Tensor:
         if self._compiled is None:
-            expr = sympy.sympify(self.formula, locals=_symbols(self))
+            expr = _numbers_folded(sympy.sympify(self.formula, locals=_symbols(self)))
             symbols = [sympy.Symbol(s) for s in (*self.variables, *self.constants)]
             self._compiled = sympy.lambdify(symbols, expr, modules=[_TORCH, "math"])
         args = [d[SCIENCE_OUTPUT][..., self.component] if s == self.science else d[v]
@@ -62,6 +62,12 @@ class SymbolicForm:
         values = [torch.as_tensor(constants[c], dtype=one.dtype) for c in self.constants]
         out = self._compiled(*args, *values)
         return out if torch.is_tensor(out) else torch.full_like(one, float(out))
+
+
+def _numbers_folded(expr: sympy.Expr) -> sympy.Expr:
+    """``expr`` with each function of numbers alone (``exp(-1)``, ``sqrt(2)``, left where a constant was set to
+    zero) evaluated to a float: torch's functions take tensors, not numbers."""
+    return expr.replace(lambda e: e.is_number and not e.is_Atom, lambda e: e.evalf())
 
 
 def _symbols(form: SymbolicForm) -> dict:
@@ -221,6 +227,8 @@ def reduced_forms(term: Term) -> list[Term]:
         reduced = _one_fraction(expr.subs(sympy.Symbol(k), 0))
         if reduced.has(sympy.zoo, sympy.nan, sympy.oo, -sympy.oo):
             continue
+        if reduced.is_Mul:  # a number left as a factor (exp(-exp(K1 y)) at K1 = 0) is the coefficient's
+            reduced = reduced.as_independent(*reduced.free_symbols)[1]
         names = {s.name for s in reduced.free_symbols}
         used = [v for v in form.variables if v in names]
         if not used:  # a constant is the library's own term
