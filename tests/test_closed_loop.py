@@ -374,6 +374,33 @@ def test_exact_components_and_bad_options(pendulum):
     assert all(s["component"] == 1 for s in out.steps)
 
 
+def _fed_tank_f(v, l=0.3):
+    """Two tanks, the first written with nothing leaving it (no parameter), the second drained at ``l``."""
+    return torch.stack([torch.zeros_like(v[:, 0]), -l * v[:, 1]], dim=-1)
+
+
+def test_auto_keeps_a_parameter_free_equation_where_the_fitted_network_learned_the_rate():
+    # bug: exact="auto" took the first tank's equation (no parameter) as a definition, so the outflow that a
+    # fitted hybrid's network had learned there was never searched (the third laws batch's orifice_tanks)
+    from sklearn_hybrid.diagnosis.loop.arguments import LEARNED_SHARE, learned_equations, uncertain_components
+
+    def truth(t, h):
+        return [-0.5 * (h[0] - h[1]), 0.5 * (h[0] - h[1]) - 0.3 * h[1]]
+
+    rng = np.random.default_rng(0)
+    t = np.linspace(0.0, 2.0, 11)
+    x0 = rng.uniform([1.0, 0.0], [3.0, 0.5], size=(40, 2))
+    y = np.stack([solve_ivp(truth, (0, 2), x, t_eval=t, rtol=1e-8).y.T[1:] for x in x0])
+    est = HybridRegressor(science=_fed_tank_f, method="erm", dt=0.2, lr=1e-2, max_iter=300,
+                          residual=MLPOn([0, 1]), random_state=0).fit(x0, y)
+    assert 0 in learned_equations(est, x0)
+    assert uncertain_components(est, x0, y, "auto", None) is None  # both equations may gain a term
+    # not fitted: the network is placed by exact, off the parameter-free equation
+    unfitted = HybridRegressor(science=_fed_tank_f, dt=0.2)
+    assert learned_equations(unfitted, x0) == [] and uncertain_components(unfitted, x0, y, "auto", None) == [1]
+    assert 0 < LEARNED_SHARE < 1
+
+
 def test_a_user_term_is_named_with_its_unit(pendulum):
     """Your own term by name, with its unit in ``units`` beside the states'."""
     data, est = pendulum

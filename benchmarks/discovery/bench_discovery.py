@@ -85,6 +85,9 @@ ARMS = [("loop", "closed loop (term list)"), ("loop_discovery", "closed loop + d
         ("loop_discovery_judged", "closed loop + discovery (and every form judged, its rest share theta's)"),
         ("loop_discovery_finite", "closed loop + discovery (and no gate on a diverged trajectory)"),
         ("loop_discovery_folded", "closed loop + discovery (and a number's function evaluated)"),
+        ("loop_learned", "closed loop (term list; a parameter-free equation the network learned kept)"),
+        ("loop_discovery_learned", "closed loop + discovery (and a parameter-free equation the network learned "
+                                   "kept)"),
         ("ude_sindy", "UDE + SINDy (cubic library)"), ("sr_alone", "SR alone on derivatives"),
         ("sindy_data", "SINDy on the data")]
 # loop_discovery_2: the same arm run again after discovery was revised on what the first run showed (the record
@@ -134,11 +137,18 @@ ARMS = [("loop", "closed loop (term list)"), ("loop_discovery", "closed loop + d
 # constant set to zero left a function of numbers (x exp(-exp(K1 y)) at K1 = 0 has exp(-1)), torch.exp(-1)
 # raised, and the whole loop stopped; a function of numbers is now evaluated, and a reduced form's number factor
 # goes to its coefficient. Elsewhere the forms evaluate as before: run on the case that failed.
+# loop_learned, loop_discovery_learned: the loop with the term list and with discovery after a fix that the third
+# batch's orifice_tanks showed: exact="auto" took the first tank's equation (h1' = u, no parameter) as a
+# definition, so the outflow the fitted network had learned there (a share of 0.52 of its rate) was never
+# searched; a parameter-free equation where the fitted network carries a fifth or more of the rate is now kept
+# uncertain. Of every system of the identification benchmark and the three laws batches only orifice_tanks has its
+# effect on a parameter-free equation, and on the cached first fits the network's share of such an equation is
+# 0.011 or less elsewhere: run on orifice_tanks only (a revision seen by its case).
 LOOP_ARMS = ("loop", "loop_discovery", "loop_discovery_2", "loop_discovery_gated", "loop_discovery_written",
              "loop_discovery_anywhere", "loop_discovery_lean",
              "loop_discovery_yields", "loop_discovery_whole",
              "loop_discovery_joined", "loop_discovery_one_shape", "loop_discovery_judged", "loop_discovery_finite",
-             "loop_discovery_folded")
+             "loop_discovery_folded", "loop_learned", "loop_discovery_learned")
 WHOLE_MODEL = ("sr_alone", "sindy_data")
 PREFACE = ("The batch (`benchmarks/discovery/laws.py`) was written and committed (942caa3) before any arm ran on it; "
            "the first run is the package at a9909c2 (discovery as first written). Discovery was then revised on "
@@ -198,7 +208,7 @@ PREFACES = {"laws": PREFACE, "laws_2": (
     "its meaning as the term's rate at rest (mu, c, g). CPU seconds of the first arm run on a case (here 'loop') "
     "include the first hybrid fit.")}
 # the arms of the package as it stands (the first batch's earlier arms are kept as its history)
-DEFAULT_ARMS = ("loop", "loop_discovery_folded", "ude_sindy", "sr_alone", "sindy_data")
+DEFAULT_ARMS = ("loop_learned", "loop_discovery_learned", "ude_sindy", "sr_alone", "sindy_data")
 
 
 def first_fit(system, data):
@@ -319,7 +329,7 @@ def run_case(name: str, arms: list[str], budget: int = 0) -> dict:
                 # the first fit is shared by the arms and cached: timed apart, so an arm's seconds are its own
                 # (the records before this change count it in the first arm that made it on that machine)
                 start, cpu = time.perf_counter(), cpu_seconds()
-            if arm == "loop":
+            if arm in ("loop", "loop_learned"):  # the term list only
                 got = _loop(system, data, hybrid, False)
             elif arm in LOOP_ARMS[1:]:
                 got = _loop(system, data, hybrid, True)
@@ -378,15 +388,16 @@ def render(batch: str = "laws") -> None:
              "| recipe | law named (rel_err <= 0.01, theta within 5 %) | field within 10 % | theta within 5 % | "
              "median rel_err | controls clean | median CPU s |", "|---|---|---|---|---|---|---|"]
     # the package as it stands: the latest fix where it ran, the arm before it where the fix does not apply
-    now = [dict(r, loop_package_now=r.get("loop_discovery_folded", r.get("loop_discovery_finite",
-                                                                         r.get("loop_discovery_judged"))))
+    now = [dict(r, loop_package_now=next((r[a] for a in ("loop_discovery_learned", "loop_discovery_folded",
+                                                         "loop_discovery_finite", "loop_discovery_judged")
+                                          if a in r), None))
            for r in recs]
     now = [r for r in now if r["loop_package_now"] is not None]
     table = [(arm, label, recs) for arm, label in arms]
     if any("loop_discovery_finite" in r for r in recs):
         table.append(("loop_package_now", "closed loop + discovery as the package stands (the latest of 'a "
-                      "number's function evaluated', 'no gate on a diverged trajectory' and 'every form judged' that "
-                      "ran)", now))
+                      "parameter-free equation the network learned kept', 'a number's function evaluated', 'no gate "
+                      "on a diverged trajectory' and 'every form judged' that ran)", now))
     for arm, label, rows in table:
         done = [r for r in rows if arm in r and "error" not in r[arm]]
         got = [r[arm] for r in done if not BY_NAME[r["system"]].is_control]

@@ -4,7 +4,7 @@ Reads the committed records of ``discovery/bench_discovery.py`` (``results/disco
 ``results/discovery_2.json``, the second, written after the first had been seen, and ``results/discovery_3.json``,
 the third, written after both) and draws, per effect case, the final model's error in function space
 (``rel_err``) for the loop with its term list, the loop with discovery as the package now runs it (the latest of
-``loop_discovery_folded``, ``loop_discovery_finite`` and ``loop_discovery_judged`` that ran) and UDE + SINDy, with
+its arms from ``loop_discovery_judged`` on that ran) and UDE + SINDy, with
 the 1 % (law named, if theta is also right) and 10 % (field) lines; a filled marker where theta is also within
 5 %. Nothing is trained: the figure is the records drawn.
 
@@ -33,7 +33,7 @@ BATCHES = [("discovery", "first laws batch"), ("discovery_2", "second (written a
 def _package_now(record: dict) -> dict:
     """The loop with discovery as the package stands: the latest fix's arm where it ran, the arm before it where
     the fix does not apply."""
-    for arm in ("loop_discovery_folded", "loop_discovery_finite", "loop_discovery_judged"):
+    for arm in ("loop_discovery_learned", "loop_discovery_folded", "loop_discovery_finite", "loop_discovery_judged"):
         if arm in record:
             return record[arm]
     return {}

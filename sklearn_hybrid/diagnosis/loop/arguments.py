@@ -11,12 +11,15 @@ from difflib import get_close_matches
 from typing import Any
 
 import numpy as np
+from sklearn.exceptions import NotFittedError
+from sklearn.utils.validation import check_is_fitted
 
 from ..._fitting import ode_structure
 from ..._validation import check_not_nested
 from ...science import read_signature
 from ..._probe import check_finite_model
 from ..sensitivity import exact_components, parameter_jacobian, science_output, state_labels
+from .report import rate_shares
 
 
 def check_options(n_jobs, X_test, y_test) -> None:
@@ -78,12 +81,30 @@ def uncertain_components(estimator, X, y, exact, state_names) -> list[int] | Non
         fixed = exact_components(jac, names, set(estimator.theta_fixed or ()))
         if fixed is None:
             return None
+        fixed = [j for j in fixed if j not in learned_equations(estimator, X)]
     else:
         fixed = _state_indices(exact, state_labels(state_names, d, "x", "state_names"), "exact")
     uncertain = [j for j in range(d) if j not in fixed]
     if not uncertain:
         raise ValueError("Every component is exact: there is nothing for the network or the diagnosis to do.")
     return uncertain if fixed else None
+
+
+#: The share of an equation's rate that a fitted hybrid's network must carry for exact="auto" to take a
+#: parameter-free equation as a model missing an effect (a tank fed with no outlet written), not a definition:
+#: on a definition (d angle/dt = velocity) the network fits noise, a share of about 1 %.
+LEARNED_SHARE = 0.2
+
+
+def learned_equations(estimator, X) -> list[int]:
+    """The equations on which a fitted hybrid's network carries at least ``LEARNED_SHARE`` of the rate; none
+    for an estimator not yet fitted (its network is placed by ``exact`` then)."""
+    try:
+        check_is_fitted(estimator, "model_")
+    except NotFittedError:
+        return []
+    shares = rate_shares(estimator, X)
+    return [] if shares is None else [j for j, share in enumerate(shares) if share >= LEARNED_SHARE]
 
 
 def offset_states(estimator, X, y, offsets, state_names) -> list[int]:

@@ -79,7 +79,10 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         ``d angle/dt = velocity``, conservation laws): no term is added there and the default
         network does not act there. ``"auto"`` takes the components whose science output depends on
         no parameter -- the physicist's default: an equation with nothing to estimate is a
-        definition, not a model. ``None`` makes every component uncertain.
+        definition, not a model -- except where the fitted hybrid you pass has learned a fifth or
+        more of that equation's rate (``loop.arguments.LEARNED_SHARE``: a tank written as fed with
+        no outlet is a model missing an effect); an estimator not yet fitted is fitted with the
+        network off those equations. ``None`` makes every component uncertain.
     candidates : Candidates, optional
         Which terms may be added and how many (:class:`~sklearn_hybrid.diagnosis.Candidates`: the
         terms, or the kinds of :func:`physics_terms`, your own terms, variables that are never

@@ -60,16 +60,20 @@ def prediction_metrics(y: np.ndarray, y_hybrid: np.ndarray, y_science: np.ndarra
             "network_share": network_share(y_hybrid, y_science)}
 
 
-def _rhs_share(estimator: Any, X: Any) -> float:
-    """The network's largest share of a component of the learned right-hand side along the visited points
-    (:func:`~sklearn_hybrid.metrics.rate_share`; NaN if not defined)."""
+def rate_shares(estimator: Any, X: Any) -> np.ndarray | None:
+    """A fitted hybrid ODE's network share of each component of the learned right-hand side along the visited
+    points (:func:`~sklearn_hybrid.metrics.rate_share`); None where the shapes do not match."""
     trace = estimator.residual_trace(X)
     args = [trace["points"]] + ([] if trace["inputs"] is None else [trace["inputs"]])
     g = trace["residual"].reshape(len(args[0]), -1)
     f = science_sensitivities(estimator, args, jacobian=False)[0]
-    if f.shape != g.shape:
-        return float("nan")
-    return float(np.nanmax(rate_share(g, f)))
+    return rate_share(g, f) if f.shape == g.shape else None
+
+
+def _rhs_share(estimator: Any, X: Any) -> float:
+    """The network's largest share of a component of the learned right-hand side (NaN if not defined)."""
+    shares = rate_shares(estimator, X)
+    return float("nan") if shares is None else float(np.nanmax(shares))
 
 
 def evaluate(est, X, X_test, y_test, test_scorer, theta_true) -> dict:
