@@ -203,7 +203,10 @@ PREFACES = {"laws": PREFACE, "laws_2": (
     "of the package as it stood (28e1fa6) on laws no revision has seen. The row 'no gate on a diverged "
     "trajectory' is the loop with discovery at that commit; on crowley_martin it stopped on a bug (a form's "
     "constant set to zero left exp(-1), which torch could not evaluate), and the row 'a number's function "
-    "evaluated' is the fix, run on that case only (a revision seen by its case). In product_inhibition, eddy_brake and "
+    "evaluated' is the fix, run on that case only (a revision seen by its case). On orifice_tanks both loop arms "
+    "added nothing: exact='auto' took the first tank's equation (h1' = u, no parameter) as exact, where the fitted "
+    "network carried 0.52 of its rate; the rows 'a parameter-free equation the network learned kept' (term list "
+    "and discovery) are the fix, run on that case only. In product_inhibition, eddy_brake and "
     "gain_compression the law replaces a science term by its inhibited or saturating form and the parameter keeps "
     "its meaning as the term's rate at rest (mu, c, g). CPU seconds of the first arm run on a case (here 'loop') "
     "include the first hybrid fit.")}

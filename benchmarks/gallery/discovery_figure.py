@@ -3,10 +3,10 @@
 Reads the committed records of ``discovery/bench_discovery.py`` (``results/discovery.json``, the first batch,
 ``results/discovery_2.json``, the second, written after the first had been seen, and ``results/discovery_3.json``,
 the third, written after both) and draws, per effect case, the final model's error in function space
-(``rel_err``) for the loop with its term list, the loop with discovery as the package now runs it (the latest of
-its arms from ``loop_discovery_judged`` on that ran) and UDE + SINDy, with
-the 1 % (law named, if theta is also right) and 10 % (field) lines; a filled marker where theta is also within
-5 %. Nothing is trained: the figure is the records drawn.
+(``rel_err``) for the loop with its term list (``loop_learned`` where it ran), the loop with discovery as the
+package now runs it (the latest of its arms from ``loop_discovery_judged`` on that ran) and UDE + SINDy, with the
+1 % (law named, if theta is also right) and 10 % (field) lines; a filled marker where theta is also within 5 %.
+Nothing is trained: the figure is the records drawn.
 
     python benchmarks/gallery/discovery_figure.py
 
@@ -53,7 +53,8 @@ def main() -> None:
         records.sort(key=lambda r: r["loop"]["rel_err"])
         x = np.arange(len(records))
         for key, label, marker, color in ARMS:
-            got = [_package_now(r) if key == "loop_discovery_judged" else r.get(key, {}) for r in records]
+            got = [_package_now(r) if key == "loop_discovery_judged" else
+                   r.get("loop_learned", r["loop"]) if key == "loop" else r.get(key, {}) for r in records]
             y = np.maximum(np.asarray([g.get("rel_err", np.nan) for g in got], dtype=float), 1e-4)
             right = np.array([(g.get("theta_error") is not None and g["theta_error"] <= 0.05) for g in got])
             ax.semilogy(x[right], y[right], marker, color=color, ms=5, linestyle="none",
