@@ -81,7 +81,9 @@ def uncertain_components(estimator, X, y, exact, state_names) -> list[int] | Non
         fixed = exact_components(jac, names, set(estimator.theta_fixed or ()))
         if fixed is None:
             return None
-        fixed = [j for j in fixed if j not in learned_equations(estimator, X)]
+        if fixed:  # the network's shares once, not once per equation
+            learned = learned_equations(estimator, X)
+            fixed = [j for j in fixed if j not in learned]
     else:
         fixed = _state_indices(exact, state_labels(state_names, d, "x", "state_names"), "exact")
     uncertain = [j for j in range(d) if j not in fixed]
