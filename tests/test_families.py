@@ -14,6 +14,7 @@ from sklearn_hybrid import HybridRegressor, OdeStructure
 from sklearn_hybrid.diagnosis import (TERM_FAMILIES, TERM_KINDS, Candidates, Evidence, ScienceFit, SymbolicDiscovery,
                                       TermContext, physics_terms)
 from sklearn_hybrid.diagnosis.families.discovery import monomial_forms
+from sklearn_hybrid.diagnosis.families.inhibited import inhibited_terms, linear_parts
 from sklearn_hybrid.diagnosis.terms import Term
 from sklearn_hybrid.diagnosis.families.symbolic import form_term
 from sklearn_hybrid.diagnosis.loop import stepwise
@@ -432,3 +433,66 @@ def test_a_form_is_offered_also_with_the_parts_a_parameter_provides():
     front = [{"formula": formula, "length": 9, "mse": 1e-4}]
     offered = search._offered(front, ["x", "y"], 1, X, directions, 1.0, {}, np.ones(2))
     assert [t.name for t in offered] == ["y/(K1 + x^2)", "y*(K2 + x^2)/(K1 + x^2)"]
+
+
+def _inhibited_decay(rng):
+    """dA/dt = -0.8 A / (1 + (A/0.5)^2): the science's decay -k A, slowed down as A grows (the law keeps k as the
+    rate at rest); the selection reads the exact rates as what the network learned, as in ``_hill_decay``."""
+    dt, n_steps, n = 0.3, 12, 30
+    x0 = rng.uniform(0.2, 2.5, (n, 1))
+
+    def truth(t, a):
+        return -0.8 * a / (1 + (a / 0.5) ** 2)
+    x = np.stack([solve_ivp(truth, (0, dt * n_steps), s, t_eval=dt * np.arange(n_steps + 1), rtol=1e-10,
+                            atol=1e-12).y.T for s in x0])
+    y = x[:, 1:] + 0.002 * rng.standard_normal(x[:, 1:].shape)
+    est = HybridRegressor(science=decay_f, structure=OdeStructure(dt=dt), max_iter=2, random_state=0).fit(x0, y)
+    states = x.reshape(-1, 1)
+    terms = [t for t in physics_terms(["A"], states) if t.kind in ("polynomial", "saturation")]
+
+    class Nothing:  # a discovery family that offers no form: only the science's inhibited terms are added
+        def terms(self, context, log=lambda message: None):
+            return []
+
+    def select(discovery):
+        return stepwise.forward_selection(decay_f, {"k": 0.5}, ScienceFit(est, x0, y), [(np.arange(24),
+                                          np.arange(24, 30))], ["A"], 1, [states], truth(0, states), [0],
+                                          candidates=Candidates(terms=terms, discovery=discovery and Nothing(),
+                                                                max_terms=2), evidence=Evidence())
+    return truth, states, select
+
+
+def test_the_loop_names_a_science_term_slowed_down_by_a_state_with_the_science_parameter_kept():
+    truth, states, select = _inhibited_decay(np.random.default_rng(0))
+    found = select(True)
+    assert [t.kind for t in found["added"]] == ["inhibited"]
+    added, theta = found["added"][0], found["theta"]
+    assert added.name == "[k-term of A]*A^2/(K^2 + A^2)"
+    shape = {local: theta[name] for local, name in added.shape_params.items()}
+    assert abs(theta[added.param] + 1) < 0.02 and abs(shape["K"] - 0.5) < 0.02  # -1: the law k A / (1 + (A/K)^2)
+    assert abs(theta["k"] - 0.8) < 0.02  # the science's k keeps its meaning
+    rates = found["science"](torch.as_tensor(states), **{k: torch.tensor(v) for k, v in theta.items()})
+    np.testing.assert_allclose(rates.numpy(), truth(0, states), rtol=0, atol=0.01 * np.abs(truth(0, states)).max())
+    assert pickle.loads(pickle.dumps(found["science"])).equation == found["science"].equation
+    assert all(t.kind != "inhibited" for t in select(False)["added"])
+
+
+def test_a_parameter_s_part_is_offered_where_the_science_is_linear_in_it_and_once_per_proportional_group():
+    def predation_f(v, r=1.0, K=3.0, a=0.8, m=0.4):
+        x, y = v[:, 0], v[:, 1]
+        return torch.stack([r * x * (1 - x / K) - a * x * y, 0.5 * a * x * y - m * y], dim=-1)
+
+    values = np.random.default_rng(0).uniform(0.2, 2.0, (50, 2))
+    theta = {"r": 1.0, "K": 3.0, "a": 0.8, "m": 0.4}
+    parts = linear_parts(predation_f, theta, [values])
+    assert sorted(parts) == ["a", "m", "r"]  # K is not linear: f(K = 0) is no part of f
+    np.testing.assert_allclose(parts["a"][:, 1], 0.4 * values[:, 0] * values[:, 1])
+    terms = inhibited_terms(parts, ["x", "y"], values, [0, 1])
+    # a's part is proportional on both equations (a flow with a yield): one term, read on x's equation
+    assert sorted({t.name.split("]")[0] + "]" for t in terms}) == ["[a-term of x]", "[m-term of y]", "[r-term of x]"]
+    assert len(terms) == 3 * 2 * 2  # each times |x|/(K + |x|) and x^2/(K^2 + x^2) of each state
+    assert inhibited_terms(parts, ["x", "y"], values, [1]) and not any(
+        "r-term" in t.name for t in inhibited_terms(parts, ["x", "y"], values, [1]))
+    # a part on one equation is offered on that equation only, one on several (a flow) on any
+    assert {t.component for t in terms if "m-term" in t.name} == {1}
+    assert {t.component for t in terms if "a-term" in t.name} == {None}

@@ -21,7 +21,7 @@ import numpy as np
 import torch
 
 from ..science import read_signature
-from .terms import SCIENCE_OUTPUT, Term, named_terms
+from .terms import SCIENCE_OUTPUT, Term, TermVariables, named_terms
 
 __all__ = ["augment_science", "AugmentedScience", "parameter_name"]
 
@@ -237,7 +237,15 @@ class AugmentedScience:
             raise ValueError(f"variable_names has {len(self.variable_names)} names {self.variable_names}, but the "
                              f"inputs have {len(columns)} column(s).")
         flat = _flat(out, single)
-        d = dict(zip(self.variable_names, columns))
+        original = {k: params[k] for k in self.original}
+
+        def part(name, base=flat):  # an inhibited term reads the part of the science output a parameter makes
+            if name not in original:
+                raise KeyError(f"an inhibited term reads the part of science parameter {name!r}, which "
+                               f"{getattr(self.science, '__name__', 'the science')} does not have: {self.original}")
+            return base - _flat(self.science(*args, **{**original, name: 0.0 * original[name]}), single)
+
+        d = TermVariables(dict(zip(self.variable_names, columns)), part)
         d[SCIENCE_OUTPUT] = flat  # a "scaled" term reads the science output
         extra = {}
         for i, (component, _, param, func, shape) in enumerate(self.added):

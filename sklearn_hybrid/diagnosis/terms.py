@@ -20,6 +20,10 @@ equation that varies with the state or with what drives the system (an inductanc
 with the current, a growth rate that depends on the density or follows the season, a rate
 constant that grows with the temperature). It reads the science output from the variables under
 the key ``SCIENCE_OUTPUT``, which the augmented science model and the selection provide.
+
+A term of kind ``"inhibited"`` (offered with the closed loop's discovery) reads a science term itself: the part
+of the science output that a parameter the science is linear in makes, under the key ``parameter_part(name)``,
+which :class:`TermVariables` computes from the science model when a term first asks for it.
 """
 
 from __future__ import annotations
@@ -34,13 +38,38 @@ import numpy as np
 import torch
 
 __all__ = ["Term", "named_terms", "constant_term", "monomial_terms", "nonsmooth_terms",
-           "trigonometric_terms", "sqrt_term", "TERM_KINDS", "SCIENCE_OUTPUT", "power_unit", "product_unit"]
+           "trigonometric_terms", "sqrt_term", "TERM_KINDS", "SCIENCE_OUTPUT", "power_unit", "product_unit",
+           "parameter_part", "TermVariables", "inhibited_term"]
 
 TERM_KINDS = ("polynomial", "drag", "dry_friction", "hinge", "sqrt", "power", "exponential", "saturation", "periodic",
               "norm", "scaled", "user")
 # Key of the science model's output, shape (batch, n_outputs), among a term's variables: not an
 # identifier, so no state or input can be named so.
 SCIENCE_OUTPUT = "<science output>"
+_PART = "<{}'s term>"
+_PART_KEY = re.compile(r"<(.+)'s term>")
+
+
+def parameter_part(name: str) -> str:
+    """Key of the science output's part made by its parameter ``name`` (the output less the output with that
+    parameter zero), shape (batch, n_outputs), among a term's variables."""
+    return _PART.format(name)
+
+
+class TermVariables(dict):
+    """The variables a term reads, by name, with each science parameter's part (:func:`parameter_part`) made on
+    first use by ``part(name)``: a science model augmented with no inhibited term never pays for one."""
+
+    def __init__(self, values: Mapping[str, torch.Tensor], part: Callable[[str], torch.Tensor] | None = None):
+        super().__init__(values)
+        self._part = part
+
+    def __missing__(self, key: str) -> torch.Tensor:
+        match = _PART_KEY.fullmatch(key) if isinstance(key, str) else None
+        if match is None or self._part is None:
+            raise KeyError(key)
+        self[key] = value = self._part(match.group(1))
+        return value
 
 
 class Term:
@@ -159,6 +188,13 @@ _ANGLE_UNIT = re.compile(r"^\s*(?P<scale>[0-9]*\.?[0-9]+(?:[eE][-+]?[0-9]+)?)?\s
 def scaled_term(d, component, factors):
     """The science output of ``component`` times ``monomial(d, factors)``."""
     return d[SCIENCE_OUTPUT][..., component] * monomial(d, factors)
+
+
+def inhibited_term(d, param, reference, x, power, K):
+    """``param``'s part of the science output on component ``reference`` times ``|x|^power / (K^power +
+    |x|^power)``: with coefficient -1 the part becomes the part over ``1 + (|x|/K)^power``."""
+    a = (d[x].abs() / K) ** power
+    return d[parameter_part(param)][..., reference] * a / (1 + a)
 
 
 def dry_friction_term(d, x, w):

@@ -34,9 +34,11 @@ import torch
 from ...identifiability.science_only import CONFOUNDED_R2
 from ...science import read_signature
 from ..evidence import Evidence, evidence, group_means
+from ..families.inhibited import part_reader
 from ..judge import FIT_FAILURES
 from ..science_fit import ScienceFit
 from ..sensitivity import parameter_jacobian, root_mean_square
+from ..terms import TermVariables
 from .candidates import augment_with, shape_bounds
 from .placed import PlacedTerm
 
@@ -238,8 +240,10 @@ def mirror_trades(intervals: Any, science: Callable, theta: Mapping[str, Any], a
     names = [k for k in read_signature(science)[1] if np.ndim(theta.get(k, 0.0)) == 0]
     labels = [k for k in names if intervals.verdicts.get(k) in ("identified", "conditional")]
     placed = {t.key for t in added}
-    values = {name: torch.as_tensor(np.asarray(a, dtype=float))
-              for name, a in zip(variables, np.hstack([a.reshape(len(a), -1) for a in args]).T)}
+    own = {k: theta[k] for k in read_signature(science)[1]}
+    values = TermVariables({name: torch.as_tensor(np.asarray(a, dtype=float))
+                            for name, a in zip(variables, np.hstack([a.reshape(len(a), -1) for a in args]).T)},
+                           part_reader(science, own, args))
     n = len(args[0])
     mirrors, where = [], []
     for t in added:
@@ -258,7 +262,7 @@ def mirror_trades(intervals: Any, science: Callable, theta: Mapping[str, Any], a
                 where.append(f"{t.name} on {outputs[j]} (added on {outputs[t.component]})")
     if not labels or not mirrors:
         return {}
-    jac, jac_names = parameter_jacobian(science, {k: theta[k] for k in read_signature(science)[1]}, args)
+    jac, jac_names = parameter_jacobian(science, own, args)
     M = np.stack(mirrors, axis=1)
     out = {}
     for label in labels:

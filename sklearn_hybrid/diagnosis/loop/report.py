@@ -26,7 +26,10 @@ KIND_WORDS = {"polynomial": "polynomial", "drag": "drag (v|v|, |v|)", "dry_frict
               "periodic": "periodic in an angle (a harmonic)", "norm": "norm of several states (a speed, a distance)",
               "scaled": "its equation times a state or input (a parameter that varies with it)", "user": "user term",
               "offset": "sensor offset", "joint": "terms that enter together",
-              "discovered": "discovered by symbolic regression"}
+              "discovered": "discovered by symbolic regression",
+              "inhibited": "a science term slowed down by a variable: where it adds -1 times the bracket's term to "
+                           "that term's own equation, the term becomes itself over 1 + (|x|/K)^n, its parameter "
+                           "still its rate at rest"}
 
 
 def format_gain(gain: float) -> str:

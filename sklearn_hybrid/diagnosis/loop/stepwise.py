@@ -49,7 +49,8 @@ from ..results import Selection, Step
 from .second_look import Screened, correct_joint, look_again, simplest_of_the_best
 from ..sensitivity import free_columns, parameter_jacobian, science_output
 from ..science_fit import ScienceFit
-from ..terms import SCIENCE_OUTPUT
+from ..families.inhibited import inhibited_terms, linear_parts, part_reader
+from ..terms import SCIENCE_OUTPUT, TermVariables
 
 __all__ = ["forward_selection"]
 
@@ -130,7 +131,9 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
     """
     start_time = time.perf_counter()
     values = np.hstack([np.asarray(a).reshape(len(a), -1) for a in args])
-    tensors = {name: torch.as_tensor(np.asarray(col, dtype=float)) for name, col in zip(variables, values.T)}
+    parts = linear_parts(science, theta, args) if candidates.discovery else {}
+    tensors = TermVariables({name: torch.as_tensor(np.asarray(col, dtype=float))
+                             for name, col in zip(variables, values.T)}, part_reader(science, theta, args))
     tensors[SCIENCE_OUTPUT] = torch.as_tensor(science_output(science, theta, args), dtype=torch.float64)
     columns = term_columns(candidates.terms, tensors)
     judge = Judge(fit, splits, groups)
@@ -146,6 +149,10 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
                                  tensors[SCIENCE_OUTPUT].numpy(), variables, n_states, components, log, units,
                                  carried)
         columns += term_columns(found, tensors)
+        # the science's own terms slowed down by a variable: a law symbolic regression finds only among many forms
+        inhibited = inhibited_terms(parts, variables, values, components)
+        log(f"  {len(inhibited)} inhibited science term(s) offered, of parameter(s) {', '.join(parts) or 'none'}")
+        columns += term_columns(inhibited, tensors)
     # each discovered form is judged in the ODE at least once, placed where it explains most and as a flow:
     # the rankings read it at the constants the search gave it, fitted to what the network learned, which
     # carries the network's own error; a law whose constants the refit moves may rank below a stand-in there

@@ -1,0 +1,141 @@
+"""Inhibited science terms: a term the science model has, slowed down by a variable.
+
+Many textbook laws keep a term of the simple model and make it saturate in a variable: a growth inhibited by its
+product, an eddy-current brake that weakens with speed, a laser's gain compressed by its photons, an incidence
+damped by behaviour. The science's parameter keeps its meaning (the term's rate at rest) and the law is
+``T / (1 + (|x|/K)^n)`` for a term ``T`` the parameter makes (``n`` one or two, as textbooks write them); what
+the simple model misses is ``-T |x|^n / (K^n + |x|^n)``. No term of the list has that form (it multiplies the
+science's own term, with its other parameters, by a saturation), and symbolic regression on what the network
+learned finds it only as one of many forms of its length.
+
+This family offers it directly: for every parameter the science output is linear in, its part of the output
+(:func:`~sklearn_hybrid.diagnosis.terms.parameter_part`, read from the science model at the current parameters,
+so it follows the refit), times the saturation of every state and input; coefficient -1 is the law. Parts that
+are proportional on several equations (a rate that moves matter from one state to another) are one term, which
+the loop may place on each of them, as a flow or with a yield each; a part on one equation only is offered there.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+from functools import partial
+
+import numpy as np
+import torch
+
+from ..sensitivity import science_output
+from ..terms import Term, inhibited_term
+
+__all__ = ["linear_parts", "part_reader", "inhibited_terms"]
+
+#: How close ``f(2p) - f(p)`` must come to ``f(p) - f(0)`` (relative to the part's size) for ``f`` to be called
+#: linear in ``p``; and how close two equations' parts must be to proportional to be one term.
+LINEAR_TOLERANCE = 1e-6
+
+
+def linear_parts(science: Callable, theta: Mapping[str, float], args: Sequence[np.ndarray],
+                 exclude: Sequence[str] = ()) -> dict[str, np.ndarray]:
+    """The part of the science output each scalar parameter it is linear in makes, at the visited states.
+
+    Parameters
+    ----------
+    science : callable
+        The science function.
+    theta : dict of str to float
+        Its parameters.
+    args : list of ndarray
+        Its inputs at the visited points (states first).
+    exclude : list of str
+        Parameters not to read (held fixed).
+
+    Returns
+    -------
+    dict of str to ndarray of shape (n_points, n_outputs)
+        ``f(theta) - f(theta with p = 0)`` for each parameter ``p`` whose doubling adds that part again, not
+        zero and finite everywhere.
+    """
+    base = science_output(science, theta, args)
+    parts = {}
+    for name, value in theta.items():
+        if name in exclude or np.ndim(value) != 0 or float(value) == 0.0:
+            continue
+        with np.errstate(all="ignore"):
+            part = base - science_output(science, {**theta, name: 0.0}, args)
+            again = science_output(science, {**theta, name: 2.0 * float(value)}, args) - base
+        size = np.sqrt(np.mean(part ** 2))
+        if np.all(np.isfinite(part)) and np.all(np.isfinite(again)) and size > 0 \
+                and np.sqrt(np.mean((again - part) ** 2)) <= LINEAR_TOLERANCE * size:
+            parts[name] = part
+    return parts
+
+
+def part_reader(science: Callable, theta: Mapping[str, float], args: Sequence[np.ndarray]
+                ) -> Callable[[str], torch.Tensor]:
+    """``part(name)``: the part of the science output at ``args`` that parameter ``name`` makes at ``theta`` (the
+    science's own parameters), for :class:`~sklearn_hybrid.diagnosis.terms.TermVariables` on the visited states."""
+    base = science_output(science, theta, args)
+
+    def part(name: str) -> torch.Tensor:
+        return torch.as_tensor(base - science_output(science, {**theta, name: 0.0}, args))
+
+    return part
+
+
+def inhibited_terms(parts: Mapping[str, np.ndarray], variables: Sequence[str], values: np.ndarray,
+                    components: Sequence[int]) -> list[Term]:
+    """Each parameter's part, on each group of equations where it is proportional, times ``|x| / (K + |x|)`` and
+    ``x^2 / (K^2 + x^2)`` for every variable ``x`` that varies.
+
+    Parameters
+    ----------
+    parts : dict of str to ndarray of shape (n_points, n_outputs)
+        :func:`linear_parts`.
+    variables : list of str
+        States, then inputs.
+    values : ndarray of shape (n_points, n_variables)
+        Where they were visited: the constant ``K`` starts at the quartiles of ``|x|``.
+    components : list of int
+        The equations that may receive terms: a part on none of them is not offered.
+
+    Returns
+    -------
+    list of Term
+        Kind ``"inhibited"``, shape parameter ``K`` (starting at the quartiles of ``|x|``, bounded by a
+        thousandth and a thousand times the variable's scale).
+    """
+    terms = []
+    for name, part in parts.items():
+        for group in _proportional_groups(part, components):
+            reference = group[0]
+            # the term slows the science's term down where it acts: on its one equation, or (a rate that moves
+            # matter between states) on any, as a flow or a group; the b-term of an equation, placed as a flow
+            # with another's, would take the role of that other parameter's term and leave its parameter at zero
+            for i, x in enumerate(variables):
+                size = np.abs(values[:, i])
+                if np.ptp(size) == 0:
+                    continue
+                scale = float(np.sqrt(np.mean(size ** 2)))
+                quartiles = [float(q) for q in np.quantile(size, [0.25, 0.5, 0.75]) if q > 0]
+                for power, form in ((1, f"|{x}|/(K + |{x}|)"), (2, f"{x}^2/(K^2 + {x}^2)")):
+                    terms.append(Term(f"[{name}-term of {variables[reference]}]*{form}",
+                                      partial(inhibited_term, param=name, reference=reference, x=x, power=power),
+                                      "inhibited", {"K": (quartiles or [scale], (1e-3 * scale, 1e3 * scale))},
+                                      component=reference if len(group) == 1 else None))
+    return terms
+
+
+def _proportional_groups(part: np.ndarray, components: Sequence[int]) -> list[list[int]]:
+    """The equations where ``part`` is not zero, in groups where it is proportional, of the groups that touch
+    ``components``."""
+    nonzero = [j for j in range(part.shape[1]) if np.any(part[:, j])]
+    groups: list[list[int]] = []
+    for j in nonzero:
+        for group in groups:
+            a, b = part[:, group[0]], part[:, j]
+            ratio = float(a @ b) / float(a @ a)
+            if np.sqrt(np.mean((b - ratio * a) ** 2)) <= LINEAR_TOLERANCE * np.sqrt(np.mean(b ** 2)):
+                group.append(j)
+                break
+        else:
+            groups.append([j])
+    return [g for g in groups if set(g) & set(components)]
