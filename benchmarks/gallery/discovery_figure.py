@@ -1,11 +1,12 @@
-"""The closed-loop guide's figure on discovery: each effect of the three laws batches, before and with discovery.
+"""The closed-loop guide's figure on discovery: each effect of the four laws batches, before and with discovery.
 
 Reads the committed records of ``discovery/bench_discovery.py`` (``results/discovery.json``, the first batch,
-``results/discovery_2.json``, the second, written after the first had been seen, and ``results/discovery_3.json``,
-the third, written after both) and draws, per effect case, the final model's error in function space
-(``rel_err``) for the loop with its term list (``loop_learned`` where it ran), the loop with discovery as the
-package now runs it (the latest of its arms from ``loop_discovery_judged`` on that ran) and UDE + SINDy, with the
-1 % (law named, if theta is also right) and 10 % (field) lines; a filled marker where theta is also within 5 %.
+``results/discovery_2.json``, the second, written after the first had been seen, ``results/discovery_3.json``, the
+third, written after both, and ``results/discovery_4.json``, the fourth, written after the three) and draws, per
+effect case, the final model's error in function space (``rel_err``) for the loop with its term list
+(``loop_learned`` where it ran), the loop with discovery as the package now runs it (``discovery/arms.py``: the
+latest of its arms from ``loop_discovery_judged`` on that ran) and UDE + SINDy, with the 1 % (law named, if theta
+is also right) and 10 % (field) lines; a filled marker where theta is also within 5 %.
 Nothing is trained: the figure is the records drawn.
 
     python benchmarks/gallery/discovery_figure.py
@@ -23,20 +24,12 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the helpers
 from helpers import RESULTS  # noqa: E402
+from discovery.arms import package_now  # noqa: E402
 
 ARMS = [("loop", "loop, term list", "o", "0.55"), ("loop_discovery_judged", "loop + discovery", "s", "C0"),
         ("ude_sindy", "UDE + SINDy", "^", "C2")]
 BATCHES = [("discovery", "first laws batch"), ("discovery_2", "second (written after the first was seen)"),
-           ("discovery_3", "third (written after both)")]
-
-
-def _package_now(record: dict) -> dict:
-    """The loop with discovery as the package stands: the latest fix's arm where it ran, the arm before it where
-    the fix does not apply."""
-    for arm in ("loop_discovery_learned", "loop_discovery_folded", "loop_discovery_finite", "loop_discovery_judged"):
-        if arm in record:
-            return record[arm]
-    return {}
+           ("discovery_3", "third (written after both)"), ("discovery_4", "fourth (written after the three)")]
 
 
 def main() -> None:
@@ -45,15 +38,15 @@ def main() -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(1, 3, figsize=(13, 4.6), sharey=True,
-                             gridspec_kw={"width_ratios": [17, 9, 10]})
+    fig, axes = plt.subplots(1, 4, figsize=(17, 4.8), sharey=True,
+                             gridspec_kw={"width_ratios": [17, 9, 10, 12]})
     for ax, (name, title) in zip(axes, BATCHES):
         records = [r for r in json.loads((RESULTS / f"{name}.json").read_text())["records"]
                    if r.get("loop", {}).get("rel_err") is not None]
         records.sort(key=lambda r: r["loop"]["rel_err"])
         x = np.arange(len(records))
         for key, label, marker, color in ARMS:
-            got = [_package_now(r) if key == "loop_discovery_judged" else
+            got = [(package_now(r) or {}) if key == "loop_discovery_judged" else
                    r.get("loop_learned", r["loop"]) if key == "loop" else r.get(key, {}) for r in records]
             y = np.maximum(np.asarray([g.get("rel_err", np.nan) for g in got], dtype=float), 1e-4)
             right = np.array([(g.get("theta_error") is not None and g["theta_error"] <= 0.05) for g in got])
