@@ -435,14 +435,15 @@ def test_a_form_is_offered_also_with_the_parts_a_parameter_provides():
     assert [t.name for t in offered] == ["y/(K1 + x^2)", "y*(K2 + x^2)/(K1 + x^2)"]
 
 
-def _inhibited_decay(rng):
-    """dA/dt = -0.8 A / (1 + (A/0.5)^2): the science's decay -k A, slowed down as A grows (the law keeps k as the
-    rate at rest); the selection reads the exact rates as what the network learned, as in ``_hill_decay``."""
+def _inhibited_decay(rng, law=lambda a: -0.8 * a / (1 + (a / 0.5) ** 2)):
+    """dA/dt = law(A), by default -0.8 A / (1 + (A/0.5)^2): the science's decay -k A, slowed down as A grows (the
+    law keeps k as the rate at rest); the selection reads the exact rates as what the network learned, as in
+    ``_hill_decay``."""
     dt, n_steps, n = 0.3, 12, 30
     x0 = rng.uniform(0.2, 2.5, (n, 1))
 
     def truth(t, a):
-        return -0.8 * a / (1 + (a / 0.5) ** 2)
+        return law(a)
     x = np.stack([solve_ivp(truth, (0, dt * n_steps), s, t_eval=dt * np.arange(n_steps + 1), rtol=1e-10,
                             atol=1e-12).y.T for s in x0])
     y = x[:, 1:] + 0.002 * rng.standard_normal(x[:, 1:].shape)
@@ -490,9 +491,22 @@ def test_a_parameter_s_part_is_offered_where_the_science_is_linear_in_it_and_onc
     terms = inhibited_terms(parts, ["x", "y"], values, [0, 1])
     # a's part is proportional on both equations (a flow with a yield): one term, read on x's equation
     assert sorted({t.name.split("]")[0] + "]" for t in terms}) == ["[a-term of x]", "[m-term of y]", "[r-term of x]"]
-    assert len(terms) == 3 * 2 * 2  # each times |x|/(K + |x|) and x^2/(K^2 + x^2) of each state
+    assert len(terms) == 3 * 2 * 4  # each slowed down or limited by each state, n one or two
     assert inhibited_terms(parts, ["x", "y"], values, [1]) and not any(
         "r-term" in t.name for t in inhibited_terms(parts, ["x", "y"], values, [1]))
     # a part on one equation is offered on that equation only, one on several (a flow) on any
     assert {t.component for t in terms if "m-term" in t.name} == {1}
     assert {t.component for t in terms if "a-term" in t.name} == {None}
+
+
+def test_a_science_term_limited_by_a_state_is_named_with_its_rate_at_saturation():
+    """dA/dt = -0.8 A * A/(0.5 + A): the science's decay -k A acting only as A saturates; the slowed-down form
+    reaches this only as k goes to zero, the limited one at coefficient -1 with k the rate at saturation."""
+    truth, states, select = _inhibited_decay(np.random.default_rng(0), lambda a: -0.8 * a * a / (0.5 + a))
+    found = select(True)
+    assert [t.kind for t in found["added"]] == ["inhibited"]
+    added, theta = found["added"][0], found["theta"]
+    assert added.name == "[k-term of A]*K/(K + |A|)"
+    shape = {local: theta[name] for local, name in added.shape_params.items()}
+    assert abs(theta[added.param] + 1) < 0.02 and abs(shape["K"] - 0.5) < 0.02
+    assert abs(theta["k"] - 0.8) < 0.02

@@ -21,7 +21,8 @@ with the current, a growth rate that depends on the density or follows the seaso
 constant that grows with the temperature). It reads the science output from the variables under
 the key ``SCIENCE_OUTPUT``, which the augmented science model and the selection provide.
 
-A term of kind ``"inhibited"`` (offered with the closed loop's discovery) reads a science term itself: the part
+A term of kind ``"inhibited"`` (offered with the closed loop's discovery) reads a science term itself (slowed down
+or limited by a variable): the part
 of the science output that a parameter the science is linear in makes, under the key ``parameter_part(name)``,
 which :class:`TermVariables` computes from the science model when a term first asks for it.
 """
@@ -190,11 +191,13 @@ def scaled_term(d, component, factors):
     return d[SCIENCE_OUTPUT][..., component] * monomial(d, factors)
 
 
-def inhibited_term(d, param, reference, x, power, K):
+def inhibited_term(d, param, reference, x, power, K, limited=False):
     """``param``'s part of the science output on component ``reference`` times ``|x|^power / (K^power +
-    |x|^power)``: with coefficient -1 the part becomes the part over ``1 + (|x|/K)^power``."""
+    |x|^power)`` (with coefficient -1 the part becomes the part over ``1 + (|x|/K)^power``), or with ``limited``
+    times ``K^power / (K^power + |x|^power)`` (the part becomes the part times ``|x|^power / (K^power +
+    |x|^power)``)."""
     a = (d[x].abs() / K) ** power
-    return d[parameter_part(param)][..., reference] * a / (1 + a)
+    return d[parameter_part(param)][..., reference] * (1 if limited else a) / (1 + a)
 
 
 def dry_friction_term(d, x, w):

@@ -1,4 +1,4 @@
-"""Inhibited science terms: a term the science model has, slowed down by a variable.
+"""Inhibited science terms: a term the science model has, slowed down or limited by a variable.
 
 Many textbook laws keep a term of the simple model and make it saturate in a variable: a growth inhibited by its
 product, an eddy-current brake that weakens with speed, a laser's gain compressed by its photons, an incidence
@@ -6,11 +6,15 @@ damped by behaviour. The science's parameter keeps its meaning (the term's rate 
 ``T / (1 + (|x|/K)^n)`` for a term ``T`` the parameter makes (``n`` one or two, as textbooks write them); what
 the simple model misses is ``-T |x|^n / (K^n + |x|^n)``. No term of the list has that form (it multiplies the
 science's own term, with its other parameters, by a saturation), and symbolic regression on what the network
-learned finds it only as one of many forms of its length.
+learned finds it only as one of many forms of its length. The same term can instead need a variable to act at
+all: a growth limited by a second substrate or by the light, ``T |x|^n / (K^n + |x|^n)``, the parameter its rate
+at saturation; what the simple model misses is then ``-T K^n / (K^n + |x|^n)`` (beside the science's own term the
+same functions of ``x``, but only this form reaches the law at a finite coefficient, the parameter's meaning
+kept).
 
 This family offers it directly: for every parameter the science output is linear in, its part of the output
 (:func:`~sklearn_hybrid.diagnosis.terms.parameter_part`, read from the science model at the current parameters,
-so it follows the refit), times the saturation of every state and input; coefficient -1 is the law. Parts that
+so it follows the refit), times either factor of every state and input; coefficient -1 is the law. Parts that
 are proportional on several equations (a rate that moves matter from one state to another) are one term, which
 the loop may place on each of them, as a flow or with a yield each; a part on one equation only is offered there.
 """
@@ -83,8 +87,9 @@ def part_reader(science: Callable, theta: Mapping[str, float], args: Sequence[np
 
 def inhibited_terms(parts: Mapping[str, np.ndarray], variables: Sequence[str], values: np.ndarray,
                     components: Sequence[int]) -> list[Term]:
-    """Each parameter's part, on each group of equations where it is proportional, times ``|x| / (K + |x|)`` and
-    ``x^2 / (K^2 + x^2)`` for every variable ``x`` that varies.
+    """Each parameter's part, on each group of equations where it is proportional, times ``|x| / (K + |x|)``,
+    ``x^2 / (K^2 + x^2)`` (slowed down), ``K / (K + |x|)`` and ``K^2 / (K^2 + x^2)`` (limited) for every variable
+    ``x`` that varies.
 
     Parameters
     ----------
@@ -116,9 +121,12 @@ def inhibited_terms(parts: Mapping[str, np.ndarray], variables: Sequence[str], v
                     continue
                 scale = float(np.sqrt(np.mean(size ** 2)))
                 quartiles = [float(q) for q in np.quantile(size, [0.25, 0.5, 0.75]) if q > 0]
-                for power, form in ((1, f"|{x}|/(K + |{x}|)"), (2, f"{x}^2/(K^2 + {x}^2)")):
+                forms = ((1, False, f"|{x}|/(K + |{x}|)"), (2, False, f"{x}^2/(K^2 + {x}^2)"),
+                         (1, True, f"K/(K + |{x}|)"), (2, True, f"K^2/(K^2 + {x}^2)"))
+                for power, limited, form in forms:
                     terms.append(Term(f"[{name}-term of {variables[reference]}]*{form}",
-                                      partial(inhibited_term, param=name, reference=reference, x=x, power=power),
+                                      partial(inhibited_term, param=name, reference=reference, x=x, power=power,
+                                              limited=limited),
                                       "inhibited", {"K": (quartiles or [scale], (1e-3 * scale, 1e3 * scale))},
                                       component=reference if len(group) == 1 else None))
     return terms

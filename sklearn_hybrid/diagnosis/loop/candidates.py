@@ -57,10 +57,11 @@ class Candidates:
         Also search closed forms for what the network learned (:class:`~sklearn_hybrid.diagnosis.SymbolicDiscovery`,
         symbolic regression; ``True`` for its defaults), on each equation where no single term of the list
         explains at least ``explained`` of it beyond the science's own parameters. Each form is one more
-        candidate, judged like every term. With it, the science's own terms slowed down by a variable are
-        candidates too on every equation (kind ``"inhibited"``,
+        candidate, judged like every term. With it, the science's own terms slowed down or limited by a
+        variable are candidates too on every equation (kind ``"inhibited"``,
         :func:`~sklearn_hybrid.diagnosis.families.inhibited.inhibited_terms`): a parameter's part ``T`` times
-        ``|x|/(K + |x|)`` or ``x^2/(K^2 + x^2)``, which at coefficient -1 is the law ``T / (1 + (|x|/K)^n)``.
+        ``|x|^n/(K^n + |x|^n)``, which at coefficient -1 is the law ``T / (1 + (|x|/K)^n)``, or times
+        ``K^n/(K^n + |x|^n)``, the law ``T |x|^n/(K^n + |x|^n)`` (a rate limited by ``x``), ``n`` one or two.
         Default off.
     explained : float, default=0.95
         The share of an equation's residual a single listed term must explain for the search to skip it.

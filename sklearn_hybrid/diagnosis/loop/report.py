@@ -27,9 +27,10 @@ KIND_WORDS = {"polynomial": "polynomial", "drag": "drag (v|v|, |v|)", "dry_frict
               "scaled": "its equation times a state or input (a parameter that varies with it)", "user": "user term",
               "offset": "sensor offset", "joint": "terms that enter together",
               "discovered": "discovered by symbolic regression",
-              "inhibited": "a science term slowed down by a variable: where it adds -1 times the bracket's term to "
-                           "that term's own equation, the term becomes itself over 1 + (|x|/K)^n, its parameter "
-                           "still its rate at rest"}
+              "inhibited": "a science term slowed down or limited by a variable: where it adds -1 times the "
+                           "bracket's term to that term's own equation, the term becomes itself over 1 + (|x|/K)^n "
+                           "(a factor |x|^n/(K^n + |x|^n)), its parameter still its rate at rest, or itself times "
+                           "|x|^n/(K^n + |x|^n) (a factor K^n/(K^n + |x|^n)), its parameter its rate at saturation"}
 
 
 def format_gain(gain: float) -> str:

@@ -149,7 +149,7 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
                                  tensors[SCIENCE_OUTPUT].numpy(), variables, n_states, components, log, units,
                                  carried)
         columns += term_columns(found, tensors)
-        # the science's own terms slowed down by a variable: a law symbolic regression finds only among many forms
+        # the science's own terms slowed down or limited by a variable: laws the search finds only among many forms
         inhibited = inhibited_terms(parts, variables, values, components)
         log(f"  {len(inhibited)} inhibited science term(s) offered, of parameter(s) {', '.join(parts) or 'none'}")
         columns += term_columns(inhibited, tensors)
