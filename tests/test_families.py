@@ -510,3 +510,33 @@ def test_a_science_term_limited_by_a_state_is_named_with_its_rate_at_saturation(
     shape = {local: theta[name] for local, name in added.shape_params.items()}
     assert abs(theta[added.param] + 1) < 0.02 and abs(shape["K"] - 0.5) < 0.02
     assert abs(theta["k"] - 0.8) < 0.02
+
+
+def test_an_inhibited_term_reached_through_its_other_form_is_written_with_the_parameter_at_its_largest_rate():
+    """The slowed-down law -0.8 A / (1 + (A/0.5)^2) as the limited form: k near zero and a large coefficient; the
+    same model written slowed down keeps k 0.8 and the coefficient -1, and a rival of the term follows it."""
+    from sklearn_hybrid.diagnosis.judge import Judge
+    from sklearn_hybrid.diagnosis.loop.candidates import augment_with, shape_bounds
+    from sklearn_hybrid.diagnosis.loop.collapse import canonical_inhibited
+    from sklearn_hybrid.diagnosis.loop.placed import PlacedTerm
+
+    truth, states, _ = _inhibited_decay(np.random.default_rng(0))
+    rng = np.random.default_rng(0)
+    x0 = rng.uniform(0.2, 2.5, (30, 1))
+    x = np.stack([solve_ivp(truth, (0, 3.6), s, t_eval=0.3 * np.arange(13), rtol=1e-10, atol=1e-12).y.T for s in x0])
+    est = HybridRegressor(science=decay_f, structure=OdeStructure(dt=0.3), max_iter=2, random_state=0).fit(x0, x[:, 1:])
+    judge = Judge(ScienceFit(est, x0, x[:, 1:]), [(np.arange(24), np.arange(24, 30))], None)
+    parts = linear_parts(decay_f, {"k": 0.5}, [states])
+    limited = next(t for t in inhibited_terms(parts, ["A"], states, [0]) if t.name == "[k-term of A]*K^2/(K^2 + A^2)")
+    placed = [PlacedTerm(limited, 0, {"K": 0.5}, coef=100.0)]
+    model = augment_with(decay_f, placed, ["A"], 1, None)
+    theta = judge.fit(model, {"k": 0.008, model.terms[0][2]: 100.0, **{g: 0.5 for g in model.shape_names[0].values()}},
+                      shape_bounds(model, placed))
+    added = [placed[0].with_fitted(model, theta, 0)]
+    assert theta["k"] < 0.1 and added[0].coef > 5  # the law through the limited form, at its degenerate end
+    steps = []
+    _, kept, fitted, _, renamed = canonical_inhibited(decay_f, model, added, theta, judge.errors(model, theta), judge,
+                                                      ["A"], 1, None, steps, lambda m: None, evidence=Evidence())
+    assert [t.name for t in kept] == ["[k-term of A]*A^2/(K^2 + A^2)"]
+    assert abs(fitted["k"] - 0.8) < 0.01 and abs(kept[0].coef + 1) < 0.01 and abs(kept[0].shape["K"] - 0.5) < 0.01
+    assert renamed == {added[0].key: kept[0].key} and steps[-1].accepted

@@ -30,7 +30,7 @@ import torch
 from ..sensitivity import science_output
 from ..terms import Term, inhibited_term
 
-__all__ = ["linear_parts", "part_reader", "inhibited_terms"]
+__all__ = ["linear_parts", "part_reader", "inhibited_terms", "other_form"]
 
 #: How close ``f(2p) - f(p)`` must come to ``f(p) - f(0)`` (relative to the part's size) for ``f`` to be called
 #: linear in ``p``; and how close two equations' parts must be to proportional to be one term.
@@ -121,15 +121,29 @@ def inhibited_terms(parts: Mapping[str, np.ndarray], variables: Sequence[str], v
                     continue
                 scale = float(np.sqrt(np.mean(size ** 2)))
                 quartiles = [float(q) for q in np.quantile(size, [0.25, 0.5, 0.75]) if q > 0]
-                forms = ((1, False, f"|{x}|/(K + |{x}|)"), (2, False, f"{x}^2/(K^2 + {x}^2)"),
-                         (1, True, f"K/(K + |{x}|)"), (2, True, f"K^2/(K^2 + {x}^2)"))
-                for power, limited, form in forms:
-                    terms.append(Term(f"[{name}-term of {variables[reference]}]*{form}",
-                                      partial(inhibited_term, param=name, reference=reference, x=x, power=power,
-                                              limited=limited),
-                                      "inhibited", {"K": (quartiles or [scale], (1e-3 * scale, 1e3 * scale))},
-                                      component=reference if len(group) == 1 else None))
+                for power, limited in ((1, False), (2, False), (1, True), (2, True)):
+                    terms.append(_inhibited(f"[{name}-term of {variables[reference]}]", name, reference, x, power,
+                                            limited, (quartiles or [scale], (1e-3 * scale, 1e3 * scale)),
+                                            reference if len(group) == 1 else None))
     return terms
+
+
+def other_form(term: Term) -> Term:
+    """The inhibited ``term``'s other form, slowed down for limited and limited for slowed down: beside the
+    science's own term the same functions of the variable, ``T (1 + c s) = T (1 + c) (1 + c' (1 - s))`` with
+    ``c' = -c / (1 + c)``, the parameter's value times ``1 + c``."""
+    kw = term.func.keywords
+    return _inhibited(term.name.split("]")[0] + "]", kw["param"], kw["reference"], kw["x"], kw["power"],
+                      not kw.get("limited", False), term.shape["K"], term.component)
+
+
+def _inhibited(label: str, param: str, reference: int, x: str, power: int, limited: bool, grid: tuple,
+               component: int | None) -> Term:
+    form = ("K" if power == 1 else "K^2") if limited else (f"|{x}|" if power == 1 else f"{x}^2")
+    denominator = f"K + |{x}|" if power == 1 else f"K^2 + {x}^2"
+    return Term(f"{label}*{form}/({denominator})",
+                partial(inhibited_term, param=param, reference=reference, x=x, power=power, limited=limited),
+                "inhibited", {"K": grid}, component=component)
 
 
 def _proportional_groups(part: np.ndarray, components: Sequence[int]) -> list[list[int]]:

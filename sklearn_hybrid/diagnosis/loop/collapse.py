@@ -15,7 +15,8 @@ reduced form kept where its model validates within ``min_gain`` of the full one.
 to what the network learned, whose error a spare constant takes up; in the refit such a constant trades
 with theta. :func:`one_shape_per_flux` puts an accepted discovered form in place of another equation's
 discovered form, sharing the first one's constants, where that validates as well: a flux taken on one equation
-and, in another step, a rival form of it on another.
+and, in another step, a rival form of it on another. :func:`canonical_inhibited` writes an accepted inhibited
+term in the form whose parameter is the science term's largest rate.
 """
 
 from __future__ import annotations
@@ -29,12 +30,13 @@ from ...science import read_signature
 from ..evidence import Evidence
 from ..judge import FIT_FAILURES, Judge
 from .candidates import Candidates, augment_with, initial_values, rank_by_residual, shape_bounds
+from ..families.inhibited import other_form
 from ..families.symbolic import reduced_forms
 from .placed import PlacedTerm, label_joined_shapes
 from ..results import Step, Verdict
 from ..sensitivity import free_columns, parameter_jacobian, science_output
 
-__all__ = ["replace_stand_ins", "drop_spare_constants", "one_shape_per_flux"]
+__all__ = ["replace_stand_ins", "drop_spare_constants", "one_shape_per_flux", "canonical_inhibited"]
 
 
 def replace_stand_ins(science: Callable, current: Callable, added: list[PlacedTerm], theta: dict,
@@ -209,6 +211,55 @@ def one_shape_per_flux(science: Callable, current: Callable, added: list[PlacedT
         _, other, held, current, theta, errors, placed, index = best
         added = _kept(steps, index, current, theta, placed)
         log(f"  replaced {other.name} on component {other.component} by {held.name}, its shape shared")
+
+
+def canonical_inhibited(science: Callable, current: Callable, added: list[PlacedTerm], theta: dict,
+                        errors: np.ndarray, judge: Judge, variables: Sequence[str], n_states: int,
+                        param_names: Mapping[str, str] | None, steps: list[Step], log: Callable[[str], None], *,
+                        evidence: Evidence) -> tuple:
+    """Write each accepted inhibited term on its own equation in the form whose coefficient is in [-1, 0].
+
+    Slowed down, ``T (1 + c |x|^n/(K^n + |x|^n))``, and limited, ``T (1 + c' K^n/(K^n + |x|^n))``, are the same
+    functions of ``x`` beside the science's term ``T = p d``: ``p' = p (1 + c)``, ``c' = -c / (1 + c)``. The data
+    cannot choose between them, but the parameter ``p`` means the term's rate at rest in one and at saturation in
+    the other, and a law of one form reached through the other sits at ``p`` near zero and a large coefficient
+    (an eddy-current brake ``c v / (1 + (v/K)^2)`` as the limited form: c 0.0009, coefficient 454). The form whose
+    coefficient is in [-1, 0] keeps ``p`` the term's largest rate (-1: the whole law). The other form is refitted
+    from the converted values and kept where it validates within ``evidence.min_gain`` (it is the same model).
+    The arguments are :func:`replace_stand_ins`'s; each one tried adds a row to ``steps`` (``step``
+    ``"canonical"``).
+
+    Returns
+    -------
+    tuple
+        ``(current, added, theta, errors, renamed)``; ``renamed`` maps a replaced term's key to its new one.
+    """
+    renamed = {}
+    for t in list(added):
+        if t.kind != "inhibited" or t.opposite is not None or t.shape_group is not None \
+                or t.component != t.term.func.keywords["reference"]:
+            continue  # on its own equation only: elsewhere the part's yield enters the coefficient
+        c, p = theta[t.param], t.term.func.keywords["param"]
+        if -1.0 <= c <= 0.0 or not -1.0 <= -c / (1.0 + c) <= 0.0:
+            continue
+        twin = replace(t, term=other_form(t.term), coef=-c / (1.0 + c), param=None, shape_params=None,
+                       shape={"K": theta[t.shape_params["K"]]}, second_look=False)
+        placed = [twin if s is t else s for s in added]
+        start = {k: theta[k] for k in read_signature(science)[1]}
+        start[p] = theta[p] * (1.0 + c)
+        refit = _judged_refit(science, placed, start, len(placed), judge, variables, n_states, param_names,
+                              float(np.mean(errors)), evidence.min_gain)
+        if refit is None:
+            continue
+        model, fitted, cand_errors, judged = refit
+        steps.append(Step.of("canonical", twin.row(), verdict=judged, replaces=[t.name]))
+        log(f"  {t.name} (coefficient {c:.4g}) as {twin.name} (coefficient {-c / (1.0 + c):.4g}): validation MSE "
+            f"{judged.mse_after:.4g} against {float(np.mean(errors)):.4g}{' (as well)' if judged.accepted else ''}")
+        if judged.accepted:
+            added = _kept(steps, len(steps) - 1, model, fitted, placed)
+            current, theta, errors = model, fitted, cand_errors
+            renamed[t.key] = twin.key
+    return current, added, theta, errors, renamed
 
 
 def _kept(steps: list[Step], index: int, current: Callable, theta: dict, placed: list[PlacedTerm]) -> list[PlacedTerm]:

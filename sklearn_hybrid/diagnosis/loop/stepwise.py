@@ -38,7 +38,7 @@ from ...science import read_signature
 from ..judge import FIT_FAILURES, Judge, training_folds
 from .candidates import (Candidates, augment_with, discovered_terms, initial_values, interleave, merge_rankings,
                          network_carries, offset_candidate, rank_by_residual, rank_by_fit, shape_bounds, term_columns)
-from .collapse import drop_spare_constants, one_shape_per_flux, replace_stand_ins
+from .collapse import canonical_inhibited, drop_spare_constants, one_shape_per_flux, replace_stand_ins
 from .groups import (candidate_groups, field_groups, first_placements, flow_candidates, flow_groups,
                      join_shape_groups)
 from ..evidence import Evidence
@@ -257,6 +257,11 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
     current, added, theta_now, errors = drop_spare_constants(
         science, current, added, theta_now, errors, judge, variables, n_states, param_names, steps, log,
         evidence=evidence)
+    current, added, theta_now, errors, renamed = canonical_inhibited(
+        science, current, added, theta_now, errors, judge, variables, n_states, param_names, steps, log,
+        evidence=evidence)
+    # a rival to a term written in its other form is a rival to that form: the same model
+    rivals = [{**r, "of": tuple(renamed.get(k, k) for k in r["of"])} if "of" in r else r for r in rivals]
     return Selection(science=current, theta=theta_now, added=added, steps=steps, rivals=rivals,
                      base_errors=base_errors, errors=errors, seconds=time.perf_counter() - start_time)
 
