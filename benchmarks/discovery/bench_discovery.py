@@ -98,8 +98,8 @@ ARMS = [("loop", "closed loop (term list)"), ("loop_discovery", "closed loop + d
         ("loop_discovery_inhibited", "closed loop + discovery (and the science's terms slowed down by a variable)"),
         ("loop_discovery_limited", "closed loop + discovery (and the science's terms slowed down or limited by a "
                                    "variable)"),
-        ("loop_discovery_canonical", "closed loop + discovery (and an inhibited term written with its parameter at "
-                                     "its largest rate)"),
+        ("loop_discovery_canonical", "closed loop + discovery (and an inhibited term written slowed down unless "
+                                     "limited is the law)"),
         ("ude_sindy", "UDE + SINDy (cubic library)"), ("sr_alone", "SR alone on derivatives"),
         ("sindy_data", "SINDy on the data")]
 # loop_discovery_2: the same arm run again after discovery was revised on what the first run showed (the record
@@ -165,12 +165,15 @@ ARMS = [("loop", "closed loop (term list)"), ("loop_discovery", "closed loop + d
 # The fourth batch's dual_substrate_monod showed it (the slowed-down form reached Monod times O/(K + O) only with
 # mu near zero: mu 0.06 for 1.0, the field 1.2 % off), so the fourth batch is seen by this arm; declared before it
 # ran.
-# loop_discovery_canonical: the limited arm with an accepted inhibited term on its own equation written in the form
-# whose coefficient is in [-1, 0] (collapse.canonical_inhibited): the two forms are one model, but reached through
-# the other form a law sits at its parameter near zero (the third batch's eddy_brake in the limited arm: c 0.0009,
-# coefficient 454, theta 0.50 off). The step acts only where the limited arm accepted such a term outside [-1, 0];
-# elsewhere the models are the limited arm's, so it runs on those cases only (its records then stand for the
-# package there). Declared before it ran; the arm of the package as it stands from here on.
+# loop_discovery_canonical: the limited arm with an accepted inhibited term on its own equation written slowed down,
+# or limited where the limited form's coefficient is the law's -1 (collapse.canonical_inhibited): the two forms are
+# one model, but reached through the other form a law sits at its parameter near zero (the third batch's
+# eddy_brake in the limited arm: c 0.0009, coefficient 454, theta 0.50 off), and an additive effect that vanishes
+# at rest leaves the science's rate there only in the slowed form (hill_kill in the limited arm: g -0.91 for 0.3,
+# the growth and the kill at saturation; the rule was revised on that record before the arm ran). The step acts
+# only where the limited arm accepted a term on its own equation in the other form; elsewhere the models are the
+# limited arm's, so it runs on those cases only (its records then stand for the package there). The arm of the
+# package as it stands from here on.
 LOOP_ARMS = ("loop", "loop_discovery", "loop_discovery_2", "loop_discovery_gated", "loop_discovery_written",
              "loop_discovery_anywhere", "loop_discovery_lean",
              "loop_discovery_yields", "loop_discovery_whole",

@@ -16,7 +16,7 @@ to what the network learned, whose error a spare constant takes up; in the refit
 with theta. :func:`one_shape_per_flux` puts an accepted discovered form in place of another equation's
 discovered form, sharing the first one's constants, where that validates as well: a flux taken on one equation
 and, in another step, a rival form of it on another. :func:`canonical_inhibited` writes an accepted inhibited
-term in the form whose parameter is the science term's largest rate.
+term slowed down, or limited where that is the law.
 """
 
 from __future__ import annotations
@@ -217,30 +217,36 @@ def canonical_inhibited(science: Callable, current: Callable, added: list[Placed
                         errors: np.ndarray, judge: Judge, variables: Sequence[str], n_states: int,
                         param_names: Mapping[str, str] | None, steps: list[Step], log: Callable[[str], None], *,
                         evidence: Evidence) -> tuple:
-    """Write each accepted inhibited term on its own equation in the form whose coefficient is in [-1, 0].
+    """Write each accepted inhibited term on its own equation slowed down, or limited where that is the law.
 
     Slowed down, ``T (1 + c |x|^n/(K^n + |x|^n))``, and limited, ``T (1 + c' K^n/(K^n + |x|^n))``, are the same
     functions of ``x`` beside the science's term ``T = p d``: ``p' = p (1 + c)``, ``c' = -c / (1 + c)``. The data
-    cannot choose between them, but the parameter ``p`` means the term's rate at rest in one and at saturation in
-    the other, and a law of one form reached through the other sits at ``p`` near zero and a large coefficient
-    (an eddy-current brake ``c v / (1 + (v/K)^2)`` as the limited form: c 0.0009, coefficient 454). The form whose
-    coefficient is in [-1, 0] keeps ``p`` the term's largest rate (-1: the whole law). The other form is refitted
-    from the converted values and kept where it validates within ``evidence.min_gain`` (it is the same model).
-    The arguments are :func:`replace_stand_ins`'s; each one tried adds a row to ``steps`` (``step``
-    ``"canonical"``).
+    cannot choose between them, but ``p`` is the term's rate at rest in one and at saturation in the other, and a
+    law of one form reached through the other sits at ``p`` near zero and a large coefficient (an eddy-current
+    brake ``c v / (1 + (v/K)^2)`` as the limited form: c 0.0009, coefficient 454). The limited form is kept where
+    its coefficient is the law's -1 (within ``LAW_SLACK``, or a part of it, down to 0: a rate that needs ``x``);
+    everywhere else the term is written slowed down, ``p`` the science's rate at rest, where an effect that
+    vanishes there leaves it (a kill ``-a x c^2/(K^2 + c^2)`` beside a growth ``g x``: the limited form holds
+    ``g (1 + c')``, the growth and the kill at saturation). The other form is refitted from the converted values
+    and kept where it validates within ``evidence.min_gain`` (it is the same model). The arguments are
+    :func:`replace_stand_ins`'s; each one tried adds a row to ``steps`` (``step`` ``"canonical"``).
 
     Returns
     -------
     tuple
         ``(current, added, theta, errors, renamed)``; ``renamed`` maps a replaced term's key to its new one.
     """
+    def law(c):
+        return -1.0 - LAW_SLACK <= c <= 0.0
+
     renamed = {}
     for t in list(added):
         if t.kind != "inhibited" or t.opposite is not None or t.shape_group is not None \
                 or t.component != t.term.func.keywords["reference"]:
             continue  # on its own equation only: elsewhere the part's yield enters the coefficient
         c, p = theta[t.param], t.term.func.keywords["param"]
-        if -1.0 <= c <= 0.0 or not -1.0 <= -c / (1.0 + c) <= 0.0:
+        limited = t.term.func.keywords.get("limited", False)
+        if c == -1.0 or (law(c) if limited else law(c) or not law(-c / (1.0 + c))):
             continue
         twin = replace(t, term=other_form(t.term), coef=-c / (1.0 + c), param=None, shape_params=None,
                        shape={"K": theta[t.shape_params["K"]]}, second_look=False)
@@ -260,6 +266,11 @@ def canonical_inhibited(science: Callable, current: Callable, added: list[Placed
             current, theta, errors = model, fitted, cand_errors
             renamed[t.key] = twin.key
     return current, added, theta, errors, renamed
+
+
+#: How far below -1 an inhibited term's coefficient may fall and still be read as the law's -1 (the noise in a
+#: fitted coefficient): ``canonical_inhibited`` keeps a limited form there.
+LAW_SLACK = 0.1
 
 
 def _kept(steps: list[Step], index: int, current: Callable, theta: dict, placed: list[PlacedTerm]) -> list[PlacedTerm]:
