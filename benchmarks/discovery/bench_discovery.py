@@ -68,7 +68,7 @@ from discovery.laws import LAWS  # noqa: E402
 from discovery.laws_second import LAWS_2  # noqa: E402
 from discovery.laws_third import LAWS_3  # noqa: E402
 from discovery.laws_fourth import LAWS_4  # noqa: E402
-from discovery.arms import PACKAGE_NOW_LABEL, package_now  # noqa: E402
+from discovery.arms import PACKAGE_NOW, PACKAGE_NOW_LABEL, package_now  # noqa: E402
 from identification import anchors  # noqa: E402
 from identification.protocol import PROTOCOL, first_hybrid_fit, loop_arguments, make_data, score  # noqa: E402
 from identification.systems import simulate  # noqa: E402
@@ -438,7 +438,7 @@ def render(batch: str = "laws") -> None:
     now = [dict(r, loop_package_now=package_now(r)) for r in recs]
     now = [r for r in now if r["loop_package_now"] is not None]
     table = [(arm, label, recs) for arm, label in arms]
-    if any("loop_discovery_finite" in r for r in recs):
+    if any(sum(arm in r for arm in PACKAGE_NOW) > 1 for r in recs):  # revisions ran: which one stands per case
         table.append(("loop_package_now", PACKAGE_NOW_LABEL, now))
     for arm, label, rows in table:
         done = [r for r in rows if arm in r and "error" not in r[arm]]

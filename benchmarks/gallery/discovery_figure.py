@@ -32,6 +32,11 @@ BATCHES = [("discovery", "first laws batch"), ("discovery_2", "second (written a
            ("discovery_3", "third (written after both)"), ("discovery_4", "fourth (written after the three)")]
 
 
+def _term_list(record: dict) -> dict:
+    """The loop with its term list: ``loop_learned`` where it ran (the fourth batch ran it alone), else ``loop``."""
+    return record.get("loop_learned", record.get("loop", {}))
+
+
 def main() -> None:
     import matplotlib
 
@@ -42,14 +47,14 @@ def main() -> None:
                              gridspec_kw={"width_ratios": [17, 9, 10, 12]})
     for ax, (name, title) in zip(axes, BATCHES):
         records = [r for r in json.loads((RESULTS / f"{name}.json").read_text())["records"]
-                   if r.get("loop", {}).get("rel_err") is not None]
-        records.sort(key=lambda r: r["loop"]["rel_err"])
+                   if _term_list(r).get("rel_err") is not None]
+        records.sort(key=lambda r: _term_list(r)["rel_err"])
         x = np.arange(len(records))
         for key, label, marker, color in ARMS:
             got = [(package_now(r) or {}) if key == "loop_discovery_judged" else
-                   r.get("loop_learned", r["loop"]) if key == "loop" else r.get(key, {}) for r in records]
+                   _term_list(r) if key == "loop" else r.get(key, {}) for r in records]
             y = np.maximum(np.asarray([g.get("rel_err", np.nan) for g in got], dtype=float), 1e-4)
-            right = np.array([(g.get("theta_error") is not None and g["theta_error"] <= 0.05) for g in got])
+            right = np.array([(g.get("theta_error") is not None and g["theta_error"] <= 0.05) for g in got], dtype=bool)
             ax.semilogy(x[right], y[right], marker, color=color, ms=5, linestyle="none",
                         label=f"{label} (theta within 5 %)")
             ax.semilogy(x[~right], y[~right], marker, color=color, ms=5, linestyle="none", mfc="none",
