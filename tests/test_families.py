@@ -460,11 +460,11 @@ def _inhibited_decay(rng, law=lambda a: -0.8 * a / (1 + (a / 0.5) ** 2)):
                                           np.arange(24, 30))], ["A"], 1, [states], truth(0, states), [0],
                                           candidates=Candidates(terms=terms, discovery=discovery and Nothing(),
                                                                 max_terms=2), evidence=Evidence())
-    return truth, states, select
+    return truth, states, select, ScienceFit(est, x0, y)
 
 
 def test_the_loop_names_a_science_term_slowed_down_by_a_state_with_the_science_parameter_kept():
-    truth, states, select = _inhibited_decay(np.random.default_rng(0))
+    truth, states, select, _ = _inhibited_decay(np.random.default_rng(0))
     found = select(True)
     assert [t.kind for t in found["added"]] == ["inhibited"]
     added, theta = found["added"][0], found["theta"]
@@ -502,7 +502,7 @@ def test_a_parameter_s_part_is_offered_where_the_science_is_linear_in_it_and_onc
 def test_a_science_term_limited_by_a_state_is_named_with_its_rate_at_saturation():
     """dA/dt = -0.8 A * A/(0.5 + A): the science's decay -k A acting only as A saturates; the slowed-down form
     reaches this only as k goes to zero, the limited one at coefficient -1 with k the rate at saturation."""
-    truth, states, select = _inhibited_decay(np.random.default_rng(0), lambda a: -0.8 * a * a / (0.5 + a))
+    truth, states, select, _ = _inhibited_decay(np.random.default_rng(0), lambda a: -0.8 * a * a / (0.5 + a))
     found = select(True)
     assert [t.kind for t in found["added"]] == ["inhibited"]
     added, theta = found["added"][0], found["theta"]
@@ -525,12 +525,8 @@ def test_an_inhibited_term_is_written_slowed_down_unless_the_limited_form_is_the
     from sklearn_hybrid.diagnosis.loop.collapse import canonical_inhibited
     from sklearn_hybrid.diagnosis.loop.placed import PlacedTerm
 
-    truth, states, _ = _inhibited_decay(np.random.default_rng(0), law)
-    rng = np.random.default_rng(0)
-    x0 = rng.uniform(0.2, 2.5, (30, 1))
-    x = np.stack([solve_ivp(truth, (0, 3.6), s, t_eval=0.3 * np.arange(13), rtol=1e-10, atol=1e-12).y.T for s in x0])
-    est = HybridRegressor(science=decay_f, structure=OdeStructure(dt=0.3), max_iter=2, random_state=0).fit(x0, x[:, 1:])
-    judge = Judge(ScienceFit(est, x0, x[:, 1:]), [(np.arange(24), np.arange(24, 30))], None)
+    _, states, _, fit = _inhibited_decay(np.random.default_rng(0), law)
+    judge = Judge(fit, [(np.arange(24), np.arange(24, 30))], None)
     parts = linear_parts(decay_f, {"k": 0.5}, [states])
     limited = next(t for t in inhibited_terms(parts, ["A"], states, [0]) if t.name == "[k-term of A]*K^2/(K^2 + A^2)")
     placed = [PlacedTerm(limited, 0, {"K": 0.5}, coef=start["c"])]
