@@ -537,8 +537,31 @@ def test_an_inhibited_term_is_written_slowed_down_unless_the_limited_form_is_the
     assert abs(theta["k"] - start["k"]) < 0.05 + 0.1 * abs(start["k"])  # the law in the limited form
     steps = []
     _, kept, fitted, _, renamed = canonical_inhibited(decay_f, model, added, theta, judge.errors(model, theta), judge,
-                                                      ["A"], 1, None, steps, lambda m: None, evidence=Evidence())
+                                                      ["A"], 1, None, steps, lambda m: None, evidence=Evidence(),
+                                                      values=states)
     assert [t.name for t in kept] == ["[k-term of A]*A^2/(K^2 + A^2)"]
     assert abs(fitted["k"] - expected["k"]) < 0.01 and abs(kept[0].coef - expected["c"]) < 0.05
     assert abs(kept[0].shape["K"] - 0.5) < 0.01
     assert renamed == {added[0].key: kept[0].key} and steps[-1].accepted
+
+
+def test_a_limited_reading_needs_its_saturation_among_the_visited_states():
+    """A term written limited at the law's coefficient, but with K far beyond every visited |A|: there the factor
+    is a power of A, not a saturation, and the term is written slowed down."""
+    from sklearn_hybrid.diagnosis.loop.candidates import augment_with
+    from sklearn_hybrid.diagnosis.loop.collapse import canonical_inhibited
+    from sklearn_hybrid.diagnosis.judge import Judge
+    from sklearn_hybrid.diagnosis.loop.placed import PlacedTerm
+
+    _, states, _, fit = _inhibited_decay(np.random.default_rng(0))
+    judge = Judge(fit, [(np.arange(24), np.arange(24, 30))], None)
+    limited = next(t for t in inhibited_terms(linear_parts(decay_f, {"k": 0.5}, [states]), ["A"], states, [0])
+                   if t.name == "[k-term of A]*K^2/(K^2 + A^2)")
+    placed = [PlacedTerm(limited, 0, {"K": 30.0}, coef=-0.95)]
+    model = augment_with(decay_f, placed, ["A"], 1, None)
+    theta = {"k": 20.0, model.terms[0][2]: -0.95, **{g: 30.0 for g in model.shape_names[0].values()}}
+    added = [placed[0].with_fitted(model, theta, 0)]
+    for values, written in ((states, "[k-term of A]*A^2/(K^2 + A^2)"), (100 * states, limited.name)):
+        _, kept, *_ = canonical_inhibited(decay_f, model, added, theta, judge.errors(model, theta), judge, ["A"], 1,
+                                          None, [], lambda m: None, evidence=Evidence(min_gain=10.0), values=values)
+        assert [t.name for t in kept] == [written]

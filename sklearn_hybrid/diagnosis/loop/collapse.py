@@ -216,7 +216,7 @@ def one_shape_per_flux(science: Callable, current: Callable, added: list[PlacedT
 def canonical_inhibited(science: Callable, current: Callable, added: list[PlacedTerm], theta: dict,
                         errors: np.ndarray, judge: Judge, variables: Sequence[str], n_states: int,
                         param_names: Mapping[str, str] | None, steps: list[Step], log: Callable[[str], None], *,
-                        evidence: Evidence) -> tuple:
+                        evidence: Evidence, values: np.ndarray) -> tuple:
     """Write each accepted inhibited term on its own equation slowed down, or limited where that is the law.
 
     Slowed down, ``T (1 + c |x|^n/(K^n + |x|^n))``, and limited, ``T (1 + c' K^n/(K^n + |x|^n))``, are the same
@@ -227,8 +227,11 @@ def canonical_inhibited(science: Callable, current: Callable, added: list[Placed
     its coefficient is the law's -1 (within ``LAW_SLACK``, or a part of it, down to 0: a rate that needs ``x``);
     everywhere else the term is written slowed down, ``p`` the science's rate at rest, where an effect that
     vanishes there leaves it (a kill ``-a x c^2/(K^2 + c^2)`` beside a growth ``g x``: the limited form holds
-    ``g (1 + c')``, the growth and the kill at saturation). The other form is refitted from the converted values
-    and kept where it validates within ``evidence.min_gain`` (it is the same model). The arguments are
+    ``g (1 + c')``, the growth and the kill at saturation). A limited reading needs its saturation in the data:
+    its ``K`` within the visited ``|x|`` (``values``, one column per variable); beyond them the factor is a
+    power of ``x`` and ``p'`` holds ``1/K^n`` (a Q10 growth read as limited, ``K`` three times the warmest
+    temperature visited: r 5.7 for 1.0). The other form is refitted from the converted values and kept where it
+    validates within ``evidence.min_gain`` (it is the same model). The other arguments are
     :func:`replace_stand_ins`'s; each one tried adds a row to ``steps`` (``step`` ``"canonical"``).
 
     Returns
@@ -244,9 +247,10 @@ def canonical_inhibited(science: Callable, current: Callable, added: list[Placed
         if t.kind != "inhibited" or t.opposite is not None or t.shape_group is not None \
                 or t.component != t.term.func.keywords["reference"]:
             continue  # on its own equation only: elsewhere the part's yield enters the coefficient
-        c, p = theta[t.param], t.term.func.keywords["param"]
-        limited = t.term.func.keywords.get("limited", False)
-        if c == -1.0 or (law(c) if limited else law(c) or not law(-c / (1.0 + c))):
+        keywords = t.term.func.keywords
+        c, p, limited = theta[t.param], keywords["param"], keywords.get("limited", False)
+        seen = theta[t.shape_params["K"]] <= np.max(np.abs(values[:, list(variables).index(keywords["x"])]))
+        if c == -1.0 or (law(c) and seen if limited else law(c) or not (law(-c / (1.0 + c)) and seen)):
             continue
         twin = replace(t, term=other_form(t.term), coef=-c / (1.0 + c), param=None, shape_params=None,
                        shape={"K": theta[t.shape_params["K"]]}, second_look=False)

@@ -259,7 +259,7 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
         evidence=evidence)
     current, added, theta_now, errors, renamed = canonical_inhibited(
         science, current, added, theta_now, errors, judge, variables, n_states, param_names, steps, log,
-        evidence=evidence)
+        evidence=evidence, values=values)
     # a rival to a term written in its other form is a rival to that form: the same model
     rivals = [{**r, "of": tuple(renamed.get(k, k) for k in r["of"])} if "of" in r else r for r in rivals]
     return Selection(science=current, theta=theta_now, added=added, steps=steps, rivals=rivals,
