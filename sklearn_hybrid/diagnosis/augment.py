@@ -229,7 +229,8 @@ class AugmentedScience:
             for j, row in self._rows(state, self.offsets).items():
                 state = state - params[self.offsets[j]] * row
             args = (state.reshape(args[0].shape), *args[1:])
-        out = self.science(*args, **{k: params[k] for k in self.original})
+        original = {k: params[k] for k in self.original}
+        out = self.science(*args, **original)
         columns = list(_flat(args[0], single).unbind(1))[:self.n_states]
         if len(args) > 1:
             columns += _flat(args[1], single).unbind(1)[:len(self.variable_names) - self.n_states]
@@ -237,7 +238,6 @@ class AugmentedScience:
             raise ValueError(f"variable_names has {len(self.variable_names)} names {self.variable_names}, but the "
                              f"inputs have {len(columns)} column(s).")
         flat = _flat(out, single)
-        original = {k: params[k] for k in self.original}
 
         def part(name, base=flat):  # an inhibited term reads the part of the science output a parameter makes
             if name not in original:

@@ -22,7 +22,7 @@ the loop may place on each of them, as a flow or with a yield each; a part on on
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
-from functools import partial
+from functools import cache, partial
 
 import numpy as np
 import torch
@@ -55,20 +55,20 @@ def linear_parts(science: Callable, theta: Mapping[str, float], args: Sequence[n
     Returns
     -------
     dict of str to ndarray of shape (n_points, n_outputs)
-        ``f(theta) - f(theta with p = 0)`` for each parameter ``p`` whose doubling adds that part again, not
-        zero and finite everywhere.
+        ``f(theta) - f(theta with p = 0)`` for each parameter ``p`` whose doubling doubles that part, not zero
+        and finite everywhere.
     """
-    base = science_output(science, theta, args)
+    part_of = part_reader(science, theta, args)
     parts = {}
     for name, value in theta.items():
         if name in exclude or np.ndim(value) != 0 or float(value) == 0.0:
             continue
         with np.errstate(all="ignore"):
-            part = base - science_output(science, {**theta, name: 0.0}, args)
-            again = science_output(science, {**theta, name: 2.0 * float(value)}, args) - base
+            part = part_of(name).numpy()
+            doubled = part_reader(science, {**theta, name: 2.0 * float(value)}, args)(name).numpy()
         size = np.sqrt(np.mean(part ** 2))
-        if np.all(np.isfinite(part)) and np.all(np.isfinite(again)) and size > 0 \
-                and np.sqrt(np.mean((again - part) ** 2)) <= LINEAR_TOLERANCE * size:
+        if np.all(np.isfinite(part)) and np.all(np.isfinite(doubled)) and size > 0 \
+                and np.sqrt(np.mean((doubled - 2.0 * part) ** 2)) <= LINEAR_TOLERANCE * size:
             parts[name] = part
     return parts
 
@@ -76,11 +76,14 @@ def linear_parts(science: Callable, theta: Mapping[str, float], args: Sequence[n
 def part_reader(science: Callable, theta: Mapping[str, float], args: Sequence[np.ndarray]
                 ) -> Callable[[str], torch.Tensor]:
     """``part(name)``: the part of the science output at ``args`` that parameter ``name`` makes at ``theta`` (the
-    science's own parameters), for :class:`~sklearn_hybrid.diagnosis.terms.TermVariables` on the visited states."""
-    base = science_output(science, theta, args)
+    science's own parameters), for :class:`~sklearn_hybrid.diagnosis.terms.TermVariables` on the visited states.
+    Nothing is evaluated until a part is asked for (a selection without inhibited terms asks for none)."""
+    @cache
+    def base() -> np.ndarray:
+        return science_output(science, theta, args)
 
     def part(name: str) -> torch.Tensor:
-        return torch.as_tensor(base - science_output(science, {**theta, name: 0.0}, args))
+        return torch.as_tensor(base() - science_output(science, {**theta, name: 0.0}, args))
 
     return part
 

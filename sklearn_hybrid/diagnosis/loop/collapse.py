@@ -38,6 +38,10 @@ from ..sensitivity import free_columns, parameter_jacobian, science_output
 
 __all__ = ["replace_stand_ins", "drop_spare_constants", "one_shape_per_flux", "canonical_inhibited"]
 
+#: How far below -1 an inhibited term's coefficient may fall and still be read as the law's -1 (the noise in a
+#: fitted coefficient): ``canonical_inhibited`` keeps a limited form there.
+LAW_SLACK = 0.1
+
 
 def replace_stand_ins(science: Callable, current: Callable, added: list[PlacedTerm], theta: dict,
                       errors: np.ndarray, judge: Judge, columns: list[tuple], learned: np.ndarray,
@@ -244,13 +248,15 @@ def canonical_inhibited(science: Callable, current: Callable, added: list[Placed
 
     renamed = {}
     for t in list(added):
-        if t.kind != "inhibited" or t.opposite is not None or t.shape_group is not None \
-                or t.component != t.term.func.keywords["reference"]:
+        keywords = t.term.func.keywords if t.kind == "inhibited" else {}
+        if not keywords or t.opposite is not None or t.shape_group is not None or t.component != keywords["reference"]:
             continue  # on its own equation only: elsewhere the part's yield enters the coefficient
-        keywords = t.term.func.keywords
         c, p, limited = theta[t.param], keywords["param"], keywords.get("limited", False)
+        if c == -1.0:  # the other form has no finite coefficient
+            continue
         seen = theta[t.shape_params["K"]] <= np.max(np.abs(values[:, list(variables).index(keywords["x"])]))
-        if c == -1.0 or (law(c) and seen if limited else law(c) or not (law(-c / (1.0 + c)) and seen)):
+        # limited where that is the law (c' = -c / (1 + c) for a slowed-down term) and its saturation is seen
+        if limited == (seen and law(c if limited else -c / (1.0 + c)) and (limited or not law(c))):
             continue
         twin = replace(t, term=other_form(t.term), coef=-c / (1.0 + c), param=None, shape_params=None,
                        shape={"K": theta[t.shape_params["K"]]}, second_look=False)
@@ -270,11 +276,6 @@ def canonical_inhibited(science: Callable, current: Callable, added: list[Placed
             current, theta, errors = model, fitted, cand_errors
             renamed[t.key] = twin.key
     return current, added, theta, errors, renamed
-
-
-#: How far below -1 an inhibited term's coefficient may fall and still be read as the law's -1 (the noise in a
-#: fitted coefficient): ``canonical_inhibited`` keeps a limited form there.
-LAW_SLACK = 0.1
 
 
 def _kept(steps: list[Step], index: int, current: Callable, theta: dict, placed: list[PlacedTerm]) -> list[PlacedTerm]:
