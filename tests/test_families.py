@@ -14,7 +14,7 @@ from sklearn_hybrid import HybridRegressor, OdeStructure
 from sklearn_hybrid.diagnosis import (TERM_FAMILIES, TERM_KINDS, Candidates, Evidence, ScienceFit, SymbolicDiscovery,
                                       TermContext, physics_terms)
 from sklearn_hybrid.diagnosis.families.discovery import monomial_forms
-from sklearn_hybrid.diagnosis.families.inhibited import inhibited_terms, linear_parts
+from sklearn_hybrid.diagnosis.families.inhibited import inhibited_terms, linear_parts, other_form
 from sklearn_hybrid.diagnosis.terms import Term
 from sklearn_hybrid.diagnosis.families.symbolic import form_term
 from sklearn_hybrid.diagnosis.loop import stepwise
@@ -565,3 +565,11 @@ def test_a_limited_reading_needs_its_saturation_among_the_visited_states():
         _, kept, *_ = canonical_inhibited(decay_f, model, added, theta, judge.errors(model, theta), judge, ["A"], 1,
                                           None, [], lambda m: None, evidence=Evidence(min_gain=10.0), values=values)
         assert [t.name for t in kept] == [written]
+
+
+def test_the_other_form_of_an_inhibited_term_and_a_clear_error_for_any_other_term():
+    values = np.random.default_rng(0).uniform(0.2, 2.0, (20, 1))
+    slowed = inhibited_terms(linear_parts(decay_f, {"k": 0.5}, [values]), ["A"], values, [0])[0]
+    assert other_form(slowed).name == "[k-term of A]*K/(K + |A|)" and other_form(other_form(slowed)).name == slowed.name
+    with pytest.raises(ValueError, match="other_form needs a term of inhibited_terms"):
+        other_form(physics_terms(["A"], values)[1])

@@ -135,6 +135,8 @@ def other_form(term: Term) -> Term:
     """The inhibited ``term``'s other form, slowed down for limited and limited for slowed down: beside the
     science's own term the same functions of the variable, ``T (1 + c s) = T (1 + c) (1 + c' (1 - s))`` with
     ``c' = -c / (1 + c)``, the parameter's value times ``1 + c``."""
+    if term.kind != "inhibited":
+        raise ValueError(f"other_form needs a term of inhibited_terms (kind 'inhibited'), got {term!r}.")
     kw = term.func.keywords
     return _inhibited(term.name.split("]")[0] + "]", kw["param"], kw["reference"], kw["x"], kw["power"],
                       not kw.get("limited", False), term.shape["K"], term.component)
