@@ -15,6 +15,7 @@ from sklearn_hybrid.diagnosis import (TERM_FAMILIES, TERM_KINDS, Candidates, Evi
                                       TermContext, physics_terms)
 from sklearn_hybrid.diagnosis.families.discovery import monomial_forms
 from sklearn_hybrid.diagnosis.families.inhibited import inhibited_terms, linear_parts, other_form
+from sklearn_hybrid.diagnosis.families.physics import PHASE_DIFFERENCES
 from sklearn_hybrid.diagnosis.terms import Term
 from sklearn_hybrid.diagnosis.families.symbolic import form_term
 from sklearn_hybrid.diagnosis.loop import stepwise
@@ -573,3 +574,54 @@ def test_the_other_form_of_an_inhibited_term_and_a_clear_error_for_any_other_ter
     assert other_form(slowed).name == "[k-term of A]*K/(K + |A|)" and other_form(other_form(slowed)).name == slowed.name
     with pytest.raises(ValueError, match="other_form needs a term of inhibited_terms"):
         other_form(physics_terms(["A"], values)[1])
+
+
+def free_phases_f(v, w1=1.0, w2=1.6):
+    return torch.stack([w1 + 0 * v[:, 0], w2 + 0 * v[:, 1]], dim=-1)
+
+
+def test_the_harmonic_of_a_difference_of_two_angles_is_offered_for_angles_only():
+    values = np.random.default_rng(0).uniform(0, 6, (20, 3))
+    context = TermContext(("a", "b", "c"), values, {"a": "rad", "b": "deg", "c": "m"}, 3)
+    (term,) = PHASE_DIFFERENCES.terms(context)  # a length pairs with nothing
+    assert term.name == "sin(0.0174533*b - a + phase)" and term.kind == "periodic"
+    d = {name: torch.as_tensor(values[:, i]) for i, name in enumerate("abc")}
+    expected = np.sin(np.radians(values[:, 1]) - values[:, 0] + 0.3)
+    np.testing.assert_allclose(term.func(d, phase=0.3).numpy(), expected, atol=1e-12)
+    assert PHASE_DIFFERENCES.terms(TermContext(("a", "b"), values[:, :2], {"a": "rad"}, 2)) == []
+
+
+def test_two_phases_that_pull_on_each_other_are_named_as_one_coupling_with_discovery_only():
+    """d theta1/dt = 1 + 0.35 sin(theta2 - theta1), d theta2/dt = 1.6 - 0.35 sin(theta2 - theta1): no harmonic of
+    one angle makes the coupling; with discovery the difference's harmonic is a flow between the two phases."""
+    rng = np.random.default_rng(0)
+    dt, n_steps, n = 0.2, 15, 30
+    x0 = rng.uniform(0, 6.28, (n, 2))
+
+    def truth(t, v):
+        pull = 0.35 * np.sin(v[..., 1] - v[..., 0])
+        return np.stack([1.0 + pull, 1.6 - pull], axis=-1)
+    x = np.stack([solve_ivp(truth, (0, dt * n_steps), s, t_eval=dt * np.arange(n_steps + 1), rtol=1e-10,
+                            atol=1e-12).y.T for s in x0])
+    y = x[:, 1:] + 0.002 * rng.standard_normal(x[:, 1:].shape)
+    est = HybridRegressor(science=free_phases_f, structure=OdeStructure(dt=dt), max_iter=2, random_state=0).fit(x0, y)
+    states = x.reshape(-1, 2)
+    terms = [t for t in physics_terms(["p", "q"], states) if t.kind == "polynomial"]
+
+    class Nothing:
+        def terms(self, context, log=lambda message: None):
+            return []
+
+    def select(discovery):
+        return stepwise.forward_selection(
+            free_phases_f, {"w1": 1.0, "w2": 1.0}, ScienceFit(est, x0, y), [(np.arange(24), np.arange(24, 30))],
+            ["p", "q"], 2, [states], truth(0, states), [0, 1], flow_pairs=[(0, 1)], units={"p": "rad", "q": "rad"},
+            candidates=Candidates(terms=terms, discovery=discovery and Nothing(), max_terms=2), evidence=Evidence())
+    found = select(True)
+    (added,) = found["added"]
+    assert added.name == "sin(q - p + phase)" and {added.component, added.opposite} == {0, 1}  # a flow
+    theta = found["theta"]
+    assert abs(theta["w1"] - 1.0) < 0.01 and abs(theta["w2"] - 1.6) < 0.01
+    rates = found["science"](torch.as_tensor(states), **{k: torch.tensor(v) for k, v in theta.items()})
+    np.testing.assert_allclose(rates.numpy(), truth(0, states), rtol=0, atol=0.01)
+    assert all("sin(q - p" not in t.name for t in select(False)["added"])

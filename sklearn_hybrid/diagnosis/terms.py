@@ -235,6 +235,12 @@ def harmonic_term(d, x, frequency, phase):
     return torch.sin(frequency * d[x] + phase)
 
 
+def phase_difference_term(d, x, z, x_radians, z_radians, phase):
+    """``sin(b - a + phase)`` of the angles ``a`` (``d[x]``) and ``b`` (``d[z]``) in radians: ``x_radians`` and
+    ``z_radians`` are the radians per unit of each."""
+    return torch.sin(z_radians * d[z] - x_radians * d[x] + phase)
+
+
 # The names these had before the kinds became families: a science model augmented and pickled then names them.
 _scaled = scaled_term
 _dry_friction = dry_friction_term

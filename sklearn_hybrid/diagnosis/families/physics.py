@@ -17,10 +17,11 @@ import numpy as np
 
 from ..terms import (Term, angle_factor, constant_term, dry_friction_term, exponential_term, harmonic_term,
                      hinge_above_term, hinge_below_term, monomial_term, nonsmooth_terms, norm_term, power_abs_term,
-                     power_signed_term, power_unit, saturation_term, scaled_term, sqrt_term)
+                     phase_difference_term, power_signed_term, power_unit, saturation_term, scaled_term,
+                     sqrt_term)
 from .base import TermContext, TermFamily, VariableFamily
 
-__all__ = ["PHYSICS_FAMILIES"]
+__all__ = ["PHYSICS_FAMILIES", "PHASE_DIFFERENCES"]
 
 #: Units of a length or a speed (m, mm, cm/s, km/h, ...): the components of a position or a velocity.
 _SPATIAL_UNIT = re.compile(r"^(k|c|m|u|µ|n)?m(/((m|u|µ)?s|h|min))?$")
@@ -135,10 +136,25 @@ def _periodic(x: str, col: np.ndarray, scale: float, unit: str, positive: bool) 
     radians = angle_factor(unit)
     if radians is None:
         return []
-    angle = x if radians == 1 else f"{radians:.6g}*{x}"  # the angle in radians
-    return [Term(f"sin({'' if n == 1 else f'{n}*'}{angle} + phase)",
+    return [Term(f"sin({'' if n == 1 else f'{n}*'}{_in_radians(x, radians)} + phase)",
                  partial(harmonic_term, x=x, frequency=n * radians), "periodic",
                  {"phase": ([0.0, np.pi / 2], (-np.pi, np.pi))}) for n in _HARMONICS]
+
+
+def _phase_differences(context: TermContext) -> list[Term]:
+    """``sin(b - a + phase)`` for every pair of states ``a``, ``b`` whose units are angles: two phases that pull
+    on each other (coupled oscillators, two pendula on one beam, a generator on the grid), a term that no
+    harmonic of one angle makes."""
+    angles = [(x, angle_factor(context.units.get(x, ""))) for x in context.states]
+    angles = [(x, radians) for x, radians in angles if radians is not None]
+    return [Term(f"sin({_in_radians(z, rz)} - {_in_radians(x, rx)} + phase)",
+                 partial(phase_difference_term, x=x, z=z, x_radians=rx, z_radians=rz), "periodic",
+                 {"phase": ([0.0, np.pi / 2], (-np.pi, np.pi))})
+            for (x, rx), (z, rz) in combinations(angles, 2)]
+
+
+def _in_radians(x: str, radians: float) -> str:
+    return x if radians == 1 else f"{radians:.6g}*{x}"
 
 
 def _wide(scale: float) -> tuple[float, float]:
@@ -159,3 +175,7 @@ PHYSICS_FAMILIES: tuple[TermFamily, ...] = (
     VariableFamily("saturation", _saturation_terms),
     VariableFamily("periodic", _periodic),
 )
+
+#: The harmonic of a difference of two angles: offered with discovery only (a change of the default term list
+#: waits for the identification benchmark's rerun).
+PHASE_DIFFERENCES = TermFamily("phase_difference", _phase_differences)

@@ -49,7 +49,9 @@ from ..results import Selection, Step
 from .second_look import Screened, correct_joint, look_again, simplest_of_the_best
 from ..sensitivity import free_columns, parameter_jacobian, science_output
 from ..science_fit import ScienceFit
+from ..families.base import TermContext
 from ..families.inhibited import inhibited_terms, linear_parts, part_reader
+from ..families.physics import PHASE_DIFFERENCES
 from ..terms import SCIENCE_OUTPUT, TermVariables
 
 __all__ = ["forward_selection"]
@@ -153,6 +155,9 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
         inhibited = inhibited_terms(parts, variables, values, components)
         log(f"  {len(inhibited)} inhibited science term(s) offered, of parameter(s) {', '.join(parts) or 'none'}")
         columns += term_columns(inhibited, tensors)
+        # two phases that pull on each other: no harmonic of one angle in the list makes that term
+        columns += term_columns(PHASE_DIFFERENCES.terms(TermContext(tuple(variables), values, dict(units or {}),
+                                                                    n_states)), tensors)
     # each discovered form is judged in the ODE at least once, placed where it explains most and as a flow:
     # the rankings read it at the constants the search gave it, fitted to what the network learned, which
     # carries the network's own error; a law whose constants the refit moves may rank below a stand-in there
