@@ -492,7 +492,7 @@ def test_a_parameter_s_part_is_offered_where_the_science_is_linear_in_it_and_onc
     terms = inhibited_terms(parts, ["x", "y"], values, [0, 1])
     # a's part is proportional on both equations (a flow with a yield): one term, read on x's equation
     assert sorted({t.name.split("]")[0] + "]" for t in terms}) == ["[a-term of x]", "[m-term of y]", "[r-term of x]"]
-    assert len(terms) == 3 * 2 * 4  # each slowed down or limited by each state, n one or two
+    assert len(terms) == 3 * 2 * 5  # each slowed down or limited by each state, n one or two, or scaled by exp
     assert inhibited_terms(parts, ["x", "y"], values, [1]) and not any(
         "r-term" in t.name for t in inhibited_terms(parts, ["x", "y"], values, [1]))
     # a part on one equation is offered on that equation only, one on several (a flow) on any
@@ -625,3 +625,18 @@ def test_two_phases_that_pull_on_each_other_are_named_as_one_coupling_with_disco
     rates = found["science"](torch.as_tensor(states), **{k: torch.tensor(v) for k, v in theta.items()})
     np.testing.assert_allclose(rates.numpy(), truth(0, states), rtol=0, atol=0.01)
     assert all("sin(q - p" not in t.name for t in select(False)["added"])
+
+
+def test_a_science_term_scaled_exponentially_by_a_state_is_named_with_its_rate_at_zero():
+    """dA/dt = -0.8 A exp(-A/0.8): the science's decay -k A scaled down as A grows (Aiba's product inhibition has
+    this form); the law is the part times exp(k x) - 1 at coefficient 1, k -1/0.8, the science's k kept."""
+    truth, states, select, _ = _inhibited_decay(np.random.default_rng(0), lambda a: -0.8 * a * np.exp(-a / 0.8))
+    found = select(True)
+    (added,) = found["added"]
+    theta = found["theta"]
+    assert added.kind == "modulated" and added.name == "[k-term of A]*(exp(k*A) - 1)"
+    assert abs(theta[added.param] - 1) < 0.02 and abs(theta[added.shape_params["k"]] + 1 / 0.8) < 0.02
+    assert abs(theta["k"] - 0.8) < 0.02
+    rates = found["science"](torch.as_tensor(states), **{k: torch.tensor(v) for k, v in theta.items()})
+    np.testing.assert_allclose(rates.numpy(), truth(0, states), rtol=0, atol=0.01 * np.abs(truth(0, states)).max())
+    assert pickle.loads(pickle.dumps(found["science"])).equation == found["science"].equation

@@ -10,9 +10,9 @@ kinds, one *shape* parameter fitted together with its coefficient: the width ``w
 ``x |x|^(p-1)`` (radiation, allometric scaling, an outflow whose exponent is not one half), the phase
 of a harmonic ``sin(n x + phase)`` of an angle. Dry friction is also offered as ``sign(v)`` itself.
 The families of ``families/`` offer them (:func:`~sklearn_hybrid.diagnosis.physics_terms` builds
-the default library from the data's scale, one family per kind); the same torch function serves the ranking (on the states the network
-visited) and the augmented science model (during its refit), so there is one implementation per
-term.
+the default library from the data's scale, one family per kind); the same torch function serves the
+ranking (on the states the network visited) and the augmented science model (during its refit), so
+there is one implementation per term.
 
 A term of kind ``"scaled"`` multiplies the science model's own output for one component by a
 state, ``f_j(x) * x_k`` (or ``x_k^2``), or by an input, ``f_j(x) * u``: a parameter of that
@@ -21,8 +21,8 @@ with the current, a growth rate that depends on the density or follows the seaso
 constant that grows with the temperature). It reads the science output from the variables under
 the key ``SCIENCE_OUTPUT``, which the augmented science model and the selection provide.
 
-A term of kind ``"inhibited"`` (offered with the closed loop's discovery) reads a science term itself (slowed down
-or limited by a variable): the part
+A term of kind ``"inhibited"`` or ``"modulated"`` (offered with the closed loop's discovery) reads a science term
+itself (slowed down, limited or scaled exponentially by a variable): the part
 of the science output that a parameter the science is linear in makes, under the key ``parameter_part(name)``,
 which :class:`TermVariables` computes from the science model when a term first asks for it.
 """
@@ -40,7 +40,7 @@ import torch
 
 __all__ = ["Term", "named_terms", "constant_term", "monomial_terms", "nonsmooth_terms",
            "trigonometric_terms", "sqrt_term", "TERM_KINDS", "SCIENCE_OUTPUT", "power_unit", "product_unit",
-           "parameter_part", "TermVariables", "inhibited_term"]
+           "parameter_part", "TermVariables", "inhibited_term", "modulated_term"]
 
 TERM_KINDS = ("polynomial", "drag", "dry_friction", "hinge", "sqrt", "power", "exponential", "saturation", "periodic",
               "norm", "scaled", "user")
@@ -100,6 +100,9 @@ class Term:
     field: str | None = None  # (a Term pickled before fields existed has none)
     # a discovered form: whether it is dimensionally consistent in the units given (None: not known)
     consistent: bool | None = None
+    # a science term scaled by a factor: the coefficient at which it makes the law on the term's own equation
+    # (its function's keyword ``reference``); its screening refit starts there, not where it was ranked
+    law_coefficient: float | None = None
 
     def __init__(self, name: str, func: Callable, kind: str,
                  shape: Mapping[str, tuple[Sequence[float], tuple[float, float]]] | None = None,
@@ -198,6 +201,12 @@ def inhibited_term(d, param, reference, x, power, K, limited=False):
     |x|^power)``)."""
     a = (d[x].abs() / K) ** power
     return d[parameter_part(param)][..., reference] * (1 if limited else a) / (1 + a)
+
+
+def modulated_term(d, param, reference, x, k):
+    """``param``'s part of the science output on component ``reference`` times ``exp(k x) - 1``: with coefficient
+    1 the part becomes the part times ``exp(k x)``, the parameter still the term's rate at ``x = 0``."""
+    return d[parameter_part(param)][..., reference] * torch.expm1(torch.clamp(k * d[x], max=50.0))
 
 
 def dry_friction_term(d, x, w):

@@ -10,7 +10,9 @@ learned finds it only as one of many forms of its length. The same term can inst
 all: a growth limited by a second substrate or by the light, ``T |x|^n / (K^n + |x|^n)``, the parameter its rate
 at saturation; what the simple model misses is then ``-T K^n / (K^n + |x|^n)`` (beside the science's own term the
 same functions of ``x``, but only this form reaches the law at a finite coefficient, the parameter's meaning
-kept).
+kept). Or the variable scales the term exponentially, ``T exp(k x)`` (Steele's photoinhibition, Aiba's product
+inhibition, an Arrhenius or Q10 factor about ``x = 0``): what the simple model misses is ``T (exp(k x) - 1)``, the
+law at coefficient 1 (kind ``"modulated"``).
 
 This family offers it directly: for every parameter the science output is linear in, its part of the output
 (:func:`~sklearn_hybrid.diagnosis.terms.parameter_part`, read from the science model at the current parameters,
@@ -28,7 +30,7 @@ import numpy as np
 import torch
 
 from ..sensitivity import science_output
-from ..terms import Term, inhibited_term
+from ..terms import Term, inhibited_term, modulated_term
 
 __all__ = ["linear_parts", "part_reader", "inhibited_terms", "other_form"]
 
@@ -91,8 +93,8 @@ def part_reader(science: Callable, theta: Mapping[str, float], args: Sequence[np
 def inhibited_terms(parts: Mapping[str, np.ndarray], variables: Sequence[str], values: np.ndarray,
                     components: Sequence[int]) -> list[Term]:
     """Each parameter's part, on each group of equations where it is proportional, times ``|x| / (K + |x|)``,
-    ``x^2 / (K^2 + x^2)`` (slowed down), ``K / (K + |x|)`` and ``K^2 / (K^2 + x^2)`` (limited) for every variable
-    ``x`` that varies.
+    ``x^2 / (K^2 + x^2)`` (slowed down), ``K / (K + |x|)``, ``K^2 / (K^2 + x^2)`` (limited) and ``exp(k x) - 1``
+    (modulated) for every variable ``x`` that varies.
 
     Parameters
     ----------
@@ -109,7 +111,8 @@ def inhibited_terms(parts: Mapping[str, np.ndarray], variables: Sequence[str], v
     -------
     list of Term
         Kind ``"inhibited"``, shape parameter ``K`` (starting at the quartiles of ``|x|``, bounded by a
-        thousandth and a thousand times the variable's scale).
+        thousandth and a thousand times the variable's scale), and kind ``"modulated"``, shape parameter ``k``
+        (starting at plus and minus one over the variable's scale, bounded by twenty times that).
     """
     terms = []
     for name, part in parts.items():
@@ -128,6 +131,8 @@ def inhibited_terms(parts: Mapping[str, np.ndarray], variables: Sequence[str], v
                     terms.append(_inhibited(f"[{name}-term of {variables[reference]}]", name, reference, x, power,
                                             limited, (quartiles or [scale], (1e-3 * scale, 1e3 * scale)),
                                             reference if len(group) == 1 else None))
+                terms.append(_modulated(f"[{name}-term of {variables[reference]}]", name, reference, x, scale,
+                                        reference if len(group) == 1 else None))
     return terms
 
 
@@ -149,6 +154,16 @@ def _inhibited(label: str, param: str, reference: int, x: str, power: int, limit
     return Term(f"{label}*{form}/({denominator})",
                 partial(inhibited_term, param=param, reference=reference, x=x, power=power, limited=limited),
                 "inhibited", {"K": grid}, component=component)
+
+
+def _modulated(label: str, param: str, reference: int, x: str, scale: float, component: int | None) -> Term:
+    term = Term(f"{label}*(exp(k*{x}) - 1)", partial(modulated_term, param=param, reference=reference, x=x),
+                "modulated", {"k": ([s / scale for s in (-3.0, -1.0, 1.0, 3.0)], (-20.0 / scale, 20.0 / scale))},
+                component=component)
+    # ranked at the hybrid's theta, its coefficient trades with the parameter (the part is the parameter's), and
+    # a screening refit from there ends in another valley (k near 0 and a large coefficient)
+    term.law_coefficient = 1.0
+    return term
 
 
 def _proportional_groups(part: np.ndarray, components: Sequence[int]) -> list[list[int]]:

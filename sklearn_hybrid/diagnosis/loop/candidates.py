@@ -61,7 +61,8 @@ class Candidates:
         variable are candidates too on every equation (kind ``"inhibited"``,
         :func:`~sklearn_hybrid.diagnosis.families.inhibited.inhibited_terms`): a parameter's part ``T`` times
         ``|x|^n/(K^n + |x|^n)``, which at coefficient -1 is the law ``T / (1 + (|x|/K)^n)``, or times
-        ``K^n/(K^n + |x|^n)``, the law ``T |x|^n/(K^n + |x|^n)`` (a rate limited by ``x``), ``n`` one or two;
+        ``K^n/(K^n + |x|^n)``, the law ``T |x|^n/(K^n + |x|^n)`` (a rate limited by ``x``), ``n`` one or two, or
+        times ``exp(k x) - 1``, the law ``T exp(k x)`` at coefficient 1 (kind ``"modulated"``);
         and for two states whose units are angles, ``sin(b - a + phase)`` (two phases that pull on each other,
         ``families.physics.PHASE_DIFFERENCES``). Default off.
     explained : float, default=0.95

@@ -30,7 +30,10 @@ KIND_WORDS = {"polynomial": "polynomial", "drag": "drag (v|v|, |v|)", "dry_frict
               "inhibited": "a science term slowed down or limited by a variable: where it adds -1 times the "
                            "bracket's term to that term's own equation, the term becomes itself over 1 + (|x|/K)^n "
                            "(a factor |x|^n/(K^n + |x|^n)), its parameter still its rate at rest, or itself times "
-                           "|x|^n/(K^n + |x|^n) (a factor K^n/(K^n + |x|^n)), its parameter its rate at saturation"}
+                           "|x|^n/(K^n + |x|^n) (a factor K^n/(K^n + |x|^n)), its parameter its rate at saturation",
+              "modulated": "a science term scaled exponentially by a variable: where it adds 1 times the bracket's "
+                           "term to that term's own equation, the term becomes itself times exp(k x), its parameter "
+                           "still its rate at x = 0"}
 
 
 def format_gain(gain: float) -> str:

@@ -153,7 +153,8 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
         columns += term_columns(found, tensors)
         # the science's own terms slowed down or limited by a variable: laws the search finds only among many forms
         inhibited = inhibited_terms(parts, variables, values, components)
-        log(f"  {len(inhibited)} inhibited science term(s) offered, of parameter(s) {', '.join(parts) or 'none'}")
+        log(f"  {len(inhibited)} inhibited or modulated science term(s) offered, of parameter(s) "
+            f"{', '.join(parts) or 'none'}")
         columns += term_columns(inhibited, tensors)
         # two phases that pull on each other: no harmonic of one angle in the list makes that term
         columns += term_columns(PHASE_DIFFERENCES.terms(TermContext(tuple(variables), values, dict(units or {}),
@@ -204,7 +205,7 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
         together += [g for g in flow_groups(flows, scored) if len(g.members) <= room
                      and frozenset(m.key for m in g.members) not in grouped]
         for cand in join_shape_groups(added, ranked + flows) + together + joint:
-            placed = [*added, *cand.entries()]
+            placed = [*added, *(_at_law(e) for e in cand.entries())]
             candidate_science = augment_with(science, placed, variables, n_states, param_names)
             start = {**theta_now, **initial_values(candidate_science, placed, len(cand.entries()))}
             try:
@@ -269,6 +270,18 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
     rivals = [{**r, "of": tuple(renamed.get(k, k) for k in r["of"])} if "of" in r else r for r in rivals]
     return Selection(science=current, theta=theta_now, added=added, steps=steps, rivals=rivals,
                      base_errors=base_errors, errors=errors, seconds=time.perf_counter() - start_time)
+
+
+def _at_law(entry: PlacedTerm) -> PlacedTerm:
+    """The entry at its term's law coefficient where it has one and sits on the equation of the science term it
+    scales, alone or as a flow out of it (into it: the opposite sign); the screening refit starts from the law."""
+    law = entry.term.law_coefficient
+    if law is None:
+        return entry
+    reference = entry.term.func.keywords["reference"]
+    if entry.component == reference:
+        return replace(entry, coef=law)
+    return replace(entry, coef=-law) if entry.opposite == reference else entry
 
 
 def _screen(judge: Judge, science, start: dict, bounds: dict, n_kept: int, origin: Mapping[str, Any]) -> dict:
