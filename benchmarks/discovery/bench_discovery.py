@@ -40,13 +40,15 @@ The second batch (``laws_second.py``: 9 effects, 3 controls, written after the f
 ``results/runs/discovery_2/`` and its page ``results/discovery_2.md``. The third (``laws_third.py``: 10 effects, 3
 controls, written after both had been seen) runs with ``--batch laws_3``, likewise (``discovery_3``); the fourth
 (``laws_fourth.py``: 12 effects, 3 controls, written after the three had been seen) with ``--batch laws_4``
-(``discovery_4``).
+(``discovery_4``); the fifth (``laws_fifth.py``: 12 effects, 3 controls, written after the four) with ``--batch
+laws_5`` (``discovery_5``).
 
     python benchmarks/discovery/bench_discovery.py                      # every case, resuming
     python benchmarks/discovery/bench_discovery.py --cases holling_iii --arms loop loop_discovery
     python benchmarks/discovery/bench_discovery.py --batch laws_2       # the second batch
     python benchmarks/discovery/bench_discovery.py --batch laws_3       # the third batch
     python benchmarks/discovery/bench_discovery.py --batch laws_4       # the fourth batch
+    python benchmarks/discovery/bench_discovery.py --batch laws_5       # the fifth batch
     python benchmarks/discovery/bench_discovery.py --render
 """
 
@@ -68,6 +70,7 @@ from discovery.laws import LAWS  # noqa: E402
 from discovery.laws_second import LAWS_2  # noqa: E402
 from discovery.laws_third import LAWS_3  # noqa: E402
 from discovery.laws_fourth import LAWS_4  # noqa: E402
+from discovery.laws_fifth import LAWS_5  # noqa: E402
 from discovery.arms import PACKAGE_NOW, PACKAGE_NOW_LABEL, package_now  # noqa: E402
 from identification import anchors  # noqa: E402
 from identification.protocol import PROTOCOL, first_hybrid_fit, loop_arguments, make_data, score  # noqa: E402
@@ -75,7 +78,7 @@ from identification.systems import simulate  # noqa: E402
 
 # batch -> its systems and the name of its records' folder and results page
 BATCHES = {"laws": (LAWS, "discovery"), "laws_2": (LAWS_2, "discovery_2"), "laws_3": (LAWS_3, "discovery_3"),
-           "laws_4": (LAWS_4, "discovery_4")}
+           "laws_4": (LAWS_4, "discovery_4"), "laws_5": (LAWS_5, "discovery_5")}
 BY_NAME = {s.name: s for systems, _ in BATCHES.values() for s in systems}
 assert len(BY_NAME) == sum(len(systems) for systems, _ in BATCHES.values()), "a case name recurs across batches"
 NOISE, SEED = 0.01, 0
@@ -229,7 +232,8 @@ def _runs(system) -> Path:
 
 
 TITLES = {"laws": "# Name the law: the laws batch", "laws_2": "# Name the law: the second laws batch",
-          "laws_3": "# Name the law: the third laws batch", "laws_4": "# Name the law: the fourth laws batch"}
+          "laws_3": "# Name the law: the third laws batch", "laws_4": "# Name the law: the fourth laws batch",
+          "laws_5": "# Name the law: the fifth laws batch"}
 PREFACES = {"laws": PREFACE, "laws_2": (
     "The second batch (`benchmarks/discovery/laws_second.py`, 9 effects of fields the first batch has and others, "
     "3 controls) was written and committed before any arm ran on it, after the first batch had been seen by "
@@ -271,7 +275,17 @@ PREFACES = {"laws": PREFACE, "laws_2": (
     "reference temperature, g at the surface, r in saturating light); in hertz_contact and kuramoto_pair the "
     "science lacks the law. One revision (`families/inhibited.py`, a science term slowed down by a variable) was "
     "developed on seen cases of the earlier batches before this batch's laws were chosen; noncompetitive_inhibition "
-    "has its form. The first hybrid fit is timed apart from the arms.")}
+    "has its form. The first hybrid fit is timed apart from the arms."),
+    "laws_5": (
+    "The fifth batch (`benchmarks/discovery/laws_fifth.py`, 12 effects outside the term list of fields the other "
+    "batches have and others, 3 controls) was written and committed before any arm ran on it, after the first four "
+    "batches had been seen: the first run of each arm here is a test of the package as it stood (each record keeps "
+    "its package commit) on laws none of the earlier batches holds. A first draft chose its laws blind to the term "
+    "list; four had the list's kinds and were replaced by laws of other fields before the file was committed. Two "
+    "revisions (the harmonic of a difference of two angles, a science term scaled by exp(k x)) were developed on "
+    "seen cases while this batch was being written, before its laws were read. In every effect "
+    "the science has the law's simplification and the law keeps the parameter's meaning (the docstring lists "
+    "them). The first hybrid fit is timed apart from the arms.")}
 # the arms of the package as it stands (the first batch's earlier arms are kept as its history)
 DEFAULT_ARMS = ("loop_learned", "loop_discovery_modulated", "ude_sindy", "sr_alone", "sindy_data")
 
