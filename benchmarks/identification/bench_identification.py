@@ -38,6 +38,11 @@ says what each does):
     python benchmarks/identification/bench_identification.py --more-validation --cases NAME --noise LEVEL
         # --list: its cases
     python benchmarks/identification/bench_identification.py --check-selection --render  # or another option's page
+
+``--with-discovery`` runs the given (or ``--sample``-d) cases with ``Candidates(discovery=True)`` into
+``runs/identification/with_discovery/`` and compares them with their records (``identification/discovery_check.py``):
+
+    python benchmarks/identification/bench_identification.py --with-discovery --sample 18 7
 """
 
 from __future__ import annotations
@@ -58,13 +63,14 @@ import torch
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the helpers, the studies' modules
 from helpers import PACKAGE_COMMIT, RESULTS, as_run_today, machine_description  # noqa: E402
+from identification import discovery_check  # noqa: E402
 from identification.batches import BATCHES  # noqa: E402
 from identification.protocol import (FAST, NOISE_LEVELS, PROTOCOL, cache_dir, case_name, load, load_fit,  # noqa: E402
                                      loop_arguments, make_data, score)
 from identification.systems import SYSTEMS, System  # noqa: E402
 
 from sklearn_hybrid import HybridRegressor  # noqa: E402
-from sklearn_hybrid.diagnosis import close_the_loop  # noqa: E402
+from sklearn_hybrid.diagnosis import Candidates, close_the_loop  # noqa: E402
 from sklearn_hybrid.diagnosis.terms import angle_factor  # noqa: E402
 
 ROOT = RESULTS.parents[1]  # the repository
@@ -131,9 +137,11 @@ def _floats(theta: dict) -> dict:
     return {k: np.asarray(v, dtype=float).tolist() for k, v in theta.items()}
 
 
-def run_case(system: System, noise: float, seed: int, fast: bool, command: str, refit: bool = False) -> dict:
+def run_case(system: System, noise: float, seed: int, fast: bool, command: str, refit: bool = False,
+             candidates: Candidates | None = None) -> dict:
     """Generate the data, close the loop once, score it; returns the record that is cached (``refit``: fit the
-    hybrid again even where a first fit is stored, for a change of the fit's defaults)."""
+    hybrid again even where a first fit is stored, for a change of the fit's defaults; ``candidates``: the loop's,
+    for ``--with-discovery``)."""
     data = make_data(system, noise, seed, fast)
     extra = {"max_iter": FAST["max_iter"]} if fast else {}
     est = HybridRegressor(science=system.science, dt=system.dt, method="erm", n_inputs=int(system.forced),
@@ -145,7 +153,8 @@ def run_case(system: System, noise: float, seed: int, fast: bool, command: str, 
     if reused:
         est = load_fit(fit_path)
     start, cpu = time.perf_counter(), time.process_time()
-    res = close_the_loop(est, data["X"], data["y"], **loop_arguments(system))
+    res = close_the_loop(est, data["X"], data["y"], **loop_arguments(system),
+                         **({"candidates": candidates} if candidates is not None else {}))
     wall, cpu = time.perf_counter() - start, time.process_time() - cpu
     if not reused:
         fit_path.parent.mkdir(parents=True, exist_ok=True)
@@ -869,6 +878,10 @@ def main(argv=None) -> None:
     parser.add_argument("--sample", nargs=2, type=int, metavar=("K", "SEED"),
                         help="only K of the selected cases, drawn with random.Random(SEED): a check of a change "
                              "in parts when the whole benchmark is too long to rerun")
+    parser.add_argument("--with-discovery", action="store_true",
+                        help="the cases with close_the_loop's discovery on (Candidates(discovery=True)), in "
+                             "runs/identification/with_discovery/, beside their records in "
+                             "identification_discovery.md (identification/discovery_check.py); with --sample")
     parser.add_argument("--list", action="store_true",
                         help="with --more-validation: print its cases, one 'NAME LEVEL' a line")
     args = parser.parse_args(argv)
@@ -886,6 +899,9 @@ def main(argv=None) -> None:
     if args.changes_since:
         print("\n".join(changes_since(args.changes_since)))
         return
+    if args.render and args.with_discovery:
+        print(discovery_check.render())
+        return
     if args.render:
         write(load(False))
         print((RESULTS / "identification.md").read_text())
@@ -893,7 +909,8 @@ def main(argv=None) -> None:
     torch.set_num_threads(1)
     command = "python benchmarks/identification/bench_identification.py " + " ".join(
         sys.argv[1:] if argv is None else argv)
-    folder = cache_dir(args.fast)
+    folder = discovery_check.RUNS if args.with_discovery else cache_dir(args.fast)
+    candidates = Candidates(discovery=True) if args.with_discovery else None
     folder.mkdir(parents=True, exist_ok=True)
     if args.batch:
         args.cases = [c for c in args.cases if SYSTEMS[c].batch in args.batch]
@@ -914,7 +931,7 @@ def main(argv=None) -> None:
         print(f"[{i}/{len(todo)}] {name} noise={noise:g} seed={seed} ...", end=" ", flush=True)
         start = time.perf_counter()
         try:
-            rec = run_case(SYSTEMS[name], noise, seed, args.fast, command.strip(), args.refit)
+            rec = run_case(SYSTEMS[name], noise, seed, args.fast, command.strip(), args.refit, candidates)
         except Exception:  # a failure is a result: cached and shown in the table
             rec = {"system": name, "noise": noise, "seed": seed, "fast": args.fast, "identified": False,
                    "error": traceback.format_exc(), "wall_seconds": time.perf_counter() - start,
@@ -923,7 +940,9 @@ def main(argv=None) -> None:
         path.write_text(json.dumps(rec, indent=2, default=str))
         key = "rel_err" if "rel_err" in rec else "control_err"
         print(f"{key}={_fmt(rec.get(key))} added: {_terms(rec)} ({time.perf_counter() - start:.0f} s)", flush=True)
-    if args.fast:
+    if args.with_discovery:
+        print(discovery_check.render(command.strip()))
+    elif args.fast:
         print(render(load(True)))
     else:
         write(load(False))
