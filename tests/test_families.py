@@ -436,18 +436,18 @@ def test_a_form_is_offered_also_with_the_parts_a_parameter_provides():
     assert [t.name for t in offered] == ["y/(K1 + x^2)", "y*(K2 + x^2)/(K1 + x^2)"]
 
 
-def _inhibited_decay(rng, law=lambda a: -0.8 * a / (1 + (a / 0.5) ** 2)):
+def _inhibited_decay(rng, law=lambda a: -0.8 * a / (1 + (a / 0.5) ** 2), scale=1.0):
     """dA/dt = law(A), by default -0.8 A / (1 + (A/0.5)^2): the science's decay -k A, slowed down as A grows (the
     law keeps k as the rate at rest); the selection reads the exact rates as what the network learned, as in
-    ``_hill_decay``."""
+    ``_hill_decay``. ``scale``: A in other units (its starting values times it)."""
     dt, n_steps, n = 0.3, 12, 30
-    x0 = rng.uniform(0.2, 2.5, (n, 1))
+    x0 = rng.uniform(0.2, 2.5, (n, 1)) * scale
 
     def truth(t, a):
         return law(a)
     x = np.stack([solve_ivp(truth, (0, dt * n_steps), s, t_eval=dt * np.arange(n_steps + 1), rtol=1e-10,
                             atol=1e-12).y.T for s in x0])
-    y = x[:, 1:] + 0.002 * rng.standard_normal(x[:, 1:].shape)
+    y = x[:, 1:] + 0.002 * scale * rng.standard_normal(x[:, 1:].shape)
     est = HybridRegressor(science=decay_f, structure=OdeStructure(dt=dt), max_iter=2, random_state=0).fit(x0, y)
     states = x.reshape(-1, 1)
     terms = [t for t in physics_terms(["A"], states) if t.kind in ("polynomial", "saturation")]
@@ -464,14 +464,17 @@ def _inhibited_decay(rng, law=lambda a: -0.8 * a / (1 + (a / 0.5) ** 2)):
     return truth, states, select, ScienceFit(est, x0, y)
 
 
-def test_the_loop_names_a_science_term_slowed_down_by_a_state_with_the_science_parameter_kept():
-    truth, states, select, _ = _inhibited_decay(np.random.default_rng(0))
+@pytest.mark.parametrize("scale", [1.0, 1e-3])
+def test_the_loop_names_a_science_term_slowed_down_by_a_state_with_the_science_parameter_kept(scale):
+    """Also with A in units a thousand times larger: K's starting grid and bounds follow A's scale."""
+    truth, states, select, _ = _inhibited_decay(np.random.default_rng(0),
+                                                lambda a: -0.8 * a / (1 + (a / (0.5 * scale)) ** 2), scale)
     found = select(True)
     assert [t.kind for t in found["added"]] == ["inhibited"]
     added, theta = found["added"][0], found["theta"]
     assert added.name == "[k-term of A]*A^2/(K^2 + A^2)"
     shape = {local: theta[name] for local, name in added.shape_params.items()}
-    assert abs(theta[added.param] + 1) < 0.02 and abs(shape["K"] - 0.5) < 0.02  # -1: the law k A / (1 + (A/K)^2)
+    assert abs(theta[added.param] + 1) < 0.02 and abs(shape["K"] / scale - 0.5) < 0.02  # -1: k A / (1 + (A/K)^2)
     assert abs(theta["k"] - 0.8) < 0.02  # the science's k keeps its meaning
     rates = found["science"](torch.as_tensor(states), **{k: torch.tensor(v) for k, v in theta.items()})
     np.testing.assert_allclose(rates.numpy(), truth(0, states), rtol=0, atol=0.01 * np.abs(truth(0, states)).max())
@@ -627,15 +630,18 @@ def test_two_phases_that_pull_on_each_other_are_named_as_one_coupling_with_disco
     assert all("sin(q - p" not in t.name for t in select(False)["added"])
 
 
-def test_a_science_term_scaled_exponentially_by_a_state_is_named_with_its_rate_at_zero():
+@pytest.mark.parametrize("scale", [1.0, 1e3])
+def test_a_science_term_scaled_exponentially_by_a_state_is_named_with_its_rate_at_zero(scale):
     """dA/dt = -0.8 A exp(-A/0.8): the science's decay -k A scaled down as A grows (Aiba's product inhibition has
-    this form); the law is the part times exp(k x) - 1 at coefficient 1, k -1/0.8, the science's k kept."""
-    truth, states, select, _ = _inhibited_decay(np.random.default_rng(0), lambda a: -0.8 * a * np.exp(-a / 0.8))
+    this form); the law is the part times exp(k x) - 1 at coefficient 1, k -1/0.8, the science's k kept; the
+    same with A in units a thousand times smaller (k's starting grid and bounds follow A's scale)."""
+    truth, states, select, _ = _inhibited_decay(np.random.default_rng(0),
+                                                lambda a: -0.8 * a * np.exp(-a / (0.8 * scale)), scale)
     found = select(True)
     (added,) = found["added"]
     theta = found["theta"]
     assert added.kind == "modulated" and added.name == "[k-term of A]*(exp(k*A) - 1)"
-    assert abs(theta[added.param] - 1) < 0.02 and abs(theta[added.shape_params["k"]] + 1 / 0.8) < 0.02
+    assert abs(theta[added.param] - 1) < 0.02 and abs(theta[added.shape_params["k"]] * scale + 1 / 0.8) < 0.02
     assert abs(theta["k"] - 0.8) < 0.02
     rates = found["science"](torch.as_tensor(states), **{k: torch.tensor(v) for k, v in theta.items()})
     np.testing.assert_allclose(rates.numpy(), truth(0, states), rtol=0, atol=0.01 * np.abs(truth(0, states)).max())
