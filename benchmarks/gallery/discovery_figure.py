@@ -1,8 +1,9 @@
-"""The closed-loop guide's figure on discovery: each effect of the four laws batches, before and with discovery.
+"""The closed-loop guide's figure on discovery: each effect of the five laws batches, before and with discovery.
 
 Reads the committed records of ``discovery/bench_discovery.py`` (``results/discovery.json``, the first batch,
 ``results/discovery_2.json``, the second, written after the first had been seen, ``results/discovery_3.json``, the
-third, written after both, and ``results/discovery_4.json``, the fourth, written after the three) and draws, per
+third, written after both, ``results/discovery_4.json``, the fourth, written after the three, and
+``results/discovery_5.json``, the fifth, written after the four) and draws, per
 effect case, the final model's error in function space (``rel_err``) for the loop with its term list
 (``loop_learned`` where it ran), the loop with discovery as the package now runs it (``discovery/arms.py``: the
 latest of its arms from ``loop_discovery_judged`` on that ran) and UDE + SINDy, with the 1 % (law named, if theta
@@ -29,7 +30,8 @@ from discovery.arms import package_now  # noqa: E402
 ARMS = [("loop", "loop, term list", "o", "0.55"), ("loop_discovery_judged", "loop + discovery", "s", "C0"),
         ("ude_sindy", "UDE + SINDy", "^", "C2")]
 BATCHES = [("discovery", "first laws batch"), ("discovery_2", "second (written after the first was seen)"),
-           ("discovery_3", "third (written after both)"), ("discovery_4", "fourth (written after the three)")]
+           ("discovery_3", "third (written after both)"), ("discovery_4", "fourth (written after the three)"),
+           ("discovery_5", "fifth (written after the four)")]
 
 
 def _term_list(record: dict) -> dict:
@@ -43,8 +45,8 @@ def main() -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(1, 4, figsize=(17, 4.8), sharey=True,
-                             gridspec_kw={"width_ratios": [17, 9, 10, 12]})
+    fig, axes = plt.subplots(1, 5, figsize=(21, 4.8), sharey=True,
+                             gridspec_kw={"width_ratios": [17, 9, 10, 12, 12]})
     for ax, (name, title) in zip(axes, BATCHES):
         records = [r for r in json.loads((RESULTS / f"{name}.json").read_text())["records"]
                    if _term_list(r).get("rel_err") is not None]
