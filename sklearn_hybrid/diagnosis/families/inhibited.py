@@ -16,7 +16,8 @@ law at coefficient 1 (kind ``"modulated"``).
 
 This family offers it directly: for every parameter the science output is linear in, its part of the output
 (:func:`~sklearn_hybrid.diagnosis.terms.parameter_part`, read from the science model at the current parameters,
-so it follows the refit), times either factor of every state and input; coefficient -1 is the law. Parts that
+so it follows the refit), times each factor of every state and input; coefficient -1 is the law (1 for the
+exponential factor). Parts that
 are proportional on several equations (a rate that moves matter from one state to another) are one term, which
 the loop may place on each of them, as a flow or with a yield each; a part on one equation only is offered there.
 """
@@ -112,7 +113,7 @@ def inhibited_terms(parts: Mapping[str, np.ndarray], variables: Sequence[str], v
     list of Term
         Kind ``"inhibited"``, shape parameter ``K`` (starting at the quartiles of ``|x|``, bounded by a
         thousandth and a thousand times the variable's scale), and kind ``"modulated"``, shape parameter ``k``
-        (starting at plus and minus one over the variable's scale, bounded by twenty times that).
+        (starting at plus and minus one and three over the variable's scale, bounded by twenty over it).
     """
     terms = []
     for name, part in parts.items():
