@@ -284,6 +284,51 @@ def test_the_search_runs_only_where_the_networks_part_lowers_the_held_out_error(
     assert searched == [(0,), (0,), (0,)]
 
 
+def two_decays_f(v, k1=0.5, k2=0.5):
+    return torch.stack([-k1 * v[:, 0], -k2 * v[:, 1]], dim=-1)
+
+
+def test_the_search_skips_an_equation_whose_part_of_the_network_the_held_out_data_do_not_need():
+    """The network carries an effect on A and, on B, wiggles the listed terms cannot explain: the whole network
+    lowers the held-out error (through A), but its part on B does not count in that, and B is not searched
+    (before, the whole network's verdict sent every unexplained equation to the search)."""
+    rng = np.random.default_rng(2)
+    dt, n_steps, n = 0.3, 12, 30
+    x0 = rng.uniform(0.2, 2.5, (n, 2))
+
+    def truth(t, v):
+        a, b = v[..., 0], v[..., 1]
+        return np.stack([-0.3 * a - a ** 2 / (0.25 + a ** 2), -0.5 * b], axis=-1)
+    x = np.stack([solve_ivp(truth, (0, dt * n_steps), s, t_eval=dt * np.arange(n_steps + 1), rtol=1e-10,
+                            atol=1e-12).y.T for s in x0])
+    y = x[:, 1:] + 0.002 * rng.standard_normal(x[:, 1:].shape)
+    est = HybridRegressor(science=two_decays_f, structure=OdeStructure(dt=dt), max_iter=2, random_state=0).fit(x0, y)
+    states = x.reshape(-1, 2)
+    wiggle = 0.05 * np.sin(40 * states[:, 1])
+    learned = truth(0, states) + np.column_stack([np.zeros(len(states)), wiggle])
+    terms = [t for t in physics_terms(["A", "B"], states) if t.kind in ("polynomial", "saturation")]
+    searched = []
+
+    class Spy:
+        def terms(self, context, log=None):
+            searched.append(context.components)
+            return []
+
+    def network(v):  # what two_decays_f at its start lacks on A, and the wiggle on B
+        v = v.numpy()
+        return torch.as_tensor(np.column_stack([truth(0, v)[:, 0] + 0.5 * v[:, 0], 0.05 * np.sin(40 * v[:, 1])]))
+
+    def select(network):
+        return stepwise.forward_selection(two_decays_f, {"k1": 0.5, "k2": 0.5}, ScienceFit(est, x0, y),
+                                          [(np.arange(24), np.arange(24, 30))], ["A", "B"], 2, [states], learned,
+                                          [0, 1], candidates=Candidates(terms=terms, discovery=Spy(), max_terms=1),
+                                          evidence=Evidence(), network=network)
+    select(None)  # no network: both equations the listed terms leave unexplained are searched
+    assert searched == [(0, 1)]
+    select(network)
+    assert searched == [(0, 1), (0,)]
+
+
 def sirs_f(v, beta=1.5, gamma=0.4):
     """SIR without the waning of immunity: nothing flows back from R to S."""
     s, i = v[:, 0], v[:, 1]

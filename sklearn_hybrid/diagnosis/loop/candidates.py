@@ -139,14 +139,15 @@ def discovered_terms(candidates: Candidates, columns: list[tuple], remaining: np
                      values: np.ndarray, science_values: np.ndarray, variables: Sequence[str], n_states: int,
                      components: Sequence[int], log: Callable[[str], None],
                      units: Mapping[str, str] | None = None,
-                     carried: Callable[[], Any] | None = None) -> list[Term]:
+                     carried: Callable[[list[int]], list[int]] | None = None) -> list[Term]:
     """The discovery family's forms (``candidates.discovery``) for the equations the listed terms leave unexplained.
 
     An equation is searched where the part of ``remaining`` (what the network learned) that no parameter of
     the science can take is material (over a twentieth of it) and no single listed term explains
-    ``candidates.explained`` of it; and, given ``carried`` (:func:`network_carries`), only where the network
-    lowers the held-out error: where it does not, it learned noise, and a closed form of that would be noise
-    too (the search is the loop's most expensive step).
+    ``candidates.explained`` of it; and, given ``carried`` (:func:`network_carries`: the equations, of those
+    given, on which the network's part lowers the held-out error), only there: elsewhere the network learned
+    noise or theta's error, and a closed form of that would be too (the search and the screening of its forms
+    are the loop's most expensive step).
     """
     family = SymbolicDiscovery() if candidates.discovery is True else candidates.discovery
     if not family:
@@ -164,12 +165,8 @@ def discovered_terms(candidates: Candidates, columns: list[tuple], remaining: np
             + (": a closed form wanted" if share < candidates.explained else ""))
         if share < candidates.explained:
             wanted.append(j)
-    verdict = carried() if wanted and carried is not None else None
-    if verdict is not None:
-        log(f"  the network, frozen in the science model: validation MSE {verdict['mse_after']:.4g} "
-            f"(gain {verdict['gain']:.1%}, z {verdict['z']:.1f})"
-            + ("" if verdict["accepted"] else ": no held-out evidence of an effect there, no search"))
-        wanted = wanted if verdict["accepted"] else []
+    if wanted and carried is not None:
+        wanted = carried(wanted)
     if not wanted:
         return []
     context = TermContext(tuple(variables), values, dict(units or {}), n_states, learned=remaining,
@@ -180,19 +177,61 @@ def discovered_terms(candidates: Candidates, columns: list[tuple], remaining: np
 
 
 def network_carries(judge: Any, science: Callable, theta: Mapping[str, Any], network: Callable,
-                    base_errors: np.ndarray, evidence: Any) -> Any:
-    """The held-out verdict on the fitted network, frozen and added to ``science`` (None where a simulation
-    failed or a held-out trajectory ran off to infinity: no evidence either way).
+                    base_errors: np.ndarray, evidence: Any, components: Sequence[int], args: Sequence[np.ndarray],
+                    log: Callable[[str], None] = lambda s: None) -> list[int]:
+    """The equations among ``components`` on which the fitted network carries what the held-out data confirm.
 
-    The science parameters are refitted around it (the hybrid's own theta took part of the effect's job) and
-    the model judged by ``judge`` against ``base_errors`` (the science refitted alone) with the test a term
-    must pass (``evidence.verdict``). The whole network: its parts on several equations can balance each other
-    (a flow between compartments), and one part alone would break that.
+    The network, frozen and added to ``science`` (the science parameters refitted around it: the hybrid's own
+    theta took part of the effect's job), must lower the held-out error against ``base_errors`` (the science
+    refitted alone) by the test a term must pass (``evidence.verdict``); and its part on each equation must count
+    in that: the whole network against the network without that part, by the same test. A part that does not
+    count learned what the science's parameters and the other parts explain (noise, theta's error), and a closed
+    form of it would be noise too. Parts are dropped one at a time, never kept alone: parts on several equations
+    can balance each other (a flow between compartments), and dropping one of them breaks that and counts
+    against the drop. Where a simulation fails or a held-out trajectory runs off to infinity (the network off
+    its visited states) there is no evidence either way, and the equations are kept.
     """
+    whole = _errors_with_network(judge, science, theta, network)
+    if whole is None:
+        return list(components)
+    verdict = evidence.verdict(base_errors, whole)
+    log(f"  the network, frozen in the science model: validation MSE {verdict['mse_after']:.4g} "
+        f"(gain {verdict['gain']:.1%}, z {verdict['z']:.1f})"
+        + ("" if verdict["accepted"] else ": no held-out evidence of an effect there, no search"))
+    if not verdict["accepted"]:
+        return []
+    with torch.no_grad():
+        output = network(*(torch.as_tensor(np.asarray(a, dtype=float)) for a in args)).numpy()
+    acting = set(np.flatnonzero(np.any(output.reshape(len(output), -1) != 0, axis=0)))
+    out = []
+    for j in components:
+        # the network without its part on j: where nothing else of it acts, that is the science alone
+        without = (base_errors if not acting - {j} else
+                   _errors_with_network(judge, science, theta, network, drop=j))
+        if without is None:
+            out.append(j)
+            continue
+        part = evidence.verdict(without, whole)
+        log(f"  its part on equation {j}: validation MSE {part['mse_before']:.4g} without it (gain {part['gain']:.1%}, "
+            f"z {part['z']:.1f})" + ("" if part["accepted"] else ": no held-out evidence of an effect there, no "
+                                     "search on it"))
+        if part["accepted"]:
+            out.append(j)
+    return out
+
+
+def _errors_with_network(judge: Any, science: Callable, theta: Mapping[str, Any], network: Callable,
+                         drop: int | None = None) -> np.ndarray | None:
+    """Held-out errors of ``science`` plus the frozen ``network`` (without its output ``drop``), the science
+    parameters refitted around it; None where a simulation failed or ran off to infinity."""
     inputs, defaults = read_signature(science)
 
     def with_network(*args, **values):
-        return science(*args, **values) + network(*args)
+        out = network(*args)
+        if drop is not None:
+            out = out.clone()
+            out[..., drop] = 0.0
+        return science(*args, **values) + out
 
     with_network.__signature__ = inspect.Signature(
         [inspect.Parameter(n, inspect.Parameter.POSITIONAL_OR_KEYWORD) for n in inputs]
@@ -201,9 +240,7 @@ def network_carries(judge: Any, science: Callable, theta: Mapping[str, Any], net
         after = judge.errors(with_network, judge.fit(with_network, theta))
     except FIT_FAILURES:  # the network off its visited states broke a simulation: no verdict either way
         return None
-    if not np.all(np.isfinite(after)):  # or ran a held-out trajectory off to infinity: no verdict either
-        return None
-    return evidence.verdict(base_errors, after)
+    return after if np.all(np.isfinite(after)) else None
 
 
 def rank_by_residual(columns: list[tuple], remaining: np.ndarray, jac: np.ndarray, components: Sequence[int],

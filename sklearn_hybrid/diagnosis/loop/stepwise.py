@@ -115,9 +115,9 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
         The variables' units: a discovered form that adds quantities of different units is marked.
     network : callable, optional
         The fitted network as the science's inputs feed it (``network(*args)``, shaped like the science's
-        output): with ``candidates.discovery``, the search runs only where the network, frozen in the
-        science model, lowers the held-out error (:func:`network_carries`); without it, wherever the listed
-        terms leave the residual unexplained.
+        output): with ``candidates.discovery``, the search runs only on the equations where the network's
+        part, frozen in the science model, lowers the held-out error (:func:`network_carries`); without it,
+        wherever the listed terms leave the residual unexplained.
 
     Returns
     -------
@@ -144,8 +144,8 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
     judge.settle(science, theta_now)
     errors = base_errors = judge.errors(science, theta_now)
     if candidates.discovery:  # closed forms for what the network learned, at the hybrid's own theta
-        carried = None if network is None else (lambda: network_carries(judge, science, theta_now, network,
-                                                                         base_errors, evidence))
+        carried = None if network is None else (lambda wanted: network_carries(
+            judge, science, theta_now, network, base_errors, evidence, wanted, args, log))
         found = discovered_terms(candidates, columns, np.asarray(learned) - tensors[SCIENCE_OUTPUT].numpy(),
                                  free_columns(*parameter_jacobian(science, theta, args), fit.fixed), values,
                                  tensors[SCIENCE_OUTPUT].numpy(), variables, n_states, components, log, units,
