@@ -1501,6 +1501,25 @@ def _with_dry_friction(v, k=0.5, mu=0.3):
     return torch.stack([v[:, 1], -k * v[:, 0] - mu * torch.tanh(v[:, 1] / 0.01)], -1)
 
 
+def test_the_network_free_model_keeps_the_steps_theta_was_fitted_with_however_the_ode_is_spelled():
+    """fixed_science kept the fitted RK4 steps for structure='ode' with flat options only; with OdeStructure (the
+    README's spelling) it chose them again at the final theta, so the same fit gave another network-free model."""
+    from sklearn_hybrid.diagnosis.loop.refit import fixed_science
+    from sklearn_hybrid.structures import OdeStructure
+
+    data = make_pendulum(6, 2, 2, dt=0.2, n_steps=5, random_state=0)
+    theta = {"omega": 0.7}
+    steps = []
+    for spelling in ({"structure": OdeStructure(dt=0.2)}, {"dt": 0.2}):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", FutureWarning)  # the flat dt, deprecated
+            before = HybridRegressor(science=pendulum_f, max_iter=2, random_state=0, verbose=False,
+                                     **spelling).fit(data.X_train, data.y_train)
+            alone = fixed_science(before, pendulum_f, theta, data.X_train, data.y_train, n_substeps=3)
+        steps.append(alone.structure.options()["n_substeps"])
+    assert steps == [3, 3]
+
+
 def test_a_stiffer_chosen_model_is_refitted_with_the_steps_it_needs():
     """n_substeps='auto' chose the RK4 steps for the science model; a term the loop adds can be far stiffer
     (dry friction's tanh(v/w) with a small w), so the final refit integrates it with the steps it needs."""

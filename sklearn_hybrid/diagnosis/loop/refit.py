@@ -162,7 +162,8 @@ def fixed_science(before, science, theta, X, y, n_substeps=None):
     ode = ode_structure(before)
     if ode is not None:  # the ODE's options as one object (the estimator's flat copies are deprecated)
         options = ode.options()
-        if n_substeps is not None and isinstance(before.structure, str) and options["n_substeps"] == "auto":
+        # the steps theta was fitted with, however the ODE was spelled ("ode" and flat options, or OdeStructure)
+        if n_substeps is not None and options["n_substeps"] == "auto":
             options["n_substeps"] = int(n_substeps)
         est.set_params(structure=OdeStructure(**options), **ODE_FLAT_SETTINGS)
     return est.fit(X, y)
