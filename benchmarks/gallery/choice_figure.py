@@ -45,15 +45,16 @@ def main() -> None:
     import matplotlib.pyplot as plt
     import torch
 
-    from sklearn_hybrid import HybridRegressor
+    from sklearn_hybrid import HybridRegressor, OdeStructure
     from sklearn_hybrid.diagnosis import close_the_loop
 
     torch.set_num_threads(1)
     X, y = make_data()
     # seed 3 of the first fit: the loop chooses sqrt|x| and calls r conditional; seeds 0 to 2 choose |x|^p and
     # withhold every interval (a candidate left at 18 % gain: "may be incomplete"), which the guide says too
-    res = close_the_loop(HybridRegressor(science=logistic_f, dt=0.5, method="erm", max_iter=300, n_threads=1,
-                                         random_state=3), X, y, state_names=["x"], units={"x": "t"}, verbose=False)
+    res = close_the_loop(HybridRegressor(science=logistic_f, structure=OdeStructure(dt=0.5), method="erm",
+                                         max_iter=300, n_threads=1, random_state=3),
+                         X, y, state_names=["x"], units={"x": "t"}, verbose=False)
     ci = res.intervals
     chosen = " + ".join(t["term"] for t in res.added) or "nothing"
     forms = [(f"chosen: {chosen}", res.science_theta["r"])] + [(r["model"], r["theta"]["r"]) for r in res.rivals]

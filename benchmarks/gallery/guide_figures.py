@@ -36,7 +36,7 @@ def pendulum_f(v, omega=0.5):  # the README's science model: no damping
 
 
 def main():
-    from sklearn_hybrid import HybridRegressor
+    from sklearn_hybrid import HybridRegressor, OdeStructure
     from sklearn_hybrid.datasets import make_pendulum
     from sklearn_hybrid.diagnosis import close_the_loop
 
@@ -44,7 +44,7 @@ def main():
     start = time.process_time()
     data = make_pendulum(random_state=0)  # a damped pendulum, true omega 2/3, damping -0.5 v_dot
     X, y = data.X_train, data.y_train
-    est = HybridRegressor(science=pendulum_f, dt=0.2, random_state=0).fit(X, y)
+    est = HybridRegressor(science=pendulum_f, structure=OdeStructure(dt=0.2), random_state=0).fit(X, y)
     result = close_the_loop(est, X, y, state_names=["v", "v_dot"])
     seconds = time.process_time() - start
 

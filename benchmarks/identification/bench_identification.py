@@ -1,10 +1,11 @@
 """Identification benchmark: does the closed loop name the missing physics, and add nothing where nothing lacks?
 
 Each case is one system of ``identification/systems.py`` (written for this benchmark and kept out of the tests)
-at one noise level and seed, run as a new user would run it: ``close_the_loop(HybridRegressor(science=f, dt=dt,
-method="erm", n_inputs=0 or 1, theta_init=guesses, random_state=seed), X, y, state_names=..., input_names=...,
-units=...)``, where the guesses are the system's ``theta_guess`` (or None: the science function's defaults).
-The data come from scipy (``solve_ivp``, rtol 1e-9, atol 1e-11) of the true system, not from the package.
+at one noise level and seed, run as a new user would run it: ``close_the_loop(HybridRegressor(science=f,
+structure=OdeStructure(dt=dt, n_inputs=0 or 1), method="erm", theta_init=guesses, random_state=seed), X, y,
+state_names=..., input_names=..., units=...)``, where the guesses are the system's ``theta_guess`` (or None: the
+science function's defaults). The data come from scipy (``solve_ivp``, rtol 1e-9, atol 1e-11) of the true system,
+not from the package.
 
 Scoring is in function space, on the states visited by noise-free test trajectories (never by term names):
 with ``F = (res.science or f)(x, **res.science_theta)`` the final science model and ``T = f(x, theta_true) + m(x)``
@@ -69,7 +70,7 @@ from identification.protocol import (FAST, NOISE_LEVELS, PROTOCOL, cache_dir, ca
                                      loop_arguments, make_data, score)
 from identification.systems import SYSTEMS, System  # noqa: E402
 
-from sklearn_hybrid import HybridRegressor  # noqa: E402
+from sklearn_hybrid import HybridRegressor, OdeStructure  # noqa: E402
 from sklearn_hybrid.diagnosis import Candidates, close_the_loop  # noqa: E402
 from sklearn_hybrid.diagnosis.terms import angle_factor  # noqa: E402
 
@@ -144,8 +145,8 @@ def run_case(system: System, noise: float, seed: int, fast: bool, command: str, 
     for ``--with-discovery``)."""
     data = make_data(system, noise, seed, fast)
     extra = {"max_iter": FAST["max_iter"]} if fast else {}
-    est = HybridRegressor(science=system.science, dt=system.dt, method="erm", n_inputs=int(system.forced),
-                          theta_init=dict(system.theta_guess) or None, random_state=seed, **extra)
+    est = HybridRegressor(science=system.science, structure=OdeStructure(dt=system.dt, n_inputs=int(system.forced)),
+                          method="erm", theta_init=dict(system.theta_guess) or None, random_state=seed, **extra)
     # The first hybrid fit does not depend on the selection: kept (not committed) so that a change of the
     # selection can be measured again without it; the record says whether it was reused.
     fit_path = cache_dir(fast) / "fits" / f"{case_name(system.name, noise, seed)}.pkl"
@@ -619,8 +620,9 @@ def render(records: list[dict]) -> str:
           "`benchmarks/identification/bench_identification.py`. Each case: one system of "
           "`identification/systems.py`, one noise level, one seed; data from scipy's `solve_ivp` of the true "
           "system (50 training trajectories, 20 "
-          "noise-free test trajectories); `close_the_loop(HybridRegressor(science=f, dt=dt, method='erm', "
-          "n_inputs=..., theta_init=..., random_state=seed), X, y, state_names=..., input_names=..., units=...)` "
+          "noise-free test trajectories); `close_the_loop(HybridRegressor(science=f, "
+          "structure=OdeStructure(dt=dt, n_inputs=...), method='erm', theta_init=..., random_state=seed), X, y, "
+          "state_names=..., input_names=..., units=...)` "
           "(`theta_init`: the system's guesses where one science function serves several systems). Noise: "
           + PROTOCOL["noise"] + ".", "",
           "Scores in function space on the test states, `F` = final science model at `science_theta`, `T` = "

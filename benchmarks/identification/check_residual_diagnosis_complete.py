@@ -22,7 +22,7 @@ import torch
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the helpers, the studies' modules
 from helpers import write_results  # noqa: E402
-from sklearn_hybrid import HybridRegressor  # noqa: E402
+from sklearn_hybrid import HybridRegressor, OdeStructure  # noqa: E402
 from sklearn_hybrid.datasets import make_pendulum  # noqa: E402
 from sklearn_hybrid.diagnosis import ResidualDiagnosis  # noqa: E402
 from sklearn_hybrid.models import pendulum_f  # noqa: E402
@@ -38,7 +38,8 @@ def main() -> None:
         start = time.process_time()
         data = make_pendulum(n_train=100, gamma=0.0, noise=0.05, random_state=seed)
         X, y = data.X_train, data.y_train
-        est = HybridRegressor(science=pendulum_f, dt=0.2, random_state=seed, verbose=False).fit(X, y)
+        est = HybridRegressor(science=pendulum_f, structure=OdeStructure(dt=0.2), random_state=seed,
+                              verbose=False).fit(X, y)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # the unjudged reading warns that it is unjudged
             unjudged = ResidualDiagnosis(exact=None, random_state=0).fit(est, X)

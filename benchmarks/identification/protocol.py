@@ -22,9 +22,9 @@ from identification.systems import System, call_science, simulate
 from sklearn_hybrid import pack_inputs
 
 NOISE_LEVELS = (0.01, 0.05)
-PROTOCOL = {"n_train": 50, "n_test": 20, "estimator": "HybridRegressor(science=f, dt=dt, method='erm', "
-            "n_inputs=0 or 1, theta_init=the system's guesses or None, random_state=seed), every other setting "
-            "at its default",
+PROTOCOL = {"n_train": 50, "n_test": 20, "estimator": "HybridRegressor(science=f, "
+            "structure=OdeStructure(dt=dt, n_inputs=0 or 1), method='erm', theta_init=the system's guesses or None, "
+            "random_state=seed), every other setting at its default",
             "noise": "Gaussian, level x the standard deviation of each state over the noise-free training states, "
                      "added to the initial states (X) and to y; inputs are exact",
             "test_states": "every output of the noise-free test trajectories (initial states included)",
@@ -110,11 +110,11 @@ def first_hybrid_fit(system: System, data: dict, seed: int = 0, path: Path | Non
     estimator and whether it was loaded."""
     if path is not None and path.exists():
         return load_fit(path), True
-    from sklearn_hybrid import HybridRegressor
+    from sklearn_hybrid import HybridRegressor, OdeStructure
     from sklearn_hybrid.diagnosis import MLPOn
 
-    est = HybridRegressor(science=system.science, dt=system.dt, method="erm", n_inputs=int(system.forced),
-                          theta_init=dict(system.theta_guess) or None, random_state=seed,
+    est = HybridRegressor(science=system.science, structure=OdeStructure(dt=system.dt, n_inputs=int(system.forced)),
+                          method="erm", theta_init=dict(system.theta_guess) or None, random_state=seed,
                           residual=MLPOn(list(range(len(system.state_names)))))
     est.fit(data["X"], data["y"])
     if path is not None:

@@ -20,7 +20,7 @@ from joblib import Parallel, delayed
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the helpers, the studies' modules
 from helpers import write_results  # noqa: E402
-from sklearn_hybrid import HybridRegressor, theta_error  # noqa: E402
+from sklearn_hybrid import HybridRegressor, OdeStructure, theta_error  # noqa: E402
 from sklearn_hybrid.datasets import make_pendulum  # noqa: E402
 from sklearn_hybrid.models import pendulum_f  # noqa: E402
 
@@ -32,8 +32,8 @@ def run(method, params, seed, iters):
     data = make_pendulum(random_state=seed)
     start = time.perf_counter()
     # tol=None: the protocol is a fixed number of iterations (no early stopping)
-    est = HybridRegressor(science=pendulum_f, method=method, dt=0.2, n_substeps=4, lr=1e-3, tol=None,
-                          max_iter=iters, random_state=seed, **params).fit(data.X_train, data.y_train)
+    est = HybridRegressor(science=pendulum_f, method=method, structure=OdeStructure(dt=0.2, n_substeps=4), lr=1e-3,
+                          tol=None, max_iter=iters, random_state=seed, **params).fit(data.X_train, data.y_train)
     y_err = float(np.sqrt(np.mean((est.predict(data.X_test) - data.y_test) ** 2)))
     return {"method": method, **params, "seed": seed, "omega": est.theta_["omega"],
             "theta_error": theta_error(est.theta_, data.theta_true), "y_error": y_err,

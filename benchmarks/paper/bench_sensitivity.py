@@ -20,7 +20,7 @@ import matplotlib.pyplot as plt
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the helpers, the studies' modules
 from helpers import RESULTS, write_results  # noqa: E402
-from sklearn_hybrid import HybridRegressor  # noqa: E402
+from sklearn_hybrid import HybridRegressor, OdeStructure  # noqa: E402
 from sklearn_hybrid.datasets import make_pendulum  # noqa: E402
 from sklearn_hybrid.model_selection import plot_sensitivity, sensitivity_curve  # noqa: E402
 from sklearn_hybrid.models import pendulum_f  # noqa: E402
@@ -35,7 +35,8 @@ def main():
     d = make_pendulum(random_state=0)
     data = (d.X_train, d.y_train, d.X_test, d.y_test)
     # tol=None: every fit trains args.iters iterations (no early stopping)
-    common = dict(science=pendulum_f, dt=0.2, n_substeps=2, lr=3e-3, max_iter=args.iters, tol=None)
+    common = dict(science=pendulum_f, structure=OdeStructure(dt=0.2, n_substeps=2), lr=3e-3, max_iter=args.iters,
+                  tol=None)
     seeds = list(range(args.seeds))
     sweeps = {
         "erm": (HybridRegressor(method="erm", **common), "weight_decay", [1e-5]),

@@ -30,7 +30,7 @@ import torch
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the helpers, the studies' modules
 from helpers import RESULTS, runs_folder, write_results  # noqa: E402
 
-from sklearn_hybrid import HybridRegressor  # noqa: E402
+from sklearn_hybrid import HybridRegressor, OdeStructure  # noqa: E402
 from sklearn_hybrid import datasets as ds  # noqa: E402
 from sklearn_hybrid import models  # noqa: E402
 
@@ -81,8 +81,9 @@ def run(task: str, method: str, perturb: str, seed: int) -> dict:
     torch.set_num_threads(1)
     d, kw = _data(task)
     p = PROTOCOL[task]
-    est = HybridRegressor(method=method, perturb=perturb, rho=p["rho"], dt=d.dt, n_substeps=p["n_substeps"],
-                          lr=p["lr"], max_iter=20 if FAST else p["max_iter"], theta_bounds=p["theta_bounds"],
+    est = HybridRegressor(method=method, perturb=perturb, rho=p["rho"],
+                          structure=OdeStructure(dt=d.dt, n_substeps=p["n_substeps"]), lr=p["lr"],
+                          max_iter=20 if FAST else p["max_iter"], theta_bounds=p["theta_bounds"],
                           random_state=seed, **kw)
     start = time.perf_counter()
     est.fit(d.X_train, d.y_train)

@@ -20,6 +20,7 @@ from functools import partial
 import torch
 from sklearn.utils import Bunch
 
+from sklearn_hybrid import OdeStructure
 from sklearn_hybrid import datasets as ds
 from sklearn_hybrid import models
 
@@ -38,7 +39,7 @@ def _size(budget, paper, cpu, smoke):
 def _pendulum(budget):
     n = _size(budget, 25, 25, 8)
     d = ds.make_pendulum(n, n, n, random_state=0)
-    kw = dict(science=models.pendulum_f, dt=d.dt, n_substeps=2, residual=PAPER_MLP,
+    kw = dict(science=models.pendulum_f, structure=OdeStructure(dt=d.dt, n_substeps=2), residual=PAPER_MLP,
               lr=_size(budget, 1e-4, 3e-3, 3e-3), max_iter=_size(budget, 20000, 2000, 30))
     return Bunch(data=d, kw=kw, theta=d.theta_true, source="synthetic")
 
@@ -46,7 +47,7 @@ def _pendulum(budget):
 def _duffing(budget):
     n = _size(budget, 100, 100, 10)
     d = ds.make_duffing(n, n, n, random_state=0)
-    kw = dict(science=models.duffing_f, dt=d.dt, n_substeps=1, residual=PAPER_MLP,
+    kw = dict(science=models.duffing_f, structure=OdeStructure(dt=d.dt, n_substeps=1), residual=PAPER_MLP,
               lr=_size(budget, 1e-4, 3e-3, 3e-3), max_iter=_size(budget, 20000, 1500, 30))
     return Bunch(data=d, kw=kw, theta=d.theta_true, source="synthetic")
 
@@ -54,7 +55,7 @@ def _duffing(budget):
 def _reaction_diffusion(budget):
     n = _size(budget, 100, 10, 3)
     d = ds.make_reaction_diffusion(n, n, n, grid_size=_size(budget, 32, 32, 8), random_state=0)
-    kw = dict(science=models.diffusion_f, residual="cnn", dt=d.dt, n_substeps=1,
+    kw = dict(science=models.diffusion_f, residual="cnn", structure=OdeStructure(dt=d.dt, n_substeps=1),
               lr=_size(budget, 1e-4, 1e-3, 1e-3), max_iter=_size(budget, 20000, 300, 30))
     return Bunch(data=d, kw=kw, theta=d.theta_true, source="synthetic")
 
@@ -128,20 +129,22 @@ TASKS = {"pendulum": _pendulum, "reaction_diffusion": _reaction_diffusion, "duff
 
 def _cpu_pendulum():
     d = ds.make_pendulum(25, 25, 25, random_state=0)
-    kw = dict(science=models.pendulum_f, dt=d.dt, n_substeps=2, residual=PAPER_MLP, lr=3e-3, max_iter=2000)
+    kw = dict(science=models.pendulum_f, structure=OdeStructure(dt=d.dt, n_substeps=2), residual=PAPER_MLP,
+              lr=3e-3, max_iter=2000)
     return d.X_train, d.y_train, d.X_test, d.y_test, d.theta_true, kw, "synthetic"
 
 
 def _cpu_duffing():
     d = ds.make_duffing(100, 100, 100, random_state=0)
-    kw = dict(science=models.duffing_f, dt=d.dt, n_substeps=1, residual=PAPER_MLP, lr=3e-3, max_iter=1500)
+    kw = dict(science=models.duffing_f, structure=OdeStructure(dt=d.dt, n_substeps=1), residual=PAPER_MLP,
+              lr=3e-3, max_iter=1500)
     return d.X_train, d.y_train, d.X_test, d.y_test, d.theta_true, kw, "synthetic"
 
 
 def _cpu_reaction_diffusion():
     d = ds.make_reaction_diffusion(10, 10, 10, random_state=0)
-    kw = dict(science=models.diffusion_f, residual="cnn", dt=d.dt, n_substeps=1, lr=1e-3,
-              max_iter=300)
+    kw = dict(science=models.diffusion_f, residual="cnn", structure=OdeStructure(dt=d.dt, n_substeps=1),
+              lr=1e-3, max_iter=300)
     return d.X_train, d.y_train, d.X_test, d.y_test, d.theta_true, kw, "synthetic"
 
 

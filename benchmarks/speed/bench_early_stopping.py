@@ -1,7 +1,7 @@
 """Default fit of the pendulum task: early stopping (the new defaults) against 2,000 fixed iterations.
 
 "before": the defaults until issue 12, ``lr=1e-3``, 2,000 iterations, no early stopping;
-"default": ``HybridRegressor(science=pendulum_f, dt=0.2)`` as it is now (``lr=1e-2``, early
+"default": ``HybridRegressor(science=pendulum_f, structure=OdeStructure(dt=0.2))`` as it is now (``lr=1e-2``, early
 stopping with ``tol=1e-3`` over ``n_iter_no_change=100`` iterations, at most 2,000).
 Both with the default method (fsam, rho 0.05) on ``make_pendulum(random_state=seed)``, one torch
 thread, fits run one after the other (the wall-clock times are those of a shared 2-core machine:
@@ -24,7 +24,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the helpers, the studies' modules
 from helpers import RESULTS, write_results  # noqa: E402
-from sklearn_hybrid import HybridRegressor, theta_error  # noqa: E402
+from sklearn_hybrid import HybridRegressor, OdeStructure, theta_error  # noqa: E402
 from sklearn_hybrid.datasets import make_pendulum  # noqa: E402
 from sklearn_hybrid.models import pendulum_f  # noqa: E402
 
@@ -35,7 +35,7 @@ def run(name, seed):
     data = make_pendulum(random_state=seed)
     load = os.getloadavg()[0]
     start = time.perf_counter()
-    est = HybridRegressor(science=pendulum_f, dt=0.2, random_state=seed, **SETTINGS[name])
+    est = HybridRegressor(science=pendulum_f, structure=OdeStructure(dt=0.2), random_state=seed, **SETTINGS[name])
     est.fit(data.X_train, data.y_train)
     seconds = time.perf_counter() - start
     rmse = float(np.sqrt(np.mean((est.predict(data.X_test) - data.y_test) ** 2)))

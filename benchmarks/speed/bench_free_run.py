@@ -27,7 +27,7 @@ import torch
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the helpers, the studies' modules
 from helpers import write_results  # noqa: E402
-from sklearn_hybrid import HybridRegressor  # noqa: E402
+from sklearn_hybrid import HybridRegressor, OdeStructure  # noqa: E402
 from sklearn_hybrid.diagnosis import MLPOn, free_run  # noqa: E402
 from sklearn_hybrid.integrate import fast  # noqa: E402
 from sklearn_hybrid.recipes import silverbox_f  # noqa: E402
@@ -37,7 +37,7 @@ def _model() -> HybridRegressor:
     rng = np.random.default_rng(0)
     X = np.column_stack([rng.normal(size=(64, 2)), rng.normal(size=(64, 17))])  # x0, then u on 17 samples
     y = rng.normal(size=(64, 16, 1))
-    return HybridRegressor(science=silverbox_f, observed=[0], n_inputs=1, dt=1.0, n_substeps=1,
+    return HybridRegressor(science=silverbox_f, structure=OdeStructure(observed=[0], n_inputs=1, dt=1.0, n_substeps=1),
                            residual=MLPOn([1], hidden=(32, 32)), max_iter=3, random_state=0).fit(X, y)
 
 

@@ -48,7 +48,7 @@ def _timed(fn):
 
 
 def single_fit(devices, iters):
-    from sklearn_hybrid import HybridRegressor
+    from sklearn_hybrid import HybridRegressor, OdeStructure
     from sklearn_hybrid.diagnosis import close_the_loop
     from sklearn_hybrid.identifiability import profile_theta
 
@@ -56,8 +56,9 @@ def single_fit(devices, iters):
     X, y = data.X_train, data.y_train
     out, fits = {}, {}
     for dev in devices:
-        est, seconds = _timed(lambda: HybridRegressor(science=science, dt=0.2, random_state=0, max_iter=iters,
-                                                      tol=None, verbose=False, device=dev).fit(X, y))
+        est, seconds = _timed(lambda: HybridRegressor(science=science, structure=OdeStructure(dt=0.2), random_state=0,
+                                                      max_iter=iters, tol=None, verbose=False,
+                                                      device=dev).fit(X, y))
         fits[dev] = est
         row = {"fit_s": seconds, "ms_per_iteration": 1000 * seconds / est.n_iter_, "n_iter": int(est.n_iter_),
                "omega": float(est.theta_["omega"]), "device_": str(est.device_)}
@@ -83,10 +84,10 @@ def single_fit(devices, iters):
 
 
 def _sweep(dev, iters, seeds):
-    from sklearn_hybrid import HybridRegressor, HybridRegressorCV
+    from sklearn_hybrid import HybridRegressor, HybridRegressorCV, OdeStructure
 
     science, data = _pendulum()
-    base = HybridRegressor(science=science, dt=0.2, max_iter=iters, verbose=False, device=dev)
+    base = HybridRegressor(science=science, structure=OdeStructure(dt=0.2), max_iter=iters, verbose=False, device=dev)
     cv = HybridRegressorCV(base, rhos=[0.01, 0.05, 0.2], seeds=list(seeds))
     _, seconds = _timed(lambda: cv.fit(data.X_train, data.y_train))
     return cv, seconds

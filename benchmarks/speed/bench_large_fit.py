@@ -27,7 +27,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the
 from helpers import write_results  # noqa: E402
 import sklearn_hybrid._estimator as estimator_module  # noqa: E402
 import sklearn_hybrid._fitting as fitting_module  # noqa: E402
-from sklearn_hybrid import HybridRegressor  # noqa: E402
+from sklearn_hybrid import HybridRegressor, OdeStructure  # noqa: E402
 from sklearn_hybrid.datasets import make_pendulum  # noqa: E402
 from sklearn_hybrid.demo import pendulum_f  # noqa: E402
 
@@ -70,8 +70,8 @@ def main() -> None:
         module = MODULES.get(name, estimator_module)
         setattr(module, name, timed(getattr(module, name), name, clock))
 
-    est = HybridRegressor(science=pendulum_f, dt=0.2, max_iter=args.iters, batch_size=args.batch,
-                          random_state=0, verbose=False)
+    est = HybridRegressor(science=pendulum_f, structure=OdeStructure(dt=0.2), max_iter=args.iters,
+                          batch_size=args.batch, random_state=0, verbose=False)
     load = os.getloadavg()[0]
     wall, cpu = time.perf_counter(), time.process_time()
     est.fit(X, y)

@@ -76,6 +76,7 @@ def main() -> None:
         settings = dict(settings)
         X, y = rng.uniform(-1, 1, (n, 2)), 0.1 * rng.uniform(-1, 1, (n, steps, 2))
         # a zero-started network: a random start blows long integrations up before any step
+        # flat dt kept: run on older exports too (fb93ee4), whose HybridRegressor takes no OdeStructure
         params = dict(science=pendulum_f, dt=0.02, max_iter=1, random_state=0, verbose=False,
                       residual={"zero_init": True})
         if settings.pop("forced", False):

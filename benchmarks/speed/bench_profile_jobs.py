@@ -24,7 +24,7 @@ DEFAULT_SYSTEMS = ("stage", "sir", "drug", "drag_mass")
 
 
 def run(name: str) -> list[dict]:
-    from sklearn_hybrid import HybridRegressor
+    from sklearn_hybrid import HybridRegressor, OdeStructure
     from sklearn_hybrid.identifiability import profile_theta
 
     from speed.time_to_answer_systems import SYSTEMS, simulate
@@ -32,7 +32,8 @@ def run(name: str) -> list[dict]:
     system = SYSTEMS[name]
     X, y = simulate(system, 0)
     start = cpu_seconds()
-    est = HybridRegressor(science=system.science, dt=system.dt, random_state=0, verbose=False).fit(X, y)
+    est = HybridRegressor(science=system.science, structure=OdeStructure(dt=system.dt), random_state=0,
+                          verbose=False).fit(X, y)
     fit_cpu = cpu_seconds() - start
     rows = []
     for n_jobs in (1, 2):

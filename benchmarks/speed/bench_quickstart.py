@@ -24,7 +24,7 @@ from helpers import write_results  # noqa: E402
 
 
 def one_run():
-    from sklearn_hybrid import HybridRegressor
+    from sklearn_hybrid import HybridRegressor, OdeStructure
     from sklearn_hybrid.datasets import make_pendulum
     from sklearn_hybrid.demo import pendulum_f
     from sklearn_hybrid.diagnosis import close_the_loop
@@ -41,7 +41,7 @@ def one_run():
     data = make_pendulum(random_state=0)
     X, y = data.X_train, data.y_train
     mark("data")
-    est = HybridRegressor(science=pendulum_f, dt=0.2, random_state=0, verbose=False).fit(X, y)
+    est = HybridRegressor(science=pendulum_f, structure=OdeStructure(dt=0.2), random_state=0, verbose=False).fit(X, y)
     mark("fit")
     report = est.fit_report()
     mark("report")

@@ -46,7 +46,7 @@ from torch import nn
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the helpers, the studies' modules
 from helpers import write_results  # noqa: E402
-from sklearn_hybrid import HybridRegressor, HybridRegressorCV, make_theta_scorer  # noqa: E402
+from sklearn_hybrid import HybridRegressor, HybridRegressorCV, OdeStructure, make_theta_scorer  # noqa: E402
 from sklearn_hybrid import datasets as ds  # noqa: E402
 from sklearn_hybrid import models  # noqa: E402
 
@@ -187,7 +187,7 @@ def pendulum_section(n_rounds):
     X, y = d.X_train, d.y_train
     out = {}
     for sub in (4, 10):  # the issue's configurations: step 0.05 (main) and 0.02
-        kw = dict(science=models.pendulum_f, dt=0.2, n_substeps=sub, random_state=0)
+        kw = dict(science=models.pendulum_f, structure=OdeStructure(dt=0.2, n_substeps=sub), random_state=0)
         # about a second per measurement, so that a burst of load on the shared machine
         # moves a round by a few per cent only
         contenders = {
@@ -217,18 +217,19 @@ def sweep_section(n_rounds, peak):
 
     def batched(threads=1, n_jobs=None):
         def make(n):
-            est = HybridRegressor(science=models.pendulum_f, method="fsam", dt=0.2, n_substeps=4,
-                                  max_iter=n, n_threads=threads)
+            est = HybridRegressor(science=models.pendulum_f, method="fsam",
+                                  structure=OdeStructure(dt=0.2, n_substeps=4), max_iter=n, n_threads=threads)
             return lambda: HybridRegressorCV(est, rhos=RHOS, seeds=SEEDS, validation_fraction=None,
                                              n_jobs=n_jobs).fit(X, y)
         return per_iteration(make, 2, 8, wall=threads > 1 or n_jobs is not None)
 
     def single(n):
-        return lambda: HybridRegressor(science=models.pendulum_f, method="fsam", dt=0.2,
-                                       n_substeps=4, max_iter=n, random_state=0).fit(X, y)
+        return lambda: HybridRegressor(science=models.pendulum_f, method="fsam",
+                                       structure=OdeStructure(dt=0.2, n_substeps=4), max_iter=n,
+                                       random_state=0).fit(X, y)
 
     def grid(n):
-        est = HybridRegressor(science=models.pendulum_f, method="fsam", dt=0.2, n_substeps=4,
+        est = HybridRegressor(science=models.pendulum_f, method="fsam", structure=OdeStructure(dt=0.2, n_substeps=4),
                               max_iter=n)
         everything = [(np.arange(len(X)), np.arange(len(X)))]
         return lambda: GridSearchCV(est, {"rho": RHOS, "random_state": SEEDS}, cv=everything,
@@ -259,7 +260,7 @@ def sweep_section(n_rounds, peak):
 
 def duffing_section(n_rounds):
     d = ds.make_duffing(100, 1, 1, random_state=0)
-    kw = dict(science=models.duffing_f, method="fsam", dt=d.dt, n_substeps=4)
+    kw = dict(science=models.duffing_f, method="fsam", structure=OdeStructure(dt=d.dt, n_substeps=4))
     res = rounds({
         "HybridRegressor fsam": per_iteration(lambda n: lambda: HybridRegressor(
             max_iter=n, random_state=0, **kw).fit(d.X_train, d.y_train), 2, 6),
@@ -272,7 +273,7 @@ def duffing_section(n_rounds):
 def reaction_diffusion_section(n_rounds):
     d = ds.make_reaction_diffusion(100, 1, 1, random_state=0)
     X, y = d.X_train, d.y_train
-    kw = dict(science=models.diffusion_f, residual="cnn", dt=d.dt, n_substeps=1)
+    kw = dict(science=models.diffusion_f, residual="cnn", structure=OdeStructure(dt=d.dt, n_substeps=1))
 
     def reference(n_iter=2):
         torch.manual_seed(0)
@@ -365,7 +366,7 @@ def profile_section(top=18) -> str:
     from torch.profiler import profile
 
     d = ds.make_pendulum(25, 1, 1, random_state=0)
-    kw = dict(science=models.pendulum_f, method="fsam", dt=0.2, n_substeps=4)
+    kw = dict(science=models.pendulum_f, method="fsam", structure=OdeStructure(dt=0.2, n_substeps=4))
     fits = {"single fit (K = 1)": lambda n: HybridRegressor(max_iter=n, **kw).fit(d.X_train, d.y_train),
             "HybridRegressorCV, 25 members": lambda n: HybridRegressorCV(
                 HybridRegressor(max_iter=n, **kw), rhos=RHOS, seeds=SEEDS,

@@ -1,8 +1,8 @@
 """Time to theta: CPU seconds and theta error of a default fit on three small systems.
 
-A new user writes ``HybridRegressor(science=f, dt=dt).fit(X, y)`` and waits.  This measures, on
-three systems of two states written for this benchmark (``speed/time_to_theta_systems.py``: population
-dynamics, an electric circuit, a chemical reactor; 30-50 trajectories of 15-20 steps), the CPU
+A new user writes ``HybridRegressor(science=f, structure=OdeStructure(dt=dt)).fit(X, y)`` and waits.
+This measures, on three systems of two states written for this benchmark (``speed/time_to_theta_systems.py``:
+population dynamics, an electric circuit, a chemical reactor; 30-50 trajectories of 15-20 steps), the CPU
 seconds of that fit (``time.process_time``, one torch thread) and its theta error (RMS relative
 error against the true theta), with today's defaults and with candidate defaults.  Target of
 issue 41: at most 60 s of CPU per fit, theta no worse than today's defaults.
@@ -29,7 +29,7 @@ import torch
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the helpers, the studies' modules
 from helpers import PACKAGE_COMMIT, runs_folder, write_results  # noqa: E402
 from speed.time_to_theta_systems import SYSTEMS, simulate  # noqa: E402
-from sklearn_hybrid import HybridRegressor  # noqa: E402
+from sklearn_hybrid import HybridRegressor, OdeStructure  # noqa: E402
 
 #: ``verbose=False`` everywhere: the progress bar is not what is timed (and costs nothing measurable).
 SETTINGS = {
@@ -49,8 +49,10 @@ def relative_error(theta: dict, truth: dict) -> float:
 def run(system_name: str, setting: str, seed: int) -> dict:
     system = SYSTEMS[system_name]
     X, y = simulate(system, seed)
-    est = HybridRegressor(science=system.science, dt=system.dt, random_state=seed, verbose=False,
-                          **SETTINGS[setting])
+    settings = dict(SETTINGS[setting])
+    ode = {k: settings.pop(k) for k in ("n_substeps",) if k in settings}  # the structure's options
+    est = HybridRegressor(science=system.science, structure=OdeStructure(dt=system.dt, **ode), random_state=seed,
+                          verbose=False, **settings)
     load = os.getloadavg()[0]
     cpu, wall = time.process_time(), time.perf_counter()
     est.fit(X, y)
@@ -91,8 +93,9 @@ def main() -> None:
 
 def markdown(rows: list, n_seeds: int) -> str:
     lines = [f"# Time to theta: a default fit on three small systems ({n_seeds} seed(s))", "",
-             "CPU seconds (`time.process_time`, one torch thread) of `HybridRegressor(science=f, dt=dt, "
-             "random_state=seed).fit(X, y)` and its theta error (RMS relative error against the true theta). "
+             "CPU seconds (`time.process_time`, one torch thread) of `HybridRegressor(science=f, "
+             "structure=OdeStructure(dt=dt), random_state=seed).fit(X, y)` and its theta error (RMS relative "
+             "error against the true theta). "
              "Target: at most 60 s of CPU, theta no worse than today's defaults.", "",
              "Settings: " + "; ".join(f"`{k}`: {v or 'the defaults of HybridRegressor'}"
                                       for k, v in SETTINGS.items()), "",

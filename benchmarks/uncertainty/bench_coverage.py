@@ -26,7 +26,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the helpers, the studies' modules
 from helpers import RESULTS, write_results  # noqa: E402
-from sklearn_hybrid import HybridRegressor  # noqa: E402
+from sklearn_hybrid import HybridRegressor, OdeStructure  # noqa: E402
 from sklearn_hybrid.datasets import make_pendulum  # noqa: E402
 from sklearn_hybrid.diagnosis import ZeroResidual  # noqa: E402
 from sklearn_hybrid.models import pendulum_f  # noqa: E402
@@ -37,7 +37,7 @@ CASES = {"science alone": 0.0, "complete science": 0.0, "missing damping": 0.5}
 def run(case, gamma, seed):
     data = make_pendulum(gamma=gamma, random_state=seed)
     residual = ZeroResidual() if case == "science alone" else {"hidden": (32, 32)}
-    est = HybridRegressor(science=pendulum_f, dt=0.2, method="erm", lr=1e-2, max_iter=400,
+    est = HybridRegressor(science=pendulum_f, structure=OdeStructure(dt=0.2), method="erm", lr=1e-2, max_iter=400,
                           residual=residual, random_state=seed)
     est.fit(data.X_train, data.y_train)
     omega, std = est.theta_["omega"], est.theta_std_["omega"]

@@ -52,7 +52,7 @@ def run_default(repeats):
     import torch
 
     from uncertainty.laplace_intervals import laplace_theta
-    from sklearn_hybrid import HybridRegressor
+    from sklearn_hybrid import HybridRegressor, OdeStructure
 
     torch.set_num_threads(1)
     for repeat in range(repeats):
@@ -63,8 +63,9 @@ def run_default(repeats):
             system = SYSTEMS[name]
             X, y, dt = system.make(repeat)
             start = time.perf_counter()
-            est = HybridRegressor(science=system.science, dt=dt, method="fsam", theta_init=system.theta_init,
-                                  random_state=repeat, n_threads=1, verbose=False).fit(X, y)
+            est = HybridRegressor(science=system.science, structure=OdeStructure(dt=dt), method="fsam",
+                                  theta_init=system.theta_init, random_state=repeat, n_threads=1,
+                                  verbose=False).fit(X, y)
             fit_s = time.perf_counter() - start
             start = time.perf_counter()
             lap = laplace_theta(est, X, y)
@@ -82,7 +83,7 @@ def run_repeat(system, repeat):
     import torch
 
     from uncertainty.laplace_intervals import laplace_theta
-    from sklearn_hybrid import HybridRegressor
+    from sklearn_hybrid import HybridRegressor, OdeStructure
 
     torch.set_num_threads(1)
     X, y, dt = system.make(repeat)
@@ -92,8 +93,8 @@ def run_repeat(system, repeat):
         if "error" in cached[method]:
             out["methods"][method] = {"error": cached[method]["error"]}
             continue
-        est = HybridRegressor(science=system.science, dt=dt, method=method, theta_init=system.theta_init,
-                              random_state=repeat, **SETTINGS).fit(X, y)
+        est = HybridRegressor(science=system.science, structure=OdeStructure(dt=dt), method=method,
+                              theta_init=system.theta_init, random_state=repeat, **SETTINGS).fit(X, y)
         same = all(abs(est.theta_[k] - cached[method]["theta"][k]) <= 1e-6 * max(1, abs(est.theta_[k]))
                    for k in system.theta_true)
         start = time.perf_counter()

@@ -44,7 +44,7 @@ HYBRID = {"max_iter": 300, "n_threads": 1}
 
 
 def run_repeat(name, repeat):
-    from sklearn_hybrid import HybridRegressor
+    from sklearn_hybrid import HybridRegressor, OdeStructure
     from sklearn_hybrid.diagnosis import close_the_loop
     from sklearn_hybrid.identifiability import science_intervals
 
@@ -52,8 +52,8 @@ def run_repeat(name, repeat):
     system = SYSTEMS[name]
     X, y = make(system, repeat)
     start = time.perf_counter()
-    est = HybridRegressor(science=system["science"], dt=system["dt"], observed=[1], method="erm",
-                          theta_init=system["init"], random_state=repeat, **HYBRID)
+    est = HybridRegressor(science=system["science"], structure=OdeStructure(dt=system["dt"], observed=[1]),
+                          method="erm", theta_init=system["init"], random_state=repeat, **HYBRID)
     try:
         loop = close_the_loop(est, X, y, state_names=system["names"], fit_initial_states=True,
                               random_state=repeat)

@@ -40,14 +40,14 @@ PROFILE = {"n_points": 5, "span": 0.5}  # bench_uncertainty's
 def run_case(name: str, repeat: int, method: str) -> dict:
     import torch
 
-    from sklearn_hybrid import HybridRegressor
+    from sklearn_hybrid import HybridRegressor, OdeStructure
     from sklearn_hybrid.identifiability import profile_theta
 
     torch.set_num_threads(1)
     system = SYSTEMS[name]
     X, y, dt = system.make(repeat)
-    est = HybridRegressor(science=system.science, dt=dt, method=method, theta_init=system.theta_init,
-                          random_state=repeat, **SETTINGS).fit(X, y)
+    est = HybridRegressor(science=system.science, structure=OdeStructure(dt=dt), method=method,
+                          theta_init=system.theta_init, random_state=repeat, **SETTINGS).fit(X, y)
     record = {"system": name, "repeat": repeat, "method": method, "fit_iterations": est.n_iter_,
               "truth": system.theta_true, "package_commit": PACKAGE_COMMIT, "budgets": {}}
     for budget, share in BUDGETS.items():

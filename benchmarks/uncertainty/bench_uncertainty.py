@@ -54,7 +54,7 @@ def _profile_record(prof):
 def run_repeat(system, repeat):
     import torch
 
-    from sklearn_hybrid import HybridRegressor
+    from sklearn_hybrid import HybridRegressor, OdeStructure
     from sklearn_hybrid.identifiability import bootstrap_theta, profile_theta
 
     torch.set_num_threads(1)
@@ -62,8 +62,8 @@ def run_repeat(system, repeat):
     out = {"system": system.name, "repeat": repeat, "package_commit": PACKAGE_COMMIT, "methods": {}}
     for method in HYBRID_METHODS:
         start, cpu = time.perf_counter(), time.process_time()
-        est = HybridRegressor(science=system.science, dt=dt, method=method, theta_init=system.theta_init,
-                              random_state=repeat, **SETTINGS)
+        est = HybridRegressor(science=system.science, structure=OdeStructure(dt=dt), method=method,
+                              theta_init=system.theta_init, random_state=repeat, **SETTINGS)
         record = {}
         try:
             est.fit(X, y)
@@ -89,11 +89,11 @@ def run_repeat(system, repeat):
 
 
 def run_loop(system, X, y, dt, repeat):
-    from sklearn_hybrid import HybridRegressor
+    from sklearn_hybrid import HybridRegressor, OdeStructure
     from sklearn_hybrid.diagnosis import close_the_loop
 
     start = time.perf_counter()
-    loop = close_the_loop(HybridRegressor(science=system.science, dt=dt, method="erm",
+    loop = close_the_loop(HybridRegressor(science=system.science, structure=OdeStructure(dt=dt), method="erm",
                                           theta_init=system.theta_init, random_state=repeat, **LOOP_FIT),
                           X, y, state_names=system.state_names, units=system.units, random_state=repeat)
     ci = loop.intervals  # science_intervals of the network-free model, gated on the selection's open questions

@@ -4,8 +4,9 @@ Issue "Your units, your machine". Each system of ``units/systems.py`` (written f
 the tests) is measured in its reference units (states and rates of order one) and in seven others: time and
 state scales from 1e-3 to 1e3, alone and combined, one with every state in its own unit. The data are the
 reference data converted, the science function the same code with its parameters' values converted, so each unit
-system must give the same answer. The path is the README's: ``HybridRegressor(science=f, dt=dt).fit(X, y)``,
-``fit_report()``, ``close_the_loop(est, X, y, state_names=...)``.
+system must give the same answer. The path is the README's:
+``HybridRegressor(science=f, structure=OdeStructure(dt=dt)).fit(X, y)``, ``fit_report()``,
+``close_the_loop(est, X, y, state_names=...)``.
 
 Each run records the fit's verdict (usable or not), the hybrid's theta and the loop's final theta and intervals
 converted back to the reference units, the terms the loop added, any error (its type: a bare numeric error
@@ -78,7 +79,7 @@ def run_one(system_name: str, units_name: str, seed: int) -> dict:
 def _path(system, units, X, y, dt, seed, record, convert_back, science_in) -> None:
     import warnings
 
-    from sklearn_hybrid import HybridRegressor
+    from sklearn_hybrid import HybridRegressor, OdeStructure
     from sklearn_hybrid.diagnosis import close_the_loop
 
     from units.systems import test_states, true_rhs_in
@@ -86,7 +87,8 @@ def _path(system, units, X, y, dt, seed, record, convert_back, science_in) -> No
     science = science_in(system, units)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        est = HybridRegressor(science=science, dt=dt, random_state=seed, verbose=False).fit(X, y)
+        est = HybridRegressor(science=science, structure=OdeStructure(dt=dt), random_state=seed,
+                              verbose=False).fit(X, y)
     report = est.fit_report()
     record.update(usable="NOT USABLE" not in report, fit_iterations=int(est.n_iter_),
                   fit_theta=convert_back(system, units, est.theta_), network_share=est.network_share_,

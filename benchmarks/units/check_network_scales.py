@@ -53,7 +53,7 @@ def _with_variant(variant: str):
 def main(argv=None) -> None:
     import torch
 
-    from sklearn_hybrid import HybridRegressor
+    from sklearn_hybrid import HybridRegressor, OdeStructure
     from sklearn_hybrid.datasets import make_pendulum
     from sklearn_hybrid.models import pendulum_f
     from uncertainty.protocol import SETTINGS
@@ -76,8 +76,8 @@ def main(argv=None) -> None:
         for name, X, y, dt, settings, seed in cases:
             for method in ("erm", "fsam"):
                 start = time.process_time()
-                est = HybridRegressor(science=pendulum_f, dt=dt, method=method, random_state=seed,
-                                      verbose=False, **settings).fit(X, y)
+                est = HybridRegressor(science=pendulum_f, structure=OdeStructure(dt=dt), method=method,
+                                      random_state=seed, verbose=False, **settings).fit(X, y)
                 rows.append({"variant": variant, "case": name, "method": method,
                              "omega": float(est.theta_["omega"]), "error": abs(est.theta_["omega"] - 2 / 3),
                              "n_iter": int(est.n_iter_), "cpu_s": time.process_time() - start})
