@@ -636,6 +636,9 @@ def test_the_harmonic_of_a_difference_of_two_angles_is_offered_for_angles_only()
     d = {name: torch.as_tensor(values[:, i]) for i, name in enumerate("abc")}
     expected = np.sin(np.radians(values[:, 1]) - values[:, 0] + 0.3)
     np.testing.assert_allclose(term.func(d, phase=0.3).numpy(), expected, atol=1e-12)
+    (without,) = term.reductions  # the coupling without a phase, tried once the term is accepted
+    assert without.name == "sin(0.0174533*b - a)" and without.shape == {}
+    np.testing.assert_allclose(without.func(d).numpy(), np.sin(np.radians(values[:, 1]) - values[:, 0]), atol=1e-12)
     assert PHASE_DIFFERENCES.terms(TermContext(("a", "b"), values[:, :2], {"a": "rad"}, 2)) == []
 
 
@@ -667,7 +670,9 @@ def test_two_phases_that_pull_on_each_other_are_named_as_one_coupling_with_disco
             candidates=Candidates(terms=terms, discovery=discovery and Nothing(), max_terms=2), evidence=Evidence())
     found = select(True)
     (added,) = found["added"]
-    assert added.name == "sin(q - p + phase)" and {added.component, added.opposite} == {0, 1}  # a flow
+    # a flow, without the phase the coupling lacks (the term offered with it, tried without it once accepted)
+    assert added.name == "sin(q - p)" and {added.component, added.opposite} == {0, 1}
+    assert any(s.step == "simplify" and s.term == "sin(q - p)" for s in found["steps"])
     theta = found["theta"]
     assert abs(theta["w1"] - 1.0) < 0.01 and abs(theta["w2"] - 1.6) < 0.01
     rates = found["science"](torch.as_tensor(states), **{k: torch.tensor(v) for k, v in theta.items()})

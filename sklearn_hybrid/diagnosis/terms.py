@@ -103,6 +103,10 @@ class Term:
     # a science term scaled by a factor: the coefficient at which it makes the law on the term's own equation
     # (its function's keyword ``reference``); its screening refit starts there, not where it was ranked
     law_coefficient: float | None = None
+    # simpler forms of the term, a shape constant held at its null value (a phase of zero): once the term is
+    # accepted the loop tries each, as it sets a discovered form's constants to zero, and keeps one that validates
+    # as well (a constant the data do not need takes up noise and trades with theta)
+    reductions: tuple = ()
 
     def __init__(self, name: str, func: Callable, kind: str,
                  shape: Mapping[str, tuple[Sequence[float], tuple[float, float]]] | None = None,

@@ -11,7 +11,8 @@ removes parameters, so it cannot add a term where nothing is missing.
 
 :func:`drop_spare_constants` does the same within a discovered form (``kind="discovered"``): each of its
 constants set to zero in turn (:func:`~sklearn_hybrid.diagnosis.families.symbolic.reduced_forms`), the
-reduced form kept where its model validates within ``min_gain`` of the full one. The search fits its forms
+reduced form kept where its model validates within ``min_gain`` of the full one, and so does a term with
+``reductions`` (a difference of two phases tried without its phase). The search fits its forms
 to what the network learned, whose error a spare constant takes up; in the refit such a constant trades
 with theta. :func:`one_shape_per_flux` puts an accepted discovered form in place of another equation's
 discovered form, sharing the first one's constants, where that validates as well: a flux taken on one equation
@@ -120,8 +121,9 @@ def drop_spare_constants(science: Callable, current: Callable, added: list[Place
                          errors: np.ndarray, judge: Judge, variables: Sequence[str], n_states: int,
                          param_names: Mapping[str, str] | None, steps: list[Step], log: Callable[[str], None], *,
                          evidence: Evidence) -> tuple:
-    """Set each constant of each accepted discovered form to zero in turn, and keep the reduced form whose
-    model validates best within ``evidence.min_gain`` of the model's; again until none does.
+    """Set each constant of each accepted discovered form to zero in turn (or, for a term with ``reductions``,
+    take each of those), and keep the reduced form whose model validates best within ``evidence.min_gain`` of the
+    model's; again until none does.
 
     A group's members (one form on several equations, ``shape_group``) are reduced together. The arguments
     are :func:`replace_stand_ins`'s; each reduction tried adds a row to ``steps`` (``step`` ``"simplify"``).
@@ -137,10 +139,10 @@ def drop_spare_constants(science: Callable, current: Callable, added: list[Place
         start = {k: theta[k] for k in original}  # the science's own parameters; the terms from their values
         units = {}  # a group's members reduce together: one unit per shape group, or per single term
         for t in added:
-            if t.kind == "discovered":
+            if t.kind == "discovered" or t.term.reductions:
                 units.setdefault(t.shape_group or id(t), []).append(t)
         for members in units.values():
-            for term in reduced_forms(members[0].term):
+            for term in members[0].term.reductions or reduced_forms(members[0].term):
                 group = members[0].shape_group and term.name
                 made = {id(m): replace(m, term=term, shape={k: m.shape[k] for k in term.shape}, shape_group=group,
                                        param=None, shape_params=None) for m in members}
