@@ -13,7 +13,7 @@ import torch
 from scipy.integrate import solve_ivp
 from sklearn.base import clone
 
-from sklearn_hybrid import HybridRegressor
+from sklearn_hybrid import HybridRegressor, OdeStructure
 from sklearn_hybrid.datasets import make_duffing, make_pendulum
 from sklearn_hybrid.diagnosis import (CandidateLibrary, Candidates, Evidence, MLPOn, ResidualDiagnosis, ScienceFit, augment_science,
                                       close_the_loop, critical_value, evidence, fit_initial_state, free_run,
@@ -1027,6 +1027,45 @@ def test_close_the_loop_fits_unobserved_initial_states():
                        fit_initial_states=True)
 
 
+def test_every_initial_state_fitted_where_the_measured_ones_carry_noise():
+    """fit_initial_states='all': X measured with noise (a sensor reads the initial state too) biases theta when
+    taken as exact; with every initial state fitted from its trajectory, theta is recovered and the states are
+    the true ones; the intervals count them as nuisance parameters; a bad value names the choices."""
+    from sklearn_hybrid.identifiability import science_intervals
+
+    data = make_pendulum(30, 5, 5, dt=0.1, n_steps=10, noise=0.0, random_state=1)
+    rng = np.random.default_rng(0)
+    X_noisy = data.X_train + 0.1 * rng.standard_normal(data.X_train.shape)  # y exact: only X is read with noise
+    y = data.y_train
+    est = HybridRegressor(science=pendulum_f, structure=OdeStructure(dt=0.1, n_substeps=1), residual=ZeroResidual(),
+                          method="erm", max_iter=1).fit(X_noisy, y)
+    damped = augment_science(pendulum_f, [{"component": 1, "term": "v_dot", "coef": 0.0}], NAMES)
+    start = {"omega": 0.5, "c_v_dot": 0.0}
+    naive = ScienceFit(est, X_noisy, y).fit(damped, start)
+    fit = ScienceFit(est, X_noisy, y, fit_initial_states="all")
+    fitted = fit.fit(damped, start)
+    assert fitted["omega"] == pytest.approx(2 / 3, rel=1e-3) and fitted["c_v_dot"] == pytest.approx(-0.5, rel=1e-2)
+    assert abs(naive["c_v_dot"] + 0.5) > 10 * abs(fitted["c_v_dot"] + 0.5)
+    np.testing.assert_allclose(fit.initial_states, data.X_train, atol=1e-3)
+    with pytest.raises(ValueError, match="True .the unobserved initial states. or 'all'"):
+        ScienceFit(est, X_noisy, y, fit_initial_states="some")
+    with pytest.raises(ValueError, match="True .the unmeasured initial states. or 'all'"):
+        close_the_loop(est, X_noisy, y, fit_initial_states="observed")
+    # the loop: the damping named, theta right, the user's X untouched, intervals that count the fitted states
+    X_given = X_noisy.copy()
+    hybrid = HybridRegressor(science=pendulum_f, structure=OdeStructure(dt=0.1, n_substeps=1), method="erm",
+                             max_iter=30, lr=1e-2, residual=MLPOn([1], hidden=(16,))).fit(X_noisy, y)
+    out = close_the_loop(hybrid, X_noisy, y, state_names=NAMES, fit_initial_states="all",
+                         candidates=Candidates(kinds=["polynomial"], max_terms=1))
+    np.testing.assert_array_equal(X_noisy, X_given)
+    assert [(t["output"], t["term"]) for t in out.added] == [("g[v_dot]", "v_dot")]
+    assert out.science_theta["omega"] == pytest.approx(2 / 3, rel=1e-3)
+    np.testing.assert_allclose(out.initial_states, data.X_train, atol=1e-3)
+    low, high = out.intervals.intervals["omega"]
+    assert low <= 2 / 3 <= high
+    assert out.intervals.std["omega"] > science_intervals(out.science_only, out.initial_states, y).std["omega"]
+
+
 def _reaction_f(v, k1=0.4, k2=0.7):
     A, B = v[:, 0], v[:, 1]
     return torch.stack([-k1 * A, k1 * A - k2 * B], dim=-1)
@@ -1505,7 +1544,6 @@ def test_the_network_free_model_keeps_the_steps_theta_was_fitted_with_however_th
     """fixed_science kept the fitted RK4 steps for structure='ode' with flat options only; with OdeStructure (the
     README's spelling) it chose them again at the final theta, so the same fit gave another network-free model."""
     from sklearn_hybrid.diagnosis.loop.refit import fixed_science
-    from sklearn_hybrid.structures import OdeStructure
 
     data = make_pendulum(6, 2, 2, dt=0.2, n_steps=5, random_state=0)
     theta = {"omega": 0.7}

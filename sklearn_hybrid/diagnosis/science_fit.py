@@ -35,13 +35,16 @@ class ScienceFit:
         ``theta_fixed`` (held at the values a fit starts from).
     X, y : array-like
         Samples, as for the estimator's ``fit``.
-    fit_initial_states : bool, default=False
+    fit_initial_states : bool or "all", default=False
         For a partially observed ODE: fit the initial values of the unobserved states of every
         sample (window) too, instead of taking them from ``X``. An estimate of an unobserved
         state made with the science model (a tank level from the balance of the next one) is
         wrong exactly where the science misses something, and would count against the term that
-        mends it. :meth:`errors` then fits them on the judged samples too (they are states, not
-        parameters of the model being judged), and ``initial_states`` holds the last values.
+        mends it. ``"all"``: every initial state, measured ones too: a measured initial state
+        carries the sensor's noise, and taken as exact it biases theta (errors in variables); fitted,
+        each sample's state is read from its whole trajectory. :meth:`errors` then fits them on the
+        judged samples too (they are states, not parameters of the model being judged), and
+        ``initial_states`` holds the last values.
     n_steps : int, optional
         An ODE's horizon, when ``y`` holds windows shorter than the estimator's fit (default: the
         fit's).
@@ -71,12 +74,19 @@ class ScienceFit:
             self.inputs = self.structure.tensors(structure_X(estimator, X), torch.float64)
         self.y = np.asarray(y, dtype=float).reshape(len(X), -1)
         self.latent: list[int] = []
+        every = isinstance(fit_initial_states, str) and fit_initial_states == "all"
+        if isinstance(fit_initial_states, str) and not every:
+            raise ValueError(f"fit_initial_states must be False, True (the unobserved initial states) or 'all' "
+                             f"(every initial state), got {fit_initial_states!r}.")
         if fit_initial_states:
             observed = getattr(self.structure, "observed", None)
-            if ode_structure(estimator) is None or observed is None or len(self.structure.state_shape) != 1:
+            vector = ode_structure(estimator) is not None and len(self.structure.state_shape) == 1
+            if every and not vector:
+                raise ValueError("fit_initial_states='all' needs structure='ode' with a state vector.")
+            if not every and (not vector or observed is None):
                 raise ValueError("fit_initial_states needs structure='ode' with a state vector and `observed` "
                                  "naming the measured components: only unobserved initial states are fitted.")
-            self.latent = [j for j in range(self.structure.state_shape[0]) if j not in observed]
+            self.latent = [j for j in range(self.structure.state_shape[0]) if every or j not in observed]
         self.initial_states = self.inputs[0].numpy().copy()
         self.anchor = self.initial_states.copy()  # where every fit of the states starts
         # The data's own sizes: least_squares' gradient tolerance and the states' difference steps are

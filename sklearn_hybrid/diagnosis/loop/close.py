@@ -26,7 +26,7 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
                    units: Mapping[str, str] | None = None, exact: str | Sequence[Any] | None = "auto",
                    candidates: Candidates | None = None,
                    offsets: Sequence[Any] = (), evidence: Evidence | None = None,
-                   fit_initial_states: bool = False,
+                   fit_initial_states: bool | str = False,
                    param_names: Mapping[str, str] | None = None,
                    refit_params: Mapping[str, Any] | None = None, theta_true: Mapping[str, Any] | None = None,
                    test_scorer: Callable | None = None, refit_hybrid: bool = False, n_jobs: int | None = None,
@@ -99,13 +99,17 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         as one), the evidence asked (``z``, ``min_gain``) and the second look on the training
         samples. Default ``Evidence()``: the last quarter of the samples judge, z 3, 5 % gain, a
         second look on 4 folds.
-    fit_initial_states : bool, default=False
+    fit_initial_states : bool or "all", default=False
         For an ODE whose ``observed`` leaves states unmeasured: the network-free refits fit the
         initial unobserved states of every sample too (see :class:`ScienceFit`), and the hybrid is
         refitted from the states the final one found. Use it when ``X`` holds estimates of those
         states (from the data's differences, or made with the science model, which are wrong
         where the science misses an effect). It costs one more fitted value per sample and
         unobserved state in every refit (see the closed-loop results pages for timings).
+        ``"all"``: every initial state, the measured ones too, for an ``X`` read by sensors with
+        noise: taken as exact, a noisy initial state biases theta (errors in variables) by more
+        than its interval shows where the trajectories are short; fitted, it is read from the
+        sample's whole trajectory, and the intervals count it as a nuisance parameter.
     param_names : dict of str to str, optional
         Names of the new coefficients by term, e.g. ``{"v_dot": "c_damping"}``.
     refit_params : dict, optional

@@ -45,7 +45,7 @@ def accurate_substeps(fit: ScienceFit, science: Callable, theta: Mapping[str, An
 
 
 def step_error(before: Any, X: Any, y: Any, fit: ScienceFit, science: Callable, theta: Mapping[str, Any],
-               bounds: Mapping, fit_initial_states: bool) -> dict[str, float]:
+               bounds: Mapping, fit_initial_states: bool | str) -> dict[str, float]:
     """How far each entry of a network-free refit's ``theta`` can be from the value an exact integration
     would give: the refit again from ``theta`` with the RK4 step halved, its move times 16/15 (Richardson:
     for a fourth-order method the error at step h is about 16/15 of the move from h to h/2).

@@ -92,7 +92,7 @@ class Setup:
     state_names: Sequence[str] | None
     input_names: Sequence[str] | None
     param_names: Mapping[str, str] | None
-    fit_initial_states: bool
+    fit_initial_states: bool | str
 
 
 def check_arguments(estimator: Any, X: Any, y: Any, X_test: Any, y_test: Any, *, state_names, input_names, units,
@@ -107,9 +107,16 @@ def check_arguments(estimator: Any, X: Any, y: Any, X_test: Any, y_test: Any, *,
     splits, codes = evidence.splits(len(y))  # checks the groups and the split's own limits
     check_fitted_horizon(estimator, y)
     ode = ode_structure(estimator)
-    if fit_initial_states and (ode is None or ode.observed is None):
+    every = isinstance(fit_initial_states, str) and fit_initial_states == "all"
+    if isinstance(fit_initial_states, str) and not every:
+        raise ValueError(f"fit_initial_states must be False, True (the unmeasured initial states) or 'all' (every "
+                         f"initial state, the measured ones too), got {fit_initial_states!r}.")
+    if every and ode is None:
+        raise ValueError("fit_initial_states='all' needs an estimator with structure='ode'.")
+    if fit_initial_states and not every and (ode is None or ode.observed is None):
         raise ValueError("fit_initial_states=True needs an estimator with structure='ode' and observed=[...] "
-                         "leaving some states unmeasured: only their initial values are fitted.")
+                         "leaving some states unmeasured: only their initial values are fitted (fit_initial_states="
+                         "'all' fits the measured ones too).")
     if getattr(estimator, "theta_encoder", None) is not None:
         raise ValueError("close_the_loop does not support theta_encoder: its network-free refits judge each term "
                          "with one theta shared by every sample. Close the loop on a model with a shared theta.")
