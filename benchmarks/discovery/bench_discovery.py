@@ -111,6 +111,8 @@ ARMS = [("loop", "closed loop (term list)"), ("loop_discovery", "closed loop + d
                                  "equation counts)"),
         ("loop_discovery_no_phase", "closed loop + discovery (and a difference of two phases tried without its "
                                     "phase)"),
+        ("loop_discovery_all_states", "closed loop + discovery, every initial state fitted (fit_initial_states="
+                                      "'all', an option)"),
         ("ude_sindy", "UDE + SINDy (cubic library)"), ("sr_alone", "SR alone on derivatives"),
         ("sindy_data", "SINDy on the data")]
 # loop_discovery_2: the same arm run again after discovery was revised on what the first run showed (the record
@@ -209,6 +211,13 @@ ARMS = [("loop", "closed loop (term list)"), ("loop_discovery", "closed loop + d
 # well (9be8606; kuramoto_pair kept a phase of -0.014 that the truth lacks, its field 1.1 % off). It acts only where a
 # difference of two phases was accepted: kuramoto_pair, the one such case of the five batches (control_kuramoto
 # added nothing); run there, a revision seen by its case.
+# loop_discovery_all_states: the package as it stands with close_the_loop(..., fit_initial_states='all') (a6b5d9a), an
+# option beside the default, not in PACKAGE_NOW: every initial state fitted from its sample's trajectory instead of
+# taking the noisy X as exact. Errors in variables biased kuramoto_pair (a phase of -0.014 kept, the field 1.1 %
+# off; with a noise-free X the law, 0.14 %), and the intervals that missed the truth by under about 1 % may share the
+# cause. Run on those cases (kuramoto_pair; adiabatic_air_spring, control_compressed_laser,
+# saturable_protein_binding, hill_kill, inner_filter_photolysis: a probe on the first two had their intervals hold)
+# and on the controls of batches 4 and 5, which must stay clean: a side study of seen cases, not a fresh test.
 LOOP_ARMS = ("loop", "loop_discovery", "loop_discovery_2", "loop_discovery_gated", "loop_discovery_written",
              "loop_discovery_anywhere", "loop_discovery_lean",
              "loop_discovery_yields", "loop_discovery_whole",
@@ -216,7 +225,7 @@ LOOP_ARMS = ("loop", "loop_discovery", "loop_discovery_2", "loop_discovery_gated
              "loop_discovery_folded", "loop_learned", "loop_discovery_learned", "loop_discovery_inhibited",
              "loop_discovery_limited", "loop_discovery_canonical", "loop_discovery_in_range",
              "loop_discovery_phases", "loop_discovery_modulated", "loop_discovery_parts",
-             "loop_discovery_no_phase")
+             "loop_discovery_no_phase", "loop_discovery_all_states")
 WHOLE_MODEL = ("sr_alone", "sindy_data")
 PREFACE = ("The batch (`benchmarks/discovery/laws.py`) was written and committed (942caa3) before any arm ran on it; "
            "the first run is the package at a9909c2 (discovery as first written). Discovery was then revised on "
@@ -310,11 +319,11 @@ def first_fit(system, data):
     return first_hybrid_fit(system, data, SEED, _runs(system) / "fits" / f"{system.name}.pkl")
 
 
-def _loop(system, data, hybrid, discovery: bool) -> dict:
+def _loop(system, data, hybrid, discovery: bool, fit_initial_states: bool | str = False) -> dict:
     from sklearn_hybrid.diagnosis import Candidates, close_the_loop
 
     res = close_the_loop(hybrid, data["X"], data["y"], candidates=Candidates(discovery=discovery), verbose=False,
-                         **loop_arguments(system))
+                         **{"fit_initial_states": fit_initial_states, **loop_arguments(system)})
     theta = {k: float(np.asarray(v)) for k, v in res.science_theta.items() if np.ndim(v) == 0}
     science = res.science if res.science is not None else system.science  # None: nothing was added
     scores = score(system, science, res.science_theta, hybrid.theta_, data["x_test"], data["u_test"])
@@ -426,6 +435,8 @@ def run_case(name: str, arms: list[str], budget: int = 0) -> dict:
                 start, cpu = time.perf_counter(), cpu_seconds()
             if arm in ("loop", "loop_learned"):  # the term list only
                 got = _loop(system, data, hybrid, False)
+            elif arm == "loop_discovery_all_states":  # an option, not the default: beside the package's arm
+                got = _loop(system, data, hybrid, True, fit_initial_states="all")
             elif arm in LOOP_ARMS[1:]:
                 got = _loop(system, data, hybrid, True)
             elif arm == "ude_sindy":
