@@ -87,7 +87,10 @@ class ScienceFit:
                 raise ValueError("fit_initial_states needs structure='ode' with a state vector and `observed` "
                                  "naming the measured components: only unobserved initial states are fitted.")
             self.latent = [j for j in range(self.structure.state_shape[0]) if every or j not in observed]
+        # fitted states whose X is a reading (fit_initial_states="all"): their anchor stays the reading
+        self.measured = [j for j in self.latent if every and (observed is None or j in observed)]
         self.initial_states = self.inputs[0].numpy().copy()
+        self.reading = self.initial_states.copy()
         self.anchor = self.initial_states.copy()  # where every fit of the states starts
         # The data's own sizes: least_squares' gradient tolerance and the states' difference steps are
         # absolute, so residuals are measured in units of y's RMS and steps in units of each unobserved
@@ -105,6 +108,7 @@ class ScienceFit:
         out.y_scale, out.state_scale = self.y_scale, self.state_scale
         out.inputs = tuple(t[torch.as_tensor(rows)] for t in self.inputs)
         out.initial_states, out.anchor = self.initial_states[rows].copy(), self.anchor[rows].copy()
+        out.measured, out.reading = self.measured, self.reading[rows].copy()
         return out
 
     def predict(self, science: Callable, theta: Mapping[str, Any]) -> np.ndarray:
@@ -151,6 +155,9 @@ class ScienceFit:
         if self.latent:
             self.fit_initial_states(science, theta)
             self.anchor = self.initial_states.copy()
+            # a measured state stays anchored at its reading: the states that fit a model lacking an effect take
+            # up part of it, and a candidate screened from them could not show it (hill_kill lost its law so)
+            self.anchor[:, self.measured] = self.reading[:, self.measured]
 
     def fit_initial_states(self, science: Callable, theta: Mapping[str, Any], n_iter: int = 20) -> None:
         """Fit the unobserved initial states of every sample at fixed ``theta``, from ``anchor``
