@@ -1051,7 +1051,7 @@ def test_every_initial_state_fitted_where_the_measured_ones_carry_noise():
     # the wrong model take up part of the effect, and a candidate screened from them could not show it
     fit.settle(pendulum_f, {"omega": 2 / 3})
     np.testing.assert_array_equal(fit.anchor, X_noisy)
-    with pytest.raises(ValueError, match="True .the unobserved initial states. or 'all'"):
+    with pytest.raises(ValueError, match="True .the unmeasured initial states. or 'all'"):
         ScienceFit(est, X_noisy, y, fit_initial_states="some")
     with pytest.raises(ValueError, match="True .the unmeasured initial states. or 'all'"):
         close_the_loop(est, X_noisy, y, fit_initial_states="observed")

@@ -330,7 +330,7 @@ def _loop(system, data, hybrid, discovery: bool, fit_initial_states: bool | str 
     from sklearn_hybrid.diagnosis import Candidates, close_the_loop
 
     res = close_the_loop(hybrid, data["X"], data["y"], candidates=Candidates(discovery=discovery), verbose=False,
-                         **{"fit_initial_states": fit_initial_states, **loop_arguments(system)})
+                         fit_initial_states=fit_initial_states, **loop_arguments(system))
     theta = {k: float(np.asarray(v)) for k, v in res.science_theta.items() if np.ndim(v) == 0}
     science = res.science if res.science is not None else system.science  # None: nothing was added
     scores = score(system, science, res.science_theta, hybrid.theta_, data["x_test"], data["u_test"])

@@ -22,7 +22,31 @@ from scipy.optimize import least_squares
 from .._fitting import fitted_data, ode_structure, structure_X
 from ..science import read_signature
 
-__all__ = ["ScienceFit"]
+__all__ = ["ScienceFit", "fits_every_state"]
+
+
+def fits_every_state(fit_initial_states: bool | str) -> bool:
+    """Whether ``fit_initial_states`` asks for every initial state (``"all"``), not the unmeasured ones or none.
+
+    Parameters
+    ----------
+    fit_initial_states : bool or "all"
+        ``ScienceFit``'s and ``close_the_loop``'s option.
+
+    Returns
+    -------
+    bool
+        True for ``"all"``, False for True or False.
+
+    Raises
+    ------
+    ValueError
+        For any other string, naming the choices.
+    """
+    if isinstance(fit_initial_states, str) and fit_initial_states != "all":
+        raise ValueError(f"fit_initial_states must be False, True (the unmeasured initial states) or 'all' (every "
+                         f"initial state, the measured ones too), got {fit_initial_states!r}.")
+    return isinstance(fit_initial_states, str)
 
 
 class ScienceFit:
@@ -74,10 +98,7 @@ class ScienceFit:
             self.inputs = self.structure.tensors(structure_X(estimator, X), torch.float64)
         self.y = np.asarray(y, dtype=float).reshape(len(X), -1)
         self.latent: list[int] = []
-        every = isinstance(fit_initial_states, str) and fit_initial_states == "all"
-        if isinstance(fit_initial_states, str) and not every:
-            raise ValueError(f"fit_initial_states must be False, True (the unobserved initial states) or 'all' "
-                             f"(every initial state), got {fit_initial_states!r}.")
+        every = fits_every_state(fit_initial_states)
         if fit_initial_states:
             observed = getattr(self.structure, "observed", None)
             vector = ode_structure(estimator) is not None and len(self.structure.state_shape) == 1
@@ -90,7 +111,6 @@ class ScienceFit:
         # fitted states whose X is a reading (fit_initial_states="all"): their anchor stays the reading
         self.measured = [j for j in self.latent if every and (observed is None or j in observed)]
         self.initial_states = self.inputs[0].numpy().copy()
-        self.reading = self.initial_states.copy()
         self.anchor = self.initial_states.copy()  # where every fit of the states starts
         # The data's own sizes: least_squares' gradient tolerance and the states' difference steps are
         # absolute, so residuals are measured in units of y's RMS and steps in units of each unobserved
@@ -108,7 +128,7 @@ class ScienceFit:
         out.y_scale, out.state_scale = self.y_scale, self.state_scale
         out.inputs = tuple(t[torch.as_tensor(rows)] for t in self.inputs)
         out.initial_states, out.anchor = self.initial_states[rows].copy(), self.anchor[rows].copy()
-        out.measured, out.reading = self.measured, self.reading[rows].copy()
+        out.measured = self.measured
         return out
 
     def predict(self, science: Callable, theta: Mapping[str, Any]) -> np.ndarray:
@@ -157,7 +177,7 @@ class ScienceFit:
             self.anchor = self.initial_states.copy()
             # a measured state stays anchored at its reading: the states that fit a model lacking an effect take
             # up part of it, and a candidate screened from them could not show it (hill_kill lost its law so)
-            self.anchor[:, self.measured] = self.reading[:, self.measured]
+            self.anchor[:, self.measured] = self.inputs[0].numpy()[:, self.measured]  # X's initial states
 
     def fit_initial_states(self, science: Callable, theta: Mapping[str, Any], n_iter: int = 20) -> None:
         """Fit the unobserved initial states of every sample at fixed ``theta``, from ``anchor``

@@ -150,12 +150,10 @@ def _phase_differences(context: TermContext) -> list[Term]:
     out = []
     for (x, rx), (z, rz) in combinations(angles, 2):
         difference = f"{_in_radians(z, rz)} - {_in_radians(x, rx)}"
-        term = Term(f"sin({difference} + phase)", partial(phase_difference_term, x=x, z=z, x_radians=rx,
-                                                          z_radians=rz), "periodic",
-                    {"phase": ([0.0, np.pi / 2], (-np.pi, np.pi))})
+        func = partial(phase_difference_term, x=x, z=z, x_radians=rx, z_radians=rz)
+        term = Term(f"sin({difference} + phase)", func, "periodic", {"phase": ([0.0, np.pi / 2], (-np.pi, np.pi))})
         # Kuramoto's coupling has no phase: tried once the term is accepted (loop.collapse.drop_spare_constants)
-        term.reductions = (Term(f"sin({difference})", partial(phase_difference_term, x=x, z=z, x_radians=rx,
-                                                               z_radians=rz, phase=0.0), "periodic"),)
+        term.reductions = (Term(f"sin({difference})", partial(func, phase=0.0), "periodic"),)
         out.append(term)
     return out
 

@@ -32,7 +32,7 @@ from ...training.engine import DivergenceError
 from ...training.progress import is_interactive
 from ..evidence import Evidence
 from ..results import AddedTerm, Selection, Step
-from ..science_fit import ScienceFit
+from ..science_fit import ScienceFit, fits_every_state
 from ..sensitivity import science_output, state_labels
 from .arguments import (check_fitted_horizon, check_names, check_options, check_param_names, check_refit_params,
                         check_targets, count_states, offset_states, settings_object, uncertain_components)
@@ -107,10 +107,7 @@ def check_arguments(estimator: Any, X: Any, y: Any, X_test: Any, y_test: Any, *,
     splits, codes = evidence.splits(len(y))  # checks the groups and the split's own limits
     check_fitted_horizon(estimator, y)
     ode = ode_structure(estimator)
-    every = isinstance(fit_initial_states, str) and fit_initial_states == "all"
-    if isinstance(fit_initial_states, str) and not every:
-        raise ValueError(f"fit_initial_states must be False, True (the unmeasured initial states) or 'all' (every "
-                         f"initial state, the measured ones too), got {fit_initial_states!r}.")
+    every = fits_every_state(fit_initial_states)
     if every and ode is None:
         raise ValueError("fit_initial_states='all' needs an estimator with structure='ode'.")
     if fit_initial_states and not every and (ode is None or ode.observed is None):
