@@ -43,6 +43,11 @@ from uncertainty.systems import SYSTEMS  # noqa: E402
 PROFILE = {"n_points": 5, "span": 0.5}
 N_RESAMPLES = 8
 LOOP_FIT = {"max_iter": 300, "n_threads": 1}
+# The closed loop's variants (issue 62), run beside the default on the same data by ``--loop-arms`` and kept as
+# methods of their own: its discovery of closed forms, and that with every initial state fitted (X is read with
+# noise here, and a noisy start taken as exact biases theta).
+LOOP_ARMS = {"loop discovery": {"discovery": True},
+             "loop discovery, every start fitted": {"discovery": True, "fit_initial_states": "all"}}
 
 
 def _profile_record(prof):
@@ -88,14 +93,16 @@ def run_repeat(system, repeat):
     return out
 
 
-def run_loop(system, X, y, dt, repeat):
+def run_loop(system, X, y, dt, repeat, discovery=False, fit_initial_states=False):
     from sklearn_hybrid import HybridRegressor, OdeStructure
-    from sklearn_hybrid.diagnosis import close_the_loop
+    from sklearn_hybrid.diagnosis import Candidates, close_the_loop
 
     start = time.perf_counter()
     loop = close_the_loop(HybridRegressor(science=system.science, structure=OdeStructure(dt=dt), method="erm",
                                           theta_init=system.theta_init, random_state=repeat, **LOOP_FIT),
-                          X, y, state_names=system.state_names, units=system.units, random_state=repeat)
+                          X, y, state_names=system.state_names, units=system.units, random_state=repeat,
+                          candidates=Candidates(discovery=True) if discovery else None,
+                          fit_initial_states=fit_initial_states)
     ci = loop.intervals  # science_intervals of the network-free model, gated on the selection's open questions
     return {"theta": {k: loop.science_theta[k] for k in system.theta_true},
             "added": [f"{t['term']} [{t['output']}]" for t in loop.added],
@@ -127,6 +134,24 @@ def refresh_loops(systems, every=False):
             print(f"{name} {record['repeat']}: loop again, {record['methods']['loop']['verdicts']}", flush=True)
 
 
+def run_loop_arms(systems, arms):
+    """Add each arm of ``LOOP_ARMS`` to every record where this package commit has not made it (the hybrid
+    fits and the default loop stand). Each record is rewritten as soon as its arms end: a rerun resumes."""
+    import torch
+
+    torch.set_num_threads(1)
+    for repeat_path in sorted(p for name in systems for p in (RUNS / name).glob("*.json")):
+        record = json.loads(repeat_path.read_text())
+        for arm in arms:
+            if record["methods"].get(arm, {}).get("package_commit") == PACKAGE_COMMIT:
+                continue
+            X, y, dt = SYSTEMS[record["system"]].make(record["repeat"])
+            record["methods"][arm] = run_loop(SYSTEMS[record["system"]], X, y, dt, record["repeat"], **LOOP_ARMS[arm])
+            repeat_path.write_text(json.dumps(record, indent=1, default=float) + "\n")
+            print(f"{record['system']} {record['repeat']} {arm}: {record['methods'][arm]['fit_s']:.0f} s, "
+                  f"{record['methods'][arm]['added']}, {record['methods'][arm]['verdicts']}", flush=True)
+
+
 def run(systems, repeats, rerun=False):
     # repeat by repeat across the systems: a run cut short leaves every system with as many repeats
     for repeat in range(repeats):
@@ -151,9 +176,9 @@ def run(systems, repeats, rerun=False):
                   + f"; loop {result['methods']['loop']['theta']}", flush=True)
 
 
-def summarise(records, system):
+def summarise(records, system, arms=True):
     rows = []
-    for method in (*HYBRID_METHODS, "fsam bootstrap", "loop"):
+    for method in (*HYBRID_METHODS, "fsam bootstrap", "loop", *(LOOP_ARMS if arms else ())):
         key = "fsam" if method == "fsam bootstrap" else method
         got = [r["methods"][key] for r in records if "error" not in r["methods"].get(key, {"error": 1})]
         if not got:
@@ -170,7 +195,7 @@ def _fmt(v, pct=False):
 
 
 def render():
-    rows, counts, commits, loop_commits, ratios = [], {}, set(), set(), []
+    rows, counts, commits, loop_commits, arm_commits, ratios = [], {}, set(), set(), set(), []
     for name, system in SYSTEMS.items():
         files = sorted((RUNS / name).glob("*.json"))
         records = [json.loads(p.read_text()) for p in files]
@@ -179,6 +204,7 @@ def render():
                    if key in HYBRID_METHODS and "profile_cpu_s" in m]
         commits |= {r["package_commit"] for r in records}
         loop_commits |= {r["methods"]["loop"].get("package_commit", r["package_commit"]) for r in records}
+        arm_commits |= {m["package_commit"] for r in records for arm, m in r["methods"].items() if arm in LOOP_ARMS}
         if records:
             rows += summarise(records, system)
     head = ("| system | method | param | repeats | identified / not | coverage where identified | "
@@ -193,7 +219,9 @@ def render():
              "Systems: `benchmarks/uncertainty/systems.py` (kept out of the tests).", "",
              "Repeats run: " + ", ".join(f"{k} {v}" for k, v in counts.items())
              + f" (records made at package commit {', '.join(sorted(commits))}, the closed loop's at "
-             f"{', '.join(sorted(loop_commits))}; seconds are wall-clock on a "
+             f"{', '.join(sorted(loop_commits))}"
+             + (f", its variants (`--loop-arms`) at {', '.join(sorted(arm_commits))}" if arm_commits else "")
+             + "; seconds are wall-clock on a "
              "machine shared with other work)", "", head,
              "|" + "---|" * 11]
     lines += _row_lines(rows)
@@ -248,8 +276,8 @@ def _rerun_section(head):
             if shown.returncode == 0:
                 old.append(json.loads(shown.stdout))
         n += len(new)
-        now += summarise(new, system) if new else []
-        before += summarise(old, system) if old else []
+        now += summarise(new, system, arms=False) if new else []
+        before += summarise(old, system, arms=False) if old else []
     if not now:
         return []
     return ["", f"## The rerun at {RERUN_AT}, as far as it has come ({n} repeats)", "",
@@ -273,8 +301,8 @@ def _side_by_side(n_records):
             n += len(pairs)
             commits |= {r["package_commit"] for r in old}
             made |= {r["package_commit"] for r in new}
-            before += summarise(old, system)
-            now += summarise(new, system)
+            before += summarise(old, system, arms=False)
+            now += summarise(new, system, arms=False)
     if not now:
         return ""
     every = n == n_records
@@ -290,9 +318,12 @@ def _side_by_side(n_records):
 def _targets(rows):
     hybrid = [r for r in rows if r["method"] in HYBRID_METHODS]
     loop = [r for r in rows if r["method"] == "loop"]
-    return "\n\n".join([_target_lines(rows, "every system, method and parameter with a verdict"),
+    arms = [_target_lines([r for r in rows if r["method"] == arm], f"the arm '{arm}' (`--loop-arms`)")
+            for arm in LOOP_ARMS if any(r["method"] == arm for r in rows)]
+    return "\n\n".join([_target_lines([r for r in rows if r["method"] not in LOOP_ARMS],
+                                        "every system, method and parameter with a verdict (the default loop)"),
                           _target_lines(hybrid, "the hybrid fits' profiles (erm, fsam, p-reg)"),
-                          _target_lines(loop, "the closed loop's network-free intervals")])
+                          _target_lines(loop, "the closed loop's network-free intervals"), *arms])
 
 
 def _target_lines(rows, what):
@@ -332,7 +363,13 @@ if __name__ == "__main__":
     parser.add_argument("--refresh-loops", action="store_true",
                         help="first run the closed loop again in records that predate its intervals' caveats "
                              "(the choice of term)")
+    parser.add_argument("--loop-arms", nargs="+", choices=list(LOOP_ARMS), metavar="ARM",
+                        help="only add these variants of the closed loop to the records (LOOP_ARMS: "
+                             + "; ".join(f"'{a}'" for a in LOOP_ARMS) + ")")
     args = parser.parse_args()
+    if args.loop_arms:
+        run_loop_arms(args.systems, args.loop_arms)
+        args.render = True
     if args.refresh_loops or args.rerun_loops:
         refresh_loops(args.systems, every=args.rerun_loops)
     if not args.render:
