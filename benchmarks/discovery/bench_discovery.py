@@ -486,6 +486,22 @@ def _cell(system, r: dict) -> str:
     return f"rel_err {r['rel_err']:.3f}{theta}"
 
 
+def interval_total() -> str:
+    """One line: the intervals of the package as it stands (``package_now``) summed over every batch's records."""
+    called, missed, n_cases = 0, [], 0
+    for batch, (systems, folder) in BATCHES.items():
+        for s in systems:
+            path = runs_folder(folder) / f"{s.name}.json"
+            now = package_now(json.loads(path.read_text())) if path.exists() else None
+            if now and now.get("intervals"):
+                n_cases += 1
+                called += len(now["intervals"]["identified"])
+                missed += [f"{s.name} {p}" for p in now["intervals"]["missed"]]
+    return (f"Across the {len(BATCHES)} batches, the package as it stands on {n_cases} cases with intervals: "
+            f"{called} parameters called identified, {len(missed)} of their intervals missing the truth"
+            + (f" ({', '.join(missed)})" if missed else "") + ".")
+
+
 def render(batch: str = "laws") -> None:
     systems, folder = BATCHES[batch]
     runs = runs_folder(folder)
@@ -527,6 +543,7 @@ def render(batch: str = "laws") -> None:
         missed = [f"{name} ({arm}): {', '.join(h['missed'])}" for name, arm, h in held if h["missed"]]
         lines += ["", f"Intervals (the arms that recorded them): {called} parameters called identified, "
                   f"{len(missed)} arm(s) with a miss" + (": " + "; ".join(missed) if missed else "") + "."]
+    lines += ["", interval_total()]
     restored = [f"{r['system']} ({a})" for r in recs for a, _ in arms if a in r and "restored_from_log" in r[a]]
     if restored:
         lines += ["", "Restored from the run's log line (the record was overwritten by mistake while the run went on; "
