@@ -1070,6 +1070,33 @@ def test_every_initial_state_fitted_where_the_measured_ones_carry_noise():
     assert out.intervals.std["omega"] > science_intervals(out.science_only, out.initial_states, y).std["omega"]
 
 
+def _spring_f(v, k=1.0):
+    return torch.stack([v[:, 1], -k * v[:, 0]], dim=-1)
+
+
+@pytest.mark.parametrize("state_scale, time_scale", [(1.0, 1.0), (1e3, 1e-3), (1e-3, 1e3)])
+def test_every_initial_state_fitted_in_the_data_s_own_units(state_scale, time_scale):
+    """fit_initial_states='all' in other units (a spring in mm and ms, or in km and ks): the damping named, the
+    stiffness and the initial states recovered and the interval holding the truth, as in units of order one."""
+    rng = np.random.default_rng(0)
+    t = 0.1 * np.arange(11)
+    x = np.stack([solve_ivp(lambda _, v: [v[1], -2.0 * v[0] - 0.5 * v[1]], (0, t[-1]), start, t_eval=t, rtol=1e-10,
+                            atol=1e-12).y.T for start in rng.uniform(-1, 1, (30, 2))])
+    scale = np.array([state_scale, state_scale / time_scale])
+    X_true, y = x[:, 0] * scale, x[:, 1:] * scale
+    X_noisy = X_true + 0.1 * scale * rng.standard_normal(X_true.shape)
+    hybrid = HybridRegressor(science=_spring_f, structure=OdeStructure(dt=0.1 * time_scale, n_substeps=1),
+                             method="erm", max_iter=30, lr=1e-2, residual=MLPOn([1], hidden=(16,)),
+                             theta_init={"k": 1.0 / time_scale ** 2}).fit(X_noisy, y)
+    out = close_the_loop(hybrid, X_noisy, y, state_names=NAMES, fit_initial_states="all",
+                         candidates=Candidates(kinds=["polynomial"], max_terms=1), verbose=False)
+    assert [t["term"] for t in out.added] == ["v_dot"]
+    assert out.science_theta["k"] * time_scale ** 2 == pytest.approx(2.0, rel=1e-3)
+    low, high = out.intervals.intervals["k"]
+    assert low <= 2.0 / time_scale ** 2 <= high
+    np.testing.assert_allclose(out.initial_states / scale, X_true / scale, atol=1e-3)
+
+
 def _reaction_f(v, k1=0.4, k2=0.7):
     A, B = v[:, 0], v[:, 1]
     return torch.stack([-k1 * A, k1 * A - k2 * B], dim=-1)
