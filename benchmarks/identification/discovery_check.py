@@ -7,6 +7,9 @@ no harm on these cases, and a whole rerun takes hours. ``bench_identification.py
 runs a sample of the cases, drawn as ``--sample`` draws them, as the benchmark runs them but with
 ``candidates=Candidates(discovery=True)``, each cached in ``runs/identification/with_discovery/``; this module
 compares each with its stored record (discovery off) and writes ``results/identification_discovery.md``.
+
+Samples declared before they ran: ``--sample 18 7`` (9ab6893); then ``--sample 18 8`` and ``--sample 18 9``, in
+that order (17 and 18 cases the first sample does not hold).
 """
 
 from __future__ import annotations
