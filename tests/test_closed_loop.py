@@ -1705,3 +1705,46 @@ def test_a_complete_model_is_not_called_incomplete_by_a_hybrid_that_fits_worse()
     for name, truth in (("k", 1.5), ("c", 0.1)):
         low, high = out.intervals.intervals[name]
         assert out.intervals.verdicts[name] == "identified" and low <= truth <= high
+
+
+def _linear_decay_f(v, k=0.5):
+    return -k * v
+
+
+def test_terms_ranked_in_one_vectorised_simulation_as_one_at_a_time(monkeypatch):
+    """rank_by_fit simulates its candidates in vectorised batches: the same ranking, gains and coefficients as
+    one simulation per candidate. A term not finite on the science model's trajectories (zero times it spoils
+    the other lanes) is dropped alone, the batch simulated one at a time, and a batch of one where the science
+    cannot be vectorised (predict_many gives None) too."""
+    from sklearn_hybrid.diagnosis.loop import candidates as cands
+    from sklearn_hybrid.diagnosis.terms import Term
+
+    rng = np.random.default_rng(0)
+    t = 0.2 * np.arange(11)
+    x0 = rng.uniform(0.2, 2.0, (12, 1))
+    x = np.stack([solve_ivp(lambda _, v: -0.5 * v - 0.3 * v ** 2, (0, t[-1]), s, t_eval=t, rtol=1e-10).y.T
+                  for s in x0])
+    est = HybridRegressor(science=_linear_decay_f, structure=OdeStructure(dt=0.2, n_substeps=1), residual=ZeroResidual(),
+                          method="erm", max_iter=1).fit(x0, x[:, 1:])
+    fit = ScienceFit(est, x0, x[:, 1:])
+    terms = [Term(f"x^{p}", lambda d, p=p: d["x"] ** p, "polynomial") for p in (2, 3, 4)]
+    spoiled = Term("x if x > 0.3", lambda d: torch.where(d["x"] > 0.3, d["x"], torch.nan), "user")
+    clean = [(term, {}, np.ones(len(x0))) for term in terms]
+
+    def ranked(columns):
+        return [(c.name, c.gain, c.coef) for c in cands.rank_by_fit(
+            columns, _linear_decay_f, _linear_decay_f, [], {"k": 0.5}, fit, np.ones(1), [0], set(), ["x"], 1, None)]
+
+    calls = []
+    many = ScienceFit.predict_many
+    monkeypatch.setattr(ScienceFit, "predict_many", lambda *args: calls.append(1) or many(*args))
+    batched = ranked(clean)
+    with_spoiled = ranked(clean + [(spoiled, {}, np.ones(len(x0)))])
+    assert len(calls) == 2  # one vectorised simulation per call: the batches were simulated together
+    monkeypatch.setattr(ScienceFit, "predict_many", lambda *args: None)
+    alone = ranked(clean)
+    assert [name for name, *_ in batched] == [name for name, *_ in alone] == [name for name, *_ in with_spoiled]
+    assert sorted(name for name, *_ in batched) == ["x^2", "x^3", "x^4"]
+    for got in (batched, with_spoiled):
+        np.testing.assert_allclose([g for _, g, _ in got], [g for _, g, _ in alone], rtol=1e-9)
+        np.testing.assert_allclose([c for *_, c in got], [c for *_, c in alone], rtol=1e-9)

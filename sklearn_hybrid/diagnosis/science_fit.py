@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import copy
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from types import SimpleNamespace
 from typing import Any
 
@@ -332,6 +332,19 @@ class ScienceFit:
             moved[:, j] += step
             out[a] = (residuals(moved) - r) / step[:, None]
         return out
+
+    def predict_many(self, science: Callable, theta: Mapping[str, Any], names: Sequence[str],
+                     rows: np.ndarray) -> np.ndarray | None:
+        """Science-only predictions with the parameters ``names`` set to each row of ``rows`` (the others
+        at ``theta``), in one vectorised simulation: ``(n_rows, n_samples, n_outputs)``, or None where the
+        science cannot be vectorised (``torch.func.vmap``: Python control flow on values, ``.item()``)."""
+        held = {k: torch.as_tensor(np.asarray(v, dtype=float)) for k, v in theta.items() if k not in names}
+        try:
+            with np.errstate(all="ignore"):
+                return self._predict_many(science, np.asarray(rows, dtype=float),
+                                          lambda row: {**held, **{k: row[i] for i, k in enumerate(names)}})
+        except Exception:  # noqa: BLE001 -- any failure means: simulate one row at a time
+            return None
 
     def _predict_many(self, science: Callable, points: np.ndarray, unpack: Callable) -> np.ndarray:
         """Science-only predictions at several parameter vectors, one vectorised simulation

@@ -298,30 +298,55 @@ def rank_by_fit(columns: list[tuple], science: Callable, current: Callable, adde
     Q = np.linalg.qr(J)[0] if J.shape[1] else np.zeros((len(base), 0))
     r = r - Q @ (Q.T @ r)
     total = float(r @ r) or 1.0
+    placed = [PlacedTerm(term, j, shape, 1e-4 * scale[j] / size) for term, shape, values in columns
+              for size in [float(np.sqrt(np.mean(values ** 2)))] if np.isfinite(size) and size > 0
+              for j in components if (j, term.name) not in taken and term.component in (None, j)]
     best: dict[tuple, PlacedTerm] = {}
-    for term, shape, values in columns:
-        size = float(np.sqrt(np.mean(values ** 2)))
-        if not np.isfinite(size) or size == 0:
+    for cand, col in _trajectory_columns(placed, science, added, theta, fit, base, names, n_states, param_names):
+        if not np.all(np.isfinite(col)):
             continue
-        for j in components:
-            if (j, term.name) in taken or term.component not in (None, j):
-                continue
-            h = 1e-4 * scale[j] / size
-            cand = PlacedTerm(term, j, shape, h)
+        c = col - Q @ (Q.T @ col)
+        cc = float(c @ c)
+        if cc < 1e-6 * float(col @ col) or cc == 0:  # within the parameters' span
+            continue
+        gain = float(c @ r) ** 2 / cc / total
+        if (cand.component, cand.name) not in best or gain > best[cand.component, cand.name].gain:
+            best[cand.component, cand.name] = replace(cand, coef=float(c @ r) / cc, gain=gain, ranked_by="fit")
+    return sorted(best.values(), key=lambda t: -t.gain)
+
+
+# Candidates simulated together: one simulation's per-operation overhead (the solver's, the science's) is shared,
+# while every lane evaluates all of the batch's terms.
+BATCH = 32
+
+
+def _trajectory_columns(placed: list[PlacedTerm], science: Callable, added: list[PlacedTerm],
+                        theta: Mapping[str, Any], fit: ScienceFit, base: np.ndarray, names: Sequence[str],
+                        n_states: int, param_names: Mapping[str, str] | None):
+    """Each candidate with its column: the network-free prediction's forward difference in its coefficient,
+    ``(prediction at coef - base) / coef`` (``cand.coef`` is the step). ``BATCH`` candidates share one vectorised
+    simulation of the science with all of them, each lane moving one coefficient off zero. A batch that cannot
+    be vectorised, or whose lane at zero is not ``base`` (a term not finite at a visited state: zero times it
+    spoils the others' lanes), is simulated one candidate at a time."""
+    for i in range(0, len(placed), BATCH):
+        group, preds = placed[i:i + BATCH], None
+        try:
+            augmented = augment_with(science, [*added, *group], names, n_states, param_names)
+        except ValueError:  # a parameter name taken twice (a name given for a term placed twice)
+            augmented = None
+        if augmented is not None:
+            start = {**theta, **initial_values(augmented, [*added, *group], newest=len(group))}
+            coefs = [augmented.terms[len(added) + k][2] for k in range(len(group))]
+            rows = np.vstack([np.zeros(len(group)), np.diag([cand.coef for cand in group])])
+            preds = fit.predict_many(augmented, start, coefs, rows)
+        if preds is not None and np.allclose(preds[0].ravel(), base, rtol=1e-9, atol=1e-12, equal_nan=True):
+            yield from ((cand, (preds[k + 1].ravel() - base) / cand.coef) for k, cand in enumerate(group))
+            continue
+        for cand in group:
             augmented = augment_with(science, [*added, cand], names, n_states, param_names)
             start = {**theta, **initial_values(augmented, [*added, cand])}
             with np.errstate(all="ignore"):
-                col = (fit.predict(augmented, start).ravel() - base) / h
-            if not np.all(np.isfinite(col)):
-                continue
-            c = col - Q @ (Q.T @ col)
-            cc = float(c @ c)
-            if cc < 1e-6 * float(col @ col) or cc == 0:  # within the parameters' span
-                continue
-            gain = float(c @ r) ** 2 / cc / total
-            if (j, term.name) not in best or gain > best[j, term.name].gain:
-                best[j, term.name] = replace(cand, coef=float(c @ r) / cc, gain=gain, ranked_by="fit")
-    return sorted(best.values(), key=lambda t: -t.gain)
+                yield cand, (fit.predict(augmented, start).ravel() - base) / cand.coef
 
 
 def interleave(ranked: list[PlacedTerm], n: int) -> list[PlacedTerm]:
