@@ -225,7 +225,7 @@ def render():
              "machine shared with other work)", "", head,
              "|" + "---|" * 11]
     lines += _row_lines(rows)
-    conditional = [r for r in rows if r.get("verdict_conditional")]
+    conditional = [r for r in rows if r.get("verdict_conditional") and r["method"] == "loop"]
     if conditional:
         n_cond = sum(r["verdict_conditional"] for r in conditional)
         held = sum(r["coverage_conditional"] * r["verdict_conditional"] for r in conditional)

@@ -18,7 +18,7 @@ HYBRID_METHODS = ("erm", "fsam", "p-reg")
 
 
 def _interval_of(record, method, label):
-    if method == "loop":  # "conditional" (on a chosen term's form) is not called identified
+    if method.startswith("loop"):  # the loop and its variants; "conditional" (on a term's form) is not identified
         return record["intervals"][label], record["verdicts"][label] == "identified", record["theta"][label]
     if method == "fsam bootstrap":
         return record["bootstrap"][label]["interval"], None, record["theta"][label]
@@ -34,8 +34,8 @@ def member_row(system, method, label, true, got):
     system : systems.System
         The system the repeats were drawn from.
     method : str
-        ``"erm"``, ``"fsam"``, ``"p-reg"`` (profiled), ``"fsam bootstrap"`` or ``"loop"`` (the network-free
-        model's ``science_intervals``); its records' keys are read accordingly.
+        ``"erm"``, ``"fsam"``, ``"p-reg"`` (profiled), ``"fsam bootstrap"`` or ``"loop"`` and its variants
+        (``"loop ..."``: the network-free model's ``science_intervals``); its records' keys are read accordingly.
     label : str
         The parameter.
     true : float
@@ -64,7 +64,7 @@ def member_row(system, method, label, true, got):
                    width_over_rms=float(np.mean((high - low)[finite]) / rms) if finite.any() and rms > 0 else None)
         return row
     ident = np.array(identified)
-    if method == "loop":  # identified only given the form of a chosen term: its interval spans the rival forms
+    if method.startswith("loop"):  # identified only given the form of a chosen term: its interval spans the rivals
         conditional = np.array([r["verdicts"][label] == "conditional" for r in got])
         row.update(verdict_conditional=int(conditional.sum()),
                    coverage_conditional=float(covered[conditional].mean()) if conditional.any() else None)
@@ -72,6 +72,6 @@ def member_row(system, method, label, true, got):
                coverage_identified=float(covered[ident].mean()) if ident.any() else None,
                miss_identified=float((ident & ~covered).mean()),
                width_over_rms=float(np.mean((high - low)[ident]) / rms) if ident.any() and rms > 0 else None,
-               expected_not_identified=(label in system.not_identifiable and method != "loop")
+               expected_not_identified=(label in system.not_identifiable and not method.startswith("loop"))
                or label in system.product_pair)
     return row
