@@ -631,27 +631,31 @@ def free_phases_f(v, w1=1.0, w2=1.6):
 def test_the_harmonic_of_a_difference_of_two_angles_is_offered_for_angles_only():
     values = np.random.default_rng(0).uniform(0, 6, (20, 3))
     context = TermContext(("a", "b", "c"), values, {"a": "rad", "b": "deg", "c": "m"}, 3)
-    (term,) = PHASE_DIFFERENCES.terms(context)  # a length pairs with nothing
+    term, linear = PHASE_DIFFERENCES.terms(context)  # a length pairs with nothing
     assert term.name == "sin(0.0174533*b - a + phase)" and term.kind == "periodic"
+    assert linear.name == "0.0174533*b - a" and linear.shape == {}
     d = {name: torch.as_tensor(values[:, i]) for i, name in enumerate("abc")}
     expected = np.sin(np.radians(values[:, 1]) - values[:, 0] + 0.3)
     np.testing.assert_allclose(term.func(d, phase=0.3).numpy(), expected, atol=1e-12)
     (without,) = term.reductions  # the coupling without a phase, tried once the term is accepted
     assert without.name == "sin(0.0174533*b - a)" and without.shape == {}
     np.testing.assert_allclose(without.func(d).numpy(), np.sin(np.radians(values[:, 1]) - values[:, 0]), atol=1e-12)
+    np.testing.assert_allclose(linear.func(d).numpy(), np.radians(values[:, 1]) - values[:, 0], atol=1e-12)
     assert PHASE_DIFFERENCES.terms(TermContext(("a", "b"), values[:, :2], {"a": "rad"}, 2)) == []
 
 
-def test_two_phases_that_pull_on_each_other_are_named_as_one_coupling_with_discovery_only():
+@pytest.mark.parametrize("pull, law", [(np.sin, "sin(q - p)"), (lambda a: a, "q - p")])
+def test_two_phases_that_pull_on_each_other_are_named_as_one_coupling_with_discovery_only(pull, law):
     """d theta1/dt = 1 + 0.35 sin(theta2 - theta1), d theta2/dt = 1.6 - 0.35 sin(theta2 - theta1): no harmonic of
-    one angle makes the coupling; with discovery the difference's harmonic is a flow between the two phases."""
+    one angle makes the coupling; with discovery the difference's harmonic is a flow between the two phases. And
+    where the pull is linear in the difference (a spring between them), the plain difference, not the sine."""
     rng = np.random.default_rng(0)
     dt, n_steps, n = 0.2, 15, 30
     x0 = rng.uniform(0, 6.28, (n, 2))
 
     def truth(t, v):
-        pull = 0.35 * np.sin(v[..., 1] - v[..., 0])
-        return np.stack([1.0 + pull, 1.6 - pull], axis=-1)
+        pull_now = 0.35 * pull(v[..., 1] - v[..., 0])
+        return np.stack([1.0 + pull_now, 1.6 - pull_now], axis=-1)
     x = np.stack([solve_ivp(truth, (0, dt * n_steps), s, t_eval=dt * np.arange(n_steps + 1), rtol=1e-10,
                             atol=1e-12).y.T for s in x0])
     y = x[:, 1:] + 0.002 * rng.standard_normal(x[:, 1:].shape)
@@ -671,13 +675,13 @@ def test_two_phases_that_pull_on_each_other_are_named_as_one_coupling_with_disco
     found = select(True)
     (added,) = found["added"]
     # a flow, without the phase the coupling lacks (the term offered with it, tried without it once accepted)
-    assert added.name == "sin(q - p)" and {added.component, added.opposite} == {0, 1}
-    assert any(s.step == "simplify" and s.term == "sin(q - p)" for s in found["steps"])
+    assert added.name == law and {added.component, added.opposite} == {0, 1}
+    assert law == "q - p" or any(s.step == "simplify" and s.term == "sin(q - p)" for s in found["steps"])
     theta = found["theta"]
     assert abs(theta["w1"] - 1.0) < 0.01 and abs(theta["w2"] - 1.6) < 0.01
     rates = found["science"](torch.as_tensor(states), **{k: torch.tensor(v) for k, v in theta.items()})
     np.testing.assert_allclose(rates.numpy(), truth(0, states), rtol=0, atol=0.01)
-    assert all("sin(q - p" not in t.name for t in select(False)["added"])
+    assert all(t.name not in ("sin(q - p)", "q - p") for t in select(False)["added"])
 
 
 @pytest.mark.parametrize("scale", [1.0, 1e3])

@@ -9,7 +9,9 @@ runs a sample of the cases, drawn as ``--sample`` draws them, as the benchmark r
 compares each with its stored record (discovery off) and writes ``results/identification_discovery.md``.
 
 Samples declared before they ran: ``--sample 18 7`` (9ab6893); then ``--sample 18 8`` and ``--sample 18 9``, in
-that order (17 and 18 cases the first sample does not hold).
+that order (17 and 18 cases the first sample does not hold). After the plain difference of two angles joined
+discovery beside its harmonic (coupled_pendula's spring had been named ``sin(a2 - a1)``), the cases it can change,
+the two with two angle states, at both noise levels: ``--cases coupled_pendula control_coupled_pendula --rerun``.
 """
 
 from __future__ import annotations

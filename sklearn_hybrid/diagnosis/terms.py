@@ -254,6 +254,12 @@ def phase_difference_term(d, x, z, x_radians, z_radians, phase):
     return torch.sin(z_radians * d[z] - x_radians * d[x] + phase)
 
 
+def angle_difference_term(d, x, z, x_radians, z_radians):
+    """``b - a`` of the angles ``a`` (``d[x]``) and ``b`` (``d[z]``) in radians (``x_radians`` and ``z_radians``
+    radians per unit): the linear pull between two angles, the small-angle form of :func:`phase_difference_term`."""
+    return z_radians * d[z] - x_radians * d[x]
+
+
 # The names these had before the kinds became families: a science model augmented and pickled then names them.
 _scaled = scaled_term
 _dry_friction = dry_friction_term

@@ -15,9 +15,9 @@ import re
 import numpy as np
 
 
-from ..terms import (Term, angle_factor, constant_term, dry_friction_term, exponential_term, harmonic_term,
-                     hinge_above_term, hinge_below_term, monomial_term, nonsmooth_terms, norm_term, power_abs_term,
-                     phase_difference_term, power_signed_term, power_unit, saturation_term, scaled_term,
+from ..terms import (Term, angle_difference_term, angle_factor, constant_term, dry_friction_term, exponential_term,
+                     harmonic_term, hinge_above_term, hinge_below_term, monomial_term, nonsmooth_terms, norm_term,
+                     power_abs_term, phase_difference_term, power_signed_term, power_unit, saturation_term, scaled_term,
                      sqrt_term)
 from .base import TermContext, TermFamily, VariableFamily
 
@@ -144,7 +144,8 @@ def _periodic(x: str, col: np.ndarray, scale: float, unit: str, positive: bool) 
 def _phase_differences(context: TermContext) -> list[Term]:
     """``sin(b - a + phase)`` for every pair of states ``a``, ``b`` whose units are angles: two phases that pull
     on each other (coupled oscillators, two pendula on one beam, a generator on the grid), a term that no
-    harmonic of one angle makes."""
+    harmonic of one angle makes; and ``b - a``, the same pull when linear (a spring between two pendula, a
+    torsion spring between two shafts), which no single listed term makes either."""
     angles = [(x, angle_factor(context.units.get(x, ""))) for x in context.states]
     angles = [(x, radians) for x, radians in angles if radians is not None]
     out = []
@@ -154,7 +155,8 @@ def _phase_differences(context: TermContext) -> list[Term]:
         term = Term(f"sin({difference} + phase)", func, "periodic", {"phase": ([0.0, np.pi / 2], (-np.pi, np.pi))})
         # Kuramoto's coupling has no phase: tried once the term is accepted (loop.collapse.drop_spare_constants)
         term.reductions = (Term(f"sin({difference})", partial(func, phase=0.0), "periodic"),)
-        out.append(term)
+        out += [term, Term(difference, partial(angle_difference_term, x=x, z=z, x_radians=rx, z_radians=rz),
+                           "polynomial", unit="rad")]
     return out
 
 

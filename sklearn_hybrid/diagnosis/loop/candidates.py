@@ -63,8 +63,9 @@ class Candidates:
         ``|x|^n/(K^n + |x|^n)``, which at coefficient -1 is the law ``T / (1 + (|x|/K)^n)``, or times
         ``K^n/(K^n + |x|^n)``, the law ``T |x|^n/(K^n + |x|^n)`` (a rate limited by ``x``), ``n`` one or two, or
         times ``exp(k x) - 1``, the law ``T exp(k x)`` at coefficient 1 (kind ``"modulated"``);
-        and for two states whose units are angles, ``sin(b - a + phase)`` (two phases that pull on each other,
-        ``families.physics.PHASE_DIFFERENCES``). Default off.
+        and for two states whose units are angles, ``sin(b - a + phase)`` (two phases that pull on each other)
+        and ``b - a`` (the pull when linear: a spring between two pendula), ``families.physics.PHASE_DIFFERENCES``.
+        Default off.
     explained : float, default=0.95
         The share of an equation's residual a single listed term must explain for the search to skip it.
     flows : bool, default=True
