@@ -2,9 +2,9 @@
 
 The benchmark runs ``close_the_loop`` as a new user does, discovery off (its default). Discovery (symbolic
 regression on what the network learned, and with it the science's terms slowed down, limited or scaled by a
-variable, and the harmonic of a difference of two angles) joins the default only with a rerun that shows it does
-no harm on these cases, and a whole rerun takes hours. ``bench_identification.py --with-discovery --sample K SEED``
-runs a sample of the cases, drawn as ``--sample`` draws them, as the benchmark runs them but with
+variable, and the harmonic and the plain difference of two angles) joins the default only with a rerun that shows
+it does no harm on these cases, and a whole rerun takes hours. ``bench_identification.py --with-discovery --sample K
+SEED`` runs a sample of the cases, drawn as ``--sample`` draws them, as the benchmark runs them but with
 ``candidates=Candidates(discovery=True)``, each cached in ``runs/identification/with_discovery/``; this module
 compares each with its stored record (discovery off) and writes ``results/identification_discovery.md``.
 
