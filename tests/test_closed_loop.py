@@ -1053,7 +1053,7 @@ def test_every_initial_state_fitted_where_the_measured_ones_carry_noise():
     np.testing.assert_array_equal(fit.anchor, X_noisy)
     with pytest.raises(ValueError, match="True .the unmeasured initial states. or 'all'"):
         ScienceFit(est, X_noisy, y, fit_initial_states="some")
-    with pytest.raises(ValueError, match="True .the unmeasured initial states. or 'all'"):
+    with pytest.raises(ValueError, match="True .the unmeasured initial states., 'all' .* or 'final'"):
         close_the_loop(est, X_noisy, y, fit_initial_states="observed")
     # the loop: the damping named, theta right, the user's X untouched, intervals that count the fitted states
     X_given = X_noisy.copy()
@@ -1068,6 +1068,15 @@ def test_every_initial_state_fitted_where_the_measured_ones_carry_noise():
     low, high = out.intervals.intervals["omega"]
     assert low <= 2 / 3 <= high
     assert out.intervals.std["omega"] > science_intervals(out.science_only, out.initial_states, y).std["omega"]
+    # "final": the terms judged from the readings as by default, the chosen model refitted from fitted starts
+    default = close_the_loop(hybrid, X_noisy, y, state_names=NAMES,
+                             candidates=Candidates(kinds=["polynomial"], max_terms=1), verbose=False)
+    final = close_the_loop(hybrid, X_noisy, y, state_names=NAMES, fit_initial_states="final",
+                           candidates=Candidates(kinds=["polynomial"], max_terms=1), verbose=False)
+    assert [(s.step, s.term, s.accepted) for s in final.steps] == [(s.step, s.term, s.accepted) for s in default.steps]
+    assert final.science_theta["omega"] == pytest.approx(out.science_theta["omega"], rel=1e-6)
+    np.testing.assert_allclose(final.initial_states, data.X_train, atol=1e-3)
+    assert default.initial_states is None and abs(default.science_theta["omega"] - 2 / 3) > 1e-3
 
 
 def _spring_f(v, k=1.0):

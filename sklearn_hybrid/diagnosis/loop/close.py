@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import inspect
 from collections.abc import Callable, Mapping, Sequence
+from dataclasses import replace
 from typing import Any
 
 from ..evidence import Evidence
@@ -99,7 +100,7 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         as one), the evidence asked (``z``, ``min_gain``) and the second look on the training
         samples. Default ``Evidence()``: the last quarter of the samples judge, z 3, 5 % gain, a
         second look on 4 folds.
-    fit_initial_states : bool or "all", default=False
+    fit_initial_states : bool, "all" or "final", default=False
         For an ODE whose ``observed`` leaves states unmeasured: the network-free refits fit the
         initial unobserved states of every sample too (see :class:`ScienceFit`), and the hybrid is
         refitted from the states the final one found. Use it when ``X`` holds estimates of those
@@ -110,6 +111,9 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         noise: taken as exact, a noisy initial state biases theta (errors in variables) by more
         than its interval shows where the trajectories are short; fitted, it is read from the
         sample's whole trajectory, and the intervals count it as a nuisance parameter.
+        ``"final"``: the terms judged from ``X``'s readings, as by default (fitted starts cost the held-out
+        test power where the samples are few), and the chosen model refitted with every initial state fitted,
+        as with ``"all"``: its theta and intervals free of the readings' noise.
     param_names : dict of str to str, optional
         Names of the new coefficients by term, e.g. ``{"v_dot": "c_damping"}``.
     refit_params : dict, optional
@@ -175,8 +179,13 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
                   "scoring the first hybrid in a worker process ...")
         before_row = scoring.submit(before)
         clock.lap("scoring")
-        fit = ScienceFit(before, X, y, fit_initial_states)
-        selection, judged = select_terms(before, X, y, fit, setup, learned, clock)
+        # "final": the terms judged from X's readings (the test keeps its power), the chosen model refitted and its
+        # intervals made with every initial state fitted (theta free of the readings' noise)
+        judging = replace(setup, fit_initial_states=False) if fit_initial_states == "final" else setup
+        fit = ScienceFit(before, X, y, judging.fit_initial_states)
+        selection, judged = select_terms(before, X, y, fit, judging, learned, clock)
+        if fit_initial_states == "final":
+            setup, fit = replace(setup, fit_initial_states="all"), ScienceFit(before, X, y, "all")
         refit = refit_without_network(before, X, y, fit, setup, learned, selection, clock)
         rows, after = score_models(scoring, before, before_row, refit, y, refit_hybrid=refit_hybrid,
                                    refit_params=refit_params, clock=clock)

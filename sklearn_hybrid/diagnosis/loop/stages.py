@@ -107,9 +107,13 @@ def check_arguments(estimator: Any, X: Any, y: Any, X_test: Any, y_test: Any, *,
     splits, codes = evidence.splits(len(y))  # checks the groups and the split's own limits
     check_fitted_horizon(estimator, y)
     ode = ode_structure(estimator)
-    every = fits_every_state(fit_initial_states)
+    if isinstance(fit_initial_states, str) and fit_initial_states not in ("all", "final"):
+        raise ValueError(f"fit_initial_states must be False, True (the unmeasured initial states), 'all' (every "
+                         f"initial state, the measured ones too) or 'final' (every initial state, in the final "
+                         f"refit only), got {fit_initial_states!r}.")
+    every = fit_initial_states == "final" or fits_every_state(fit_initial_states)
     if every and ode is None:
-        raise ValueError("fit_initial_states='all' needs an estimator with structure='ode'.")
+        raise ValueError(f"fit_initial_states={fit_initial_states!r} needs an estimator with structure='ode'.")
     if fit_initial_states and not every and (ode is None or ode.observed is None):
         raise ValueError("fit_initial_states=True needs an estimator with structure='ode' and observed=[...] "
                          "leaving some states unmeasured: only their initial values are fitted (fit_initial_states="
