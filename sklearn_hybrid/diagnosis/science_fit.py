@@ -25,27 +25,36 @@ from ..science import read_signature
 __all__ = ["ScienceFit", "fits_every_state"]
 
 
-def fits_every_state(fit_initial_states: bool | str) -> bool:
-    """Whether ``fit_initial_states`` asks for every initial state (``"all"``), not the unmeasured ones or none.
+# The strings fit_initial_states may be, each with what it fits: ScienceFit takes "all", close_the_loop both
+EVERY_STATE = {"all": "every initial state, the measured ones too",
+               "final": "every initial state, in the final refit only"}
+
+
+def fits_every_state(fit_initial_states: bool | str, choices: Sequence[str] = ("all",)) -> bool:
+    """Whether ``fit_initial_states`` asks for every initial state (one of ``choices``), not the unmeasured ones
+    or none.
 
     Parameters
     ----------
-    fit_initial_states : bool or "all"
+    fit_initial_states : bool or str
         ``ScienceFit``'s and ``close_the_loop``'s option.
+    choices : sequence of str, default=("all",)
+        The strings the caller takes, keys of ``EVERY_STATE`` (``close_the_loop`` also takes ``"final"``).
 
     Returns
     -------
     bool
-        True for ``"all"``, False for True or False.
+        True for a string of ``choices``, False for True or False.
 
     Raises
     ------
     ValueError
         For any other string, naming the choices.
     """
-    if isinstance(fit_initial_states, str) and fit_initial_states != "all":
-        raise ValueError(f"fit_initial_states must be False, True (the unmeasured initial states) or 'all' (every "
-                         f"initial state, the measured ones too), got {fit_initial_states!r}.")
+    if isinstance(fit_initial_states, str) and fit_initial_states not in choices:
+        named = ["True (the unmeasured initial states)"] + [f"'{c}' ({EVERY_STATE[c]})" for c in choices]
+        raise ValueError(f"fit_initial_states must be False, {', '.join(named[:-1])} or {named[-1]}, got "
+                         f"{fit_initial_states!r}.")
     return isinstance(fit_initial_states, str)
 
 

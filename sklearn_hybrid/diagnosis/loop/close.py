@@ -181,10 +181,11 @@ def close_the_loop(estimator: Any, X: Any, y: Any, X_test: Any = None, y_test: A
         clock.lap("scoring")
         # "final": the terms judged from X's readings (the test keeps its power), the chosen model refitted and its
         # intervals made with every initial state fitted (theta free of the readings' noise)
-        judging = replace(setup, fit_initial_states=False) if fit_initial_states == "final" else setup
+        final = fit_initial_states == "final"
+        judging = replace(setup, fit_initial_states=False) if final else setup
         fit = ScienceFit(before, X, y, judging.fit_initial_states)
         selection, judged = select_terms(before, X, y, fit, judging, learned, clock)
-        if fit_initial_states == "final":
+        if final:
             setup, fit = replace(setup, fit_initial_states="all"), ScienceFit(before, X, y, "all")
         refit = refit_without_network(before, X, y, fit, setup, learned, selection, clock)
         rows, after = score_models(scoring, before, before_row, refit, y, refit_hybrid=refit_hybrid,

@@ -107,11 +107,7 @@ def check_arguments(estimator: Any, X: Any, y: Any, X_test: Any, y_test: Any, *,
     splits, codes = evidence.splits(len(y))  # checks the groups and the split's own limits
     check_fitted_horizon(estimator, y)
     ode = ode_structure(estimator)
-    if isinstance(fit_initial_states, str) and fit_initial_states not in ("all", "final"):
-        raise ValueError(f"fit_initial_states must be False, True (the unmeasured initial states), 'all' (every "
-                         f"initial state, the measured ones too) or 'final' (every initial state, in the final "
-                         f"refit only), got {fit_initial_states!r}.")
-    every = fit_initial_states == "final" or fits_every_state(fit_initial_states)
+    every = fits_every_state(fit_initial_states, ("all", "final"))
     if every and ode is None:
         raise ValueError(f"fit_initial_states={fit_initial_states!r} needs an estimator with structure='ode'.")
     if fit_initial_states and not every and (ode is None or ode.observed is None):
