@@ -344,9 +344,25 @@ class ScienceFit:
 
     def predict_many(self, science: Callable, theta: Mapping[str, Any], names: Sequence[str],
                      rows: np.ndarray) -> np.ndarray | None:
-        """Science-only predictions with the parameters ``names`` set to each row of ``rows`` (the others
-        at ``theta``), in one vectorised simulation: ``(n_rows, n_samples, n_outputs)``, or None where the
-        science cannot be vectorised (``torch.func.vmap``: Python control flow on values, ``.item()``)."""
+        """Science-only predictions at several values of some parameters, in one vectorised simulation.
+
+        Parameters
+        ----------
+        science : callable
+            The science function (an augmented one too).
+        theta : dict
+            Every parameter's value; those in ``names`` are replaced by each row.
+        names : sequence of str
+            The parameters that vary, one per column of ``rows``.
+        rows : array of shape (n_rows, len(names))
+            Their values, a row per prediction.
+
+        Returns
+        -------
+        array of shape (n_rows, n_samples, n_outputs) or None
+            None where the science cannot be vectorised (``torch.func.vmap``: Python control flow on
+            values, ``.item()``): simulate one row at a time with :meth:`predict` instead.
+        """
         held = {k: torch.as_tensor(np.asarray(v, dtype=float)) for k, v in theta.items() if k not in names}
         try:
             with np.errstate(all="ignore"):
