@@ -540,7 +540,8 @@ def test_a_parameter_s_part_is_offered_where_the_science_is_linear_in_it_and_onc
     terms = inhibited_terms(parts, ["x", "y"], values, [0, 1])
     # a's part is proportional on both equations (a flow with a yield): one term, read on x's equation
     assert sorted({t.name.split("]")[0] + "]" for t in terms}) == ["[a-term of x]", "[m-term of y]", "[r-term of x]"]
-    assert len(terms) == 3 * 2 * 5  # each slowed down or limited by each state, n one or two, or scaled by exp
+    # each slowed down or limited by each state, n one or two, or scaled by exp or (both states positive) a power
+    assert len(terms) == 3 * 2 * 6
     assert inhibited_terms(parts, ["x", "y"], values, [1]) and not any(
         "r-term" in t.name for t in inhibited_terms(parts, ["x", "y"], values, [1]))
     # a part on one equation is offered on that equation only, one on several (a flow) on any
@@ -682,6 +683,48 @@ def test_two_phases_that_pull_on_each_other_are_named_as_one_coupling_with_disco
     rates = found["science"](torch.as_tensor(states), **{k: torch.tensor(v) for k, v in theta.items()})
     np.testing.assert_allclose(rates.numpy(), truth(0, states), rtol=0, atol=0.01)
     assert all(t.name not in ("sin(q - p)", "q - p") for t in select(False)["added"])
+
+
+def test_a_science_term_slowed_down_and_limited_take_one_place_in_the_ranking():
+    """The two forms of one inhibited term are one model once theta is refitted: both are screened, in one of the
+    ranking's places, so the next model (here the exponential factor) is screened too."""
+    from sklearn_hybrid.diagnosis.loop.candidates import first_models
+    from sklearn_hybrid.diagnosis.loop.placed import PlacedTerm
+    values = np.random.default_rng(0).uniform(0.2, 2.0, (50, 1))
+    terms = inhibited_terms({"k": values.copy()}, ["A"], values, [0])
+    by_name = {t.name: t for t in terms}
+    names = ["[k-term of A]*A^2/(K^2 + A^2)", "[k-term of A]*K^2/(K^2 + A^2)", "[k-term of A]*(|A|^p - 1)",
+             "[k-term of A]*(exp(k*A) - 1)"]
+    ranked = [PlacedTerm(by_name[n], 0, {}, 0.0, 0.9 - 0.01 * i) for i, n in enumerate(names)]
+    assert [t.name for t in first_models(ranked, 2)] == names[:3]
+    assert [t.name for t in first_models(ranked, 3)] == names
+
+
+def test_a_science_term_scaled_by_a_power_of_a_state_is_named_with_its_rate_at_one():
+    """dA/dt = -0.3 A^2.5: the science's first-order decay -k A is of order 2.5 (the rate k A times A^1.5); the law
+    is the part times |A|^p - 1 at coefficient 1, p 1.5, the science's k kept as the rate at A = 1."""
+    truth, states, select, _ = _inhibited_decay(np.random.default_rng(0), lambda a: -0.3 * np.abs(a) ** 2.5)
+    found = select(True)
+    (added,) = found["added"]
+    theta = found["theta"]
+    assert added.kind == "modulated" and added.name == "[k-term of A]*(|A|^p - 1)"
+    assert abs(theta[added.param] - 1) < 0.02 and abs(theta[added.shape_params["p"]] - 1.5) < 0.02
+    assert abs(theta["k"] - 0.3) < 0.01
+    rates = found["science"](torch.as_tensor(states), **{k: torch.tensor(v) for k, v in theta.items()})
+    np.testing.assert_allclose(rates.numpy(), truth(0, states), rtol=0, atol=0.01 * np.abs(truth(0, states)).max())
+    assert pickle.loads(pickle.dumps(found["science"])).equation == found["science"].equation
+
+
+def test_a_power_of_a_variable_is_offered_only_where_it_keeps_one_sign():
+    """|x|^p of a variable that changes sign is no law of it: the science's term is offered scaled by a power of
+    the positive state and the input of one sign, not of the state that crosses zero."""
+    rng = np.random.default_rng(0)
+    values = np.column_stack([rng.uniform(0.1, 2.0, 200), rng.uniform(-1.0, 1.0, 200), rng.uniform(-3.0, -0.5, 200)])
+    values[:1, 0] = -1e-3  # a reading dipping below zero does not make a concentration change sign
+    part = np.column_stack([values[:, 0], np.zeros(200)])
+    names = [t.name for t in inhibited_terms({"k": part}, ["A", "v", "u"], values, [0, 1])]
+    assert {n for n in names if "^p" in n} == {"[k-term of A]*(|A|^p - 1)", "[k-term of A]*(|u|^p - 1)"}
+    assert "[k-term of A]*(exp(k*v) - 1)" in names
 
 
 @pytest.mark.parametrize("scale", [1.0, 1e3])

@@ -22,7 +22,7 @@ constant that grows with the temperature). It reads the science output from the 
 the key ``SCIENCE_OUTPUT``, which the augmented science model and the selection provide.
 
 A term of kind ``"inhibited"`` or ``"modulated"`` (offered with the closed loop's discovery) reads a science term
-itself (slowed down, limited or scaled exponentially by a variable): the part
+itself (slowed down, limited or scaled exponentially or by a power of a variable): the part
 of the science output that a parameter the science is linear in makes, under the key ``parameter_part(name)``,
 which :class:`TermVariables` computes from the science model when a term first asks for it.
 """
@@ -40,7 +40,7 @@ import torch
 
 __all__ = ["Term", "named_terms", "constant_term", "monomial_terms", "nonsmooth_terms",
            "trigonometric_terms", "sqrt_term", "TERM_KINDS", "SCIENCE_OUTPUT", "power_unit", "product_unit",
-           "parameter_part", "TermVariables", "inhibited_term", "modulated_term"]
+           "parameter_part", "TermVariables", "inhibited_term", "modulated_term", "powered_term"]
 
 TERM_KINDS = ("polynomial", "drag", "dry_friction", "hinge", "sqrt", "power", "exponential", "saturation", "periodic",
               "norm", "scaled", "user")
@@ -211,6 +211,13 @@ def modulated_term(d, param, reference, x, k):
     """``param``'s part of the science output on component ``reference`` times ``exp(k x) - 1``: with coefficient
     1 the part becomes the part times ``exp(k x)``, the parameter still the term's rate at ``x = 0``."""
     return d[parameter_part(param)][..., reference] * torch.expm1(torch.clamp(k * d[x], max=50.0))
+
+
+def powered_term(d, param, reference, x, p):
+    """``param``'s part of the science output on component ``reference`` times ``|x|^p - 1``: with coefficient 1
+    the part becomes the part times ``|x|^p``, the parameter the term's rate at ``|x| = 1`` in ``x``'s units (a
+    film coefficient growing as the flow to the power 0.8). The tiny floor keeps the gradient in ``p`` finite."""
+    return d[parameter_part(param)][..., reference] * ((d[x].abs() + 1e-12) ** p - 1)
 
 
 def dry_friction_term(d, x, w):

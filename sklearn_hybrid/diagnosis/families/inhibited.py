@@ -12,7 +12,10 @@ at saturation; what the simple model misses is then ``-T K^n / (K^n + |x|^n)`` (
 same functions of ``x``, but only this form reaches the law at a finite coefficient, the parameter's meaning
 kept). Or the variable scales the term exponentially, ``T exp(k x)`` (Steele's photoinhibition, Aiba's product
 inhibition, an Arrhenius or Q10 factor about ``x = 0``): what the simple model misses is ``T (exp(k x) - 1)``, the
-law at coefficient 1 (kind ``"modulated"``).
+law at coefficient 1 (kind ``"modulated"``). Or by a power of a quantity of one sign, ``T |x|^p`` (Dittus and
+Boelter's film coefficient growing as the flow to the power 0.8, a rate constant growing as a power of the
+temperature, an allometric rate): what the simple model misses is ``T (|x|^p - 1)``, the law at coefficient 1, the
+parameter the term's rate at ``|x| = 1`` in ``x``'s units (kind ``"modulated"`` too).
 
 This family offers it directly: for every parameter the science output is linear in, its part of the output
 (:func:`~sklearn_hybrid.diagnosis.terms.parameter_part`, read from the science model at the current parameters,
@@ -31,7 +34,7 @@ import numpy as np
 import torch
 
 from ..sensitivity import science_output
-from ..terms import Term, inhibited_term, modulated_term
+from ..terms import Term, inhibited_term, modulated_term, powered_term
 
 __all__ = ["linear_parts", "part_reader", "inhibited_terms", "other_form"]
 
@@ -95,7 +98,8 @@ def inhibited_terms(parts: Mapping[str, np.ndarray], variables: Sequence[str], v
                     components: Sequence[int]) -> list[Term]:
     """Each parameter's part, on each group of equations where it is proportional, times ``|x| / (K + |x|)``,
     ``x^2 / (K^2 + x^2)`` (slowed down), ``K / (K + |x|)``, ``K^2 / (K^2 + x^2)`` (limited) and ``exp(k x) - 1``
-    (modulated) for every variable ``x`` that varies.
+    (modulated) for every variable ``x`` that varies, and ``|x|^p - 1`` (modulated) where ``x`` also keeps one
+    sign.
 
     Parameters
     ----------
@@ -113,7 +117,8 @@ def inhibited_terms(parts: Mapping[str, np.ndarray], variables: Sequence[str], v
     list of Term
         Kind ``"inhibited"``, shape parameter ``K`` (starting at the quartiles of ``|x|``, bounded by a
         thousandth and a thousand times the variable's scale), and kind ``"modulated"``, shape parameter ``k``
-        (starting at plus and minus one and three over the variable's scale, bounded by twenty over it).
+        (starting at plus and minus one and three over the variable's scale, bounded by twenty over it) or ``p``
+        (starting at -1, 0.5 and 2, bounded by plus and minus 3).
     """
     terms = []
     for name, part in parts.items():
@@ -134,6 +139,9 @@ def inhibited_terms(parts: Mapping[str, np.ndarray], variables: Sequence[str], v
                                             reference if len(group) == 1 else None))
                 terms.append(_modulated(f"[{name}-term of {variables[reference]}]", name, reference, x, scale,
                                         reference if len(group) == 1 else None))
+                if _one_sign(values[:, i]):
+                    terms.append(_powered(f"[{name}-term of {variables[reference]}]", name, reference, x,
+                                          reference if len(group) == 1 else None))
     return terms
 
 
@@ -165,6 +173,20 @@ def _modulated(label: str, param: str, reference: int, x: str, scale: float, com
     # a screening refit from there ends in another valley (k near 0 and a large coefficient)
     term.law_coefficient = 1.0
     return term
+
+
+def _powered(label: str, param: str, reference: int, x: str, component: int | None) -> Term:
+    term = Term(f"{label}*(|{x}|^p - 1)", partial(powered_term, param=param, reference=reference, x=x),
+                "modulated", {"p": ([-1.0, 0.5, 2.0], (-3.0, 3.0))}, component=component)
+    term.law_coefficient = 1.0  # as the exponential factor's: the law's coefficient, where its refit starts
+    return term
+
+
+def _one_sign(col: np.ndarray) -> bool:
+    """Whether ``col`` keeps one sign on all but a percent of its points at each end (a concentration's noisy
+    readings near zero dip below it): a power of ``|x|`` where ``x`` changes sign is no law of ``x``."""
+    low, high = np.quantile(col, [0.01, 0.99])
+    return bool(low >= 0 or high <= 0)
 
 
 def _proportional_groups(part: np.ndarray, components: Sequence[int]) -> list[list[int]]:

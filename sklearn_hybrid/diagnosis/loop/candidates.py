@@ -62,7 +62,8 @@ class Candidates:
         :func:`~sklearn_hybrid.diagnosis.families.inhibited.inhibited_terms`): a parameter's part ``T`` times
         ``|x|^n/(K^n + |x|^n)``, which at coefficient -1 is the law ``T / (1 + (|x|/K)^n)``, or times
         ``K^n/(K^n + |x|^n)``, the law ``T |x|^n/(K^n + |x|^n)`` (a rate limited by ``x``), ``n`` one or two, or
-        times ``exp(k x) - 1``, the law ``T exp(k x)`` at coefficient 1 (kind ``"modulated"``);
+        times ``exp(k x) - 1``, the law ``T exp(k x)`` at coefficient 1, or, for ``x`` of one sign, times
+        ``|x|^p - 1``, the law ``T |x|^p`` at coefficient 1 (kind ``"modulated"``);
         and for two states whose units are angles, ``sin(b - a + phase)`` (two phases that pull on each other)
         and ``b - a`` (the pull when linear: a spring between two pendula), ``families.physics.PHASE_DIFFERENCES``.
         Default off.
@@ -286,7 +287,8 @@ def rank_by_fit(columns: list[tuple], science: Callable, current: Callable, adde
     """Every (component, term, shape) scored by the training error its addition removes, without the network.
 
     A score test in trajectory space: the sensitivity of the network-free prediction to the new
-    term's coefficient (forward difference at 0), made orthogonal to the sensitivities of the
+    term's coefficient (forward difference at 0; a science term scaled by a factor is also read at its law's
+    coefficient, :func:`_readings`), made orthogonal to the sensitivities of the
     parameters already there, explains a share of the remaining training error. This does not rely
     on the network having learned the missing effect well: where the hybrid fit traded the effect
     between theta and the network, the ranking by its residual (:func:`rank_by_residual`) misleads.
@@ -299,9 +301,10 @@ def rank_by_fit(columns: list[tuple], science: Callable, current: Callable, adde
     Q = np.linalg.qr(J)[0] if J.shape[1] else np.zeros((len(base), 0))
     r = r - Q @ (Q.T @ r)
     total = float(r @ r) or 1.0
-    placed = [PlacedTerm(term, j, shape, 1e-4 * scale[j] / size) for term, shape, values in columns
+    placed = [PlacedTerm(term, j, shape, step) for term, shape, values in columns
               for size in [float(np.sqrt(np.mean(values ** 2)))] if np.isfinite(size) and size > 0
-              for j in components if (j, term.name) not in taken and term.component in (None, j)]
+              for j in components if (j, term.name) not in taken and term.component in (None, j)
+              for step in _readings(term, j, 1e-4 * scale[j] / size)]
     best: dict[tuple, PlacedTerm] = {}
     for cand, col in _trajectory_columns(placed, science, added, theta, fit, base, names, n_states, param_names):
         if not np.all(np.isfinite(col)):
@@ -314,6 +317,16 @@ def rank_by_fit(columns: list[tuple], science: Callable, current: Callable, adde
         if (cand.component, cand.name) not in best or gain > best[cand.component, cand.name].gain:
             best[cand.component, cand.name] = replace(cand, coef=float(c @ r) / cc, gain=gain, ranked_by="fit")
     return sorted(best.values(), key=lambda t: -t.gain)
+
+
+def _readings(term: Term, component: int, step: float) -> tuple[float, ...]:
+    """The coefficients a term's column is read at, its best reading kept: a small step (the prediction's
+    derivative in the coefficient), and, for a science term scaled by a factor on its own equation, also the
+    law's coefficient (the secant from the science to the law at the term's shape). A strong law moves the
+    trajectories far from where the derivative was taken, and read there alone it ranks below looser forms; the
+    secant at a shape of the coarse grid can miss where the derivative, its size free, comes near."""
+    law = term.law_coefficient
+    return (step,) if law is None or term.func.keywords["reference"] != component else (step, law)
 
 
 # Candidates simulated together: one simulation's per-operation overhead (the solver's, the science's) is shared,
@@ -366,6 +379,27 @@ def interleave(ranked: list[PlacedTerm], n: int) -> list[PlacedTerm]:
             if queue and len(out) < n:
                 out.append(queue.pop(0))
     return out
+
+
+def first_models(ranked: list[PlacedTerm], n: int) -> list[PlacedTerm]:
+    """The best ``n`` models of a ranking: a science term slowed down and the same term limited by one variable
+    are one model once theta is refitted (:func:`~sklearn_hybrid.diagnosis.families.inhibited.other_form`), and
+    tie; they take one place together, both kept, since the refit reaches a law at a finite coefficient only
+    from its own form."""
+    out, models = [], set()
+    for cand in ranked:
+        model = _model(cand)
+        if model in models or len(models) < n:
+            models.add(model)
+            out.append(cand)
+    return out
+
+
+def _model(cand: PlacedTerm) -> tuple:
+    if cand.kind != "inhibited":
+        return cand.key
+    kw = cand.term.func.keywords
+    return cand.component, kw["param"], kw["reference"], kw["x"], kw["power"]
 
 
 def merge_rankings(*rankings: list[PlacedTerm]) -> list[PlacedTerm]:

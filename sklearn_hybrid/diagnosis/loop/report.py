@@ -31,9 +31,9 @@ KIND_WORDS = {"polynomial": "polynomial", "drag": "drag (v|v|, |v|)", "dry_frict
                            "bracket's term to that term's own equation, the term becomes itself over 1 + (|x|/K)^n "
                            "(a factor |x|^n/(K^n + |x|^n)), its parameter still its rate at rest, or itself times "
                            "|x|^n/(K^n + |x|^n) (a factor K^n/(K^n + |x|^n)), its parameter its rate at saturation",
-              "modulated": "a science term scaled exponentially by a variable: where it adds 1 times the bracket's "
+              "modulated": "a science term scaled by a factor of a variable: where it adds 1 times the bracket's "
                            "term to that term's own equation, the term becomes itself times exp(k x), its parameter "
-                           "still its rate at x = 0"}
+                           "still its rate at x = 0, or itself times |x|^p, its parameter its rate at |x| = 1"}
 
 
 def format_gain(gain: float) -> str:

@@ -36,8 +36,9 @@ import torch
 
 from ...science import read_signature
 from ..judge import FIT_FAILURES, Judge, training_folds
-from .candidates import (Candidates, augment_with, discovered_terms, initial_values, interleave, merge_rankings,
-                         network_carries, offset_candidate, rank_by_residual, rank_by_fit, shape_bounds, term_columns)
+from .candidates import (Candidates, augment_with, discovered_terms, first_models, initial_values, interleave,
+                         merge_rankings, network_carries, offset_candidate, rank_by_residual, rank_by_fit, shape_bounds,
+                         term_columns)
 from .collapse import canonical_inhibited, drop_spare_constants, one_shape_per_flux, replace_stand_ins
 from .groups import (candidate_groups, field_groups, first_placements, flow_candidates, flow_groups,
                      join_shape_groups)
@@ -183,8 +184,8 @@ def forward_selection(science: Callable, theta: Mapping[str, Any], fit: ScienceF
         taken = {k for t in added for k in t.covers} | rejected
         scored = rank_by_residual(columns, remaining, jac, components, taken)
         by_residual = interleave(scored, candidates.n_candidates)
-        by_fit = rank_by_fit(columns, science, current, added, theta_now, judge.screen, scale, components, taken,
-                              variables, n_states, param_names)[:candidates.n_candidates]
+        by_fit = first_models(rank_by_fit(columns, science, current, added, theta_now, judge.screen, scale,
+                                          components, taken, variables, n_states, param_names), candidates.n_candidates)
         declared = [offset_candidate(k, variables) for k in offsets]
         ranked = merge_rankings(by_residual, by_fit) + [c for c in declared if c.key not in taken]
         in_ranked = {r.key for r in ranked}
