@@ -687,7 +687,8 @@ def test_two_phases_that_pull_on_each_other_are_named_as_one_coupling_with_disco
 
 def test_a_science_term_slowed_down_and_limited_take_one_place_in_the_ranking():
     """The two forms of one inhibited term are one model once theta is refitted: both are screened, in one of the
-    ranking's places, so the next model (here the exponential factor) is screened too."""
+    ranking's places, so the next model (here the exponential factor) is screened too. A flux's factor comes with
+    its placements on the flux's other equations (screened as a group)."""
     from sklearn_hybrid.diagnosis.loop.candidates import first_models
     from sklearn_hybrid.diagnosis.loop.placed import PlacedTerm
     values = np.random.default_rng(0).uniform(0.2, 2.0, (50, 1))
@@ -698,6 +699,13 @@ def test_a_science_term_slowed_down_and_limited_take_one_place_in_the_ranking():
     ranked = [PlacedTerm(by_name[n], 0, {}, 0.0, 0.9 - 0.01 * i) for i, n in enumerate(names)]
     assert [t.name for t in first_models(ranked, 2)] == names[:3]
     assert [t.name for t in first_models(ranked, 3)] == names
+    # a flux's term (its part proportional on two equations) comes with its placement on the other equation
+    flux = inhibited_terms({"k": np.column_stack([-values[:, 0], 0.5 * values[:, 0]])}, ["A"], values, [0, 1])
+    power = next(t for t in flux if t.name == "[k-term of A]*(|A|^p - 1)")
+    square = next(t for t in flux if t.name == "[k-term of A]*A^2/(K^2 + A^2)")
+    ranked = [PlacedTerm(power, 0, {}, 0.0, 0.9), PlacedTerm(square, 0, {}, 0.0, 0.8),
+              PlacedTerm(square, 1, {}, 0.0, 0.2), PlacedTerm(power, 1, {}, 0.0, 0.1)]
+    assert [(t.name, t.component) for t in first_models(ranked, 1)] == [(power.name, 0), (power.name, 1)]
 
 
 def test_a_science_term_scaled_by_a_power_of_a_state_is_named_with_its_rate_at_one():

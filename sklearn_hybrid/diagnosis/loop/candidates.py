@@ -385,14 +385,17 @@ def first_models(ranked: list[PlacedTerm], n: int) -> list[PlacedTerm]:
     """The best ``n`` models of a ranking: a science term slowed down and the same term limited by one variable
     are one model once theta is refitted (:func:`~sklearn_hybrid.diagnosis.families.inhibited.other_form`), and
     tie; they take one place together, both kept, since the refit reaches a law at a finite coefficient only
-    from its own form."""
+    from its own form. A science term of a flux (its part on several equations) comes with its placements on
+    the flux's other equations, so that it is screened as a group too: a factor of the flux acts on all of
+    them, and alone on one it explains the other balances no better."""
     out, models = [], set()
     for cand in ranked:
         model = _model(cand)
         if model in models or len(models) < n:
             models.add(model)
             out.append(cand)
-    return out
+    fluxes = {c.name for c in out if c.kind in ("inhibited", "modulated") and c.term.component is None}
+    return out + [c for c in ranked if c.name in fluxes and c not in out]
 
 
 def _model(cand: PlacedTerm) -> tuple:
