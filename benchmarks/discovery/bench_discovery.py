@@ -41,7 +41,8 @@ The second batch (``laws_second.py``: 9 effects, 3 controls, written after the f
 controls, written after both had been seen) runs with ``--batch laws_3``, likewise (``discovery_3``); the fourth
 (``laws_fourth.py``: 12 effects, 3 controls, written after the three had been seen) with ``--batch laws_4``
 (``discovery_4``); the fifth (``laws_fifth.py``: 12 effects, 3 controls, written after the four) with ``--batch
-laws_5`` (``discovery_5``).
+laws_5`` (``discovery_5``); the sixth (``laws_sixth.py``: 16 effects, 4 controls, written after the five) with
+``--batch laws_6`` (``discovery_6``).
 
     python benchmarks/discovery/bench_discovery.py                      # every case, resuming
     python benchmarks/discovery/bench_discovery.py --cases holling_iii --arms loop loop_discovery
@@ -49,6 +50,7 @@ laws_5`` (``discovery_5``).
     python benchmarks/discovery/bench_discovery.py --batch laws_3       # the third batch
     python benchmarks/discovery/bench_discovery.py --batch laws_4       # the fourth batch
     python benchmarks/discovery/bench_discovery.py --batch laws_5       # the fifth batch
+    python benchmarks/discovery/bench_discovery.py --batch laws_6       # the sixth batch
     python benchmarks/discovery/bench_discovery.py --render
 """
 
@@ -71,6 +73,7 @@ from discovery.laws_second import LAWS_2  # noqa: E402
 from discovery.laws_third import LAWS_3  # noqa: E402
 from discovery.laws_fourth import LAWS_4  # noqa: E402
 from discovery.laws_fifth import LAWS_5  # noqa: E402
+from discovery.laws_sixth import LAWS_6  # noqa: E402
 from discovery.arms import PACKAGE_NOW, PACKAGE_NOW_LABEL, package_now  # noqa: E402
 from identification import anchors  # noqa: E402
 from identification.protocol import PROTOCOL, first_hybrid_fit, loop_arguments, make_data, score  # noqa: E402
@@ -78,7 +81,7 @@ from identification.systems import simulate  # noqa: E402
 
 # batch -> its systems and the name of its records' folder and results page
 BATCHES = {"laws": (LAWS, "discovery"), "laws_2": (LAWS_2, "discovery_2"), "laws_3": (LAWS_3, "discovery_3"),
-           "laws_4": (LAWS_4, "discovery_4"), "laws_5": (LAWS_5, "discovery_5")}
+           "laws_4": (LAWS_4, "discovery_4"), "laws_5": (LAWS_5, "discovery_5"), "laws_6": (LAWS_6, "discovery_6")}
 BY_NAME = {s.name: s for systems, _ in BATCHES.values() for s in systems}
 assert len(BY_NAME) == sum(len(systems) for systems, _ in BATCHES.values()), "a case name recurs across batches"
 NOISE, SEED = 0.01, 0
