@@ -39,7 +39,8 @@ RESULT_PAGES = ["tasks", "pendulum_theta", "early_stopping", "sensitivity_pendul
                 "time_to_answer", "units", "float_paths", "network_scales", "long_record", "time_to_theta",
                 "closed_loop", "greybox", "identification", "selection_checks", "second_look_null",
                 "inconclusive_candidates", "more_validation", "mirror_trades", "anchors_loop", "discovery",
-                "discovery_2", "discovery_3", "discovery_4", "discovery_5", "identification_discovery", "flows",
+                "discovery_2", "discovery_3", "discovery_4", "discovery_5", "discovery_6", "identification_discovery",
+                "flows",
                 "varying_theta", "speed", "free_run",
                 "sparse_regression", "large_fit", "memory_check", "gpu"]
 render_all(RESULT_PAGES)  # -> doc/results/<name>.rst
