@@ -216,8 +216,8 @@ def modulated_term(d, param, reference, x, k):
 def powered_term(d, param, reference, x, p):
     """``param``'s part of the science output on component ``reference`` times ``|x|^p - 1``: with coefficient 1
     the part becomes the part times ``|x|^p``, the parameter the term's rate at ``|x| = 1`` in ``x``'s units (a
-    film coefficient growing as the flow to the power 0.8). The tiny floor keeps the gradient in ``p`` finite."""
-    return d[parameter_part(param)][..., reference] * ((d[x].abs() + 1e-12) ** p - 1)
+    film coefficient growing as the flow to the power 0.8)."""
+    return d[parameter_part(param)][..., reference] * (power_abs_term(d, x, p) - 1)
 
 
 def dry_friction_term(d, x, w):

@@ -124,6 +124,7 @@ def inhibited_terms(parts: Mapping[str, np.ndarray], variables: Sequence[str], v
     for name, part in parts.items():
         for group in _proportional_groups(part, components):
             reference = group[0]
+            label, only = f"[{name}-term of {variables[reference]}]", reference if len(group) == 1 else None
             # the term slows the science's term down where it acts: on its one equation, or (a rate that moves
             # matter between states) on any, as a flow or a group; the b-term of an equation, placed as a flow
             # with another's, would take the role of that other parameter's term and leave its parameter at zero
@@ -134,14 +135,11 @@ def inhibited_terms(parts: Mapping[str, np.ndarray], variables: Sequence[str], v
                 scale = float(np.sqrt(np.mean(size ** 2)))
                 quartiles = [float(q) for q in np.quantile(size, [0.25, 0.5, 0.75]) if q > 0]
                 for power, limited in ((1, False), (2, False), (1, True), (2, True)):
-                    terms.append(_inhibited(f"[{name}-term of {variables[reference]}]", name, reference, x, power,
-                                            limited, (quartiles or [scale], (1e-3 * scale, 1e3 * scale)),
-                                            reference if len(group) == 1 else None))
-                terms.append(_modulated(f"[{name}-term of {variables[reference]}]", name, reference, x, scale,
-                                        reference if len(group) == 1 else None))
+                    terms.append(_inhibited(label, name, reference, x, power, limited,
+                                            (quartiles or [scale], (1e-3 * scale, 1e3 * scale)), only))
+                terms.append(_modulated(label, name, reference, x, scale, only))
                 if _one_sign(values[:, i]):
-                    terms.append(_powered(f"[{name}-term of {variables[reference]}]", name, reference, x,
-                                          reference if len(group) == 1 else None))
+                    terms.append(_powered(label, name, reference, x, only))
     return terms
 
 

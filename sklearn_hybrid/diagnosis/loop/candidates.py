@@ -395,7 +395,8 @@ def first_models(ranked: list[PlacedTerm], n: int) -> list[PlacedTerm]:
             models.add(model)
             out.append(cand)
     fluxes = {c.name for c in out if c.kind in ("inhibited", "modulated") and c.term.component is None}
-    return out + [c for c in ranked if c.name in fluxes and c not in out]
+    kept = {c.key for c in out}
+    return out + [c for c in ranked if c.name in fluxes and c.key not in kept]
 
 
 def _model(cand: PlacedTerm) -> tuple:
