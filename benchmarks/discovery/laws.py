@@ -13,6 +13,8 @@ protocol (50 training and 20 test trajectories, noise as a share of each state's
 
 from __future__ import annotations
 
+from functools import partial
+
 import numpy as np
 import torch
 
@@ -229,10 +231,14 @@ def _growth(x, u):
     return on_component(0, 2, 0.4 * x[:, 0] * np.log(6.0 / x[:, 0]))
 
 
-def _system(name, domain, kind, effect, science, theta, missing, names, units, dt, n_steps, low, high, u_range=None,
-            zero=(), guess=None):
+def law_system(name, domain, kind, effect, science, theta, missing, names, units, dt, n_steps, low, high,
+               u_range=None, zero=(), guess=None, *, batch):
+    """A laws batch's :class:`~identification.systems.System`, its ``batch`` number given by each batch's file."""
     return System(name, domain, kind, effect, science, theta, missing, list(names), units, dt, n_steps, tuple(low),
-                  tuple(high), u_range, zero_components=list(zero), batch=18, theta_guess=dict(guess or {}))
+                  tuple(high), u_range, zero_components=list(zero), batch=batch, theta_guess=dict(guess or {}))
+
+
+_system = partial(law_system, batch=18)
 
 
 POP = {"x": "1", "y": "1"}

@@ -35,11 +35,12 @@ protocol (50 training and 20 test trajectories, noise as a share of each state's
 
 from __future__ import annotations
 
+from functools import partial
+
 import numpy as np
 import torch
 
-from identification.systems import System
-from discovery.laws import on_component, pair_flux, vital_sir_f
+from discovery.laws import law_system, on_component, pair_flux, vital_sir_f
 
 
 # ------------------------------------------------------------------------------------------------ science models
@@ -235,10 +236,7 @@ def _warner(x, u):  # -k (x, y) / (1 - r^2/L^2) in place of -k (x, y) (FENE, War
     return -0.5 * x * (r2 / (9.0 - r2))[:, None]
 
 
-def _system(name, domain, kind, effect, science, theta, missing, names, units, dt, n_steps, low, high, u_range=None,
-            zero=(), guess=None):
-    return System(name, domain, kind, effect, science, theta, missing, list(names), units, dt, n_steps, tuple(low),
-                  tuple(high), u_range, zero_components=list(zero), batch=22, theta_guess=dict(guess or {}))
+_system = partial(law_system, batch=22)
 
 
 GAS = {"A": "mol/m3", "P": "mol/m3", "u": "mol/m3"}

@@ -28,11 +28,12 @@ protocol (50 training and 20 test trajectories, noise as a share of each state's
 
 from __future__ import annotations
 
+from functools import partial
+
 import numpy as np
 import torch
 
-from identification.systems import System
-from discovery.laws import on_component, pair_flux
+from discovery.laws import law_system, on_component, pair_flux
 
 
 # ------------------------------------------------------------------------------------------------ science models
@@ -203,10 +204,7 @@ def _light(x, u):  # r x L / (KL + L) in place of r x: r = 1, KL = 0.3
     return on_component(0, 2, 1.0 * x[:, 0] * (light / (0.3 + light) - 1))
 
 
-def _system(name, domain, kind, effect, science, theta, missing, names, units, dt, n_steps, low, high, u_range=None,
-            zero=(), guess=None):
-    return System(name, domain, kind, effect, science, theta, missing, list(names), units, dt, n_steps, tuple(low),
-                  tuple(high), u_range, zero_components=list(zero), batch=21, theta_guess=dict(guess or {}))
+_system = partial(law_system, batch=21)
 
 
 AERATED = {"S": "g/L", "O": "1", "X": "g/L", "u": "g/L"}

@@ -17,11 +17,12 @@ protocol (50 training and 20 test trajectories, noise as a share of each state's
 
 from __future__ import annotations
 
+from functools import partial
+
 import numpy as np
 import torch
 
-from identification.systems import System
-from discovery.laws import POP, logistic_prey_f, mass_action_sir_f, on_component, pair_flux
+from discovery.laws import law_system, POP, logistic_prey_f, mass_action_sir_f, on_component, pair_flux
 
 
 # ------------------------------------------------------------------------------------------------ science models
@@ -134,10 +135,7 @@ def _smith(x, u):
     return on_component(0, 2, 1.2 * x[:, 0] * light / np.sqrt(1 + (light / 0.8) ** 2))
 
 
-def _system(name, domain, kind, effect, science, theta, missing, names, units, dt, n_steps, low, high, u_range=None,
-            zero=(), guess=None):
-    return System(name, domain, kind, effect, science, theta, missing, list(names), units, dt, n_steps, tuple(low),
-                  tuple(high), u_range, zero_components=list(zero), batch=19, theta_guess=dict(guess or {}))
+_system = partial(law_system, batch=19)
 
 
 CONC = {"S": "mmol/L", "P": "mmol/L", "Q": "mmol/L", "u": "mmol/L"}

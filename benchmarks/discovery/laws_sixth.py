@@ -44,11 +44,12 @@ protocol (50 training and 20 test trajectories, noise as a share of each state's
 
 from __future__ import annotations
 
+from functools import partial
+
 import numpy as np
 import torch
 
-from identification.systems import System
-from discovery.laws import on_component, pair_flux
+from discovery.laws import law_system, on_component, pair_flux
 
 
 # ------------------------------------------------------------------------------------------------ science models
@@ -309,10 +310,7 @@ def _thermo_optic(x, u):  # c u / (1 + (1.2 - kappa theta)^2) in place of c u / 
     return on_component(0, 2, 1.0 * u[:, 0] * (lorentz - 1 / (1 + 1.2 ** 2)))
 
 
-def _system(name, domain, kind, effect, science, theta, missing, names, units, dt, n_steps, low, high, u_range=None,
-            zero=(), guess=None):
-    return System(name, domain, kind, effect, science, theta, missing, list(names), units, dt, n_steps, tuple(low),
-                  tuple(high), u_range, zero_components=list(zero), batch=23, theta_guess=dict(guess or {}))
+_system = partial(law_system, batch=23)
 
 
 ENZYME = {"A": "mmol/L", "B": "mmol/L", "P": "mmol/L", "u": "mmol/L"}

@@ -17,11 +17,12 @@ protocol (50 training and 20 test trajectories, noise as a share of each state's
 
 from __future__ import annotations
 
+from functools import partial
+
 import numpy as np
 import torch
 
-from identification.systems import System
-from discovery.laws import POP, linear_spring_f, logistic_prey_f, on_component, pair_flux
+from discovery.laws import law_system, POP, linear_spring_f, logistic_prey_f, on_component, pair_flux
 
 
 # ------------------------------------------------------------------------------------------------ science models
@@ -146,10 +147,7 @@ def _gated_current(x, u):
     return on_component(0, 2, -1.5 * (vm + 1) / (1 + np.exp(-(vm - 0.5) / 0.15)))
 
 
-def _system(name, domain, kind, effect, science, theta, missing, names, units, dt, n_steps, low, high, u_range=None,
-            zero=(), guess=None):
-    return System(name, domain, kind, effect, science, theta, missing, list(names), units, dt, n_steps, tuple(low),
-                  tuple(high), u_range, zero_components=list(zero), batch=20, theta_guess=dict(guess or {}))
+_system = partial(law_system, batch=20)
 
 
 LAWS_3 = [
